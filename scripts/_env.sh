@@ -1,0 +1,18 @@
+# Sourced by run.sh and test.sh: make .venv with the project installed (once per pyproject).
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+PY=${PYTHON:-python3.11}
+command -v "$PY" >/dev/null 2>&1 || PY=python3
+if [ ! -x .venv/bin/python ]; then
+  "$PY" -m venv .venv
+  .venv/bin/python -m pip install --quiet --upgrade pip
+fi
+stamp=".venv/.installed-$(cat pyproject.toml tests/plugins/*/pyproject.toml | sha256sum | cut -c1-16)-${1:-run}"
+if [ ! -f "$stamp" ]; then
+  if [ "${1:-run}" = test ]; then
+    .venv/bin/python -m pip install --quiet -e ".[test]" -e tests/plugins/wrinkle_vis_ring
+  else
+    .venv/bin/python -m pip install --quiet -e .
+  fi
+  touch "$stamp"
+fi

@@ -1,0 +1,1 @@
+"""Interactive placement widgets and Qt panels (installed as ``wrinkle_vis.widgets``)."""

@@ -1,0 +1,59 @@
+"""The wrinkle model in numpy and scipy only (no VTK, PyVista or Qt: a test enforces it)."""
+
+from .equations import (
+    anisotropy,
+    attenuation,
+    bulge_height,
+    compression,
+    compression_operator,
+    edge_shrinkage,
+    half_period,
+    periodic_coordinate,
+    shape_function,
+)
+from .expressions import Expression, paper_expressions
+from .face import FIELD_NAMES, FaceModel, FaceState
+from .mesh import MeshError, MeshReport, TriangleSurface, subdivide
+from .muscle import Muscle, MuscleParameterError, MuscleRegion, waters_radial
+from .muscles import LinearMuscle, SheetMuscle
+from .registry import (
+    MusclePluginWarning,
+    UnknownMuscleTypeError,
+    get_muscle_type,
+    muscle_from_dict,
+    muscle_types,
+    register_muscle_type,
+)
+
+__all__ = [
+    "FIELD_NAMES",
+    "Expression",
+    "FaceModel",
+    "FaceState",
+    "LinearMuscle",
+    "MeshError",
+    "MeshReport",
+    "Muscle",
+    "MuscleParameterError",
+    "MusclePluginWarning",
+    "MuscleRegion",
+    "SheetMuscle",
+    "TriangleSurface",
+    "UnknownMuscleTypeError",
+    "anisotropy",
+    "attenuation",
+    "bulge_height",
+    "compression",
+    "compression_operator",
+    "edge_shrinkage",
+    "get_muscle_type",
+    "half_period",
+    "muscle_from_dict",
+    "muscle_types",
+    "paper_expressions",
+    "periodic_coordinate",
+    "register_muscle_type",
+    "shape_function",
+    "subdivide",
+    "waters_radial",
+]

@@ -1,0 +1,319 @@
+"""The equations of Zhang, Sim and Tan, "Simulating Wrinkles in Facial Expressions on an
+Anatomy-Based Face", as vectorized numpy functions.
+
+Every function carries the equation it implements and its number in the paper. Where this
+module deviates from the paper it says so in the function's notes (``compression`` weights
+by :math:`|\\cos\\theta_{ij}|`; ``anisotropy`` clamps :math:`\\varepsilon` at 1).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = [
+    "anisotropy",
+    "attenuation",
+    "bulge_height",
+    "compression",
+    "compression_operator",
+    "edge_shrinkage",
+    "half_period",
+    "periodic_coordinate",
+    "shape_function",
+]
+
+
+def bulge_height(k0: float, alpha: float) -> float:
+    r"""Bulge height :math:`d` that makes the shape function volume-preserving (Eq. 8).
+
+    Parameters
+    ----------
+    k0 : float
+        Furrow depth factor :math:`k_0`.
+    alpha : float
+        Shape modulation factor :math:`\alpha`.
+
+    Returns
+    -------
+    float
+        :math:`d` such that :math:`\int_0^{2u} H(w)\,dw = 0` (Eq. 8), in closed form
+
+        .. math::
+
+            d = k_0 \frac{2^{\alpha + 1} - 1}{2(\alpha + 1)}, \qquad
+            d = k_0 \frac{\ln 2}{2} \text{ at } \alpha = -1 .
+
+    Notes
+    -----
+    With :math:`t = (w - u)/u`, Eq. 5 is :math:`H = d - k_0 (1 + t^2)^\alpha |t|`, so Eq. 8
+    reads :math:`2d = 2 k_0 \int_0^1 (1 + t^2)^\alpha t\,dt`. :math:`d` does not depend on
+    :math:`u`.
+    """
+    k0 = float(k0)
+    alpha = float(alpha)
+    if np.isclose(alpha, -1.0, rtol=0.0, atol=1e-12):
+        return k0 * np.log(2.0) / 2.0
+    return k0 * (2.0 ** (alpha + 1.0) - 1.0) / (2.0 * (alpha + 1.0))
+
+
+def shape_function(w, u: float, k0: float, alpha: float) -> np.ndarray:
+    r"""Cross-sectional wrinkle shape :math:`H(w)` (Eq. 5).
+
+    Parameters
+    ----------
+    w : (...) array_like
+        Periodic coordinate in :math:`[0, 2u]` (Eq. 7).
+    u : float
+        Half period :math:`u > 0` (Eq. 6).
+    k0, alpha : float
+        Furrow depth factor and shape modulation factor.
+
+    Returns
+    -------
+    (...) ndarray
+        .. math::
+
+            H(w) = \begin{cases}
+              k_0 \left(1 + t^2\right)^\alpha t + d & 0 \le w \le u \\
+             -k_0 \left(1 + t^2\right)^\alpha t + d & u < w \le 2u
+            \end{cases}, \qquad t = \frac{w - u}{u},
+
+        with :math:`d` from :func:`bulge_height` (Eq. 8). The crest :math:`H(u) = d` is the
+        bulge and :math:`H(0) = H(2u) = d - k_0 2^\alpha` the furrow bottom. ``nan`` in ``w``
+        stays ``nan``.
+    """
+    w = np.asarray(w, dtype=float)
+    t = (w - u) / u
+    return bulge_height(k0, alpha) - k0 * (1.0 + t * t) ** alpha * np.abs(t)
+
+
+def half_period(lambda_w: float, length: float, n_wrinkles: int) -> float:
+    r"""Half cycling length :math:`u` of the wrinkles (Eq. 6).
+
+    Parameters
+    ----------
+    lambda_w : float
+        Wrinkling-region factor :math:`\lambda_w \in [0, 1)`.
+    length : float
+        :math:`R` for a linear muscle, :math:`L_s` for a sheet muscle.
+    n_wrinkles : int
+        Number of wrinkles :math:`n_w \ge 1`.
+
+    Returns
+    -------
+    float
+        .. math:: u = \frac{(1 - \lambda_w) R}{2 n_w}
+    """
+    return (1.0 - float(lambda_w)) * float(length) / (2.0 * int(n_wrinkles))
+
+
+def periodic_coordinate(l, lambda_w: float, length: float, n_wrinkles: int) -> np.ndarray:
+    r"""Periodic coordinate :math:`w` of a vertex along the wrinkles (Eq. 7).
+
+    Parameters
+    ----------
+    l : (...) array_like
+        Distance :math:`l_i` from the attachment along the central fibre.
+    lambda_w, length, n_wrinkles
+        As in :func:`half_period`.
+
+    Returns
+    -------
+    (...) ndarray
+        .. math::
+
+            w = l - \lambda_w R - \operatorname{int}\!\left(
+                \frac{l - \lambda_w R}{2u}\right) 2u
+              = (l - \lambda_w R) \bmod 2u \in [0, 2u),
+
+        where int is the floor, as the paper defines it ("the biggest integer smaller than
+        it"), so ``w`` maps ``l`` periodically onto one period with frequency :math:`n_w`.
+    """
+    u = half_period(lambda_w, length, n_wrinkles)
+    return np.mod(np.asarray(l, dtype=float) - lambda_w * length, 2.0 * u)
+
+
+def anisotropy(eps) -> np.ndarray:
+    r"""Anisotropic modulation :math:`A(\varepsilon)` of the wrinkle amplitude (Eq. 11).
+
+    Parameters
+    ----------
+    eps : (...) array_like
+        Compression rate :math:`\varepsilon` (Eq. 10).
+
+    Returns
+    -------
+    (...) ndarray
+        .. math::
+
+            A(\varepsilon) = \begin{cases}
+                \cos\!\left(\frac{\pi}{2}(1 - \varepsilon)\right) & 0 \le \varepsilon \le 1 \\
+                0 & \varepsilon < 0
+            \end{cases}
+
+        :math:`\varepsilon > 1` (an edge shorter than nothing cannot happen, but rounding can
+        push past 1) is clamped to 1. ``nan`` stays ``nan``.
+    """
+    e = np.clip(np.asarray(eps, dtype=float), 0.0, 1.0)
+    return np.sin(0.5 * np.pi * e)  # cos(pi/2 (1 - e)) == sin(pi/2 e); 0 at e == 0
+
+
+def attenuation(x, start: float, end: float) -> np.ndarray:
+    r"""Attenuation profile :math:`At` (Eq. 12 for a linear muscle, Eq. 15 for a sheet).
+
+    Parameters
+    ----------
+    x : (...) array_like
+        :math:`\varphi_i` in degrees (linear muscle) or :math:`h_i` (sheet muscle).
+    start : float
+        :math:`\varphi^c` or :math:`h^c`, where the amplitude starts to decrease.
+    end : float
+        :math:`\phi` or :math:`W_s / 2`, where it reaches 0; ``end >= start``.
+
+    Returns
+    -------
+    (...) ndarray
+        .. math::
+
+            At(x) = \begin{cases}
+                1 & x \le x^c \\
+                -\frac{1}{2}\left(1 + s^2\right) s + 1 & x^c < x \le x_{end} \\
+                0 & x > x_{end}
+            \end{cases}, \qquad s = \frac{x - x^c}{x_{end} - x^c}.
+
+        The cubic is 1 at the start, 0 at the end and strictly decreasing in between. With
+        ``start == end`` it is a step. ``nan`` stays ``nan``.
+    """
+    x = np.asarray(x, dtype=float)
+    span = float(end) - float(start)
+    if span <= 0.0:
+        out = np.where(x <= start, 1.0, 0.0)
+        return np.where(np.isnan(x), np.nan, out)
+    s = np.clip((x - start) / span, 0.0, 1.0)
+    return 1.0 - 0.5 * (1.0 + s * s) * s
+
+
+def edge_shrinkage(rest_points, points, edges) -> np.ndarray:
+    r"""Relative shortening :math:`\tau_{ij}` of each edge (Eq. 9).
+
+    Parameters
+    ----------
+    rest_points : (n, 3) array_like
+        Rest positions.
+    points : (n, 3) array_like
+        Deformed positions.
+    edges : (m, 2) array_like of int
+        Vertex pairs.
+
+    Returns
+    -------
+    (m,) ndarray
+        .. math:: \tau_{ij} = \frac{L_{ij} - \|x_i - x_j\|}{L_{ij}}
+
+        0 at rest, positive when the edge shrinks. An edge of zero rest length gives ``nan``.
+    """
+    rest_points = np.asarray(rest_points, dtype=float)
+    points = np.asarray(points, dtype=float)
+    edges = np.asarray(edges, dtype=np.intp)
+    rest = np.linalg.norm(rest_points[edges[:, 1]] - rest_points[edges[:, 0]], axis=1)
+    now = np.linalg.norm(points[edges[:, 1]] - points[edges[:, 0]], axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(rest > 0.0, (rest - now) / rest, np.nan)
+
+
+def compression_operator(rest_points, edges, directions, rows=None) -> sp.csr_matrix:
+    r"""Sparse operator :math:`E` with :math:`\varepsilon = E\,\tau` (Eq. 10).
+
+    Parameters
+    ----------
+    rest_points : (n, 3) array_like
+        Rest positions; the weights come from the rest mesh and stay constant per frame.
+    edges : (m, 2) array_like of int
+        Unique undirected edges.
+    directions : (n, 3) array_like
+        Muscle contraction direction at each vertex (need not be unit). Rows that are zero
+        or ``nan`` get no weight.
+    rows : (k,) array_like of int, optional
+        Vertices to build rows for (all ``n`` by default), in this order.
+
+    Returns
+    -------
+    (k, m) scipy.sparse.csr_matrix
+        Row :math:`i` holds :math:`|\cos\theta_{ij}| / \sum_j |\cos\theta_{ij}|` at the
+        columns of the edges incident to vertex :math:`i`; an all-zero row where the weight
+        sum is 0.
+
+    Notes
+    -----
+    **Deviation from the paper.** Eq. 10 weights by :math:`\cos\theta_{ij}`. An edge that
+    points backwards along the contraction axis is as aligned with it as one pointing
+    forwards, and signed weights can make the denominator vanish, so the weights here are
+    :math:`|\cos\theta_{ij}|`. Edges of zero rest length get no weight.
+    """
+    rest_points = np.asarray(rest_points, dtype=float)
+    edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
+    directions = np.asarray(directions, dtype=float)
+    n = len(rest_points)
+    rows = np.arange(n) if rows is None else np.asarray(rows, dtype=np.intp)
+    position = np.full(n, -1, dtype=np.intp)
+    position[rows] = np.arange(len(rows))
+
+    vec = rest_points[edges[:, 1]] - rest_points[edges[:, 0]]
+    length = np.linalg.norm(vec, axis=1)
+    unit_edge = np.divide(vec, length[:, None], out=np.zeros_like(vec), where=length[:, None] > 0)
+    dnorm = np.linalg.norm(directions, axis=1)
+    ok = np.isfinite(dnorm) & (dnorm > 0)
+    unit_dir = np.zeros_like(directions)
+    unit_dir[ok] = directions[ok] / dnorm[ok, None]
+
+    r_idx, c_idx, vals = [], [], []
+    for end in (0, 1):
+        vertex = edges[:, end]
+        pos = position[vertex]
+        keep = pos >= 0
+        weight = np.abs(np.einsum("ij,ij->i", unit_edge[keep], unit_dir[vertex[keep]]))
+        r_idx.append(pos[keep])
+        c_idx.append(np.flatnonzero(keep))
+        vals.append(weight)
+    r_idx = np.concatenate(r_idx)
+    c_idx = np.concatenate(c_idx)
+    vals = np.concatenate(vals)
+    total = np.bincount(r_idx, weights=vals, minlength=len(rows))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        vals = np.where(total[r_idx] > 0, vals / total[r_idx], 0.0)
+    op = sp.csr_matrix((vals, (r_idx, c_idx)), shape=(len(rows), len(edges)))
+    op.eliminate_zeros()
+    return op
+
+
+def compression(rest_points, points, edges, directions) -> np.ndarray:
+    r"""Compression rate :math:`\varepsilon_i` at every vertex (Eq. 10).
+
+    Parameters
+    ----------
+    rest_points : (n, 3) array_like
+        Rest positions.
+    points : (n, 3) array_like
+        Deformed positions.
+    edges : (m, 2) array_like of int
+        Unique undirected edges of the mesh.
+    directions : (n, 3) array_like
+        Contraction direction at each vertex (:math:`x_i m_A` for a linear muscle, the
+        central fibre for a sheet muscle).
+
+    Returns
+    -------
+    (n,) ndarray
+        .. math::
+
+            \varepsilon_i = \frac{\sum_{j \in \Omega_i} \tau_{ij} |\cos\theta_{ij}|}
+                                 {\sum_{j \in \Omega_i} |\cos\theta_{ij}|}
+
+        with :math:`\tau_{ij}` from Eq. 9 and :math:`\theta_{ij}` the angle between the rest
+        edge :math:`x_i x_j` and the contraction direction at :math:`x_i`; 0 where the weight
+        sum is 0. See :func:`compression_operator` for the :math:`|\cos|` deviation.
+    """
+    op = compression_operator(rest_points, edges, directions)
+    tau = np.nan_to_num(edge_shrinkage(rest_points, points, edges), nan=0.0)
+    return op @ tau

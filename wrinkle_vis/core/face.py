@@ -1,0 +1,508 @@
+"""The face model: skin, skull and muscles, evaluated frame by frame (DESIGN.md data flow).
+
+Everything that depends only on the rest skin and a muscle's parameters is computed once per
+muscle and cached (:class:`_MuscleData`). Everything that depends on which muscles are active
+is stacked once per set of active muscles (:class:`_Assembly`), so a frame is a fixed number
+of vectorized steps whatever the number of muscles:
+
+1. skin displacement: one sparse sum of the active muscles' unit displacements times their
+   activations;
+2. :math:`\\tau` (Eq. 9) on the edges the active muscles touch, then :math:`\\varepsilon` of
+   every active muscle (Eq. 10) in one sparse mat-vec;
+3. :math:`W = \\sum_m H\\,A(\\varepsilon)\\,At` (Eq. 4, 11) summed by one sparse mat-vec;
+4. final points: the deformed points moved by :math:`W` along the outward unit normal of the
+   deformed skin, which is computed only where :math:`W` is defined.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections import OrderedDict
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+
+from .equations import anisotropy, compression_operator
+from .expressions import Expression, paper_expressions
+from .mesh import MeshError, TriangleSurface
+from .muscle import Muscle, check_activation
+
+__all__ = ["FIELD_NAMES", "FaceModel", "FaceState"]
+
+#: Per-muscle fields of a :class:`FaceState`, by name.
+FIELD_NAMES = ("lambda", "gamma", "l", "w", "H", "At", "eps", "A", "W")
+
+
+@dataclass(frozen=True, eq=False)
+class _MuscleData:
+    """What one muscle defines on the rest skin, compact (AOI rows only)."""
+
+    aoi: np.ndarray  # (k,) vertex ids
+    region_pos: np.ndarray  # (r,) positions within aoi of the wrinkling region
+    unit_disp: np.ndarray  # (k, 3)
+    lam: np.ndarray  # (k,)
+    gamma: np.ndarray  # (k,)
+    l: np.ndarray  # (k,)
+    at: np.ndarray  # (k,)
+    w: np.ndarray  # (r,)
+    h: np.ndarray  # (r,)
+    edge_ids: np.ndarray  # (q,) global edge ids incident to the AOI
+    eps_op: sp.csr_matrix  # (k, q)
+
+    @property
+    def region(self) -> np.ndarray:
+        """``(r,)`` vertex ids of the wrinkling region."""
+        return self.aoi[self.region_pos]
+
+    @classmethod
+    def build(cls, skin: TriangleSurface, muscle: Muscle) -> _MuscleData:
+        reg = muscle.region(skin.points)
+        aoi = np.flatnonzero(reg["in_aoi"])
+        region_pos = np.flatnonzero(reg["in_region"][aoi])
+        in_aoi = reg["in_aoi"]
+        edges = skin.edges
+        edge_ids = np.flatnonzero(in_aoi[edges[:, 0]] | in_aoi[edges[:, 1]])
+        directions = np.nan_to_num(reg["direction"], nan=0.0)
+        op = compression_operator(skin.points, edges[edge_ids], directions, rows=aoi)
+        unit = muscle.unit_displacement(skin.points[aoi])
+        return cls(aoi=aoi, region_pos=region_pos, unit_disp=unit, lam=reg["lam"][aoi],
+                   gamma=reg["gamma"][aoi], l=reg["l"][aoi], at=reg["At"][aoi],
+                   w=reg["w"][aoi][region_pos], h=reg["H"][aoi][region_pos],
+                   edge_ids=edge_ids, eps_op=op)
+
+
+def _summing(ids_list: list[np.ndarray]) -> tuple[np.ndarray, sp.csr_matrix]:
+    """Union of id arrays and the ``(union, sum of lengths)`` 0/1 matrix that sums into it."""
+    stacked = np.concatenate(ids_list) if ids_list else np.zeros(0, np.intp)
+    union, inverse = np.unique(stacked, return_inverse=True)
+    mat = sp.csr_matrix((np.ones(len(stacked)), (inverse.ravel(), np.arange(len(stacked)))),
+                        shape=(len(union), len(stacked)))
+    return union, mat
+
+
+@dataclass(frozen=True, eq=False)
+class _Assembly:
+    """Stacked operators for one set of active muscles."""
+
+    names: tuple[str, ...]
+    k_counts: np.ndarray  # (M,) AOI sizes
+    k_offsets: np.ndarray  # (M + 1,)
+    r_offsets: np.ndarray  # (M + 1,)
+    moved: np.ndarray  # (u,) vertices that any active muscle moves
+    disp_sum: sp.csr_matrix  # (u, K)
+    unit_disp: np.ndarray  # (K, 3)
+    e0: np.ndarray  # (q,) first vertex of each touched edge
+    e1: np.ndarray  # (q,)
+    rest_len: np.ndarray  # (q,)
+    eps_op: sp.csr_matrix  # (K, q)
+    region_pos: np.ndarray  # (R,) into the K stack
+    hat: np.ndarray  # (R,) H * At
+    wrinkled: np.ndarray  # (v,) vertices in any active wrinkling region
+    w_sum: sp.csr_matrix  # (v, R)
+    tris: np.ndarray  # (t, 3) triangles around the wrinkled vertices
+    tri_inc: sp.csr_matrix  # (v, t)
+
+    @classmethod
+    def build(cls, skin: TriangleSurface, names, datas: list[_MuscleData]) -> _Assembly:
+        k_counts = np.array([len(d.aoi) for d in datas], dtype=np.intp)
+        k_offsets = np.concatenate([[0], np.cumsum(k_counts)])
+        r_offsets = np.concatenate([[0], np.cumsum([len(d.region_pos) for d in datas])])
+        moved, disp_sum = _summing([d.aoi for d in datas])
+        edge_union, inverse = np.unique(np.concatenate([d.edge_ids for d in datas]),
+                                        return_inverse=True)
+        blocks, start = [], 0
+        for d in datas:
+            cols = inverse[start:start + len(d.edge_ids)]
+            start += len(d.edge_ids)
+            coo = d.eps_op.tocoo()
+            blocks.append(sp.csr_matrix((coo.data, (coo.row, cols[coo.col])),
+                                        shape=(coo.shape[0], len(edge_union))))
+        eps_op = sp.vstack(blocks, format="csr")
+        region_pos = np.concatenate([d.region_pos + o for d, o in zip(datas, k_offsets)])
+        hat = np.concatenate([d.h * d.at[d.region_pos] for d in datas])
+        wrinkled, w_sum = _summing([d.region for d in datas])
+        tri_ids = np.unique(skin.incidence[wrinkled].indices)
+        tri_inc = skin.incidence[wrinkled][:, tri_ids].tocsr()
+        edges = skin.edges[edge_union]
+        return cls(names=tuple(names), k_counts=k_counts, k_offsets=k_offsets,
+                   r_offsets=r_offsets, moved=moved, disp_sum=disp_sum,
+                   unit_disp=np.concatenate([d.unit_disp for d in datas]),
+                   e0=edges[:, 0], e1=edges[:, 1],
+                   rest_len=skin.rest_edge_lengths[edge_union], eps_op=eps_op,
+                   region_pos=region_pos, hat=hat, wrinkled=wrinkled, w_sum=w_sum,
+                   tris=skin.triangles[tri_ids], tri_inc=tri_inc)
+
+
+class FaceModel:
+    """An anatomy-based face: skin, skull and muscles (paper Sec. 2.1).
+
+    Parameters
+    ----------
+    skin : TriangleSurface
+        The rest skin, outward oriented, no zero-length edges (see
+        :meth:`TriangleSurface.welded` and :meth:`TriangleSurface.cleaned`).
+    skull : TriangleSurface, optional
+        The skull, for display and for placing attachments.
+    muscles : iterable of Muscle
+        Muscles with unique names.
+    expressions : mapping of str to Expression, optional
+        Named expressions; default the paper's (:func:`paper_expressions`).
+    name : str
+        A label for the face.
+
+    Notes
+    -----
+    The model is immutable. :meth:`with_muscle` and :meth:`without_muscle` return a new
+    model that shares the per-muscle caches of the unchanged muscles.
+    """
+
+    def __init__(self, skin: TriangleSurface, skull: TriangleSurface | None = None,
+                 muscles: Iterable[Muscle] = (), expressions=None, *, name: str = "face",
+                 _caches=None):
+        if not isinstance(skin, TriangleSurface):
+            raise TypeError(f"skin must be a TriangleSurface; got {type(skin).__name__}")
+        if skull is not None and not isinstance(skull, TriangleSurface):
+            raise TypeError(f"skull must be a TriangleSurface or None; got {type(skull).__name__}")
+        self.skin = skin
+        self.skull = skull
+        self.name = name
+        self.muscles: tuple[Muscle, ...] = tuple(muscles)
+        seen: set[str] = set()
+        for m in self.muscles:
+            if not isinstance(m, Muscle):
+                raise TypeError(f"muscles must be Muscle instances; got {type(m).__name__}")
+            if m.name in seen:
+                raise ValueError(f"two muscles are named {m.name!r}; muscle names must be "
+                                 "unique in a face")
+            seen.add(m.name)
+        self.expressions: dict[str, Expression] = dict(
+            paper_expressions() if expressions is None else expressions
+        )
+        if _caches is None:
+            _check_skin(skin)
+            _caches = ({}, OrderedDict())
+        self._muscle_data: dict[Muscle, _MuscleData] = _caches[0]
+        self._assemblies: OrderedDict = _caches[1] if _caches[1] is not None else OrderedDict()
+
+    # ------------------------------------------------------------------ access
+    @property
+    def muscle_names(self) -> tuple[str, ...]:
+        """Names of the muscles, in order."""
+        return tuple(m.name for m in self.muscles)
+
+    def muscle(self, name: str) -> Muscle:
+        """The muscle called ``name``; ``KeyError`` lists the face's muscles."""
+        for m in self.muscles:
+            if m.name == name:
+                return m
+        raise KeyError(f"the face has no muscle {name!r}; its muscles are: "
+                       f"{', '.join(self.muscle_names) or 'none'}")
+
+    def with_muscle(self, muscle: Muscle) -> FaceModel:
+        """A face with ``muscle`` replacing the one of the same name, or added."""
+        names = self.muscle_names
+        muscles = list(self.muscles)
+        if muscle.name in names:
+            muscles[names.index(muscle.name)] = muscle
+        else:
+            muscles.append(muscle)
+        return self._derived(muscles)
+
+    def without_muscle(self, name: str) -> FaceModel:
+        """A face without the muscle called ``name``."""
+        self.muscle(name)
+        return self._derived([m for m in self.muscles if m.name != name])
+
+    def _derived(self, muscles) -> FaceModel:
+        return FaceModel(self.skin, self.skull, muscles, self.expressions, name=self.name,
+                         _caches=(self._muscle_data, None))
+
+    def muscle_data(self, muscle: Muscle) -> _MuscleData:
+        """The cached rest-skin data of ``muscle`` (built on first use)."""
+        data = self._muscle_data.get(muscle)
+        if data is None:
+            data = _MuscleData.build(self.skin, muscle)
+            self._muscle_data[muscle] = data
+        return data
+
+    def _assembly(self, names: tuple[str, ...]) -> _Assembly:
+        asm = self._assemblies.get(names)
+        if asm is None:
+            datas = [self.muscle_data(self.muscle(n)) for n in names]
+            asm = _Assembly.build(self.skin, names, datas)
+            self._assemblies[names] = asm
+            while len(self._assemblies) > 32:
+                self._assemblies.popitem(last=False)
+        else:
+            self._assemblies.move_to_end(names)
+        return asm
+
+    # ------------------------------------------------------------------ evaluation
+    def activations_for(self, activations, intensity: float = 1.0) -> dict[str, float]:
+        """Resolve an expression name, an :class:`Expression` or a mapping to activations.
+
+        Returns
+        -------
+        dict of str to float
+            Every muscle of the face, in order, with its activation in ``[0, 1]``.
+        """
+        if isinstance(activations, str):
+            if activations not in self.expressions:
+                raise KeyError(f"unknown expression {activations!r}; this face has: "
+                               f"{', '.join(self.expressions)}")
+            activations = self.expressions[activations]
+        if isinstance(activations, Expression):
+            activations = activations.scaled(intensity)
+        elif isinstance(activations, Mapping):
+            k = float(intensity)
+            if not (0.0 <= k <= 1.0):
+                raise ValueError(f"intensity = {k:g} is outside [0, 1]")
+            activations = {m: check_activation(m, a) * k for m, a in activations.items()}
+        else:
+            raise TypeError("activations must be an expression name, an Expression or a "
+                            f"mapping of muscle name to activation; got {type(activations)}")
+        unknown = sorted(set(activations) - set(self.muscle_names))
+        if unknown:
+            raise KeyError(f"no muscle named {', '.join(map(repr, unknown))} in this face; its "
+                           f"muscles are: {', '.join(self.muscle_names) or 'none'}")
+        return {n: float(activations.get(n, 0.0)) for n in self.muscle_names}
+
+    def evaluate(self, activations=None, intensity: float = 1.0) -> FaceState:
+        """One frame of the wrinkle model.
+
+        Parameters
+        ----------
+        activations : str, Expression or mapping of str to float, optional
+            An expression name (``"surprise"``), an :class:`Expression`, or muscle name to
+            activation in ``[0, 1]``; ``None`` is neutral.
+        intensity : float, default 1.0
+            Scales every activation, in ``[0, 1]``.
+
+        Returns
+        -------
+        FaceState
+            Deformed and wrinkled points, total :math:`W`, and per-muscle fields.
+        """
+        acts = self.activations_for({} if activations is None else activations, intensity)
+        active = tuple(n for n, a in acts.items() if a > 0.0)
+        rest = self.skin.points
+        n = self.skin.n_points
+        if not active:
+            zero = np.zeros(n)
+            return FaceState(self, acts, rest, rest, zero, None, {})
+        asm = self._assembly(active)
+        a = np.array([acts[m] for m in active])
+
+        deformed = rest.copy()
+        scaled = asm.unit_disp * np.repeat(a, asm.k_counts)[:, None]
+        deformed[asm.moved] += asm.disp_sum @ scaled
+
+        vec = deformed[asm.e1] - deformed[asm.e0]
+        tau = 1.0 - np.sqrt(np.einsum("ij,ij->i", vec, vec)) / asm.rest_len
+        eps = asm.eps_op @ tau
+        amp = anisotropy(eps)
+        w_region = asm.hat * amp[asm.region_pos]
+        w_sum = asm.w_sum @ w_region
+
+        normals = _unit_rows(asm.tri_inc @ _face_normals(deformed, asm.tris))
+        points = deformed.copy()
+        points[asm.wrinkled] += w_sum[:, None] * normals
+        total = np.zeros(n)
+        total[asm.wrinkled] = w_sum
+        return FaceState(self, acts, deformed, points, total, asm,
+                         {"eps": eps, "A": amp, "W": w_region})
+
+
+def _face_normals(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    a = points[tris[:, 0]]
+    return np.cross(points[tris[:, 1]] - a, points[tris[:, 2]] - a)
+
+
+def _unit_rows(v: np.ndarray) -> np.ndarray:
+    norm = np.sqrt(np.einsum("ij,ij->i", v, v))
+    return v / np.where(norm > 0, norm, 1.0)[:, None]
+
+
+def _check_skin(skin: TriangleSurface) -> None:
+    zero = np.flatnonzero(skin.rest_edge_lengths == 0.0)
+    if len(zero):
+        e = skin.edges[zero[0]]
+        raise MeshError(
+            f"the skin has {len(zero)} edge(s) of zero length (first joins vertices {e[0]} and "
+            f"{e[1]}); weld coincident vertices with skin.welded() and drop degenerate "
+            "triangles with skin.cleaned()"
+        )
+    rep_dupes = len(np.unique(np.sort(skin.triangles, axis=1), axis=0))
+    if rep_dupes != skin.n_triangles:
+        raise MeshError(
+            f"the skin has {skin.n_triangles - rep_dupes} duplicate triangle(s); remove them "
+            "with skin.cleaned()"
+        )
+
+
+class _MuscleFields(Mapping):
+    """The fields of one muscle in one state, full length, ``nan`` where undefined."""
+
+    def __init__(self, state: FaceState, muscle: Muscle):
+        self._state = state
+        self._muscle = muscle
+        self._cache: dict[str, np.ndarray] = {}
+
+    def __iter__(self):
+        return iter(FIELD_NAMES)
+
+    def __len__(self) -> int:
+        return len(FIELD_NAMES)
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        if key not in FIELD_NAMES:
+            raise KeyError(f"unknown field {key!r}; fields: {', '.join(FIELD_NAMES)}")
+        if key not in self._cache:
+            arr = self._compute(key)
+            arr.setflags(write=False)
+            self._cache[key] = arr
+        return self._cache[key]
+
+    def _full(self, ids: np.ndarray, values: np.ndarray) -> np.ndarray:
+        out = np.full(self._state.n_points, np.nan)
+        out[ids] = values
+        return out
+
+    def _compact_dynamic(self) -> dict[str, np.ndarray]:
+        """eps and A on the AOI, W on the region, for this muscle in this state."""
+        state, name = self._state, self._muscle.name
+        data = state.face.muscle_data(self._muscle)
+        asm = state._assembly
+        if asm is not None and name in asm.names:
+            i = asm.names.index(name)
+            ks, ke = asm.k_offsets[i], asm.k_offsets[i + 1]
+            rs, re = asm.r_offsets[i], asm.r_offsets[i + 1]
+            c = state._compact
+            return {"eps": c["eps"][ks:ke], "A": c["A"][ks:ke], "W": c["W"][rs:re]}
+        # an inactive muscle: its compression is defined, but it makes no wrinkles
+        skin = state.face.skin
+        e = skin.edges[data.edge_ids]
+        vec = state.deformed_points[e[:, 1]] - state.deformed_points[e[:, 0]]
+        tau = 1.0 - np.linalg.norm(vec, axis=1) / skin.rest_edge_lengths[data.edge_ids]
+        eps = data.eps_op @ tau
+        return {"eps": eps, "A": anisotropy(eps), "W": np.zeros(len(data.region_pos))}
+
+    def _compute(self, key: str) -> np.ndarray:
+        data = self._state.face.muscle_data(self._muscle)
+        static_aoi = {"lambda": data.lam, "gamma": data.gamma, "l": data.l, "At": data.at}
+        if key in static_aoi:
+            return self._full(data.aoi, static_aoi[key])
+        if key in ("w", "H"):
+            return self._full(data.region, data.w if key == "w" else data.h)
+        dyn = self._compact_dynamic()
+        if key == "W":
+            return self._full(data.region, dyn["W"])
+        return self._full(data.aoi, dyn[key])
+
+
+class _StateFields(Mapping):
+    def __init__(self, state: FaceState):
+        self._state = state
+        self._by_name: dict[str, _MuscleFields] = {}
+
+    def __iter__(self):
+        return iter(self._state.face.muscle_names)
+
+    def __len__(self) -> int:
+        return len(self._state.face.muscles)
+
+    def __getitem__(self, name: str) -> _MuscleFields:
+        if name not in self._by_name:
+            self._by_name[name] = _MuscleFields(self._state, self._state.face.muscle(name))
+        return self._by_name[name]
+
+
+class FaceState:
+    """One evaluated frame of a :class:`FaceModel`.
+
+    Attributes
+    ----------
+    face : FaceModel
+        The model it came from.
+    activations : dict of str to float
+        Every muscle's activation in this frame.
+    rest_points : (n, 3) float
+        The rest skin.
+    deformed_points : (n, 3) float
+        The skin after the muscles' displacement, before wrinkles.
+    points : (n, 3) float
+        The final skin: deformed points plus :math:`W` along the outward unit normal.
+    triangles : (m, 3) int
+        The skin's triangles.
+    W : (n,) float
+        Total wrinkle amplitude, :math:`\\sum_m H A(\\varepsilon) At`, 0 outside every
+        active wrinkling region.
+    fields : mapping
+        ``fields[muscle][name]`` for ``name`` in :data:`FIELD_NAMES`, each ``(n,)``,
+        ``nan`` where the muscle does not define it. ``lambda``, ``gamma``, ``l``, ``At``,
+        ``eps`` and ``A`` live on the muscle's AOI; ``w``, ``H`` and ``W`` on its
+        wrinkling region. A muscle that is not contracting makes no wrinkles (``W`` = 0 on
+        its region) although its compression ``eps`` is still reported. Built on access.
+    """
+
+    def __init__(self, face, activations, deformed, points, total, assembly, compact):
+        self.face = face
+        self.activations = dict(activations)
+        self.rest_points = face.skin.points
+        self.triangles = face.skin.triangles
+        self.deformed_points = _readonly(deformed)
+        self.points = _readonly(points)
+        self.W = _readonly(total)
+        self._assembly = assembly
+        self._compact = compact
+        self.fields = _StateFields(self)
+
+    @property
+    def n_points(self) -> int:
+        """Number of skin vertices."""
+        return len(self.points)
+
+    @cached_property
+    def normals(self) -> np.ndarray:
+        """``(n, 3)``: unit vertex normals of the final skin (computed on first access)."""
+        return self.face.skin.vertex_normals(self.points)
+
+    def surface(self) -> TriangleSurface:
+        """The final skin as a :class:`TriangleSurface`."""
+        return TriangleSurface(self.points, self.triangles)
+
+    def to_polydata(self):
+        """The skin as ``pyvista.PolyData`` with every field as a named point array.
+
+        A bridge to :func:`wrinkle_vis.plotting.to_polydata`; needs PyVista.
+        """
+        plotting = importlib.import_module("wrinkle_vis.plotting")
+        return plotting.to_polydata(self)
+
+    def summary(self) -> str:
+        """A few lines on the frame: activations and the range of each active field."""
+        lines = [f"{self.face.name}: {self.n_points} vertices, "
+                 f"{len(self.triangles)} triangles"]
+        active = {m: a for m, a in self.activations.items() if a > 0}
+        lines.append("active muscles: " + (", ".join(f"{m}={a:.2f}" for m, a in active.items())
+                                           or "none"))
+        lines.append(f"W total: min {self.W.min():+.4f}  max {self.W.max():+.4f}  "
+                     f"nonzero at {np.count_nonzero(self.W)} vertices")
+        for m in active:
+            f = self.fields[m]
+            parts = []
+            for key in ("lambda", "gamma", "eps", "At", "H", "A", "W"):
+                v = f[key][np.isfinite(f[key])]
+                parts.append(f"{key} [{v.min():+.3f}, {v.max():+.3f}]" if len(v) else
+                             f"{key} undefined")
+            lines.append(f"  {m}: " + "  ".join(parts))
+        return "\n".join(lines)
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a = np.asarray(a)
+    a.setflags(write=False)
+    return a

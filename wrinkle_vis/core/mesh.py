@@ -1,0 +1,394 @@
+"""Triangle surfaces as numpy arrays: validation, edges, adjacency, normals, welding."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import breadth_first_order, connected_components
+from scipy.spatial import cKDTree
+
+__all__ = ["MeshError", "MeshReport", "TriangleSurface", "subdivide"]
+
+
+class MeshError(ValueError):
+    """A mesh that cannot be used as it is; the message names the problem and the fix."""
+
+
+@dataclass(frozen=True)
+class MeshReport:
+    """What is wrong, or merely notable, about a triangle surface.
+
+    Attributes
+    ----------
+    degenerate_triangles : (k,) int
+        Triangles with a repeated vertex or zero area.
+    duplicate_triangles : (k,) int
+        Triangles whose vertex set repeats an earlier triangle's.
+    boundary_edges : (k, 2) int
+        Edges used by one triangle only (an open surface has them; that is allowed).
+    non_manifold_edges : (k, 2) int
+        Edges used by three or more triangles.
+    unused_vertices : (k,) int
+        Vertices that no triangle uses.
+    n_components : int
+        Connected components of the triangle graph.
+    consistently_oriented : bool
+        Whether every interior edge is traversed once in each direction.
+    """
+
+    degenerate_triangles: np.ndarray
+    duplicate_triangles: np.ndarray
+    boundary_edges: np.ndarray
+    non_manifold_edges: np.ndarray
+    unused_vertices: np.ndarray
+    n_components: int
+    consistently_oriented: bool
+
+    @property
+    def ok(self) -> bool:
+        """True when there is nothing to clean (boundaries are allowed)."""
+        return not (
+            len(self.degenerate_triangles)
+            or len(self.duplicate_triangles)
+            or len(self.non_manifold_edges)
+            or len(self.unused_vertices)
+        ) and self.consistently_oriented
+
+    def __str__(self) -> str:
+        parts = [
+            f"{len(self.degenerate_triangles)} degenerate triangle(s)",
+            f"{len(self.duplicate_triangles)} duplicate triangle(s)",
+            f"{len(self.boundary_edges)} boundary edge(s)",
+            f"{len(self.non_manifold_edges)} non-manifold edge(s)",
+            f"{len(self.unused_vertices)} unused vertex(es)",
+            f"{self.n_components} connected component(s)",
+            "consistently oriented" if self.consistently_oriented else "NOT consistently oriented",
+        ]
+        return ", ".join(parts)
+
+
+def _as_points(points) -> np.ndarray:
+    arr = np.array(points, dtype=float, copy=True)
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise MeshError(f"points must have shape (n, 3); got {arr.shape}")
+    bad = ~np.isfinite(arr).all(axis=1)
+    if bad.any():
+        first = int(np.flatnonzero(bad)[0])
+        raise MeshError(
+            f"{int(bad.sum())} point(s) have non-finite coordinates (first: point {first} = "
+            f"{arr[first].tolist()}); repair or remove those vertices before loading the mesh"
+        )
+    arr.setflags(write=False)
+    return arr
+
+
+def _as_triangles(triangles, n_points: int) -> np.ndarray:
+    tri = np.asarray(triangles)
+    if tri.ndim != 2 or tri.shape[1] != 3:
+        raise MeshError(
+            f"triangles must have shape (m, 3); got {tri.shape}. Triangulate polygons first"
+        )
+    if tri.size and not np.issubdtype(tri.dtype, np.integer):
+        if not np.all(np.mod(tri, 1) == 0):
+            raise MeshError("triangle indices must be integers")
+    tri = np.array(tri, dtype=np.int64, copy=True)
+    if len(tri) == 0:
+        raise MeshError("the surface has no triangles")
+    bad = (tri < 0) | (tri >= n_points)
+    if bad.any():
+        first = int(np.flatnonzero(bad.any(axis=1))[0])
+        raise MeshError(
+            f"{int(bad.any(axis=1).sum())} triangle(s) index vertices outside 0..{n_points - 1} "
+            f"(first: triangle {first} = {tri[first].tolist()}); the index array does not "
+            "belong to these points"
+        )
+    tri.setflags(write=False)
+    return tri
+
+
+@dataclass(frozen=True, eq=False)
+class TriangleSurface:
+    """An immutable triangle surface.
+
+    Parameters
+    ----------
+    points : (n, 3) array_like of float
+        Vertex positions; every coordinate must be finite.
+    triangles : (m, 3) array_like of int
+        Vertex indices of each triangle, counter-clockwise seen from outside.
+
+    Raises
+    ------
+    MeshError
+        For wrong shapes, non-finite coordinates or indices out of range. Degenerate and
+        duplicate triangles, boundaries and non-manifold edges are not errors here; see
+        :meth:`report` and :meth:`cleaned`.
+    """
+
+    points: np.ndarray
+    triangles: np.ndarray
+
+    def __post_init__(self):
+        pts = _as_points(self.points)
+        object.__setattr__(self, "points", pts)
+        object.__setattr__(self, "triangles", _as_triangles(self.triangles, len(pts)))
+
+    @property
+    def n_points(self) -> int:
+        """Number of vertices."""
+        return len(self.points)
+
+    @property
+    def n_triangles(self) -> int:
+        """Number of triangles."""
+        return len(self.triangles)
+
+    def with_points(self, points) -> TriangleSurface:
+        """The same connectivity on other positions, ``(n, 3)``."""
+        pts = np.asarray(points, dtype=float)
+        if pts.shape != self.points.shape:
+            raise MeshError(f"points must have shape {self.points.shape}; got {pts.shape}")
+        return TriangleSurface(pts, self.triangles)
+
+    # ------------------------------------------------------------------ topology
+    @cached_property
+    def _directed_edges(self) -> np.ndarray:
+        t = self.triangles
+        return np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
+
+    @cached_property
+    def _edge_inverse(self) -> tuple[np.ndarray, np.ndarray]:
+        d = self._directed_edges
+        key = np.sort(d, axis=1)
+        edges, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+        return edges, inverse.ravel(), counts
+
+    @cached_property
+    def edges(self) -> np.ndarray:
+        """``(e, 2) int``: unique undirected edges, each as ``(i, j)`` with ``i < j``."""
+        edges = self._edge_inverse[0]
+        edges.setflags(write=False)
+        return edges
+
+    @cached_property
+    def triangle_edges(self) -> np.ndarray:
+        """``(m, 3) int``: edge ids of each triangle's edges (01, 12, 20)."""
+        return self._edge_inverse[1].reshape(3, -1).T.copy()
+
+    @cached_property
+    def rest_edge_lengths(self) -> np.ndarray:
+        """``(e,) float``: length of each edge at these positions."""
+        e = self.edges
+        return np.linalg.norm(self.points[e[:, 1]] - self.points[e[:, 0]], axis=1)
+
+    @cached_property
+    def adjacency(self) -> sp.csr_matrix:
+        """``(n, n)`` symmetric sparse vertex adjacency (1 where an edge joins two vertices)."""
+        e = self.edges
+        n = self.n_points
+        data = np.ones(2 * len(e))
+        rows = np.concatenate([e[:, 0], e[:, 1]])
+        cols = np.concatenate([e[:, 1], e[:, 0]])
+        return sp.csr_matrix((data, (rows, cols)), shape=(n, n))
+
+    @cached_property
+    def incidence(self) -> sp.csr_matrix:
+        """``(n, m)`` sparse vertex-triangle incidence (1 where a vertex is a corner)."""
+        m = self.n_triangles
+        rows = self.triangles.ravel()
+        cols = np.repeat(np.arange(m), 3)
+        return sp.csr_matrix((np.ones(3 * m), (rows, cols)), shape=(self.n_points, m))
+
+    # ------------------------------------------------------------------ geometry
+    def face_normals(self, points=None) -> np.ndarray:
+        """``(m, 3)``: triangle normals scaled by twice the area, at ``points`` (or rest)."""
+        p = self.points if points is None else points
+        t = self.triangles
+        a = p[t[:, 0]]
+        return np.cross(p[t[:, 1]] - a, p[t[:, 2]] - a)
+
+    def vertex_normals(self, points=None) -> np.ndarray:
+        r"""``(n, 3)``: unit area-weighted vertex normals at ``points`` (or the rest points).
+
+        .. math:: n_i = \frac{\sum_{t \ni i} (b_t - a_t) \times (c_t - a_t)}
+                              {\left\|\sum_{t \ni i} (b_t - a_t) \times (c_t - a_t)\right\|}
+
+        They point outwards for an outward-oriented surface (see :meth:`oriented`). A vertex
+        whose summed normal vanishes gets a zero vector.
+        """
+        summed = self.incidence @ self.face_normals(points)
+        return _normalize_rows(summed)
+
+    def signed_volume(self) -> float:
+        """Signed enclosed volume; positive for an outward orientation of a closed surface."""
+        p = self.points - self.points.mean(axis=0)
+        t = self.triangles
+        return float(np.einsum("ij,ij->", p[t[:, 0]], np.cross(p[t[:, 1]], p[t[:, 2]])) / 6.0)
+
+    def triangle_areas(self) -> np.ndarray:
+        """``(m,)``: area of each triangle."""
+        return 0.5 * np.linalg.norm(self.face_normals(), axis=1)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """``((3,), (3,))``: lower and upper corner of the bounding box."""
+        return self.points.min(axis=0), self.points.max(axis=0)
+
+    # ------------------------------------------------------------------ checks
+    def report(self) -> MeshReport:
+        """Everything :class:`MeshReport` lists, computed without raising."""
+        t = self.triangles
+        repeated = (t[:, 0] == t[:, 1]) | (t[:, 1] == t[:, 2]) | (t[:, 0] == t[:, 2])
+        degenerate = np.flatnonzero(repeated | (self.triangle_areas() <= 0.0))
+        _, first = np.unique(np.sort(t, axis=1), axis=0, return_index=True)
+        duplicate = np.setdiff1d(np.arange(len(t)), first)
+        edges, inverse, counts = self._edge_inverse
+        used = np.zeros(self.n_points, bool)
+        used[t.ravel()] = True
+        n_comp = connected_components(self._triangle_graph(), directed=False)[0]
+        return MeshReport(
+            degenerate_triangles=degenerate,
+            duplicate_triangles=duplicate,
+            boundary_edges=edges[counts == 1],
+            non_manifold_edges=edges[counts > 2],
+            unused_vertices=np.flatnonzero(~used),
+            n_components=int(n_comp),
+            consistently_oriented=self._consistently_oriented(),
+        )
+
+    def _consistently_oriented(self) -> bool:
+        d = self._directed_edges
+        _, inverse, counts = self._edge_inverse
+        forward = (d[:, 0] < d[:, 1]).astype(np.int64)
+        n_forward = np.bincount(inverse, weights=forward, minlength=len(counts))
+        interior = counts == 2
+        return bool(np.all(n_forward[interior] == 1))
+
+    def _triangle_graph(self) -> sp.csr_matrix:
+        """``(m, m)`` adjacency of triangles that share an edge (manifold edges only)."""
+        _, inverse, counts = self._edge_inverse
+        m = self.n_triangles
+        tri_of = np.tile(np.arange(m), 3)
+        order = np.argsort(inverse, kind="stable")
+        inv_sorted = inverse[order]
+        tri_sorted = tri_of[order]
+        pair = (inv_sorted[:-1] == inv_sorted[1:]) & (counts[inv_sorted[:-1]] == 2)
+        a, b = tri_sorted[:-1][pair], tri_sorted[1:][pair]
+        data = np.ones(2 * len(a))
+        return sp.csr_matrix(
+            (data, (np.concatenate([a, b]), np.concatenate([b, a]))), shape=(m, m)
+        )
+
+    # ------------------------------------------------------------------ repairs
+    def welded(self, tolerance: float = 0.0) -> TriangleSurface:
+        """Merge vertices closer than ``tolerance`` (identical ones at 0), e.g. UV seams.
+
+        Returns
+        -------
+        TriangleSurface
+            The welded surface; triangles that collapse are dropped, unused vertices too.
+        """
+        p = self.points
+        if tolerance <= 0.0:
+            _, first, label = np.unique(p, axis=0, return_index=True, return_inverse=True)
+            label = label.ravel()
+            new_points = p[first]
+        else:
+            pairs = cKDTree(p).query_pairs(tolerance, output_type="ndarray")
+            graph = sp.coo_matrix(
+                (np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(p), len(p))
+            )
+            n, label = connected_components(graph, directed=False)
+            counts = np.bincount(label, minlength=n)
+            new_points = np.zeros((n, 3))
+            np.add.at(new_points, label, p)
+            new_points /= counts[:, None]
+        tri = label[self.triangles]
+        keep = (tri[:, 0] != tri[:, 1]) & (tri[:, 1] != tri[:, 2]) & (tri[:, 0] != tri[:, 2])
+        return TriangleSurface(new_points, tri[keep]).without_unused()
+
+    def without_unused(self) -> TriangleSurface:
+        """The surface with vertices that no triangle uses removed."""
+        used = np.zeros(self.n_points, bool)
+        used[self.triangles.ravel()] = True
+        if used.all():
+            return self
+        new_index = np.cumsum(used) - 1
+        return TriangleSurface(self.points[used], new_index[self.triangles])
+
+    def cleaned(self) -> TriangleSurface:
+        """Drop degenerate and duplicate triangles, then unused vertices."""
+        rep = self.report()
+        drop = np.union1d(rep.degenerate_triangles, rep.duplicate_triangles)
+        keep = np.setdiff1d(np.arange(self.n_triangles), drop)
+        return TriangleSurface(self.points, self.triangles[keep]).without_unused()
+
+    def largest_component(self) -> TriangleSurface:
+        """The connected component (across manifold edges) with the most triangles."""
+        n_comp, comp = connected_components(self._triangle_graph(), directed=False)
+        if n_comp == 1:
+            return self
+        keep = comp == np.argmax(np.bincount(comp))
+        return TriangleSurface(self.points, self.triangles[keep]).without_unused()
+
+    def oriented(self) -> TriangleSurface:
+        """Consistently oriented triangles, outward (positive signed volume) where closed.
+
+        Each connected component is walked breadth first across manifold edges; a triangle
+        is flipped when it traverses a shared edge in the same direction as its parent.
+        """
+        graph = self._triangle_graph()
+        n_comp, comp = connected_components(graph, directed=False)
+        tri = self.triangles.copy()
+        flip = np.zeros(self.n_triangles, bool)
+        for c in range(n_comp):
+            seed = int(np.flatnonzero(comp == c)[0])
+            order, pred = breadth_first_order(graph, seed, directed=False)
+            for t in order[1:]:
+                parent = pred[t]
+                flip[t] = flip[parent] ^ _same_direction(tri[parent], tri[t])
+        tri[flip] = tri[flip][:, ::-1]
+        out = TriangleSurface(self.points, tri)
+        if out.signed_volume() < 0:
+            out = TriangleSurface(self.points, tri[:, ::-1])
+        return out
+
+
+def _same_direction(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether triangles ``a`` and ``b`` traverse their shared edge in the same direction."""
+    da = {(int(a[i]), int(a[(i + 1) % 3])) for i in range(3)}
+    return any((int(b[i]), int(b[(i + 1) % 3])) in da for i in range(3))
+
+
+def _normalize_rows(v: np.ndarray) -> np.ndarray:
+    norm = np.sqrt(np.einsum("ij,ij->i", v, v))
+    out = np.zeros_like(v)
+    ok = norm > 0
+    out[ok] = v[ok] / norm[ok, None]
+    return out
+
+
+def subdivide(surface: TriangleSurface, levels: int = 1) -> TriangleSurface:
+    """Uniform 1-to-4 midpoint subdivision, ``levels`` times (no smoothing).
+
+    Returns
+    -------
+    TriangleSurface
+        ``4**levels`` times as many triangles; the first ``n`` vertices are the original ones
+        and each new vertex is the midpoint of an edge.
+    """
+    for _ in range(int(levels)):
+        p, t = surface.points, surface.triangles
+        e = surface.edges
+        mid = 0.5 * (p[e[:, 0]] + p[e[:, 1]])
+        n = len(p)
+        te = surface.triangle_edges + n
+        a, b, c = t[:, 0], t[:, 1], t[:, 2]
+        ab, bc, ca = te[:, 0], te[:, 1], te[:, 2]
+        new_t = np.concatenate(
+            [np.c_[a, ab, ca], np.c_[ab, b, bc], np.c_[ca, bc, c], np.c_[ab, bc, ca]]
+        )
+        surface = TriangleSurface(np.vstack([p, mid]), new_t)
+    return surface

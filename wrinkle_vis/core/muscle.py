@@ -1,0 +1,348 @@
+"""The muscle base class: parameter validation, the wrinkling region and serialization.
+
+A muscle type subclasses :class:`Muscle` (a frozen dataclass), implements
+:meth:`Muscle._geometry` and :meth:`Muscle._falloff`, and registers itself with
+:func:`wrinkle_vis.register_muscle_type`. Everything that follows from the geometry, the
+wrinkling region (Eq. 3, 14), :math:`w` (Eq. 7), :math:`H` (Eq. 5), :math:`At` (Eq. 12, 15) and
+the Waters-style displacement, is computed here once for every type.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from .equations import attenuation, bulge_height, half_period, periodic_coordinate, shape_function
+
+__all__ = ["Geometry", "Muscle", "MuscleParameterError", "MuscleRegion", "waters_radial"]
+
+
+class MuscleParameterError(ValueError):
+    """A muscle parameter out of its allowed range; the message names muscle, parameter,
+    value and range."""
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """Per-vertex geometry of a muscle, as a muscle type computes it.
+
+    Attributes
+    ----------
+    l : (n,) float
+        Distance from the attachment (point or line) along the central fibre.
+    lam, gamma : (n,) float
+        Length factor :math:`\\lambda` and angular/width factor :math:`\\gamma`.
+    coordinate : (n,) float
+        The attenuation coordinate: :math:`\\varphi` in degrees or :math:`h`.
+    in_aoi : (n,) bool
+        The area of influence.
+    direction : (n, 3) float
+        Unit contraction direction (zero where undefined).
+    extra : dict of str to (n,) float
+        Type-specific named arrays (``angle_deg`` or ``h``, ``depth``...).
+    """
+
+    l: np.ndarray
+    lam: np.ndarray
+    gamma: np.ndarray
+    coordinate: np.ndarray
+    in_aoi: np.ndarray
+    direction: np.ndarray
+    extra: dict
+
+
+class MuscleRegion(Mapping):
+    """Everything a muscle defines on a set of rest points, as named ``(n,)`` arrays.
+
+    Geometric quantities (``lam``, ``gamma``, ``l`` and the type's own, such as
+    ``angle_deg`` or ``h``) are given everywhere. Model quantities are ``nan`` where the
+    muscle does not define them: ``At`` and ``direction`` outside the area of influence,
+    ``w`` and ``H`` outside the wrinkling region. Read them as ``region.H`` or
+    ``region["H"]``.
+    """
+
+    def __init__(self, arrays: dict[str, np.ndarray]):
+        self._arrays = arrays
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        return self._arrays[key]
+
+    def __iter__(self):
+        return iter(self._arrays)
+
+    def __len__(self) -> int:
+        return len(self._arrays)
+
+    def __getattr__(self, key: str) -> np.ndarray:
+        try:
+            return self.__dict__["_arrays"][key]
+        except KeyError:
+            raise AttributeError(key) from None
+
+
+def waters_radial(x: np.ndarray, fall_start: float, end: float) -> np.ndarray:
+    r"""Waters' (1987) radial falloff, 0 at the attachment, 1 at the fall start, 0 at the end.
+
+    Parameters
+    ----------
+    x : (n,) float
+        Distance from the attachment.
+    fall_start, end : float
+        :math:`R_s` and :math:`R_f` with :math:`0 < R_s < R_f`.
+
+    Returns
+    -------
+    (n,) float
+        .. math::
+
+            r(x) = \begin{cases}
+                \cos\left(\left(1 - \frac{x}{R_s}\right)\frac{\pi}{2}\right) & 0 \le x \le R_s\\
+                \cos\left(\frac{x - R_s}{R_f - R_s}\frac{\pi}{2}\right) & R_s < x \le R_f \\
+                0 & \text{otherwise}
+            \end{cases}
+    """
+    x = np.asarray(x, dtype=float)
+    rising = np.sin(0.5 * np.pi * np.clip(x / fall_start, 0.0, 1.0))
+    falling = np.cos(0.5 * np.pi * np.clip((x - fall_start) / (end - fall_start), 0.0, 1.0))
+    out = np.where(x <= fall_start, rising, falling)
+    return np.where((x >= 0.0) & (x <= end), out, 0.0)
+
+
+def _fmt(value) -> str:
+    if isinstance(value, float):
+        return f"{value:g}"
+    return repr(value)
+
+
+@dataclass(frozen=True)
+class Muscle:
+    """Base class of every muscle type (linear, sheet, and plug-ins).
+
+    Subclasses are frozen dataclasses whose first field is ``name``. They set the class
+    attributes ``type_name`` (the registry key) and ``point_parameters`` (the names of
+    parameters that are 3D points or pairs of points, which placement widgets edit), and
+    implement ``_geometry``, ``_falloff``, ``wrinkle_length`` and ``attenuation_range``.
+    """
+
+    type_name: ClassVar[str] = ""
+    point_parameters: ClassVar[tuple[str, ...]] = ()
+
+    name: str
+
+    # ------------------------------------------------------------ validation helpers
+    def _fail(self, param: str, value, allowed: str, hint: str = "") -> None:
+        kind = self.type_name or type(self).__name__
+        msg = (
+            f"{kind} muscle {self.name!r}: parameter {param} = {_fmt(value)} is invalid; "
+            f"allowed: {allowed}"
+        )
+        raise MuscleParameterError(msg + (f". {hint}" if hint else ""))
+
+    def _check(self, param, lo=-math.inf, hi=math.inf, *, lo_open=False, hi_open=False,
+               hint="") -> float:
+        value = getattr(self, param)
+        try:
+            x = float(value)
+        except (TypeError, ValueError):
+            self._fail(param, value, "a real number", hint)
+        left = "(" if lo_open else "["
+        right = ")" if hi_open else "]"
+        allowed = f"{left}{_fmt(float(lo))}, {_fmt(float(hi))}{right}"
+        if not math.isfinite(x) or x < lo or x > hi or (lo_open and x == lo) or (
+            hi_open and x == hi
+        ):
+            self._fail(param, value, allowed, hint)
+        object.__setattr__(self, param, x)
+        return x
+
+    def _check_int(self, param, lo: int) -> int:
+        value = getattr(self, param)
+        if isinstance(value, bool) or not (
+            isinstance(value, (int, np.integer)) or (isinstance(value, float) and value.is_integer())
+        ):
+            self._fail(param, value, f"an integer >= {lo}")
+        if int(value) < lo:
+            self._fail(param, value, f"an integer >= {lo}")
+        object.__setattr__(self, param, int(value))
+        return int(value)
+
+    def _check_point(self, param, shape=(3,)) -> np.ndarray:
+        value = getattr(self, param)
+        try:
+            arr = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            self._fail(param, value, f"an array of shape {shape}")
+        if arr.shape != shape or not np.isfinite(arr).all():
+            self._fail(param, value, f"finite coordinates of shape {shape}")
+        as_tuple = tuple(map(float, arr)) if arr.ndim == 1 else tuple(
+            tuple(map(float, row)) for row in arr
+        )
+        object.__setattr__(self, param, as_tuple)
+        return arr
+
+    def _check_common(self) -> None:
+        """Validate the name and the wrinkle parameters every type shares."""
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise MuscleParameterError(
+                f"{self.type_name} muscle: name must be a non-empty string; got {self.name!r}"
+            )
+        self._check("lambda_w", 0.0, 1.0, hi_open=True)
+        self._check_int("n_wrinkles", 1)
+        self._check("k0", 0.0)
+        self._check("alpha", -1.0, 10.0, hint="alpha < -1 turns the furrow into a crest")
+
+    # ------------------------------------------------------------ to be implemented
+    @property
+    def wrinkle_length(self) -> float:
+        """:math:`R` (linear) or :math:`L_s` (sheet): the length in Eq. 6 and 7."""
+        raise NotImplementedError
+
+    @property
+    def attenuation_range(self) -> tuple[float, float]:
+        """``(start, end)`` of the attenuation coordinate (Eq. 12 or 15)."""
+        raise NotImplementedError
+
+    def _geometry(self, points: np.ndarray) -> Geometry:
+        raise NotImplementedError
+
+    def _falloff(self, points: np.ndarray, geometry: Geometry) -> np.ndarray:
+        """``(n,)``: Waters-style displacement magnitude per unit activation."""
+        raise NotImplementedError
+
+    # ------------------------------------------------------------ derived parameters
+    @property
+    def u(self) -> float:
+        """Half period :math:`u` of the wrinkles (Eq. 6)."""
+        return half_period(self.lambda_w, self.wrinkle_length, self.n_wrinkles)
+
+    @property
+    def d(self) -> float:
+        """Bulge height :math:`d` (Eq. 8)."""
+        return bulge_height(self.k0, self.alpha)
+
+    # ------------------------------------------------------------ the model
+    def region(self, rest_points) -> MuscleRegion:
+        """The muscle's fields on rest points.
+
+        Parameters
+        ----------
+        rest_points : (n, 3) array_like
+            Rest positions of the skin vertices.
+
+        Returns
+        -------
+        MuscleRegion
+            ``lam``, ``gamma``, ``l`` and type-specific geometry everywhere; ``in_aoi`` and
+            ``in_region`` (Eq. 3 or 14: :math:`\\lambda_w \\le \\lambda \\le 1`,
+            :math:`0 \\le \\gamma \\le 1`); ``At`` and ``direction`` on the AOI; ``w`` (Eq. 7)
+            and ``H`` (Eq. 5) on the wrinkling region, ``nan`` elsewhere.
+        """
+        p = _points(rest_points)
+        g = self._geometry(p)
+        in_region = g.in_aoi & (g.lam >= self.lambda_w)
+        start, end = self.attenuation_range
+        at = np.where(g.in_aoi, attenuation(g.coordinate, start, end), np.nan)
+        w = np.where(
+            in_region,
+            periodic_coordinate(g.l, self.lambda_w, self.wrinkle_length, self.n_wrinkles),
+            np.nan,
+        )
+        h = shape_function(w, self.u, self.k0, self.alpha)
+        direction = np.where(g.in_aoi[:, None], g.direction, np.nan)
+        arrays = dict(lam=g.lam, gamma=g.gamma, l=g.l, **g.extra)
+        arrays.update(in_aoi=g.in_aoi, in_region=in_region, w=w, H=h, At=at,
+                      direction=direction)
+        return MuscleRegion(arrays)
+
+    def unit_displacement(self, rest_points) -> np.ndarray:
+        """``(n, 3)``: the displacement at activation 1 (see :meth:`displacement`)."""
+        p = _points(rest_points)
+        g = self._geometry(p)
+        mag = np.where(g.in_aoi, self._falloff(p, g), 0.0)
+        return self.strength_value * mag[:, None] * g.direction
+
+    def displacement(self, rest_points, activation: float) -> np.ndarray:
+        """Waters-style skin displacement, ``(n, 3)``, linear in the activation.
+
+        Parameters
+        ----------
+        rest_points : (n, 3) array_like
+            Rest positions.
+        activation : float
+            Contraction in ``[0, 1]``.
+        """
+        a = check_activation(self.name, activation)
+        return a * self.unit_displacement(rest_points)
+
+    # ------------------------------------------------------------ serialization
+    def to_dict(self) -> dict[str, Any]:
+        """A plain, JSON-ready dict: ``{"type": type_name, "name": ..., parameters...}``."""
+        out: dict[str, Any] = {"type": self.type_name}
+        for f in dataclasses.fields(self):
+            out[f.name] = _plain(getattr(self, f.name))
+        return out
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Muscle:
+        """Build a muscle from :meth:`to_dict` output; unknown keys are an error."""
+        data = dict(data)
+        kind = data.pop("type", cls.type_name)
+        if kind != cls.type_name:
+            raise MuscleParameterError(
+                f"cannot build a {cls.type_name!r} muscle from a dict of type {kind!r}"
+            )
+        names = [f.name for f in dataclasses.fields(cls)]
+        unknown = sorted(set(data) - set(names))
+        if unknown:
+            raise MuscleParameterError(
+                f"{cls.type_name} muscle {data.get('name')!r}: unknown parameter(s) "
+                f"{', '.join(unknown)}; known: {', '.join(names)}"
+            )
+        required = [
+            f.name for f in dataclasses.fields(cls)
+            if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
+        ]
+        missing = [n for n in required if n not in data]
+        if missing:
+            raise MuscleParameterError(
+                f"{cls.type_name} muscle {data.get('name')!r}: missing parameter(s) "
+                f"{', '.join(missing)}"
+            )
+        return cls(**data)
+
+    def replace(self, **changes) -> Muscle:
+        """A copy with some parameters changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+
+def check_activation(name: str, activation) -> float:
+    """Validate one activation; returns it as a float in ``[0, 1]``."""
+    try:
+        a = float(activation)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"activation of muscle {name!r} must be a number in [0, 1]; got {activation!r}"
+        ) from None
+    if not (0.0 <= a <= 1.0):
+        raise ValueError(f"activation of muscle {name!r} = {a:g} is outside [0, 1]")
+    return a
+
+
+def _points(points) -> np.ndarray:
+    p = np.asarray(points, dtype=float)
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise ValueError(f"rest_points must have shape (n, 3); got {p.shape}")
+    return p
+
+
+def _plain(value):
+    if isinstance(value, tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value

@@ -1,0 +1,350 @@
+"""The paper's two muscle types: :class:`LinearMuscle` (Sec. 2.2) and :class:`SheetMuscle`
+(Sec. 2.3)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import KW_ONLY, dataclass
+
+import numpy as np
+
+from .muscle import Geometry, Muscle, waters_radial
+from .registry import register_muscle_type
+
+__all__ = ["LinearMuscle", "SheetMuscle"]
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v)
+
+
+@register_muscle_type
+@dataclass(frozen=True)
+class LinearMuscle(Muscle):
+    r"""A linear muscle (Waters 1987; paper Sec. 2.2, Fig. 2).
+
+    Parameters
+    ----------
+    name : str
+        Unique name in a face, e.g. ``"corrugator_L"``.
+    attachment : (3,) array_like
+        :math:`m_A`, the end fixed to the skull.
+    insertion : (3,) array_like
+        :math:`m_I`, the end in the skin; it must lie within ``radius`` of the attachment.
+    radius : float
+        :math:`R`, the maximal radius of influence (face units, mm for the built-in face).
+    max_angle_deg : float
+        :math:`\phi` in degrees, in ``(0, 90]``: the AOI needs :math:`\lambda \ge 0`, so wider
+        angles would never count.
+    lambda_w : float, default 0.5
+        :math:`\lambda_w \in [0, 1)`; the wrinkling region is :math:`\lambda_w \le \lambda \le 1`.
+    n_wrinkles : int, default 3
+        :math:`n_w`, the number of wrinkles along the central fibre (Eq. 6).
+    k0 : float, default 0.5
+        Furrow depth factor :math:`k_0 \ge 0` (face units).
+    alpha : float, default 1.0
+        Shape modulation :math:`\alpha \in [-1, 10]`; :math:`\alpha > 0` gives a sharp furrow
+        and a round bulge.
+    attenuation_start_deg : float, optional
+        :math:`\varphi^c \in [0, \phi]` (Eq. 12); default :math:`\phi / 2`.
+    fall_start : float, optional
+        Waters' fall-start radius :math:`R_s \in (0, R)` where the displacement peaks;
+        default the insertion distance :math:`\|m_I - m_A\|`.
+    strength : float, optional
+        Peak displacement at activation 1, in ``[0, 2 R_s / \pi)`` so that no skin is pulled
+        past the attachment; default :math:`0.2 R_s`.
+
+    Notes
+    -----
+    For a skin point :math:`x_i` (Eq. 1, 2):
+
+    .. math::
+
+        \varphi_i = \angle(m_I - m_A, x_i - m_A) \in [0°, 180°], \quad
+        l_i = \|m_A - x_i\|\cos\varphi_i, \quad
+        \lambda_i = l_i / R, \quad \gamma_i = \varphi_i / \phi .
+
+    The AOI is :math:`0 \le \lambda_i \le 1,\ \varphi_i \le \phi`; the contraction direction
+    at :math:`x_i` is :math:`(m_A - x_i)/\|m_A - x_i\|`. The displacement (Waters 1987) is
+
+    .. math::
+
+        \Delta x_i = a\,K\,\cos\left(\frac{\varphi_i}{\phi}\frac{\pi}{2}\right)
+                     r(\|x_i - m_A\|)\,\frac{m_A - x_i}{\|m_A - x_i\|}
+
+    with activation :math:`a`, strength :math:`K` and the radial falloff :math:`r` of
+    :func:`~wrinkle_vis.core.muscle.waters_radial` (fall start :math:`R_s`, end :math:`R`).
+    """
+
+    type_name = "linear"
+    point_parameters = ("attachment", "insertion")
+
+    attachment: tuple
+    insertion: tuple
+    _: KW_ONLY
+    radius: float
+    max_angle_deg: float
+    lambda_w: float = 0.5
+    n_wrinkles: int = 3
+    k0: float = 0.5
+    alpha: float = 1.0
+    attenuation_start_deg: float | None = None
+    fall_start: float | None = None
+    strength: float | None = None
+
+    def __post_init__(self):
+        self._check_common()
+        m_a = self._check_point("attachment")
+        m_i = self._check_point("insertion")
+        length = float(np.linalg.norm(m_i - m_a))
+        if length == 0.0:
+            self._fail("insertion", self.insertion, "a point other than the attachment",
+                       "A zero-length muscle has no direction; move the insertion")
+        radius = self._check("radius", 0.0, lo_open=True)
+        if length >= radius:
+            self._fail("radius", radius, f"(|m_I - m_A| = {length:g}, inf)",
+                       "The insertion must lie inside the area of influence")
+        phi = self._check("max_angle_deg", 0.0, 90.0, lo_open=True)
+        if self.attenuation_start_deg is not None:
+            self._check("attenuation_start_deg", 0.0, phi)
+        if self.fall_start is not None:
+            self._check("fall_start", 0.0, radius, lo_open=True, hi_open=True)
+        if self.strength is not None:
+            self._check("strength", 0.0, 2.0 * self.fall_start_value / math.pi, hi_open=True,
+                        hint="a stronger pull would drag skin past the attachment")
+
+    @property
+    def length(self) -> float:
+        """:math:`\\|m_I - m_A\\|`, the length of the central fibre."""
+        return float(np.linalg.norm(np.subtract(self.insertion, self.attachment)))
+
+    @property
+    def fibre(self) -> np.ndarray:
+        """``(3,)``: unit central fibre direction from attachment to insertion."""
+        return _unit(np.subtract(self.insertion, self.attachment))
+
+    @property
+    def fall_start_value(self) -> float:
+        """:math:`R_s` actually used (the default resolved)."""
+        return self.length if self.fall_start is None else self.fall_start
+
+    @property
+    def strength_value(self) -> float:
+        """:math:`K` actually used (the default resolved)."""
+        return 0.2 * self.fall_start_value if self.strength is None else self.strength
+
+    @property
+    def wrinkle_length(self) -> float:
+        return self.radius
+
+    @property
+    def attenuation_range(self) -> tuple[float, float]:
+        start = self.attenuation_start_deg
+        return (0.5 * self.max_angle_deg if start is None else start, self.max_angle_deg)
+
+    def _geometry(self, points: np.ndarray) -> Geometry:
+        m_a = np.asarray(self.attachment)
+        v = points - m_a
+        dist = np.sqrt(np.einsum("ij,ij->i", v, v))
+        l = v @ self.fibre
+        safe = np.where(dist > 0, dist, 1.0)
+        cos = np.where(dist > 0, np.clip(l / safe, -1.0, 1.0), 1.0)
+        angle = np.degrees(np.arccos(cos))
+        lam = l / self.radius
+        in_aoi = (lam >= 0.0) & (lam <= 1.0) & (angle <= self.max_angle_deg)
+        direction = -v / safe[:, None]
+        return Geometry(l=l, lam=lam, gamma=angle / self.max_angle_deg, coordinate=angle,
+                        in_aoi=in_aoi, direction=direction,
+                        extra={"angle_deg": angle, "distance": dist})
+
+    def _falloff(self, points: np.ndarray, geometry: Geometry) -> np.ndarray:
+        angular = np.cos(0.5 * np.pi * np.clip(geometry.gamma, 0.0, 1.0))
+        radial = waters_radial(geometry.extra["distance"], self.fall_start_value, self.radius)
+        return angular * radial
+
+
+@register_muscle_type
+@dataclass(frozen=True)
+class SheetMuscle(Muscle):
+    r"""A sheet muscle such as the frontalis (paper Sec. 2.3, Fig. 7, 8).
+
+    Parameters
+    ----------
+    name : str
+        Unique name in a face, e.g. ``"frontalis_major_L"``.
+    attachment_line : (2, 3) array_like
+        :math:`m_{A1}, m_{A2}` on the skull.
+    insertion_line : (2, 3) array_like
+        :math:`m_{I1}, m_{I2}` in the skin.
+    length : float, optional
+        :math:`L_s`, the AOI's length along the central fibre; default
+        :math:`1.25\|m_{Ic} - m_{Ac}\|`, so the pull fades out beyond the insertion line.
+    width : float, optional
+        :math:`W_s`, the AOI's width; default the longer of the two lines measured across
+        the fibre.
+    depth : float, optional
+        Half thickness of the AOI normal to the sheet (our extension, see Notes); default
+        half the larger of :math:`L_s` and :math:`W_s`.
+    lambda_w, n_wrinkles, k0, alpha
+        As for :class:`LinearMuscle`; :math:`L_s` replaces :math:`R` in Eq. 6 and 7.
+    attenuation_start : float, optional
+        :math:`h^c \in [0, W_s/2]` (Eq. 15); default :math:`W_s / 4`.
+    fall_start : float, optional
+        Where the displacement peaks along the fibre, in ``(0, L_s)``; default
+        :math:`\|m_{Ic} - m_{Ac}\|`.
+    strength : float, optional
+        Peak displacement at activation 1, in ``[0, 2 R_s/\pi)``; default :math:`0.2 R_s`.
+
+    Notes
+    -----
+    With :math:`f = (m_{Ic} - m_{Ac})/\|m_{Ic} - m_{Ac}\|` the central fibre, :math:`s` the
+    attachment line's direction made orthogonal to :math:`f`, and :math:`n = f \times s`:
+
+    .. math::
+
+        l_i = (x_i - m_{Ac})\cdot f, \quad h_i = |(x_i - m_{Ac})\cdot s|, \quad
+        \lambda_i = l_i / L_s, \quad \gamma_i = 2 h_i / W_s \quad \text{(Eq. 13)}.
+
+    **Extension.** The paper's AOI is a rectangle on the skin. In 3D a rectangle's prism
+    would reach through the head, so the AOI is also bounded in depth,
+    :math:`|(x_i - m_{Ac})\cdot n| \le` ``depth``. The contraction direction is
+    :math:`-f` everywhere. The displacement is
+    :math:`\Delta x_i = -a K r(l_i) \cos(\gamma_i \pi / 2) f` with Waters' falloff
+    :math:`r` along the fibre (fall start :math:`R_s`, end :math:`L_s`).
+    """
+
+    type_name = "sheet"
+    point_parameters = ("attachment_line", "insertion_line")
+
+    attachment_line: tuple
+    insertion_line: tuple
+    _: KW_ONLY
+    length: float | None = None
+    width: float | None = None
+    depth: float | None = None
+    lambda_w: float = 0.5
+    n_wrinkles: int = 3
+    k0: float = 0.5
+    alpha: float = 1.0
+    attenuation_start: float | None = None
+    fall_start: float | None = None
+    strength: float | None = None
+
+    def __post_init__(self):
+        self._check_common()
+        a = self._check_point("attachment_line", (2, 3))
+        i = self._check_point("insertion_line", (2, 3))
+        if np.array_equal(a[0], a[1]):
+            self._fail("attachment_line", self.attachment_line, "two distinct points",
+                       "A zero-length attachment line has no direction")
+        if np.array_equal(i[0], i[1]):
+            self._fail("insertion_line", self.insertion_line, "two distinct points",
+                       "A zero-length insertion line has no direction")
+        fibre = i.mean(axis=0) - a.mean(axis=0)
+        if np.linalg.norm(fibre) == 0.0:
+            self._fail("insertion_line", self.insertion_line,
+                       "a line whose middle differs from the attachment line's middle",
+                       "A zero-length muscle has no direction")
+        f = _unit(fibre)
+        across = (a[1] - a[0]) - ((a[1] - a[0]) @ f) * f
+        if np.linalg.norm(across) <= 1e-9 * np.linalg.norm(a[1] - a[0]):
+            self._fail("attachment_line", self.attachment_line,
+                       "a line not parallel to the central fibre")
+        if self.length is not None:
+            self._check("length", 0.0, lo_open=True)
+        if self.width is not None:
+            self._check("width", 0.0, lo_open=True)
+        if self.depth is not None:
+            self._check("depth", 0.0, lo_open=True)
+        if self.attenuation_start is not None:
+            self._check("attenuation_start", 0.0, 0.5 * self.width_value)
+        if self.fall_start is not None:
+            self._check("fall_start", 0.0, self.length_value, lo_open=True, hi_open=True)
+        elif self.fall_start_value >= self.length_value:
+            self._fail("length", self.length_value,
+                       f"(|m_Ic - m_Ac| = {self.fall_start_value:g}, inf)",
+                       "The insertion line must lie inside the AOI, or give fall_start")
+        if self.strength is not None:
+            self._check("strength", 0.0, 2.0 * self.fall_start_value / math.pi, hi_open=True,
+                        hint="a stronger pull would drag skin past the attachment line")
+
+    @property
+    def attachment_center(self) -> np.ndarray:
+        """``(3,)``: :math:`m_{Ac}`."""
+        return np.mean(self.attachment_line, axis=0)
+
+    @property
+    def insertion_center(self) -> np.ndarray:
+        """``(3,)``: :math:`m_{Ic}`."""
+        return np.mean(self.insertion_line, axis=0)
+
+    @property
+    def frame(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``((3,), (3,), (3,))``: the orthonormal fibre, across and normal axes f, s, n."""
+        f = _unit(self.insertion_center - self.attachment_center)
+        a = np.subtract(self.attachment_line[1], self.attachment_line[0])
+        s = _unit(a - (a @ f) * f)
+        return f, s, np.cross(f, s)
+
+    @property
+    def fibre_length(self) -> float:
+        """:math:`\\|m_{Ic} - m_{Ac}\\|`."""
+        return float(np.linalg.norm(self.insertion_center - self.attachment_center))
+
+    @property
+    def length_value(self) -> float:
+        """:math:`L_s` actually used (the default resolved)."""
+        return 1.25 * self.fibre_length if self.length is None else self.length
+
+    @property
+    def width_value(self) -> float:
+        """:math:`W_s` actually used (the default resolved)."""
+        if self.width is not None:
+            return self.width
+        _, s, _ = self.frame
+        spans = [abs(np.subtract(line[1], line[0]) @ s)
+                 for line in (self.attachment_line, self.insertion_line)]
+        return float(max(spans))
+
+    @property
+    def depth_value(self) -> float:
+        """The AOI's depth bound actually used (the default resolved)."""
+        return 0.5 * max(self.length_value, self.width_value) if self.depth is None \
+            else self.depth
+
+    @property
+    def fall_start_value(self) -> float:
+        """:math:`R_s` actually used (the default resolved)."""
+        return self.fibre_length if self.fall_start is None else self.fall_start
+
+    @property
+    def strength_value(self) -> float:
+        """:math:`K` actually used (the default resolved)."""
+        return 0.2 * self.fall_start_value if self.strength is None else self.strength
+
+    @property
+    def wrinkle_length(self) -> float:
+        return self.length_value
+
+    @property
+    def attenuation_range(self) -> tuple[float, float]:
+        half = 0.5 * self.width_value
+        start = self.attenuation_start
+        return (0.5 * half if start is None else start, half)
+
+    def _geometry(self, points: np.ndarray) -> Geometry:
+        f, s, n = self.frame
+        v = points - self.attachment_center
+        l = v @ f
+        h = np.abs(v @ s)
+        depth = v @ n
+        lam = l / self.length_value
+        gamma = 2.0 * h / self.width_value
+        in_aoi = (lam >= 0) & (lam <= 1) & (gamma <= 1) & (np.abs(depth) <= self.depth_value)
+        direction = np.broadcast_to(-f, points.shape).copy()
+        return Geometry(l=l, lam=lam, gamma=gamma, coordinate=h, in_aoi=in_aoi,
+                        direction=direction, extra={"h": h, "depth": depth})
+
+    def _falloff(self, points: np.ndarray, geometry: Geometry) -> np.ndarray:
+        across = np.cos(0.5 * np.pi * np.clip(geometry.gamma, 0.0, 1.0))
+        return across * waters_radial(geometry.l, self.fall_start_value, self.length_value)

@@ -1,0 +1,156 @@
+"""The plugin-style registry of muscle types.
+
+Built-in and third-party muscle types register through the same two paths: the
+:func:`register_muscle_type` decorator, and the entry-point group ``wrinkle_vis.muscles``
+(``name = "package.module:Class"``), which is loaded lazily on the first look-up. A plug-in
+that fails to import is skipped with a :class:`MusclePluginWarning` naming it.
+"""
+
+from __future__ import annotations
+
+import warnings
+from importlib.metadata import entry_points
+
+__all__ = [
+    "ENTRY_POINT_GROUP",
+    "MusclePluginWarning",
+    "UnknownMuscleTypeError",
+    "get_muscle_type",
+    "muscle_from_dict",
+    "muscle_types",
+    "register_muscle_type",
+]
+
+ENTRY_POINT_GROUP = "wrinkle_vis.muscles"
+
+_REGISTRY: dict[str, type] = {}
+_ENTRY_POINTS_LOADED = False
+
+
+class MusclePluginWarning(UserWarning):
+    """A muscle plug-in could not be loaded and was skipped."""
+
+
+class UnknownMuscleTypeError(KeyError):
+    """No muscle type of that name is installed; the message lists the installed ones."""
+
+    def __str__(self) -> str:  # KeyError quotes its argument; we want the sentence
+        return str(self.args[0])
+
+
+def register_muscle_type(cls=None, *, name: str | None = None, override: bool = False):
+    """Register a :class:`~wrinkle_vis.core.muscle.Muscle` subclass (usable as a decorator).
+
+    Parameters
+    ----------
+    cls : type, optional
+        The muscle class. Without it, returns a decorator.
+    name : str, optional
+        Registry key; default ``cls.type_name``, else the lower-cased class name.
+    override : bool, default False
+        Replace a different class already registered under ``name``.
+
+    Returns
+    -------
+    type
+        ``cls`` itself, with ``type_name`` set to the key.
+
+    Raises
+    ------
+    TypeError
+        If ``cls`` is not a ``Muscle`` subclass.
+    ValueError
+        If ``name`` is taken by another class and ``override`` is false.
+    """
+    if cls is None:
+        return lambda c: register_muscle_type(c, name=name, override=override)
+    from .muscle import Muscle
+
+    if not (isinstance(cls, type) and issubclass(cls, Muscle)):
+        raise TypeError(f"{cls!r} is not a subclass of wrinkle_vis.core.muscle.Muscle")
+    key = name or cls.__dict__.get("type_name") or cls.__name__.lower()
+    current = _REGISTRY.get(key)
+    if current is not None and current is not cls and not override:
+        raise ValueError(
+            f"muscle type {key!r} is already registered by {_qualname(current)}; "
+            f"pass override=True to replace it with {_qualname(cls)}"
+        )
+    cls.type_name = key
+    _REGISTRY[key] = cls
+    return cls
+
+
+def _qualname(cls: type) -> str:
+    return f"{cls.__module__}.{cls.__qualname__}"
+
+
+def _load_entry_points() -> None:
+    global _ENTRY_POINTS_LOADED
+    if _ENTRY_POINTS_LOADED:
+        return
+    _ENTRY_POINTS_LOADED = True
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        load_entry_point(ep)
+
+
+def load_entry_point(ep) -> type | None:
+    """Load one entry point of ``wrinkle_vis.muscles``; warn and return None if it fails."""
+    from .muscle import Muscle
+
+    try:
+        obj = ep.load()
+    except Exception as exc:  # a broken plug-in must not break the toolkit
+        warnings.warn(
+            f"wrinkle-vis skipped the muscle plug-in {ep.name!r} ({ep.value}): it failed to "
+            f"import with {type(exc).__name__}: {exc}",
+            MusclePluginWarning,
+            stacklevel=2,
+        )
+        return None
+    if isinstance(obj, type) and issubclass(obj, Muscle):
+        if _REGISTRY.get(obj.type_name) is not obj:
+            try:
+                register_muscle_type(obj, name=obj.__dict__.get("type_name") or ep.name)
+            except (TypeError, ValueError) as exc:
+                warnings.warn(
+                    f"wrinkle-vis skipped the muscle plug-in {ep.name!r} ({ep.value}): {exc}",
+                    MusclePluginWarning,
+                    stacklevel=2,
+                )
+                return None
+        return obj
+    return None  # a module that registered its types by decorator on import
+
+
+def muscle_types() -> dict[str, type]:
+    """All registered muscle types, built-in and plug-in, as ``{name: class}``."""
+    _load_entry_points()
+    return dict(sorted(_REGISTRY.items()))
+
+
+def get_muscle_type(name: str) -> type:
+    """The muscle class registered as ``name``.
+
+    Raises
+    ------
+    UnknownMuscleTypeError
+        Naming the installed types.
+    """
+    if name not in _REGISTRY:
+        _load_entry_points()
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        installed = ", ".join(sorted(_REGISTRY)) or "none"
+        raise UnknownMuscleTypeError(
+            f"unknown muscle type {name!r}; installed types: {installed}. A plug-in type "
+            f"needs its package installed (entry-point group {ENTRY_POINT_GROUP!r})"
+        ) from None
+
+
+def muscle_from_dict(data) -> object:
+    """Build any registered muscle from its ``to_dict()`` form (``data["type"]`` picks it)."""
+    if "type" not in data:
+        raise ValueError(f"muscle {data.get('name')!r} has no 'type'; one of: "
+                         f"{', '.join(muscle_types())}")
+    return get_muscle_type(data["type"]).from_dict(data)
