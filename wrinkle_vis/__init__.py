@@ -13,7 +13,7 @@ from .core import *  # noqa: F403
 from .core import __all__ as _core_all
 
 __version__ = "0.1.0"
-__all__ = [*_core_all, "datasets", "__version__"]
+__all__ = [*_core_all, "__version__"]
 
 _LAZY = {"datasets", "plotting", "widgets"}
 

@@ -1,9 +1,9 @@
-"""The equations of Zhang, Sim and Tan, "Simulating Wrinkles in Facial Expressions on an
+r"""The equations of Zhang, Sim and Tan, "Simulating Wrinkles in Facial Expressions on an
 Anatomy-Based Face", as vectorized numpy functions.
 
 Every function carries the equation it implements and its number in the paper. Where this
 module deviates from the paper it says so in the function's notes (``compression`` weights
-by :math:`|\\cos\\theta_{ij}|`; ``anisotropy`` clamps :math:`\\varepsilon` at 1).
+by :math:`|\cos\theta_{ij}|`; ``anisotropy`` clamps :math:`\varepsilon` at 1).
 """
 
 from __future__ import annotations

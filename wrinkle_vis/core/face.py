@@ -1,4 +1,4 @@
-"""The face model: skin, skull and muscles, evaluated frame by frame (DESIGN.md data flow).
+r"""The face model: skin, skull and muscles, evaluated frame by frame (DESIGN.md data flow).
 
 Everything that depends only on the rest skin and a muscle's parameters is computed once per
 muscle and cached (:class:`_MuscleData`). Everything that depends on which muscles are active
@@ -7,9 +7,9 @@ of vectorized steps whatever the number of muscles:
 
 1. skin displacement: one sparse sum of the active muscles' unit displacements times their
    activations;
-2. :math:`\\tau` (Eq. 9) on the edges the active muscles touch, then :math:`\\varepsilon` of
+2. :math:`\tau` (Eq. 9) on the edges the active muscles touch, then :math:`\varepsilon` of
    every active muscle (Eq. 10) in one sparse mat-vec;
-3. :math:`W = \\sum_m H\\,A(\\varepsilon)\\,At` (Eq. 4, 11) summed by one sparse mat-vec;
+3. :math:`W = \sum_m H\,A(\varepsilon)\,At` (Eq. 4, 11) summed by one sparse mat-vec;
 4. final points: the deformed points moved by :math:`W` along the outward unit normal of the
    deformed skin, which is computed only where :math:`W` is defined.
 """
@@ -121,7 +121,8 @@ class _Assembly:
             blocks.append(sp.csr_matrix((coo.data, (coo.row, cols[coo.col])),
                                         shape=(coo.shape[0], len(edge_union))))
         eps_op = sp.vstack(blocks, format="csr")
-        region_pos = np.concatenate([d.region_pos + o for d, o in zip(datas, k_offsets)])
+        region_pos = np.concatenate(
+            [d.region_pos + o for d, o in zip(datas, k_offsets[:-1], strict=True)])
         hat = np.concatenate([d.h * d.at[d.region_pos] for d in datas])
         wrinkled, w_sum = _summing([d.region for d in datas])
         tri_ids = np.unique(skin.incidence[wrinkled].indices)
@@ -372,7 +373,7 @@ class _MuscleFields(Mapping):
         return out
 
     def _compact_dynamic(self) -> dict[str, np.ndarray]:
-        """eps and A on the AOI, W on the region, for this muscle in this state."""
+        """Eps and A on the AOI, W on the region, for this muscle in this state."""
         state, name = self._state, self._muscle.name
         data = state.face.muscle_data(self._muscle)
         asm = state._assembly
@@ -421,7 +422,7 @@ class _StateFields(Mapping):
 
 
 class FaceState:
-    """One evaluated frame of a :class:`FaceModel`.
+    r"""One evaluated frame of a :class:`FaceModel`.
 
     Attributes
     ----------
@@ -438,7 +439,7 @@ class FaceState:
     triangles : (m, 3) int
         The skin's triangles.
     W : (n,) float
-        Total wrinkle amplitude, :math:`\\sum_m H A(\\varepsilon) At`, 0 outside every
+        Total wrinkle amplitude, :math:`\sum_m H A(\varepsilon) At`, 0 outside every
         active wrinkling region.
     fields : mapping
         ``fields[muscle][name]`` for ``name`` in :data:`FIELD_NAMES`, each ``(n,)``,

@@ -24,21 +24,22 @@ __all__ = ["Geometry", "Muscle", "MuscleParameterError", "MuscleRegion", "waters
 
 class MuscleParameterError(ValueError):
     """A muscle parameter out of its allowed range; the message names muscle, parameter,
-    value and range."""
+    value and range.
+    """
 
 
 @dataclass(frozen=True)
 class Geometry:
-    """Per-vertex geometry of a muscle, as a muscle type computes it.
+    r"""Per-vertex geometry of a muscle, as a muscle type computes it.
 
     Attributes
     ----------
     l : (n,) float
         Distance from the attachment (point or line) along the central fibre.
     lam, gamma : (n,) float
-        Length factor :math:`\\lambda` and angular/width factor :math:`\\gamma`.
+        Length factor :math:`\lambda` and angular/width factor :math:`\gamma`.
     coordinate : (n,) float
-        The attenuation coordinate: :math:`\\varphi` in degrees or :math:`h`.
+        The attenuation coordinate: :math:`\varphi` in degrees or :math:`h`.
     in_aoi : (n,) bool
         The area of influence.
     direction : (n, 3) float
@@ -150,8 +151,8 @@ class Muscle:
             x = float(value)
         except (TypeError, ValueError):
             self._fail(param, value, "a real number", hint)
-        left = "(" if lo_open else "["
-        right = ")" if hi_open else "]"
+        left = "(" if lo_open or lo == -math.inf else "["
+        right = ")" if hi_open or hi == math.inf else "]"
         allowed = f"{left}{_fmt(float(lo))}, {_fmt(float(hi))}{right}"
         if not math.isfinite(x) or x < lo or x > hi or (lo_open and x == lo) or (
             hi_open and x == hi
@@ -162,9 +163,9 @@ class Muscle:
 
     def _check_int(self, param, lo: int) -> int:
         value = getattr(self, param)
-        if isinstance(value, bool) or not (
-            isinstance(value, (int, np.integer)) or (isinstance(value, float) and value.is_integer())
-        ):
+        integral = isinstance(value, (int, np.integer)) or (
+            isinstance(value, float) and value.is_integer())
+        if isinstance(value, bool) or not integral:
             self._fail(param, value, f"an integer >= {lo}")
         if int(value) < lo:
             self._fail(param, value, f"an integer >= {lo}")
@@ -227,7 +228,7 @@ class Muscle:
 
     # ------------------------------------------------------------ the model
     def region(self, rest_points) -> MuscleRegion:
-        """The muscle's fields on rest points.
+        r"""The muscle's fields on rest points.
 
         Parameters
         ----------
@@ -238,13 +239,13 @@ class Muscle:
         -------
         MuscleRegion
             ``lam``, ``gamma``, ``l`` and type-specific geometry everywhere; ``in_aoi`` and
-            ``in_region`` (Eq. 3 or 14: :math:`\\lambda_w \\le \\lambda \\le 1`,
-            :math:`0 \\le \\gamma \\le 1`); ``At`` and ``direction`` on the AOI; ``w`` (Eq. 7)
+            ``in_region`` (Eq. 3 or 14: :math:`\lambda_w \le \lambda \le 1`,
+            :math:`0 \le \gamma \le 1`); ``At`` and ``direction`` on the AOI; ``w`` (Eq. 7)
             and ``H`` (Eq. 5) on the wrinkling region, ``nan`` elsewhere.
         """
         p = _points(rest_points)
         g = self._geometry(p)
-        in_region = g.in_aoi & (g.lam >= self.lambda_w)
+        in_region = g.in_aoi & (g.lam >= self.lambda_w - 1e-9)
         start, end = self.attenuation_range
         at = np.where(g.in_aoi, attenuation(g.coordinate, start, end), np.nan)
         w = np.where(

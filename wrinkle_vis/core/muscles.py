@@ -1,5 +1,6 @@
 """The paper's two muscle types: :class:`LinearMuscle` (Sec. 2.2) and :class:`SheetMuscle`
-(Sec. 2.3)."""
+(Sec. 2.3).
+"""
 
 from __future__ import annotations
 
@@ -12,6 +13,10 @@ from .muscle import Geometry, Muscle, waters_radial
 from .registry import register_muscle_type
 
 __all__ = ["LinearMuscle", "SheetMuscle"]
+
+
+#: Slack on the closed AOI bounds, so points exactly on them are not lost to rounding.
+_TOL = 1e-9
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -115,7 +120,7 @@ class LinearMuscle(Muscle):
 
     @property
     def length(self) -> float:
-        """:math:`\\|m_I - m_A\\|`, the length of the central fibre."""
+        r""":math:`\|m_I - m_A\|`, the length of the central fibre."""
         return float(np.linalg.norm(np.subtract(self.insertion, self.attachment)))
 
     @property
@@ -135,10 +140,12 @@ class LinearMuscle(Muscle):
 
     @property
     def wrinkle_length(self) -> float:
+        """:math:`R`, the length in Eq. 6 and 7."""
         return self.radius
 
     @property
     def attenuation_range(self) -> tuple[float, float]:
+        """``(phi_c, phi)`` in degrees (Eq. 12)."""
         start = self.attenuation_start_deg
         return (0.5 * self.max_angle_deg if start is None else start, self.max_angle_deg)
 
@@ -151,7 +158,7 @@ class LinearMuscle(Muscle):
         cos = np.where(dist > 0, np.clip(l / safe, -1.0, 1.0), 1.0)
         angle = np.degrees(np.arccos(cos))
         lam = l / self.radius
-        in_aoi = (lam >= 0.0) & (lam <= 1.0) & (angle <= self.max_angle_deg)
+        in_aoi = (lam >= -_TOL) & (lam <= 1.0 + _TOL) & (angle <= self.max_angle_deg + _TOL)
         direction = -v / safe[:, None]
         return Geometry(l=l, lam=lam, gamma=angle / self.max_angle_deg, coordinate=angle,
                         in_aoi=in_aoi, direction=direction,
@@ -288,7 +295,7 @@ class SheetMuscle(Muscle):
 
     @property
     def fibre_length(self) -> float:
-        """:math:`\\|m_{Ic} - m_{Ac}\\|`."""
+        r""":math:`\|m_{Ic} - m_{Ac}\|`."""
         return float(np.linalg.norm(self.insertion_center - self.attachment_center))
 
     @property
@@ -324,10 +331,12 @@ class SheetMuscle(Muscle):
 
     @property
     def wrinkle_length(self) -> float:
+        """:math:`L_s`, which replaces :math:`R` in Eq. 6 and 7."""
         return self.length_value
 
     @property
     def attenuation_range(self) -> tuple[float, float]:
+        """``(h_c, W_s / 2)`` (Eq. 15)."""
         half = 0.5 * self.width_value
         start = self.attenuation_start
         return (0.5 * half if start is None else start, half)
@@ -340,7 +349,8 @@ class SheetMuscle(Muscle):
         depth = v @ n
         lam = l / self.length_value
         gamma = 2.0 * h / self.width_value
-        in_aoi = (lam >= 0) & (lam <= 1) & (gamma <= 1) & (np.abs(depth) <= self.depth_value)
+        in_aoi = ((lam >= -_TOL) & (lam <= 1 + _TOL) & (gamma <= 1 + _TOL)
+                  & (np.abs(depth) <= self.depth_value * (1 + _TOL)))
         direction = np.broadcast_to(-f, points.shape).copy()
         return Geometry(l=l, lam=lam, gamma=gamma, coordinate=h, in_aoi=in_aoi,
                         direction=direction, extra={"h": h, "depth": depth})

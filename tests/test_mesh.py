@@ -1,0 +1,115 @@
+import numpy as np
+import pytest
+from meshes import grid, sphere
+
+import wrinkle_vis as wv
+
+
+def test_edges_adjacency_and_rest_lengths_of_a_grid():
+    s = grid(3, 3, size=2.0)
+    # 3x3 vertices: 12 axis edges + 4 diagonals
+    assert len(s.edges) == 16
+    assert np.all(s.edges[:, 0] < s.edges[:, 1])
+    assert s.adjacency.shape == (9, 9)
+    assert (s.adjacency != s.adjacency.T).nnz == 0
+    assert s.adjacency[4].nnz == 6  # the centre vertex
+    np.testing.assert_allclose(np.sort(np.unique(np.round(s.rest_edge_lengths, 9))),
+                               [1.0, np.sqrt(2)])
+
+
+def test_normals_point_outwards_on_a_sphere_and_match_radial_direction():
+    s = sphere(3)
+    n = s.vertex_normals()
+    radial = s.points / np.linalg.norm(s.points, axis=1)[:, None]
+    assert np.min(np.einsum("ij,ij->i", n, radial)) > 0.99
+    np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0)
+    assert s.signed_volume() == pytest.approx(4 / 3 * np.pi, rel=0.05)
+
+
+def test_grid_normals_face_plus_z():
+    n = grid(5, 5).vertex_normals()
+    np.testing.assert_allclose(n, np.tile([0, 0, 1.0], (25, 1)), atol=1e-12)
+
+
+def test_oriented_repairs_flipped_triangles_and_makes_them_outward():
+    s = sphere(2)
+    tri = s.triangles.copy()
+    tri[::3] = tri[::3, ::-1]
+    broken = wv.TriangleSurface(s.points, tri)
+    assert not broken.report().consistently_oriented
+    fixed = broken.oriented()
+    assert fixed.report().consistently_oriented
+    assert fixed.signed_volume() > 0
+    inverted = wv.TriangleSurface(s.points, s.triangles[:, ::-1]).oriented()
+    assert inverted.signed_volume() > 0
+
+
+def test_report_finds_degenerate_duplicate_boundary_and_non_manifold():
+    s = grid(3, 3)
+    tri = np.r_[s.triangles, [[0, 0, 1]], [s.triangles[0]], [[0, 1, 8]]]
+    rep = wv.TriangleSurface(s.points, tri).report()
+    assert list(rep.degenerate_triangles) == [8]
+    assert list(rep.duplicate_triangles) == [9]
+    assert [0, 1] in rep.non_manifold_edges.tolist()
+    assert len(rep.boundary_edges) > 0
+    assert not rep.ok
+    assert "degenerate" in str(rep)
+    clean = wv.TriangleSurface(s.points, tri).cleaned()
+    assert clean.n_triangles == 9 and len(clean.report().degenerate_triangles) == 0
+
+
+def test_weld_merges_seam_duplicates():
+    s = grid(4, 4)
+    # split: every triangle gets its own three vertices, as an OBJ with UV seams would
+    pts = s.points[s.triangles.ravel()]
+    split = wv.TriangleSurface(pts, np.arange(len(pts)).reshape(-1, 3))
+    assert split.n_points == 3 * s.n_triangles
+    welded = split.welded()
+    assert welded.n_points == s.n_points
+    assert welded.report().n_components == 1
+    jittered = wv.TriangleSurface(pts + 1e-7 * np.random.default_rng(0).normal(size=pts.shape),
+                                  split.triangles)
+    assert jittered.welded(1e-5).n_points == s.n_points
+
+
+def test_largest_component_and_unused_vertices():
+    a, b = grid(3, 3), grid(4, 4)
+    pts = np.r_[a.points, b.points + 100, [[9, 9, 9]]]
+    tri = np.r_[a.triangles, b.triangles + a.n_points]
+    s = wv.TriangleSurface(pts, tri)
+    rep = s.report()
+    assert rep.n_components == 2 and list(rep.unused_vertices) == [len(pts) - 1]
+    big = s.largest_component()
+    assert big.n_triangles == b.n_triangles and big.n_points == b.n_points
+
+
+def test_subdivide_is_one_to_four_and_keeps_original_vertices():
+    s = grid(3, 3)
+    t = wv.subdivide(s, 2)
+    assert t.n_triangles == 16 * s.n_triangles
+    np.testing.assert_array_equal(t.points[: s.n_points], s.points)
+    assert t.report().consistently_oriented and t.report().n_components == 1
+
+
+@pytest.mark.parametrize(
+    ("points", "triangles", "message"),
+    [
+        (np.zeros((3, 2)), [[0, 1, 2]], "shape (n, 3)"),
+        ([[0, 0, 0], [1, 0, np.nan], [0, 1, 0]], [[0, 1, 2]], "non-finite"),
+        ([[0, 0, 0], [1, 0, np.inf], [0, 1, 0]], [[0, 1, 2]], "point 1"),
+        (np.eye(3), [[0, 1, 3]], "outside 0..2"),
+        (np.eye(3), [[0, 1, -1]], "outside 0..2"),
+        (np.eye(3), [[0, 1]], "shape (m, 3)"),
+        (np.eye(3), np.zeros((0, 3), int), "no triangles"),
+        (np.eye(3), [[0, 1, 2.5]], "integers"),
+    ],
+)
+def test_bad_meshes_raise_clear_errors(points, triangles, message):
+    with pytest.raises(wv.MeshError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        wv.TriangleSurface(points, triangles)
+
+
+def test_surface_arrays_are_read_only():
+    s = grid(3, 3)
+    with pytest.raises(ValueError):
+        s.points[0, 0] = 1.0
