@@ -232,3 +232,19 @@ def test_core_sources_do_not_name_forbidden_modules():
                 assert n.split(".")[0] in {"numpy", "scipy", "__future__", "dataclasses",
                                            "functools", "collections", "typing", "math",
                                            "warnings", "importlib", "abc"}, (path, n)
+
+
+def test_states_are_freed_without_the_garbage_collector(face):
+    import gc
+    import weakref
+
+    gc.disable()
+    try:
+        state = face.evaluate({"lin": 1.0})
+        fields = state.fields["lin"]
+        ref = weakref.ref(state)
+        del state
+        assert ref() is None
+        assert np.isfinite(fields["eps"]).any()  # views outlive their state
+    finally:
+        gc.enable()

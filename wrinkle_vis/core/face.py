@@ -27,7 +27,7 @@ import scipy.sparse as sp
 
 from .equations import anisotropy, compression_operator
 from .expressions import Expression, paper_expressions
-from .mesh import MeshError, TriangleSurface
+from .mesh import MeshError, TriangleSurface, triangle_normals, unit_rows
 from .muscle import Muscle, check_activation
 
 __all__ = ["FIELD_NAMES", "FaceModel", "FaceState"]
@@ -83,26 +83,50 @@ def _summing(ids_list: list[np.ndarray]) -> tuple[np.ndarray, sp.csr_matrix]:
     return union, mat
 
 
+def morton_order(points: np.ndarray, bits: int = 10) -> np.ndarray:
+    """``(n,)``: an ordering of ``(n, 3)`` points along a Z-order (Morton) curve.
+
+    Vertices that are close in space end up close in memory, which keeps the frame's
+    gathers in cache.
+    """
+    lo = points.min(axis=0)
+    span = np.maximum(points.max(axis=0) - lo, 1e-300)
+    q = ((points - lo) / span * (2**bits - 1)).astype(np.uint64)
+    code = np.zeros(len(points), np.uint64)
+    for bit in range(bits):
+        for axis in range(3):
+            code |= ((q[:, axis] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(3 * bit + axis)
+    return np.argsort(code, kind="stable")
+
+
 @dataclass(frozen=True, eq=False)
 class _Assembly:
-    """Stacked operators for one set of active muscles."""
+    """Stacked operators for one set of active muscles.
+
+    The frame works on a compact *local* copy of the vertices it touches, in Morton order and
+    as ``(3, L)`` coordinate rows, so its gathers stay in cache even on a huge skin.
+    """
 
     names: tuple[str, ...]
     k_counts: np.ndarray  # (M,) AOI sizes
     k_offsets: np.ndarray  # (M + 1,)
     r_offsets: np.ndarray  # (M + 1,)
-    moved: np.ndarray  # (u,) vertices that any active muscle moves
-    disp_sum: sp.csr_matrix  # (u, K)
-    unit_disp: np.ndarray  # (K, 3)
-    e0: np.ndarray  # (q,) first vertex of each touched edge
+    local: np.ndarray  # (L,) global ids of the vertices a frame touches
+    rest_local: np.ndarray  # (3, L)
+    moved_local: np.ndarray  # (u,) local ids of vertices that any active muscle moves
+    moved: np.ndarray  # (u,) their global ids
+    disp_rows: np.ndarray  # (K,) local row of each stacked AOI entry
+    unit_disp: np.ndarray  # (3, K)
+    e0: np.ndarray  # (q,) local first vertex of each touched edge
     e1: np.ndarray  # (q,)
     rest_len: np.ndarray  # (q,)
     eps_op: sp.csr_matrix  # (K, q)
     region_pos: np.ndarray  # (R,) into the K stack
     hat: np.ndarray  # (R,) H * At
-    wrinkled: np.ndarray  # (v,) vertices in any active wrinkling region
+    wrinkled: np.ndarray  # (v,) global ids of vertices in any active wrinkling region
+    wrinkled_local: np.ndarray  # (v,)
     w_sum: sp.csr_matrix  # (v, R)
-    tris: np.ndarray  # (t, 3) triangles around the wrinkled vertices
+    tris: np.ndarray  # (3, t) local corners of the triangles around the wrinkled vertices
     tri_inc: sp.csr_matrix  # (v, t)
 
     @classmethod
@@ -110,7 +134,6 @@ class _Assembly:
         k_counts = np.array([len(d.aoi) for d in datas], dtype=np.intp)
         k_offsets = np.concatenate([[0], np.cumsum(k_counts)])
         r_offsets = np.concatenate([[0], np.cumsum([len(d.region_pos) for d in datas])])
-        moved, disp_sum = _summing([d.aoi for d in datas])
         edge_union, inverse = np.unique(np.concatenate([d.edge_ids for d in datas]),
                                         return_inverse=True)
         blocks, start = [], 0
@@ -120,21 +143,74 @@ class _Assembly:
             coo = d.eps_op.tocoo()
             blocks.append(sp.csr_matrix((coo.data, (coo.row, cols[coo.col])),
                                         shape=(coo.shape[0], len(edge_union))))
-        eps_op = sp.vstack(blocks, format="csr")
-        region_pos = np.concatenate(
-            [d.region_pos + o for d, o in zip(datas, k_offsets[:-1], strict=True)])
-        hat = np.concatenate([d.h * d.at[d.region_pos] for d in datas])
         wrinkled, w_sum = _summing([d.region for d in datas])
-        tri_ids = np.unique(skin.incidence[wrinkled].indices)
-        tri_inc = skin.incidence[wrinkled][:, tri_ids].tocsr()
+        inc = skin.incidence[wrinkled]
+        tri_ids = np.unique(inc.indices)
+        stacked_aoi = np.concatenate([d.aoi for d in datas])
         edges = skin.edges[edge_union]
-        return cls(names=tuple(names), k_counts=k_counts, k_offsets=k_offsets,
-                   r_offsets=r_offsets, moved=moved, disp_sum=disp_sum,
-                   unit_disp=np.concatenate([d.unit_disp for d in datas]),
-                   e0=edges[:, 0], e1=edges[:, 1],
-                   rest_len=skin.rest_edge_lengths[edge_union], eps_op=eps_op,
-                   region_pos=region_pos, hat=hat, wrinkled=wrinkled, w_sum=w_sum,
-                   tris=skin.triangles[tri_ids], tri_inc=tri_inc)
+        tris = skin.triangles[tri_ids]
+        local = np.unique(np.concatenate([stacked_aoi, edges.ravel(), tris.ravel()]))
+        local = local[morton_order(skin.points[local])]
+        to_local = np.full(skin.n_points, -1, np.intp)
+        to_local[local] = np.arange(len(local))
+        edge_order = np.lexsort((to_local[edges[:, 1]], to_local[edges[:, 0]]))
+        tri_order = np.argsort(to_local[tris[:, 0]], kind="stable")
+        eps_op = sp.vstack(blocks, format="csr")[:, edge_order].tocsr()
+        moved = np.unique(stacked_aoi)
+        return cls(
+            names=tuple(names), k_counts=k_counts, k_offsets=k_offsets, r_offsets=r_offsets,
+            local=local, rest_local=np.ascontiguousarray(skin.points[local].T),
+            moved_local=to_local[moved], moved=moved, disp_rows=to_local[stacked_aoi],
+            unit_disp=np.ascontiguousarray(np.concatenate([d.unit_disp for d in datas]).T),
+            e0=to_local[edges[edge_order, 0]], e1=to_local[edges[edge_order, 1]],
+            rest_len=skin.rest_edge_lengths[edge_union][edge_order], eps_op=eps_op,
+            region_pos=np.concatenate(
+                [d.region_pos + o for d, o in zip(datas, k_offsets[:-1], strict=True)]),
+            hat=np.concatenate([d.h * d.at[d.region_pos] for d in datas]),
+            wrinkled=wrinkled, wrinkled_local=to_local[wrinkled], w_sum=w_sum,
+            tris=np.ascontiguousarray(to_local[tris[tri_order]].T),
+            tri_inc=inc[:, tri_ids[tri_order]].tocsr())
+
+    def arrays(self) -> list[np.ndarray]:
+        """Every array a frame reads (for the memory-stream floor of the benchmarks)."""
+        out = []
+        for value in vars(self).values():
+            if isinstance(value, np.ndarray):
+                out.append(value)
+            elif sp.issparse(value):
+                out += [value.data, value.indices, value.indptr]
+        return out
+
+    def frame(self, rest: np.ndarray, a: np.ndarray):
+        """One frame for activations ``a`` ``(M,)``.
+
+        Returns
+        -------
+        tuple
+            Deformed points ``(n, 3)``, final points ``(n, 3)``, total W ``(n,)``, and the
+            compact ``eps`` ``(K,)`` and ``W`` ``(R,)`` of the active muscles, stacked.
+        """
+        p = self.rest_local.copy()
+        scale = np.repeat(a, self.k_counts)
+        for c in range(3):
+            p[c] += np.bincount(self.disp_rows, weights=self.unit_disp[c] * scale,
+                                minlength=p.shape[1])
+        d = np.take(p, self.e1, axis=1)
+        d -= np.take(p, self.e0, axis=1)
+        tau = 1.0 - np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) / self.rest_len
+        eps = self.eps_op @ tau
+        w_region = self.hat * anisotropy(eps[self.region_pos])
+        w_sum = self.w_sum @ w_region
+        normals = unit_rows(self.tri_inc @ triangle_normals(p, self.tris))
+
+        deformed = rest.copy()
+        deformed[self.moved] = np.take(p, self.moved_local, axis=1).T
+        wrinkled = np.take(p, self.wrinkled_local, axis=1).T + w_sum[:, None] * normals
+        points = deformed.copy()
+        points[self.wrinkled] = wrinkled
+        total = np.zeros(len(rest))
+        total[self.wrinkled] = w_sum
+        return deformed, points, total, {"eps": eps, "W": w_region}
 
 
 class FaceModel:
@@ -295,36 +371,8 @@ class FaceModel:
             zero = np.zeros(n)
             return FaceState(self, acts, rest, rest, zero, None, {})
         asm = self._assembly(active)
-        a = np.array([acts[m] for m in active])
-
-        deformed = rest.copy()
-        scaled = asm.unit_disp * np.repeat(a, asm.k_counts)[:, None]
-        deformed[asm.moved] += asm.disp_sum @ scaled
-
-        vec = deformed[asm.e1] - deformed[asm.e0]
-        tau = 1.0 - np.sqrt(np.einsum("ij,ij->i", vec, vec)) / asm.rest_len
-        eps = asm.eps_op @ tau
-        amp = anisotropy(eps)
-        w_region = asm.hat * amp[asm.region_pos]
-        w_sum = asm.w_sum @ w_region
-
-        normals = _unit_rows(asm.tri_inc @ _face_normals(deformed, asm.tris))
-        points = deformed.copy()
-        points[asm.wrinkled] += w_sum[:, None] * normals
-        total = np.zeros(n)
-        total[asm.wrinkled] = w_sum
-        return FaceState(self, acts, deformed, points, total, asm,
-                         {"eps": eps, "A": amp, "W": w_region})
-
-
-def _face_normals(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
-    a = points[tris[:, 0]]
-    return np.cross(points[tris[:, 1]] - a, points[tris[:, 2]] - a)
-
-
-def _unit_rows(v: np.ndarray) -> np.ndarray:
-    norm = np.sqrt(np.einsum("ij,ij->i", v, v))
-    return v / np.where(norm > 0, norm, 1.0)[:, None]
+        deformed, points, total, compact = asm.frame(rest, np.array([acts[m] for m in active]))
+        return FaceState(self, acts, deformed, points, total, asm, compact)
 
 
 def _check_skin(skin: TriangleSurface) -> None:
@@ -344,10 +392,24 @@ def _check_skin(skin: TriangleSurface) -> None:
         )
 
 
+@dataclass(frozen=True, eq=False)
+class _Frame:
+    """What the lazy field views of a state need (not the state: no reference cycle)."""
+
+    face: FaceModel
+    deformed_points: np.ndarray
+    assembly: _Assembly | None
+    compact: dict
+
+    @property
+    def n_points(self) -> int:
+        return len(self.deformed_points)
+
+
 class _MuscleFields(Mapping):
     """The fields of one muscle in one state, full length, ``nan`` where undefined."""
 
-    def __init__(self, state: FaceState, muscle: Muscle):
+    def __init__(self, state: _Frame, muscle: Muscle):
         self._state = state
         self._muscle = muscle
         self._cache: dict[str, np.ndarray] = {}
@@ -376,13 +438,14 @@ class _MuscleFields(Mapping):
         """Eps and A on the AOI, W on the region, for this muscle in this state."""
         state, name = self._state, self._muscle.name
         data = state.face.muscle_data(self._muscle)
-        asm = state._assembly
+        asm = state.assembly
         if asm is not None and name in asm.names:
             i = asm.names.index(name)
             ks, ke = asm.k_offsets[i], asm.k_offsets[i + 1]
             rs, re = asm.r_offsets[i], asm.r_offsets[i + 1]
-            c = state._compact
-            return {"eps": c["eps"][ks:ke], "A": c["A"][ks:ke], "W": c["W"][rs:re]}
+            c = state.compact
+            eps = c["eps"][ks:ke]
+            return {"eps": eps, "A": anisotropy(eps), "W": c["W"][rs:re]}
         # an inactive muscle: its compression is defined, but it makes no wrinkles
         skin = state.face.skin
         e = skin.edges[data.edge_ids]
@@ -405,7 +468,7 @@ class _MuscleFields(Mapping):
 
 
 class _StateFields(Mapping):
-    def __init__(self, state: FaceState):
+    def __init__(self, state: _Frame):
         self._state = state
         self._by_name: dict[str, _MuscleFields] = {}
 
@@ -457,9 +520,7 @@ class FaceState:
         self.deformed_points = _readonly(deformed)
         self.points = _readonly(points)
         self.W = _readonly(total)
-        self._assembly = assembly
-        self._compact = compact
-        self.fields = _StateFields(self)
+        self.fields = _StateFields(_Frame(face, self.deformed_points, assembly, compact))
 
     @property
     def n_points(self) -> int:

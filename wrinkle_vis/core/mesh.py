@@ -10,7 +10,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 from scipy.spatial import cKDTree
 
-__all__ = ["MeshError", "MeshReport", "TriangleSurface", "subdivide"]
+__all__ = ["MeshError", "MeshReport", "TriangleSurface", "subdivide", "triangle_normals",
+           "unit_rows"]
 
 
 class MeshError(ValueError):
@@ -203,12 +204,14 @@ class TriangleSurface:
         return sp.csr_matrix((np.ones(3 * m), (rows, cols)), shape=(self.n_points, m))
 
     # ------------------------------------------------------------------ geometry
+    @cached_property
+    def _corners(self) -> np.ndarray:
+        return np.ascontiguousarray(self.triangles.T)
+
     def face_normals(self, points=None) -> np.ndarray:
         """``(m, 3)``: triangle normals scaled by twice the area, at ``points`` (or rest)."""
-        p = self.points if points is None else points
-        t = self.triangles
-        a = p[t[:, 0]]
-        return np.cross(p[t[:, 1]] - a, p[t[:, 2]] - a)
+        p = self.points if points is None else np.asarray(points, dtype=float)
+        return triangle_normals(np.ascontiguousarray(p.T), self._corners)
 
     def vertex_normals(self, points=None) -> np.ndarray:
         r"""``(n, 3)``: unit area-weighted vertex normals at ``points`` (or the rest points).
@@ -219,8 +222,7 @@ class TriangleSurface:
         They point outwards for an outward-oriented surface (see :meth:`oriented`). A vertex
         whose summed normal vanishes gets a zero vector.
         """
-        summed = self.incidence @ self.face_normals(points)
-        return _normalize_rows(summed)
+        return unit_rows(self.incidence @ self.face_normals(points))
 
     def signed_volume(self) -> float:
         """Signed enclosed volume; positive for an outward orientation of a closed surface."""
@@ -356,18 +358,36 @@ class TriangleSurface:
         return out
 
 
+def triangle_normals(p: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    r"""``(t, 3)``: twice-area normals :math:`(b - a) \times (c - a)`.
+
+    Parameters
+    ----------
+    p : (3, n) float
+        Coordinates as rows (x, y and z), so the gathers are contiguous ``take`` calls.
+    corners : (3, t) int
+        The triangles' corners as rows.
+    """
+    a = np.take(p, corners[0], axis=1)
+    u = np.take(p, corners[1], axis=1) - a
+    v = np.take(p, corners[2], axis=1) - a
+    out = np.empty((corners.shape[1], 3))
+    out[:, 0] = u[1] * v[2] - u[2] * v[1]
+    out[:, 1] = u[2] * v[0] - u[0] * v[2]
+    out[:, 2] = u[0] * v[1] - u[1] * v[0]
+    return out
+
+
+def unit_rows(v: np.ndarray) -> np.ndarray:
+    """``(n, 3)``: rows scaled to unit length; zero rows stay zero."""
+    norm = np.sqrt(np.einsum("ij,ij->i", v, v))
+    return v / np.where(norm > 0, norm, 1.0)[:, None]
+
+
 def _same_direction(a: np.ndarray, b: np.ndarray) -> bool:
     """Whether triangles ``a`` and ``b`` traverse their shared edge in the same direction."""
     da = {(int(a[i]), int(a[(i + 1) % 3])) for i in range(3)}
     return any((int(b[i]), int(b[(i + 1) % 3])) in da for i in range(3))
-
-
-def _normalize_rows(v: np.ndarray) -> np.ndarray:
-    norm = np.sqrt(np.einsum("ij,ij->i", v, v))
-    out = np.zeros_like(v)
-    ok = norm > 0
-    out[ok] = v[ok] / norm[ok, None]
-    return out
 
 
 def subdivide(surface: TriangleSurface, levels: int = 1) -> TriangleSurface:
