@@ -184,16 +184,17 @@ def builtin_muscles() -> list:
     oris) and are linear muscles of Waters' kind.
     """
     left = []
-    for name, x0, x1 in (("frontalis_inner", 3.0, 14.0), ("frontalis_major", 14.0, 29.0),
-                         ("frontalis_outer", 29.0, 43.0)):
+    # the three frontalis parts overlap by a few mm, so together they lift the forehead as one
+    for name, x0, x1 in (("frontalis_inner", 1.0, 16.0), ("frontalis_major", 12.0, 32.0),
+                         ("frontalis_outer", 28.0, 46.0)):
         left.append(SheetMuscle(
             name + "_L",
-            attachment_line=(_on_skull(x0, 80.0), _on_skull(x1, 80.0)),
-            insertion_line=(_on_skin(x0, 32.0), _on_skin(x1, 32.0)),
-            lambda_w=0.3, n_wrinkles=3, k0=2.0, alpha=1.0))
+            attachment_line=(_on_skull(x0, 74.0), _on_skull(x1, 74.0)),
+            insertion_line=(_on_skin(x0, 30.0), _on_skin(x1, 30.0)),
+            lambda_w=0.3, n_wrinkles=3, k0=2.0, alpha=1.0, strength=6.0))
     left.append(LinearMuscle(
-        "corrugator_L", _on_skull(5.0, 20.0), _on_skin(26.0, 29.0), radius=32.0,
-        max_angle_deg=25.0, lambda_w=0.1, n_wrinkles=2, k0=2.0, alpha=1.0))
+        "corrugator_L", _on_skull(3.0, 21.0), _on_skin(24.0, 29.0), radius=30.0,
+        max_angle_deg=40.0, lambda_w=0.05, n_wrinkles=2, k0=2.0, alpha=1.0))
     for name, a, i, phi in (
         ("zygomaticus_major", (52.0, -14.0), (25.0, -57.0), 25.0),
         ("levator_labii_superioris", (22.0, -14.0), (14.0, -45.0), 25.0),

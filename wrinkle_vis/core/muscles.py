@@ -9,6 +9,7 @@ from dataclasses import KW_ONLY, dataclass
 
 import numpy as np
 
+from .equations import attenuation
 from .muscle import Geometry, Muscle, waters_radial
 from .registry import register_muscle_type
 
@@ -216,8 +217,10 @@ class SheetMuscle(Muscle):
     would reach through the head, so the AOI is also bounded in depth,
     :math:`|(x_i - m_{Ac})\cdot n| \le` ``depth``. The contraction direction is
     :math:`-f` everywhere. The displacement is
-    :math:`\Delta x_i = -a K r(l_i) \cos(\gamma_i \pi / 2) f` with Waters' falloff
-    :math:`r` along the fibre (fall start :math:`R_s`, end :math:`L_s`).
+    :math:`\Delta x_i = -a K r(l_i) At(h_i) f` with Waters' falloff :math:`r` along the
+    fibre (fall start :math:`R_s`, end :math:`L_s`) and, across it, the profile of Eq. 15:
+    the middle of the sheet moves as one and only its sides fall off, so that neighbouring
+    sheets that overlap a little move the skin together without shearing it.
     """
 
     type_name = "sheet"
@@ -356,5 +359,5 @@ class SheetMuscle(Muscle):
                         direction=direction, extra={"h": h, "depth": depth})
 
     def _falloff(self, points: np.ndarray, geometry: Geometry) -> np.ndarray:
-        across = np.cos(0.5 * np.pi * np.clip(geometry.gamma, 0.0, 1.0))
+        across = attenuation(geometry.extra["h"], *self.attenuation_range)
         return across * waters_radial(geometry.l, self.fall_start_value, self.length_value)
