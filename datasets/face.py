@@ -86,7 +86,8 @@ def _remesh(surface, n_points: int, subdivide: int = 0):
     import pyacvd
 
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)  # pyacvd 0.4 on PyVista 0.49
+        # pyacvd 0.4 uses a PyVista 0.49 deprecated attribute; only that warning is silenced
+        warnings.filterwarnings("ignore", message=".*_connectivity_array.*")
         clus = pyacvd.Clustering(surface)
         if subdivide:
             clus.subdivide(subdivide)
@@ -112,7 +113,8 @@ def build_skin(n_triangles: int = DEFAULT_TRIANGLES) -> TriangleSurface:
     def build():
         raw = _contour(anatomy.skin_sdf, (-82, -118, -22), (82, 128, 112), 1.6)
         raw = raw.clip(normal=(0, 0, -1), origin=(0, 0, -15))
-        raw = raw.clip(normal=(0, -1, 0), origin=(0, -112, 0)).extract_surface()
+        raw = raw.clip(normal=(0, -1, 0), origin=(0, -112, 0)).extract_surface(
+            algorithm="dataset_surface")
         raw = raw.triangulate().clean()
         sub = int(np.clip(np.ceil(np.log(max(n_triangles, 1) / 8000) / np.log(4)), 0, 3))
         surf = _remesh(raw, _triangles_to_points(n_triangles, True), sub)
