@@ -216,35 +216,20 @@ def test_core_imports_no_vtk_pyvista_or_qt():
     assert out.returncode == 0, out.stdout + out.stderr
 
 
-def test_core_sources_do_not_name_forbidden_modules():
+def test_core_sources_import_only_the_standard_library_numpy_and_scipy():
     import ast
     import pathlib
 
     root = pathlib.Path(wv.core.__file__).parent
+    allowed = set(sys.stdlib_module_names) | {"numpy", "scipy"}
     for path in root.glob("*.py"):
         for node in ast.walk(ast.parse(path.read_text())):
             names = []
             if isinstance(node, ast.Import):
                 names = [a.name for a in node.names]
-            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            elif isinstance(node, ast.ImportFrom) and node.level == 0:
                 names = [node.module]
+            elif isinstance(node, ast.ImportFrom):
+                assert node.level == 1, (path, node.module)  # nothing above core
             for n in names:
-                assert n.split(".")[0] in {"numpy", "scipy", "__future__", "dataclasses",
-                                           "functools", "collections", "typing", "math",
-                                           "warnings", "importlib", "abc"}, (path, n)
-
-
-def test_states_are_freed_without_the_garbage_collector(face):
-    import gc
-    import weakref
-
-    gc.disable()
-    try:
-        state = face.evaluate({"lin": 1.0})
-        fields = state.fields["lin"]
-        ref = weakref.ref(state)
-        del state
-        assert ref() is None
-        assert np.isfinite(fields["eps"]).any()  # views outlive their state
-    finally:
-        gc.enable()
+                assert n.split(".")[0] in allowed, (path, n)

@@ -13,6 +13,7 @@ from .equations import (
 )
 from .expressions import Expression, paper_expressions
 from .face import FIELD_NAMES, FaceModel, FaceState
+from .layout import Layout, LayoutError, load_layout, save_layout
 from .mesh import MeshError, MeshReport, TriangleSurface, subdivide
 from .muscle import Muscle, MuscleParameterError, MuscleRegion, waters_radial
 from .muscles import LinearMuscle, SheetMuscle
@@ -30,6 +31,8 @@ __all__ = [
     "Expression",
     "FaceModel",
     "FaceState",
+    "Layout",
+    "LayoutError",
     "LinearMuscle",
     "MeshError",
     "MeshReport",
@@ -48,11 +51,13 @@ __all__ = [
     "edge_shrinkage",
     "get_muscle_type",
     "half_period",
+    "load_layout",
     "muscle_from_dict",
     "muscle_types",
     "paper_expressions",
     "periodic_coordinate",
     "register_muscle_type",
+    "save_layout",
     "shape_function",
     "subdivide",
     "waters_radial",

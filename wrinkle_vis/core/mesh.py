@@ -10,8 +10,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 from scipy.spatial import cKDTree
 
-__all__ = ["MeshError", "MeshReport", "TriangleSurface", "subdivide", "triangle_normals",
-           "unit_rows"]
+__all__ = ["MeshError", "MeshReport", "TriangleSurface", "closest_points", "subdivide",
+           "triangle_normals", "unit_rows"]
 
 
 class MeshError(ValueError):
@@ -356,6 +356,53 @@ class TriangleSurface:
         if out.signed_volume() < 0:
             out = TriangleSurface(self.points, tri[:, ::-1])
         return out
+
+
+def closest_points(surface: TriangleSurface, queries) -> np.ndarray:
+    """``(k, 3)``: the closest point of ``surface`` to each of ``(k, 3)`` query points.
+
+    Exact among the triangles around the few nearest vertices, which is the closest point
+    on an even triangulation.
+    """
+    q = np.atleast_2d(np.asarray(queries, dtype=float))
+    _, near = cKDTree(surface.points).query(q, k=min(4, surface.n_points))
+    near = np.atleast_2d(near)
+    inc = surface.incidence.tocsr()
+    best = np.empty_like(q)
+    for i, (point, verts) in enumerate(zip(q, near, strict=True)):
+        tris = np.unique(np.concatenate([inc[v].indices for v in verts]))
+        cand = _closest_on_triangles(point, surface.points[surface.triangles[tris]])
+        best[i] = cand[np.argmin(np.linalg.norm(cand - point, axis=1))]
+    return best
+
+
+def _closest_on_triangles(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """``(t, 3)``: closest point to ``p`` on each triangle of ``(t, 3, 3)`` (Ericson 5.1.5)."""
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    ab, ac, ap = b - a, c - a, p - a
+    d1, d2 = np.einsum("ij,ij->i", ab, ap), np.einsum("ij,ij->i", ac, ap)
+    bp, cp = p - b, p - c
+    d3, d4 = np.einsum("ij,ij->i", ab, bp), np.einsum("ij,ij->i", ac, bp)
+    d5, d6 = np.einsum("ij,ij->i", ab, cp), np.einsum("ij,ij->i", ac, cp)
+    va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
+    denom = va + vb + vc
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v = np.where(denom != 0, vb / denom, 0.0)
+        w = np.where(denom != 0, vc / denom, 0.0)
+        out = a + v[:, None] * ab + w[:, None] * ac
+        t_ab = np.clip(d1 / (d1 - d3), 0, 1)
+        t_ac = np.clip(d2 / (d2 - d6), 0, 1)
+        t_bc = np.clip((d4 - d3) / ((d4 - d3) + (d5 - d6)), 0, 1)
+    cases = [
+        (d1 <= 0) & (d2 <= 0), (d3 >= 0) & (d4 <= d3), (d6 >= 0) & (d5 <= d6),
+        (vc <= 0) & (d1 >= 0) & (d3 <= 0), (vb <= 0) & (d2 >= 0) & (d6 <= 0),
+        (va <= 0) & ((d4 - d3) >= 0) & ((d5 - d6) >= 0),
+    ]
+    values = [a, b, c, a + t_ab[:, None] * ab, a + t_ac[:, None] * ac,
+              b + t_bc[:, None] * (c - b)]
+    for case, value in zip(cases[::-1], values[::-1], strict=True):
+        out = np.where(case[:, None], value, out)
+    return np.where((cases[0])[:, None], a, out)
 
 
 def triangle_normals(p: np.ndarray, corners: np.ndarray) -> np.ndarray:

@@ -132,6 +132,7 @@ class Muscle:
 
     type_name: ClassVar[str] = ""
     point_parameters: ClassVar[tuple[str, ...]] = ()
+    length_parameters: ClassVar[tuple[str, ...]] = ("k0",)
 
     name: str
 
@@ -142,7 +143,7 @@ class Muscle:
             f"{kind} muscle {self.name!r}: parameter {param} = {_fmt(value)} is invalid; "
             f"allowed: {allowed}"
         )
-        raise MuscleParameterError(msg + (f". {hint}" if hint else ""))
+        raise MuscleParameterError(msg + (f". {hint}" if hint else ""), param)
 
     def _check(self, param, lo=-math.inf, hi=math.inf, *, lo_open=False, hi_open=False,
                hint="") -> float:
@@ -315,6 +316,20 @@ class Muscle:
                 f"{', '.join(missing)}"
             )
         return cls(**data)
+
+    def transformed(self, transform, scale: float = 1.0) -> Muscle:
+        """A copy whose point parameters go through ``transform`` (``(k, 3) -> (k, 3)``)
+        and whose length parameters are multiplied by ``scale``.
+        """
+        changes = {}
+        for param in self.point_parameters:
+            arr = np.asarray(getattr(self, param), dtype=float)
+            changes[param] = np.asarray(transform(arr.reshape(-1, 3))).reshape(arr.shape)
+        for param in self.length_parameters:
+            value = getattr(self, param)
+            if value is not None:
+                changes[param] = scale * value
+        return self.replace(**changes)
 
     def replace(self, **changes) -> Muscle:
         """A copy with some parameters changed (validated again)."""

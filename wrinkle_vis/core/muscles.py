@@ -84,6 +84,7 @@ class LinearMuscle(Muscle):
 
     type_name = "linear"
     point_parameters = ("attachment", "insertion")
+    length_parameters = ("radius", "k0", "fall_start", "strength")
 
     attachment: tuple
     insertion: tuple
@@ -225,6 +226,8 @@ class SheetMuscle(Muscle):
 
     type_name = "sheet"
     point_parameters = ("attachment_line", "insertion_line")
+    length_parameters = ("length", "width", "depth", "k0", "attenuation_start", "fall_start",
+                         "strength")
 
     attachment_line: tuple
     insertion_line: tuple

@@ -24,6 +24,7 @@ class RingMuscle(Muscle):
 
     type_name = "ring"
     point_parameters = ("center",)
+    length_parameters = ("radius", "depth", "k0", "strength")
 
     center: tuple
     axis: tuple
