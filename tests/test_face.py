@@ -233,3 +233,19 @@ def test_core_sources_import_only_the_standard_library_numpy_and_scipy():
                 assert node.level == 1, (path, node.module)  # nothing above core
             for n in names:
                 assert n.split(".")[0] in allowed, (path, n)
+
+
+def test_states_are_freed_without_the_garbage_collector(face):
+    import gc
+    import weakref
+
+    gc.disable()
+    try:
+        state = face.evaluate({"lin": 1.0})
+        fields = state.fields["lin"]
+        ref = weakref.ref(state)
+        del state
+        assert ref() is None
+        assert np.isfinite(fields["eps"]).any()  # views outlive their state
+    finally:
+        gc.enable()
