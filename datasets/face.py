@@ -12,15 +12,18 @@ import numpy as np
 from wrinkle_vis.core import (
     Expression,
     FaceModel,
+    Layout,
     LinearMuscle,
     SheetMuscle,
     TriangleSurface,
+    load_layout,
     paper_expressions,
 )
 
 from . import anatomy, sdf
 
-__all__ = ["build_skin", "build_skull", "builtin_muscles", "load_face"]
+__all__ = ["BUILTIN_LAYOUT", "build_skin", "build_skull", "builtin_expressions",
+           "builtin_landmarks", "builtin_layout", "builtin_muscles", "load_face"]
 
 _SOURCES = (Path(anatomy.__file__), Path(sdf.__file__), Path(__file__))
 DEFAULT_TRIANGLES = 4500
@@ -220,7 +223,35 @@ def builtin_expressions() -> dict[str, Expression]:
     return ex
 
 
-def load_face(n_triangles: int = DEFAULT_TRIANGLES) -> FaceModel:
+def builtin_landmarks() -> dict[str, tuple]:
+    """Named landmarks on the built-in skin (see :data:`~.scans.LANDMARKS`), mm."""
+    at = {"nasion": (0.0, 8.0), "nose_tip": (0.0, -29.0), "chin": (0.0, -95.0),
+          "eye_inner_L": (19.0, 0.0), "eye_inner_R": (-19.0, 0.0),
+          "eye_outer_L": (45.0, -1.0), "eye_outer_R": (-45.0, -1.0),
+          "mouth_corner_L": (23.0, -59.0), "mouth_corner_R": (-23.0, -59.0)}
+    return {k: tuple(map(float, _on_skin(*xy))) for k, xy in at.items()}
+
+
+def builtin_layout() -> Layout:
+    """The built-in face's layout, computed from the code (the shipped file is a copy)."""
+    return Layout(name="built-in face", muscles=tuple(builtin_muscles()),
+                  expressions=builtin_expressions(), landmarks=builtin_landmarks())
+
+
+BUILTIN_LAYOUT = Path(__file__).with_name("builtin_layout.json")
+
+
+def _as_layout(layout) -> tuple[Layout, Path | None]:
+    if layout is None:
+        return load_layout(BUILTIN_LAYOUT), None
+    if isinstance(layout, Layout):
+        return layout, None
+    path = Path(layout)
+    return load_layout(path), path.parent
+
+
+def load_face(n_triangles: int = DEFAULT_TRIANGLES, *, skin=None, skull=None, layout=None,
+              landmarks=None) -> FaceModel:
     """The built-in anatomy-based face, ready to evaluate.
 
     Parameters
@@ -229,11 +260,25 @@ def load_face(n_triangles: int = DEFAULT_TRIANGLES) -> FaceModel:
         About how many skin triangles (the paper's model has about 4,500). Finer versions up
         to about 200,000 have the same shape and the same muscles.
 
+    skin : path or TriangleSurface, optional
+        A face of your own (OBJ, PLY, STL, VTP, VTK, or what meshio reads); it is
+        triangulated and welded (:func:`~wrinkle_vis.datasets.scans.read_surface`).
+    skull : path or TriangleSurface, optional
+        Its skull; by default one is offset inwards from the skin by the regional tissue
+        depth (with ``landmarks``) or by 2.5 % of the skin's height (without).
+    layout : path or Layout, optional
+        Muscles and expressions; by default the built-in layout, which is moved onto a
+        ``skin`` of your own from ``landmarks`` (:func:`transfer_layout`). A layout's own
+        ``skin`` and ``skull`` paths are read relative to its file.
+    landmarks : dict of str to (3,) array_like, optional
+        Named points on ``skin`` (:data:`~wrinkle_vis.datasets.scans.LANDMARKS`).
+
     Returns
     -------
     FaceModel
-        Skin, skull, 14 muscles (7 pairs) and the expressions ``neutral``, ``surprise``,
-        ``frown``, ``fear`` (the paper's Section 3) and ``smile``.
+        For the built-in face: skin, skull, 14 muscles (7 pairs) and the expressions
+        ``neutral``, ``surprise``, ``frown``, ``fear`` (the paper's Section 3) and ``smile``.
+        A skin of your own with neither a layout nor landmarks gets no muscles.
 
     Notes
     -----
@@ -249,5 +294,41 @@ def load_face(n_triangles: int = DEFAULT_TRIANGLES) -> FaceModel:
     n = int(n_triangles)
     if not (500 <= n <= 250_000):
         raise ValueError(f"n_triangles = {n} is outside the supported 500..250000")
-    return FaceModel(build_skin(n), build_skull(), builtin_muscles(), builtin_expressions(),
-                     name="built-in face")
+    lay, base = _as_layout(layout)
+    if skin is None and lay.skin is not None:
+        skin = (base or Path.cwd()) / lay.skin
+    if skull is None and lay.skull is not None:
+        skull = (base or Path.cwd()) / lay.skull
+    if skin is None:
+        return FaceModel(build_skin(n), _surface(skull) or build_skull(), lay.muscles,
+                         lay.expressions, name=lay.name)
+    return _scan_face(_surface(skin), _surface(skull), lay, layout is None, landmarks)
+
+
+def _surface(value):
+    if value is None or isinstance(value, TriangleSurface):
+        return value
+    from .scans import read_surface
+
+    return read_surface(value)
+
+
+def _scan_face(skin, skull, lay, builtin_layout_used, landmarks):
+    from .scans import offset_skull, regional_depth, transfer_layout
+
+    landmarks = dict(landmarks) if landmarks is not None else (
+        None if builtin_layout_used else dict(lay.landmarks) or None)
+    if skull is None:
+        if landmarks:
+            depth = regional_depth(skin, landmarks)
+        else:  # no landmarks, no units: 2.5 % of the height, about 6 mm on a 240 mm head
+            lo, hi = skin.bounds()
+            depth = 0.025 * float(hi[1] - lo[1])
+        skull = offset_skull(skin, depth)
+    if builtin_layout_used:
+        if not landmarks:
+            return FaceModel(skin, skull, (), {"neutral": paper_expressions()["neutral"]},
+                             name="scan without muscles")
+        lay = transfer_layout(lay, skin, landmarks, skull)
+    return FaceModel(skin, skull, lay.muscles, lay.expressions, name=lay.name)
+
