@@ -3,9 +3,9 @@ face towards +z, x towards the subject's left, origin between the eyes' centres)
 
 The skin is a cranium, a lower face, chin, cheekbones, brow ridge, nose, lips and neck
 joined with smooth minima, with the orbits carved and eyeballs set in them and the mouth
-line cut. The skull is the skin's *base* (the skin without nose, lips and eyes) moved
-inwards by a regional soft-tissue depth, with the bone's own features: orbits, the nasal
-aperture and zygomatic arches.
+line cut. The skull is the head without neck, eyes, lips and cartilage (the skin's cranium, face and
+nasal bones) moved inwards by a regional soft-tissue depth, with the bone's own features:
+orbits, the nasal aperture, zygomatic arches and the dental arch under the lips.
 
 Soft-tissue depths follow the means of the large in-vivo adult tables (De Greef et al.,
 "Large-scale in-vivo Caucasian facial soft tissue thickness database for craniofacial
@@ -45,29 +45,33 @@ EYE_CENTER = (32.0, 0.0, 68.0)
 EYE_RADIUS = 12.5
 
 
-def _base(p: np.ndarray) -> np.ndarray:
-    """The head without nose, lips and eyes: the shape the skull follows."""
+def _head(p: np.ndarray) -> np.ndarray:
+    """Cranium, lower face, chin, cheekbones and brow ridge: what the skull follows."""
     d = ellipsoid(p, (0, 20, -5), (74, 100, 97))
     d = smooth_union(d, ellipsoid(p, (0, -45, 25), (55, 60, 62)), 18.0)
     d = smooth_union(d, ellipsoid(p, (0, -92, 62), (20, 14, 16)), 10.0)
     d = smooth_union(d, mirrored(ellipsoid, p, (45, -12, 62), (16, 12, 16)), 12.0)
-    d = smooth_union(d, mirrored(capsule, p, (6, 22, 86), (42, 19, 78), 7.0), 8.0)
-    d = smooth_union(d, capsule(p, (0, -60, -15), (0, -170, -20), 52.0), 20.0)
-    return d
+    return smooth_union(d, mirrored(capsule, p, (6, 22, 86), (42, 19, 78), 7.0), 8.0)
+
+
+def _nose_bridge(p: np.ndarray) -> np.ndarray:
+    return capsule(p, (0, 8, 88), (0, -28, 104), 7.0)
+
+
+def _lips(p: np.ndarray) -> np.ndarray:
+    return smooth_union(ellipsoid(p, (0, -52, 88), (24, 7, 9)),
+                        ellipsoid(p, (0, -66, 86), (21, 7, 9)), 4.0)
 
 
 def skin_sdf(p: np.ndarray) -> np.ndarray:
     """``(n,)``: signed distance to the skin for ``(n, 3)`` points, mm."""
-    d = _base(p)
+    d = smooth_union(_head(p), capsule(p, (0, -60, -15), (0, -170, -20), 52.0), 20.0)
     d = smooth_difference(d, mirrored(sphere, p, (32, 0, 86), 17.0), 8.0)
     d = smooth_union(d, mirrored(sphere, p, EYE_CENTER, EYE_RADIUS), 7.0)
-    nose = capsule(p, (0, 8, 88), (0, -28, 104), 7.0)
-    nose = smooth_union(nose, sphere(p, (0, -29, 100), 10.5), 6.0)
+    nose = smooth_union(_nose_bridge(p), sphere(p, (0, -29, 100), 10.5), 6.0)
     nose = smooth_union(nose, mirrored(ellipsoid, p, (12, -35, 90), (8, 7, 8)), 5.0)
     d = smooth_union(d, nose, 6.0)
-    lips = smooth_union(ellipsoid(p, (0, -52, 88), (24, 7, 9)),
-                        ellipsoid(p, (0, -66, 86), (21, 7, 9)), 4.0)
-    d = smooth_union(d, lips, 6.0)
+    d = smooth_union(d, _lips(p), 6.0)
     return smooth_difference(d, capsule(p, (-23, -59, 96), (23, -59, 96), 1.5), 3.0)
 
 
@@ -86,7 +90,9 @@ def tissue_depth(p: np.ndarray, sigma: float = 14.0) -> np.ndarray:
 
 def skull_sdf(p: np.ndarray) -> np.ndarray:
     """``(n,)``: signed distance to the skull for ``(n, 3)`` points, mm."""
-    d = _base(p) + tissue_depth(p)
+    nasal_bones = capsule(p, (0, 8, 88), (0, -8, 95), 7.0)  # the bony upper third of the nose
+    d = smooth_union(_head(p), nasal_bones, 6.0) + tissue_depth(p)
+    d = smooth_union(d, ellipsoid(p, (0, -58, 68), (19, 15, 15)), 8.0)  # the dental arch
     d = smooth_union(d, mirrored(capsule, p, (50, -12, 52), (62, -8, 0), 4.0), 6.0)
     d = smooth_difference(d, mirrored(sphere, p, (32, 0, 78), 20.0), 4.0)
     d = smooth_difference(d, ellipsoid(p, (0, -26, 86), (10, 15, 22)), 4.0)

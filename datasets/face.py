@@ -87,6 +87,10 @@ def _contour(field, lo, hi, spacing):
 
 def _remesh(surface, n_points: int, subdivide: int = 0):
     import pyacvd
+    import pyvista as pv
+
+    # clean() turns collapsed triangles into lines and vertices; keep the polygons only
+    surface = pv.PolyData(surface.points, faces=surface.faces).triangulate()
 
     with warnings.catch_warnings():
         # pyacvd 0.4 uses a PyVista 0.49 deprecated attribute; only that warning is silenced
