@@ -157,12 +157,14 @@ def build_skull(n_triangles: int = 12000) -> TriangleSurface:
 def _front_hit(field, x: float, y: float, z_start: float = 140.0) -> np.ndarray:
     """``(3,)``: the first point of ``field``'s zero set seen from the front at ``(x, y)``."""
     p = np.array([[x, y, z_start]])
-    for _ in range(400):
+    for _ in range(2000):
         d = float(field(p)[0])
         if abs(d) < 1e-4:
-            break
+            return project_to_surface(field, p)[0]
         p[0, 2] -= max(d, 0.05) if d > 0 else d
-    return project_to_surface(field, p)[0]
+        if p[0, 2] < -z_start:
+            break
+    raise ValueError(f"no surface in front of (x, y) = ({x:g}, {y:g}); move the point")
 
 
 def _on_skin(x, y):
@@ -207,7 +209,7 @@ def builtin_muscles() -> list:
     for name, a, i, phi in (
         ("zygomaticus_major", (52.0, -14.0), (25.0, -57.0), 25.0),
         ("levator_labii_superioris", (22.0, -14.0), (14.0, -45.0), 25.0),
-        ("depressor_anguli_oris", (32.0, -96.0), (25.0, -62.0), 25.0),
+        ("depressor_anguli_oris", (22.0, -84.0), (25.0, -62.0), 25.0),
     ):
         m_a, m_i = _on_skull(*a), _on_skin(*i)
         left.append(LinearMuscle(
@@ -216,7 +218,20 @@ def builtin_muscles() -> list:
     out = []
     for m in left:
         out += [m, _mirror(m)]
-    return out
+    return [_onto_skull_mesh(m) for m in out]
+
+
+def _onto_skull_mesh(muscle):
+    """Attachments moved from the skull's level set onto the skull mesh (< 1 mm away)."""
+    from wrinkle_vis.core.mesh import closest_points
+
+    skull = build_skull()
+    changes = {}
+    for param in muscle.point_parameters:
+        if param.startswith("attachment"):
+            arr = np.asarray(getattr(muscle, param))
+            changes[param] = closest_points(skull, arr.reshape(-1, 3)).reshape(arr.shape)
+    return muscle.replace(**changes)
 
 
 def builtin_expressions() -> dict[str, Expression]:

@@ -45,3 +45,73 @@ def test_paper_expressions_wrinkle_the_upper_face_only(face, expression):
 def test_bad_resolution(face):
     with pytest.raises(ValueError, match="n_triangles"):
         wv.datasets.load_face(10)
+
+
+def test_skull_is_closed_and_inside_the_skin_with_regional_gaps(face):
+    from wrinkle_vis.core.mesh import closest_points
+    from wrinkle_vis.datasets import anatomy
+    from wrinkle_vis.datasets.face import _on_skin
+
+    rep = face.skull.report()
+    assert len(rep.boundary_edges) == 0 and rep.n_components == 1
+    assert anatomy.skin_sdf(face.skull.points).max() < -1.0  # strictly inside, > 1 mm
+    gaps = {}
+    for name, pos, depth in anatomy.TISSUE_DEPTHS:
+        if pos[2] <= 40:
+            continue
+        s = _on_skin(pos[0], pos[1])
+        gaps[name] = float(np.linalg.norm(closest_points(face.skull, s[None])[0] - s))
+        assert abs(gaps[name] - depth) < 5.0, (name, gaps[name], depth)
+    assert gaps["mid_cheek"] > gaps["upper_lip"] > gaps["glabella"] > gaps["supraglabella"]
+
+
+def test_attachments_on_the_skull_and_insertions_on_the_skin(face):
+    from wrinkle_vis.core.mesh import closest_points
+
+    for m in face.muscles:
+        for p in m.point_parameters:
+            pts = np.asarray(getattr(m, p)).reshape(-1, 3)
+            surf = face.skull if p.startswith("attachment") else face.skin
+            assert np.linalg.norm(closest_points(surf, pts) - pts, axis=1).max() < 0.75
+
+
+def test_triangles_are_well_shaped_and_even(face):
+    p, t = face.skin.points, face.skin.triangles
+    e = [p[t[:, (i + 1) % 3]] - p[t[:, i]] for i in range(3)]
+    cos = [np.einsum("ij,ij->i", -e[i - 1], e[i]) / np.linalg.norm(e[i - 1], axis=1)
+           / np.linalg.norm(e[i], axis=1) for i in range(3)]
+    min_angle = np.degrees(np.arccos(np.clip(np.max(cos, axis=0), -1, 1)))
+    assert min_angle.min() > 20.0
+    lengths = face.skin.rest_edge_lengths
+    assert lengths.std() / lengths.mean() < 0.25
+
+
+@pytest.mark.slow
+def test_finer_resolution_has_the_same_shape_and_muscles(face):
+    fine = wv.datasets.load_face(20000)
+    assert 18000 <= fine.skin.n_triangles <= 22000
+    assert fine.muscles == face.muscles
+    lo0, hi0 = face.skin.bounds()
+    lo1, hi1 = fine.skin.bounds()
+    np.testing.assert_allclose(lo1, lo0, atol=2.0)
+    np.testing.assert_allclose(hi1, hi0, atol=2.0)
+
+
+@pytest.mark.slow
+def test_wrinkle_count_along_the_frontalis_central_fibre_equals_n_w():
+    face = wv.datasets.load_face(60000)
+    state = face.evaluate("surprise")
+    for name in ("frontalis_major_L", "frontalis_inner_R"):
+        m = face.muscle(name)
+        f, s, _ = m.frame
+        v = face.skin.points - m.attachment_center
+        near = (np.abs(v @ s) < 1.0) & np.isfinite(state.fields[name]["H"])
+        l = (v @ f)[near]
+        h = state.fields[name]["H"][near]
+        order = np.argsort(l)
+        l, h = l[order], h[order]
+        # crests: where H rises above the middle of its range and falls back
+        above = h > 0.5 * (m.d + (m.d - m.k0 * 2**m.alpha))
+        crests = np.count_nonzero(above[1:] & ~above[:-1]) + int(above[0])
+        assert crests == m.n_wrinkles, (name, crests)
+        assert l.max() - l.min() > 0.9 * (1 - m.lambda_w) * m.wrinkle_length

@@ -24,8 +24,12 @@ __all__ = ["Geometry", "Muscle", "MuscleParameterError", "MuscleRegion", "waters
 
 class MuscleParameterError(ValueError):
     """A muscle parameter out of its allowed range; the message names muscle, parameter,
-    value and range.
+    value and range, and ``param`` holds the parameter's name (None if not one).
     """
+
+    def __init__(self, message: str, param: str | None = None):
+        super().__init__(message)
+        self.param = param
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,146 @@
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+import wrinkle_vis as wv
+from wrinkle_vis.core.mesh import closest_points
+from wrinkle_vis.datasets import read_surface, transfer_layout
+from wrinkle_vis.plotting import to_surface_polydata
+
+REAL = Path(__file__).resolve().parents[2] / "shared" / "realmeshes"
+HEAD = REAL / "lee_perry_smith_head.obj"
+EXAMPLE = Path(wv.datasets.__file__).with_name("examples") / "lee_perry_smith.json"
+
+needs_scans = pytest.mark.skipif(not HEAD.exists(), reason="../shared/realmeshes is not here")
+
+
+@needs_scans
+def test_head_scan_loads_as_it_is_and_welds_its_uv_seams():
+    raw = pv.read(HEAD)
+    assert raw.n_points > 30000  # the reader splits vertices along UV seams
+    skin = read_surface(HEAD)
+    rep = skin.report()
+    assert skin.n_points == 8844 and rep.n_components == 1
+    assert len(rep.non_manifold_edges) == 0 and rep.consistently_oriented
+
+
+@needs_scans
+@pytest.mark.parametrize("name", ["skull_low_resolution.obj", "demosthenes_bust.obj"])
+def test_other_scans_load_and_report_boundaries(name):
+    s = read_surface(REAL / name)
+    rep = s.report()
+    assert rep.n_components == 1
+    if name.startswith("demosthenes"):
+        assert len(rep.boundary_edges) > 0  # open at the base: reported, not an error
+
+
+@needs_scans
+def test_example_layout_evaluates_on_the_scan():
+    face = wv.datasets.load_face(skin=HEAD, layout=EXAMPLE)
+    assert len(face.muscles) == 14
+    for expression in ("surprise", "frown", "fear"):
+        state = face.evaluate(expression)
+        assert np.count_nonzero(state.W) > 0
+        # wrinkles above the nose tip only, on this +y-up scan
+        nose_y = face.muscle("corrugator_L").insertion[1] - 0.05
+        assert face.skin.points[state.W != 0][:, 1].min() > nose_y
+
+
+@needs_scans
+def test_transfer_puts_insertions_on_the_skin_and_attachments_on_the_skull():
+    layout = wv.load_layout(EXAMPLE)
+    skin = read_surface(HEAD)
+    landmarks = layout.landmarks
+    face = wv.datasets.load_face(skin=skin, landmarks=landmarks)  # built-in layout moved
+    moved = transfer_layout(wv.load_layout(wv.datasets.BUILTIN_LAYOUT), skin, landmarks,
+                            face.skull)
+    for m in moved.muscles:
+        for p in m.point_parameters:
+            pts = np.asarray(getattr(m, p)).reshape(-1, 3)
+            surf = face.skull if p.startswith("attachment") else skin
+            assert np.abs(closest_points(surf, pts) - pts).max() < 1e-9
+    # lengths scale by about mm -> m
+    builtin = wv.load_layout(wv.datasets.BUILTIN_LAYOUT)
+    ratio = moved.muscles[6].radius / builtin.muscles[6].radius
+    assert 0.0008 < ratio < 0.0012
+    # the skull lies under the skin by the regional depth (about 4-25 mm here)
+    gap = np.linalg.norm(closest_points(skin, face.skull.points[::40]) - face.skull.points[::40],
+                         axis=1)
+    assert 0.002 < np.median(gap) < 0.015
+
+
+def test_transfer_needs_shared_landmarks():
+    layout = wv.load_layout(wv.datasets.BUILTIN_LAYOUT)
+    face = wv.datasets.load_face()
+    with pytest.raises(ValueError, match="at least 4 landmarks"):
+        transfer_layout(layout, face.skin, {"nose_tip": [0, 0, 0], "elbow": [1, 1, 1]})
+
+
+def test_transfer_onto_a_moved_copy_of_the_builtin_face_moves_the_muscles_with_it():
+    face = wv.datasets.load_face()
+    layout = wv.load_layout(wv.datasets.BUILTIN_LAYOUT)
+    rot = np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]])
+
+    def move(p):
+        return 2.0 * np.asarray(p) @ rot.T + [5.0, 6.0, 7.0]
+
+    skin = face.skin.with_points(move(face.skin.points))
+    skull = face.skull.with_points(move(face.skull.points))
+    marks = {k: move(v) for k, v in layout.landmarks.items()}
+    moved = transfer_layout(layout, skin, marks, skull)
+    for a, b in zip(layout.muscles, moved.muscles, strict=True):
+        for p in a.point_parameters:
+            np.testing.assert_allclose(getattr(b, p), move(getattr(a, p)), atol=1.5)
+    assert moved.muscles[0].k0 == pytest.approx(2 * layout.muscles[0].k0)
+
+
+def test_a_scan_without_layout_or_landmarks_gets_no_muscles(tmp_path):
+    face = wv.datasets.load_face()
+    path = tmp_path / "face.ply"
+    to_surface_polydata(face.skin).save(path)
+    plain = wv.datasets.load_face(skin=path)
+    assert plain.muscles == () and set(plain.expressions) == {"neutral"}
+    assert plain.skull.n_points == plain.skin.n_points
+    assert not plain.evaluate().W.any()
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".ply", ".stl", ".vtp", ".vtk"])
+def test_every_format_reads_back(tmp_path, suffix):
+    skin = wv.datasets.load_face().skin
+    path = tmp_path / f"skin{suffix}"
+    poly = to_surface_polydata(skin)
+    if suffix == ".obj":
+        pl = pv.Plotter(off_screen=True)
+        pl.add_mesh(poly)
+        pl.export_obj(path)
+        pl.close()
+    else:
+        poly.save(path)
+    back = read_surface(path, weld_tolerance=1e-6)
+    assert back.n_points == skin.n_points and back.n_triangles == skin.n_triangles
+
+
+def test_bad_mesh_files(tmp_path):
+    with pytest.raises(FileNotFoundError, match="no mesh file at"):
+        read_surface(tmp_path / "missing.obj")
+    junk = tmp_path / "junk.xyz123"
+    junk.write_text("not a mesh")
+    with pytest.raises(wv.MeshError, match="junk.xyz123"):
+        read_surface(junk)
+    nan = tmp_path / "nan.obj"
+    nan.write_text("v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n")
+    with pytest.raises(wv.MeshError, match="nan.obj.*non-finite"):
+        read_surface(nan)
+    empty = tmp_path / "empty.obj"
+    empty.write_text("v 0 0 0\nv 1 0 0\n")
+    with pytest.raises(wv.MeshError, match="empty.obj"):
+        read_surface(empty)
+
+
+def test_landmarks_file_is_json_ready():
+    layout = wv.load_layout(EXAMPLE)
+    assert set(layout.landmarks) == set(wv.datasets.LANDMARKS)
+    json.dumps(layout.to_dict())
