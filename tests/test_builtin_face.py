@@ -115,3 +115,25 @@ def test_wrinkle_count_along_the_frontalis_central_fibre_equals_n_w():
         crests = np.count_nonzero(above[1:] & ~above[:-1]) + int(above[0])
         assert crests == m.n_wrinkles, (name, crests)
         assert l.max() - l.min() > 0.9 * (1 - m.lambda_w) * m.wrinkle_length
+
+
+def _furrow_direction(muscle):
+    """Furrows run across the fibre: lines of constant l."""
+    fibre = muscle.frame[0] if hasattr(muscle, "frame") else muscle.fibre
+    return np.cross(fibre, [0.0, 0.0, 1.0])  # on a face looking at +z
+
+
+@pytest.mark.parametrize(("expression", "directions"),
+                         [("surprise", {"horizontal"}), ("frown", {"vertical"}),
+                          ("fear", {"horizontal", "vertical"})])
+def test_furrows_run_the_way_the_paper_shows(face, expression, directions):
+    found = set()
+    state = face.evaluate(expression)
+    for name, a in state.activations.items():
+        if a == 0:
+            continue
+        d = _furrow_direction(face.muscle(name))
+        d /= np.linalg.norm(d)
+        assert np.abs(state.fields[name]["W"][np.isfinite(state.fields[name]["W"])]).max() > 0
+        found.add("horizontal" if abs(d[0]) > 0.8 else "vertical" if abs(d[1]) > 0.8 else "?")
+    assert found == directions
