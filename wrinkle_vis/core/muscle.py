@@ -202,6 +202,18 @@ class Muscle:
         self._check("k0", 0.0)
         self._check("alpha", -1.0, 10.0, hint="alpha < -1 turns the furrow into a crest")
 
+    def _check_strength(self) -> None:
+        r"""Validate ``strength`` against Waters' fall start: below :math:`2 R_s / \pi`."""
+        if getattr(self, "strength", None) is not None:
+            self._check("strength", 0.0, 2.0 * self.fall_start_value / math.pi, hi_open=True,
+                        hint="a stronger pull would drag skin past the attachment")
+
+    @property
+    def strength_value(self) -> float:
+        """:math:`K` actually used: ``strength``, by default :math:`0.2 R_s`."""
+        strength = getattr(self, "strength", None)
+        return 0.2 * self.fall_start_value if strength is None else strength
+
     # ------------------------------------------------------------ to be implemented
     @property
     def wrinkle_length(self) -> float:

@@ -4,7 +4,6 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import KW_ONLY, dataclass
 
 import numpy as np
@@ -116,9 +115,7 @@ class LinearMuscle(Muscle):
             self._check("attenuation_start_deg", 0.0, phi)
         if self.fall_start is not None:
             self._check("fall_start", 0.0, radius, lo_open=True, hi_open=True)
-        if self.strength is not None:
-            self._check("strength", 0.0, 2.0 * self.fall_start_value / math.pi, hi_open=True,
-                        hint="a stronger pull would drag skin past the attachment")
+        self._check_strength()
 
     @property
     def length(self) -> float:
@@ -134,11 +131,6 @@ class LinearMuscle(Muscle):
     def fall_start_value(self) -> float:
         """:math:`R_s` actually used (the default resolved)."""
         return self.length if self.fall_start is None else self.fall_start
-
-    @property
-    def strength_value(self) -> float:
-        """:math:`K` actually used (the default resolved)."""
-        return 0.2 * self.fall_start_value if self.strength is None else self.strength
 
     @property
     def wrinkle_length(self) -> float:
@@ -277,9 +269,7 @@ class SheetMuscle(Muscle):
             self._fail("length", self.length_value,
                        f"(|m_Ic - m_Ac| = {self.fall_start_value:g}, inf)",
                        "The insertion line must lie inside the AOI, or give fall_start")
-        if self.strength is not None:
-            self._check("strength", 0.0, 2.0 * self.fall_start_value / math.pi, hi_open=True,
-                        hint="a stronger pull would drag skin past the attachment line")
+        self._check_strength()
 
     @property
     def attachment_center(self) -> np.ndarray:
@@ -329,11 +319,6 @@ class SheetMuscle(Muscle):
     def fall_start_value(self) -> float:
         """:math:`R_s` actually used (the default resolved)."""
         return self.fibre_length if self.fall_start is None else self.fall_start
-
-    @property
-    def strength_value(self) -> float:
-        """:math:`K` actually used (the default resolved)."""
-        return 0.2 * self.fall_start_value if self.strength is None else self.strength
 
     @property
     def wrinkle_length(self) -> float:
