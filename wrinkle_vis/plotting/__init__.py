@@ -1,5 +1,22 @@
-"""PyVista adapters: the face state as ``PolyData`` with every field as a point array."""
+"""PyVista adapters and off-screen rendering (no Qt)."""
 
+from .fields import FIELDS, NAN_COLOR, FieldInfo, field_info, field_range
 from .polydata import field_array_name, to_polydata, to_surface_polydata
+from .scenes import (
+    BONE,
+    CAMERAS,
+    LAYERS,
+    SKIN,
+    add_muscles,
+    add_skin,
+    add_skull,
+    muscle_mesh,
+    render_field,
+    set_camera,
+    testing_theme,
+)
 
-__all__ = ["field_array_name", "to_polydata", "to_surface_polydata"]
+__all__ = ["BONE", "CAMERAS", "FIELDS", "LAYERS", "NAN_COLOR", "SKIN", "FieldInfo",
+           "add_muscles", "add_skin", "add_skull", "field_array_name", "field_info",
+           "field_range", "muscle_mesh", "render_field", "set_camera", "testing_theme",
+           "to_polydata", "to_surface_polydata"]

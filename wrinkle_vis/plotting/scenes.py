@@ -1,0 +1,214 @@
+"""Scenes of the three layers (skin, muscles, skull), cameras and off-screen rendering."""
+
+from __future__ import annotations
+
+import numpy as np
+import pyvista as pv
+
+from ..core.face import FaceModel, FaceState
+from ..core.muscles import LinearMuscle, SheetMuscle
+from .fields import NAN_COLOR, field_info, field_range
+from .polydata import field_array_name, to_polydata, to_surface_polydata
+
+__all__ = ["BONE", "CAMERAS", "LAYERS", "SKIN", "add_muscles", "add_skin", "add_skull",
+           "muscle_mesh", "render_field", "set_camera", "testing_theme"]
+
+SKIN = "#f1c9a5"
+BONE = "#e3dac9"
+LAYERS = ("skin", "muscles", "skull")
+#: Named cameras: direction from the face to the eye (y up, face towards +z), zoom, and the
+#: fraction of the skin's height to look at (1 is the whole skin).
+CAMERAS = {
+    "front": ((0.0, 0.0, 1.0), 1.0),
+    "three_quarter": ((0.7, 0.1, 0.7), 1.0),
+    "side": ((1.0, 0.0, 0.0), 1.0),
+    "forehead": ((0.0, 0.15, 1.0), 2.2),
+}
+
+
+def testing_theme() -> pv.themes.DocumentTheme:
+    """A fixed theme for image tests: fixed window size, no multisampling, no smoothing."""
+    theme = pv.themes.DocumentTheme()
+    theme.window_size = [400, 400]
+    theme.anti_aliasing = None
+    theme.multi_samples = 1
+    theme.lighting = True
+    theme.font.size = 12
+    theme.font.title_size = 12
+    theme.font.label_size = 10
+    theme.nan_color = NAN_COLOR
+    return theme
+
+
+def _scalar_bar(plotter: pv.Plotter, title: str, nan: bool = True) -> dict:
+    return {"title": title, "nan_annotation": nan, "n_labels": 5, "fmt": "%.3g",
+            "vertical": False, "position_x": 0.2, "position_y": 0.07, "width": 0.6,
+            "height": 0.06}
+
+
+def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
+             muscle: str | None = None, *, opacity: float = 1.0, scalar_bar: bool = True,
+             show_edges: bool = False):
+    """Add the final skin of ``state``, coloured by ``field`` (of ``muscle``, or total W).
+
+    ``field=None`` draws plain skin. Undefined values (NaN) take :data:`NAN_COLOR` and the
+    scalar bar labels them. Returns the actor.
+    """
+    mesh = to_polydata(state)
+    if field is None:
+        return plotter.add_mesh(mesh, color=SKIN, smooth_shading=True, opacity=opacity,
+                                show_edges=show_edges, name="skin")
+    info = field_info(field)
+    if muscle is None and field != "W":
+        raise ValueError(f"field {field!r} belongs to one muscle; name it (only W has a "
+                         "total)")
+    array = field_array_name(field, muscle)
+    if array not in mesh.point_data:
+        raise KeyError(f"no muscle {muscle!r}; muscles: {', '.join(state.face.muscle_names)}")
+    values = mesh.point_data[array]
+    actor = plotter.add_mesh(
+        mesh, scalars=array, cmap=info.cmap, clim=field_range(info, values),
+        nan_color=NAN_COLOR, smooth_shading=True, opacity=opacity, show_edges=show_edges,
+        show_scalar_bar=scalar_bar, name="skin",
+        scalar_bar_args=_scalar_bar(plotter, info.title(muscle)) if scalar_bar else None)
+    if scalar_bar:
+        plotter.scalar_bars[info.title(muscle)].SetNanAnnotation("undefined")
+    return actor
+
+
+def muscle_mesh(muscle, activation: float = 0.0) -> pv.PolyData:
+    """The muscle as geometry: a tapered fibre (linear) or a ribbon of fibres (sheet).
+
+    Point array ``activation`` holds the activation everywhere, for colouring.
+    """
+    if isinstance(muscle, LinearMuscle):
+        a, b = np.asarray(muscle.attachment), np.asarray(muscle.insertion)
+        line = pv.Line(a, b, resolution=16)
+        t = np.linspace(0.0, 1.0, line.n_points)
+        line.point_data["r"] = muscle.length * (0.06 - 0.035 * t)  # thick at the bone
+        mesh = line.tube(scalars="r", absolute=True, n_sides=12, capping=True)
+    elif isinstance(muscle, SheetMuscle):
+        att, ins = np.asarray(muscle.attachment_line), np.asarray(muscle.insertion_line)
+        n_fibres = 6
+        s = np.linspace(0.0, 1.0, n_fibres)[:, None]
+        starts = att[0] + s * (att[1] - att[0])
+        ends = ins[0] + s * (ins[1] - ins[0])
+        u = np.linspace(0.0, 1.0, 12)[None, :, None]
+        grid = starts[:, None, :] + u * (ends - starts)[:, None, :]
+        mesh = pv.StructuredGrid(*np.moveaxis(grid, -1, 0)).extract_surface(
+            algorithm="dataset_surface")
+    else:  # a plug-in type: a line through its point parameters
+        pts = np.concatenate([np.asarray(getattr(muscle, p), float).reshape(-1, 3)
+                              for p in muscle.point_parameters])
+        mesh = pv.Spline(pts, max(2, 8 * len(pts))).tube(radius=1.0) if len(pts) > 1 \
+            else pv.Sphere(radius=2.0, center=pts[0])
+    mesh.point_data["activation"] = np.full(mesh.n_points, float(activation))
+    return mesh
+
+
+def add_muscles(plotter: pv.Plotter, face: FaceModel, activations=None, *,
+                scalar_bar: bool = True) -> list:
+    """Add every muscle, coloured by its activation (white at rest, red when contracting)."""
+    activations = activations or {}
+    actors = []
+    for i, m in enumerate(face.muscles):
+        show_bar = scalar_bar and i == 0
+        actors.append(plotter.add_mesh(
+            muscle_mesh(m, activations.get(m.name, 0.0)), scalars="activation", cmap="Reds",
+            clim=(0.0, 1.0), smooth_shading=True, name=f"muscle:{m.name}",
+            show_scalar_bar=show_bar,
+            scalar_bar_args=_scalar_bar(plotter, "activation", nan=False) if show_bar
+            else None))
+    return actors
+
+
+def add_skull(plotter: pv.Plotter, face: FaceModel, *, attachments: bool = True):
+    """Add the bone-coloured skull and, optionally, the muscles' attachment points."""
+    if face.skull is None:
+        raise ValueError("this face has no skull")
+    actor = plotter.add_mesh(to_surface_polydata(face.skull), color=BONE,
+                             smooth_shading=True, name="skull")
+    if attachments:
+        pts = [np.asarray(getattr(m, p), float).reshape(-1, 3)
+               for m in face.muscles for p in m.point_parameters if p.startswith("attachment")]
+        if pts:
+            plotter.add_points(np.concatenate(pts), color="#7a1f1f", point_size=9,
+                               render_points_as_spheres=True, name="attachments")
+    return actor
+
+
+def set_camera(plotter: pv.Plotter, name: str, face: FaceModel) -> None:
+    """Point the camera at the face from a named view (:data:`CAMERAS`)."""
+    if name not in CAMERAS:
+        raise KeyError(f"unknown camera {name!r}; cameras: {', '.join(CAMERAS)}")
+    direction, zoom = CAMERAS[name]
+    lo, hi = face.skin.bounds()
+    center = 0.5 * (lo + hi)
+    if name == "forehead":
+        center = np.array([center[0], lo[1] + 0.72 * (hi[1] - lo[1]), hi[2]])
+    d = np.asarray(direction) / np.linalg.norm(direction)
+    distance = 2.6 * float(np.max(hi - lo))
+    plotter.camera_position = [tuple(center + distance * d), tuple(center), (0.0, 1.0, 0.0)]
+    plotter.reset_camera_clipping_range()
+    plotter.camera.zoom(zoom)
+
+
+def render_field(face: FaceModel, expression="surprise", field: str | None = "W",
+                 muscle: str | None = None, *, layers=("skin",), camera: str = "front",
+                 size=(800, 800), intensity: float = 1.0, filename=None, title=None,
+                 theme=None, plotter: pv.Plotter | None = None) -> np.ndarray:
+    """Render a field of an expression off screen, with scalar bar and title, to a PNG.
+
+    Parameters
+    ----------
+    face : FaceModel
+        The face.
+    expression : str, Expression or mapping
+        What to evaluate (see :meth:`FaceModel.evaluate`).
+    field : str or None
+        A field of :data:`~wrinkle_vis.plotting.fields.FIELDS`; None for plain skin.
+    muscle : str, optional
+        Whose field; None for the total (``W`` only).
+    layers : sequence of str
+        Any of ``"skin"``, ``"muscles"`` (over a translucent skin when both), ``"skull"``.
+    camera : str
+        One of :data:`CAMERAS`.
+    size : (int, int)
+        Image size in pixels.
+    filename : path, optional
+        Where to write the PNG.
+    plotter : pyvista.Plotter, optional
+        Draw into this plotter (for image tests) instead of a new one; it is not closed.
+
+    Returns
+    -------
+    (h, w, 3) uint8 ndarray
+        The image.
+    """
+    unknown = [layer for layer in layers if layer not in LAYERS]
+    if unknown or not layers:
+        raise ValueError(f"unknown layer(s) {unknown}; choose from {', '.join(LAYERS)}")
+    state = face.evaluate(expression, intensity)
+    own = plotter is None
+    if own:
+        plotter = pv.Plotter(off_screen=True, window_size=list(size), theme=theme)
+    try:
+        if "skin" in layers:
+            add_skin(plotter, state, field, muscle,
+                     opacity=0.35 if ("muscles" in layers or "skull" in layers) else 1.0)
+        if "muscles" in layers:
+            add_muscles(plotter, face, state.activations, scalar_bar="skin" not in layers)
+        if "skull" in layers:
+            add_skull(plotter, face)
+        label = expression if isinstance(expression, str) else "custom"
+        what = [f"{field}{'' if muscle is None else ' of ' + muscle}"] if (
+            "skin" in layers and field) else []
+        what += [layer for layer in layers if layer != "skin" or not field]
+        plotter.add_title(title or f"{label}: {', '.join(what)}",
+                          font_size=max(6, round(plotter.window_size[0] / 60)))
+        set_camera(plotter, camera, face)
+        image = plotter.screenshot(filename, return_img=True)
+    finally:
+        if own:
+            plotter.close()
+    return image
