@@ -172,6 +172,19 @@ def _animate(args) -> int:
     return 0
 
 
+def _app_or_summary(parser) -> int:
+    import os
+
+    if os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY") or sys.platform in (
+            "darwin", "win32"):
+        from wrinkle_vis.app.window import run
+
+        return run(sys.argv[:1])
+    print("wrinkle-vis: no display, so no window; printing the summary instead "
+          "(run under a desktop or Xvfb for the app)", file=sys.stderr)
+    return _summary(parser.parse_args(["summary"]))
+
+
 COMMANDS = {"summary": _summary, "render": _render, "export": _export, "animate": _animate}
 
 
@@ -180,7 +193,7 @@ def main(argv=None) -> int:
     parser = _parser()
     args = parser.parse_args(argv)
     if args.command is None:
-        args = parser.parse_args(["summary"])
+        return _app_or_summary(parser)
     if not (0.0 <= args.intensity <= 1.0):
         parser.error(f"--intensity {args.intensity:g} is outside [0, 1]")
     if getattr(args, "layout", None) is not None and not args.layout.is_file():

@@ -66,6 +66,7 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
     if array not in mesh.point_data:
         raise KeyError(f"no muscle {muscle!r}; muscles: {', '.join(state.face.muscle_names)}")
     values = mesh.point_data[array]
+    mesh.set_active_scalars(array)
     actor = plotter.add_mesh(
         mesh, scalars=array, cmap=info.cmap, clim=field_range(info, values),
         nan_color=NAN_COLOR, smooth_shading=True, opacity=opacity, show_edges=show_edges,

@@ -1,0 +1,184 @@
+"""The Qt app in a real window (Xvfb, xcb) driven by pytest-qt."""
+
+import gc
+import json
+
+import numpy as np
+import pytest
+from qtpy import QtCore, QtWidgets
+
+import wrinkle_vis as wv
+from wrinkle_vis.app.session import Session
+from wrinkle_vis.app.window import MainWindow
+from wrinkle_vis.plotting.polydata import field_array_name
+
+
+@pytest.fixture(autouse=True)
+def no_leaked_plotters():
+    """Like pyvistaqt's leak check: a test must close every plotter it opens."""
+    from pyvista.plotting.plotter import _ALL_PLOTTERS
+
+    before = {k for k, p in _ALL_PLOTTERS.items() if not p._closed}
+    yield
+    gc.collect()
+    leaked = [k for k, p in _ALL_PLOTTERS.items() if not p._closed and k not in before]
+    assert not leaked, f"plotters left open: {leaked}"
+
+
+@pytest.fixture
+def settings(tmp_path):
+    return QtCore.QSettings(str(tmp_path / "settings.ini"), QtCore.QSettings.IniFormat)
+
+
+@pytest.fixture
+def window(qtbot, wv_face, settings):
+    w = MainWindow(Session(wv_face), settings)
+    qtbot.addWidget(w, before_close_func=_discard_changes)
+    w.show()
+    qtbot.waitExposed(w)
+    return w
+
+
+def _discard_changes(w):
+    w.session.dirty = False
+
+
+def test_window_has_three_views_that_close_cleanly(qtbot, wv_face, settings):
+    w = MainWindow(Session(wv_face), settings)
+    qtbot.addWidget(w)
+    w.show()
+    qtbot.waitExposed(w)
+    assert len(w.plotters) == 3 and all(not p._closed for p in w.plotters)
+    assert w.skin_view.mesh is not None
+    w.close()
+    assert all(p._closed for p in w.plotters)
+
+
+def test_a_camera_change_in_one_view_reaches_the_others_at_once(window):
+    cams = [p.renderer.GetActiveCamera() for p in window.plotters]
+    assert cams[0] is cams[1] is cams[2]
+    renders = []
+    window.skull_view.render_window.AddObserver("EndEvent", lambda *a: renders.append(1))
+    window.muscle_view.camera.azimuth = 35.0  # move the camera from the middle view
+    assert renders, "the skull view did not redraw synchronously"
+    assert window.skin_view.camera_position == window.skull_view.camera_position
+
+
+def test_switching_field_changes_the_active_array_and_scalar_bar(window):
+    window.muscle_box.setCurrentText("corrugator_L")
+    window.field_box.setCurrentText("gamma")
+    assert window.active_array() == "corrugator_L.gamma"
+    assert window.skin_view.mesh.active_scalars_name == "corrugator_L.gamma"
+    assert "gamma, corrugator_L" in window.skin_view.scalar_bars
+    window.muscle_box.setCurrentText("total")  # only W has a total
+    assert window.field_box.currentText() == "W"
+    assert window.skin_view.mesh.active_scalars_name == "W"
+
+
+def test_probe_reports_what_the_core_computes(window, wv_face):
+    window.muscle_box.setCurrentText("frontalis_major_L")
+    state = wv_face.evaluate("surprise")
+    vertex = int(np.flatnonzero(np.isfinite(state.fields["frontalis_major_L"]["W"]))[0])
+    values = window.probe_vertex(vertex)
+    for f in wv.FIELD_NAMES:
+        np.testing.assert_equal(values["frontalis_major_L"][f],
+                                state.fields["frontalis_major_L"][f][vertex])
+    assert values["total"]["W"] == state.W[vertex]
+    row = list(wv.FIELD_NAMES).index("W")
+    assert float(window.probe_table.item(row, 0).text()) == pytest.approx(
+        state.fields["frontalis_major_L"]["W"][vertex], rel=1e-4)
+
+
+def test_pick_callback_probes_the_nearest_vertex(window):
+    point = window.session.state().points[123]
+    window._on_pick(point + 1e-6)
+    assert window.probed_vertex == 123
+
+
+def test_a_parameter_change_updates_the_skin(window):
+    window.muscle_box.setCurrentText("corrugator_L")
+    before = np.array(window.skin_view.mesh.points)
+    window.expression_box.setCurrentText("frown")
+    frown_before = np.array(window.skin_view.mesh.points)
+    assert not np.array_equal(before, frown_before)
+    window.param_widgets["k0"].setValue(4.0)
+    after = np.array(window.skin_view.mesh.points)
+    assert window.session.face.muscle("corrugator_L").k0 == 4.0
+    assert not np.array_equal(after, frown_before)
+    assert "d = 3" in window.derived_label.text()  # d = 0.75 k0 at alpha = 1
+    assert window.session.dirty and window.windowTitle().endswith("*")
+
+
+def test_an_invalid_value_is_refused_with_its_reason(window):
+    window.muscle_box.setCurrentText("corrugator_L")
+    assert not window.set_parameter("lambda_w", 1.5)
+    assert "lambda_w" in window.param_error.text() and "[0, 1)" in window.param_error.text()
+    assert window.session.face.muscle("corrugator_L").lambda_w == 0.05
+    assert window.param_widgets["lambda_w"].value() == pytest.approx(0.05)
+
+
+def test_intensity_and_timeline(window):
+    window.intensity_slider.setValue(50)
+    assert window.session.intensity == 0.5
+    assert max(window.session.state().activations.values()) == pytest.approx(0.5)
+    window.time_slider.setValue(0)
+    assert not window.session.state().W.any()  # the ramp starts at rest
+    window.time_slider.setValue(150)  # half way: the plateau
+    assert window.session.state().W.any()
+    assert "frame" in window.statusBar().currentMessage()
+
+
+def test_play_advances_the_timeline(window, qtbot):
+    window.time_slider.setValue(0)
+    window.play_button.setChecked(True)
+    qtbot.waitUntil(lambda: window.time_slider.value() > 8, timeout=3000)
+    window.play_button.setChecked(False)
+    assert not window.timer.isActive()
+
+
+def test_save_reopen_gives_the_same_layout(window, tmp_path):
+    window.muscle_box.setCurrentText("corrugator_R")
+    window.param_widgets["k0"].setValue(3.5)
+    path = tmp_path / "mine.json"
+    assert window.save_as(path)
+    assert not window.session.dirty
+    saved = wv.load_layout(path)
+    assert saved.muscles == window.session.face.muscles
+    assert window.open_layout(path)
+    assert window.session.face.muscle("corrugator_R").k0 == 3.5
+    assert window.recent_files()[0] == str(path.resolve())
+    assert window.recent_menu.actions()[0].text() == str(path.resolve())
+
+
+def test_a_bad_layout_is_reported_and_the_face_kept(window, tmp_path, monkeypatch):
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"format": "wrinkle-vis-layout", "version": 9}))
+    shown = []
+    monkeypatch.setattr(QtWidgets.QMessageBox, "warning", lambda *a: shown.append(a[2]))
+    face = window.session.face
+    assert not window.open_layout(bad)
+    assert window.session.face is face and "$.version" in shown[0]
+
+
+def test_screenshot(window, tmp_path):
+    out = window.screenshot(tmp_path / "shot.png")
+    assert out.is_file() and out.stat().st_size > 1000
+
+
+def test_closing_with_unsaved_changes_asks(qtbot, wv_face, settings, monkeypatch):
+    w = MainWindow(Session(wv_face), settings)
+    qtbot.addWidget(w, before_close_func=_discard_changes)
+    w.show()
+    w.session.dirty = True
+    monkeypatch.setattr(QtWidgets.QMessageBox, "question",
+                        lambda *a: QtWidgets.QMessageBox.Cancel)
+    w.close()
+    assert w.isVisible() and not any(p._closed for p in w.plotters)
+    monkeypatch.setattr(QtWidgets.QMessageBox, "question",
+                        lambda *a: QtWidgets.QMessageBox.Discard)
+    w.close()
+    assert all(p._closed for p in w.plotters)
+
+
+def test_field_array_name_matches_the_skin_view(window):
+    assert window.active_array() == field_array_name("W")

@@ -1,0 +1,137 @@
+"""The app's model: what the user is looking at, with no Qt in it (tested on its own)."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from ..core.face import FIELD_NAMES, FaceModel, FaceState
+from ..core.layout import Layout, load_layout, save_layout
+
+__all__ = ["EDITABLE", "Session"]
+
+#: Numeric parameters the parameter panel edits, by muscle type: (name, label, step).
+EDITABLE = {
+    "linear": (("k0", "k0", 0.1), ("alpha", "alpha", 0.1), ("n_wrinkles", "n_w", 1),
+               ("lambda_w", "lambda_w", 0.05), ("radius", "R", 1.0),
+               ("max_angle_deg", "Phi (deg)", 1.0),
+               ("attenuation_start_deg", "phi_c (deg)", 1.0)),
+    "sheet": (("k0", "k0", 0.1), ("alpha", "alpha", 0.1), ("n_wrinkles", "n_w", 1),
+              ("lambda_w", "lambda_w", 0.05), ("length", "L_s", 1.0), ("width", "W_s", 1.0),
+              ("attenuation_start", "h_c", 0.5)),
+}
+
+
+class Session:
+    """The face, the expression and time, the field on display, and the open layout file.
+
+    Parameters
+    ----------
+    face : FaceModel
+        The face to show.
+    layout_path : path, optional
+        The file the face's layout came from (where Save writes).
+    """
+
+    def __init__(self, face: FaceModel, layout_path: str | Path | None = None):
+        self.face = face
+        self.layout_path = Path(layout_path) if layout_path else None
+        self.expression = "surprise" if "surprise" in face.expressions else next(
+            iter(face.expressions))
+        self.intensity = 1.0
+        self.time_s: float | None = None  # None: the expression at its peak
+        self.field = "W"
+        self.muscle: str | None = None  # None: the total
+        self.dirty = False
+        self._state: FaceState | None = None
+
+    # ------------------------------------------------------------------ what to show
+    def activations(self) -> dict[str, float]:
+        """The activations of the current expression, intensity and time."""
+        ex = self.face.expressions[self.expression]
+        if self.time_s is None:
+            return ex.scaled(self.intensity)
+        return ex.at(self.time_s, self.intensity)
+
+    def state(self) -> FaceState:
+        """The evaluated frame (cached until something changes)."""
+        if self._state is None:
+            self._state = self.face.evaluate(self.activations())
+        return self._state
+
+    def _changed(self) -> None:
+        self._state = None
+
+    def set_expression(self, name: str) -> None:
+        """Show expression ``name`` (``KeyError`` lists the face's expressions)."""
+        if name not in self.face.expressions:
+            raise KeyError(f"unknown expression {name!r}; this face has: "
+                           f"{', '.join(self.face.expressions)}")
+        self.expression = name
+        self._changed()
+
+    def set_intensity(self, value: float) -> None:
+        """Scale every activation by ``value`` in ``[0, 1]``."""
+        if not 0.0 <= value <= 1.0:
+            raise ValueError(f"intensity = {value:g} is outside [0, 1]")
+        self.intensity = float(value)
+        self._changed()
+
+    def set_time(self, t: float | None) -> None:
+        """Show the expression's ramp at ``t`` seconds (None: at its peak)."""
+        self.time_s = None if t is None else float(t)
+        self._changed()
+
+    def set_field(self, field: str, muscle: str | None = None) -> None:
+        """Show ``field`` of ``muscle`` (None: the total, which only W has)."""
+        if field not in FIELD_NAMES:
+            raise KeyError(f"unknown field {field!r}; fields: {', '.join(FIELD_NAMES)}")
+        if muscle is None and field != "W":
+            raise ValueError(f"field {field!r} belongs to one muscle; choose one")
+        if muscle is not None:
+            self.face.muscle(muscle)
+        self.field, self.muscle = field, muscle
+
+    # ------------------------------------------------------------------ editing
+    def set_parameter(self, muscle: str, param: str, value) -> None:
+        """Change one parameter of a muscle; an invalid value raises and changes nothing."""
+        new = self.face.muscle(muscle).replace(**{param: value})
+        self.face = self.face.with_muscle(new)
+        self.dirty = True
+        self._changed()
+
+    def derived(self, muscle: str) -> dict[str, float]:
+        """The muscle's derived d (Eq. 8) and u (Eq. 6)."""
+        m = self.face.muscle(muscle)
+        return {"d": m.d, "u": m.u}
+
+    # ------------------------------------------------------------------ probe
+    def probe(self, vertex: int) -> dict:
+        """Every field's value at skin vertex ``vertex``: ``{"total": {"W": ..}, muscle:
+        {field: ..}}`` for the muscles that define anything there (NaN elsewhere).
+        """
+        state = self.state()
+        out = {"total": {"W": float(state.W[vertex])}}
+        for name in self.face.muscle_names:
+            values = {f: float(state.fields[name][f][vertex]) for f in FIELD_NAMES}
+            if any(np.isfinite(v) for v in values.values()):
+                out[name] = values
+        return out
+
+    # ------------------------------------------------------------------ files
+    def layout(self) -> Layout:
+        """The current muscles and expressions as a :class:`Layout`."""
+        base = load_layout(self.layout_path) if self.layout_path else Layout()
+        return dataclasses.replace(base, name=self.face.name, muscles=self.face.muscles,
+                                   expressions=self.face.expressions)
+
+    def save(self, path: str | Path | None = None) -> Path:
+        """Save the layout atomically to ``path`` (default the open file)."""
+        path = Path(path or self.layout_path or "")
+        if not path.name:
+            raise ValueError("no file to save to: choose one")
+        save_layout(self.layout(), path)
+        self.layout_path, self.dirty = path, False
+        return path
