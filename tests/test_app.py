@@ -69,7 +69,8 @@ def test_switching_field_changes_the_active_array_and_scalar_bar(window):
     window.field_box.setCurrentText("gamma")
     assert window.active_array() == "corrugator_L.gamma"
     assert window.skin_view.mesh.active_scalars_name == "corrugator_L.gamma"
-    assert "gamma, corrugator_L" in window.skin_view.scalar_bars
+    bars = window.skin_view.scalar_bars
+    assert "gamma, corrugator_L" in bars and "W (mm), total" not in bars  # W's bar is gone
     window.muscle_box.setCurrentText("total")  # only W has a total
     assert window.field_box.currentText() == "W"
     assert window.skin_view.mesh.active_scalars_name == "W"

@@ -133,7 +133,7 @@ def _animate(args) -> int:
     import pyvista as pv
     from tqdm import tqdm
 
-    from wrinkle_vis.plotting import add_skin, field_range, set_camera
+    from wrinkle_vis.plotting import add_skin, clear_scene, field_range, set_camera
     from wrinkle_vis.plotting.fields import field_info
 
     suffix = args.output.suffix.lower()
@@ -150,7 +150,7 @@ def _animate(args) -> int:
     try:
         for t in tqdm(times, desc=f"rendering {args.output.name}", unit="frame"):
             state = face.evaluate(expression.at(t, args.intensity))
-            plotter.clear()
+            clear_scene(plotter)
             add_skin(plotter, state, field)
             if clim is not None:
                 plotter.update_scalar_bar_range(clim)

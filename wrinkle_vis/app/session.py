@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import time
 from pathlib import Path
 
 import numpy as np
@@ -45,6 +46,7 @@ class Session:
         self.field = "W"
         self.muscle: str | None = None  # None: the total
         self.dirty = False
+        self.frame_ms = 0.0  # how long the last evaluation took
         self._state: FaceState | None = None
 
     # ------------------------------------------------------------------ what to show
@@ -58,7 +60,9 @@ class Session:
     def state(self) -> FaceState:
         """The evaluated frame (cached until something changes)."""
         if self._state is None:
+            t0 = time.perf_counter()
             self._state = self.face.evaluate(self.activations())
+            self.frame_ms = 1e3 * (time.perf_counter() - t0)
         return self._state
 
     def _changed(self) -> None:

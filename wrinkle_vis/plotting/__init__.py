@@ -10,6 +10,7 @@ from .scenes import (
     add_muscles,
     add_skin,
     add_skull,
+    clear_scene,
     muscle_mesh,
     render_field,
     set_camera,
@@ -17,6 +18,6 @@ from .scenes import (
 )
 
 __all__ = ["BONE", "CAMERAS", "FIELDS", "LAYERS", "NAN_COLOR", "SKIN", "FieldInfo",
-           "add_muscles", "add_skin", "add_skull", "field_array_name", "field_info",
+           "add_muscles", "add_skin", "add_skull", "clear_scene", "field_array_name", "field_info",
            "field_range", "muscle_mesh", "render_field", "set_camera", "testing_theme",
            "to_polydata", "to_surface_polydata"]

@@ -11,6 +11,7 @@ from .fields import NAN_COLOR, field_info, field_range
 from .polydata import field_array_name, to_polydata, to_surface_polydata
 
 __all__ = ["BONE", "CAMERAS", "LAYERS", "SKIN", "add_muscles", "add_skin", "add_skull",
+           "clear_scene",
            "muscle_mesh", "render_field", "set_camera", "testing_theme"]
 
 SKIN = "#f1c9a5"
@@ -38,6 +39,12 @@ def testing_theme() -> pv.themes.DocumentTheme:
     theme.font.label_size = 10
     theme.nan_color = NAN_COLOR
     return theme
+
+
+def clear_scene(plotter: pv.Plotter) -> None:
+    """Remove every actor and scalar bar but keep the lights (``clear()`` drops them too)."""
+    plotter.clear()
+    plotter.enable_lightkit()
 
 
 def _scalar_bar(plotter: pv.Plotter, title: str, nan: bool = True) -> dict:
