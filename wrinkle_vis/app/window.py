@@ -321,15 +321,19 @@ class MainWindow(QtWidgets.QMainWindow):
         t0 = time.perf_counter()
         s = self.session
         state = s.state()
-        clear_scene(self.skin_view)
-        add_skin(self.skin_view, state, s.field, s.muscle)
-        clear_scene(self.muscle_view)
-        add_skin(self.muscle_view, state, None, opacity=0.25)
-        add_muscles(self.muscle_view, s.face, state.activations)
-        clear_scene(self.skull_view)
-        add_skull(self.skull_view, s.face)
-        if reset_camera:
-            set_camera(self.skin_view, "front", s.face)
+        self._syncing = True  # one render per view at the end, not one per change
+        try:
+            clear_scene(self.skin_view)
+            add_skin(self.skin_view, state, s.field, s.muscle)
+            clear_scene(self.muscle_view)
+            add_skin(self.muscle_view, state, None, opacity=0.25)
+            add_muscles(self.muscle_view, s.face, state.activations)
+            clear_scene(self.skull_view)
+            add_skull(self.skull_view, s.face)
+            if reset_camera:
+                set_camera(self.skin_view, "front", s.face)
+        finally:
+            self._syncing = False
         if self.session.muscle is not None and hasattr(self, "activation_box"):
             self.activation_box.setValue(state.activations.get(self.session.muscle, 0.0))
         if self.probed_vertex is not None:

@@ -42,9 +42,13 @@ def testing_theme() -> pv.themes.DocumentTheme:
 
 
 def clear_scene(plotter: pv.Plotter) -> None:
-    """Remove every actor and scalar bar but keep the lights (``clear()`` drops them too)."""
+    """Remove every actor and scalar bar but keep the lights (``clear()`` drops them too).
+
+    Nothing is rendered: the scene functions here add with ``render=False`` too, so a caller
+    that rebuilds a scene renders once at the end.
+    """
     plotter.clear()
-    plotter.enable_lightkit()
+    plotter.enable_lightkit(only_active=True)
 
 
 def _scalar_bar(plotter: pv.Plotter, title: str, nan: bool = True) -> dict:
@@ -64,7 +68,7 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
     mesh = to_polydata(state)
     if field is None:
         return plotter.add_mesh(mesh, color=SKIN, smooth_shading=True, opacity=opacity,
-                                show_edges=show_edges, name="skin")
+                                show_edges=show_edges, name="skin", render=False)
     info = field_info(field)
     if muscle is None and field != "W":
         raise ValueError(f"field {field!r} belongs to one muscle; name it (only W has a "
@@ -77,7 +81,7 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
     actor = plotter.add_mesh(
         mesh, scalars=array, cmap=info.cmap, clim=field_range(info, values),
         nan_color=NAN_COLOR, smooth_shading=True, opacity=opacity, show_edges=show_edges,
-        show_scalar_bar=scalar_bar, name="skin",
+        show_scalar_bar=scalar_bar, name="skin", render=False,
         scalar_bar_args=_scalar_bar(plotter, info.title(muscle)) if scalar_bar else None)
     if scalar_bar:
         plotter.scalar_bars[info.title(muscle)].SetNanAnnotation("undefined")
@@ -123,7 +127,7 @@ def add_muscles(plotter: pv.Plotter, face: FaceModel, activations=None, *,
         show_bar = scalar_bar and i == 0
         actors.append(plotter.add_mesh(
             muscle_mesh(m, activations.get(m.name, 0.0)), scalars="activation", cmap="Reds",
-            clim=(0.0, 1.0), smooth_shading=True, name=f"muscle:{m.name}",
+            clim=(0.0, 1.0), smooth_shading=True, name=f"muscle:{m.name}", render=False,
             show_scalar_bar=show_bar,
             scalar_bar_args=_scalar_bar(plotter, "activation", nan=False) if show_bar
             else None))
@@ -135,13 +139,14 @@ def add_skull(plotter: pv.Plotter, face: FaceModel, *, attachments: bool = True)
     if face.skull is None:
         raise ValueError("this face has no skull")
     actor = plotter.add_mesh(to_surface_polydata(face.skull), color=BONE,
-                             smooth_shading=True, name="skull")
+                             smooth_shading=True, name="skull", render=False)
     if attachments:
         pts = [np.asarray(getattr(m, p), float).reshape(-1, 3)
                for m in face.muscles for p in m.point_parameters if p.startswith("attachment")]
         if pts:
             plotter.add_points(np.concatenate(pts), color="#7a1f1f", point_size=9,
-                               render_points_as_spheres=True, name="attachments")
+                               render_points_as_spheres=True, name="attachments",
+                               render=False)
     return actor
 
 
