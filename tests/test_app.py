@@ -183,3 +183,28 @@ def test_closing_with_unsaved_changes_asks(qtbot, wv_face, settings, monkeypatch
 
 def test_field_array_name_matches_the_skin_view(window):
     assert window.active_array() == field_array_name("W")
+
+
+def test_activation_set_by_hand_recomputes_at_once(window):
+    window.expression_box.setCurrentText("neutral")
+    window.muscle_box.setCurrentText("zygomaticus_major_L")
+    assert not window.session.state().W.any()
+    rest = np.array(window.skin_view.mesh.points)
+    window.activation_box.setValue(0.8)
+    assert window.session.state().activations["zygomaticus_major_L"] == 0.8
+    assert window.session.state().W.any()
+    assert not np.array_equal(np.array(window.skin_view.mesh.points), rest)
+    window.expression_box.setCurrentText("frown")  # a new expression resets hand-set values
+    assert window.session.state().activations["zygomaticus_major_L"] == 0.0
+
+
+def test_closing_prints_no_vtk_warnings(qtbot, wv_face, settings, capfd):
+    w = MainWindow(Session(wv_face), settings)
+    qtbot.addWidget(w, before_close_func=_discard_changes)
+    w.show()
+    qtbot.waitExposed(w)
+    w.close()
+    QtWidgets.QApplication.processEvents()
+    gc.collect()
+    out, err = capfd.readouterr()
+    assert "vtk" not in (out + err).lower() and "error" not in (out + err).lower()

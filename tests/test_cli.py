@@ -29,6 +29,15 @@ def test_export_carries_every_field(tmp_path):
     assert np.isnan(mesh["corrugator_L.W"]).any() and np.nanmax(np.abs(mesh["W"])) > 0
 
 
+def test_export_all_layers(tmp_path):
+    out = tmp_path / "fear.vtm"
+    assert main(["export", "-e", "fear", "-o", str(out)]) == 0
+    blocks = pv.read(out)
+    assert set(blocks.keys()) == {"skin", "skull", "muscles"}
+    assert "W" in blocks["skin"].point_data and len(blocks["muscles"]) == 14
+    assert blocks["muscles"]["corrugator_L"]["activation"].max() == pytest.approx(0.8)
+
+
 @pytest.mark.parametrize("suffix", [".gif", ".mp4"])
 def test_animate(tmp_path, suffix):
     out = tmp_path / f"s{suffix}"
@@ -49,7 +58,7 @@ def test_animate(tmp_path, suffix):
         (["render", "-f", "eps", "-o", "x.png"], "belongs to one muscle"),
         (["render", "-m", "nose", "-o", "x.png"], "unknown muscle 'nose'"),
         (["render", "-e", "laughing", "-o", "x.png"], "unknown expression 'laughing'"),
-        (["export", "-o", "x.stl"], "must end in .vtp, .vtk or .ply"),
+        (["export", "-o", "x.stl"], "must end in .vtp, .vtk, .ply or .vtm"),
         (["animate", "-o", "x.avi"], "must end in .gif or .mp4"),
     ],
 )

@@ -55,7 +55,8 @@ def _parser() -> argparse.ArgumentParser:
     p = sub.add_parser("export", help="write the skin with every field as point arrays")
     _common(p)
     p.add_argument("--output", "-o", type=Path, required=True,
-                   help="a .vtp (ParaView), .vtk or .ply file")
+                   help="a .vtp (ParaView), .vtk or .ply file for the skin, or .vtm for "
+                        "skin, skull and muscles")
 
     p = sub.add_parser("animate", help="render the expression's ramp to a GIF or MP4")
     _common(p)
@@ -118,10 +119,20 @@ def _render(args) -> int:
 
 
 def _export(args) -> int:
-    if args.output.suffix.lower() not in (".vtp", ".vtk", ".ply"):
-        raise CliError(f"--output must end in .vtp, .vtk or .ply; got {args.output.name!r}")
+    suffix = args.output.suffix.lower()
+    if suffix not in (".vtp", ".vtk", ".ply", ".vtm"):
+        raise CliError(f"--output must end in .vtp, .vtk, .ply or .vtm; got "
+                       f"{args.output.name!r}")
     face = _load(args)
-    mesh = face.evaluate(args.expression, args.intensity).to_polydata()
+    state = face.evaluate(args.expression, args.intensity)
+    if suffix == ".vtm":
+        from wrinkle_vis.plotting import to_multiblock
+
+        blocks = to_multiblock(state)
+        blocks.save(args.output)
+        print(f"wrote {args.output}: {', '.join(blocks.keys())}")
+        return 0
+    mesh = state.to_polydata()
     mesh.save(args.output)
     print(f"wrote {args.output}: {mesh.n_points} points, {len(mesh.point_data)} point arrays")
     return 0

@@ -45,17 +45,31 @@ class Session:
         self.time_s: float | None = None  # None: the expression at its peak
         self.field = "W"
         self.muscle: str | None = None  # None: the total
+        self.overrides: dict[str, float] = {}  # activations set by hand, over the expression
         self.dirty = False
         self.frame_ms = 0.0  # how long the last evaluation took
         self._state: FaceState | None = None
 
     # ------------------------------------------------------------------ what to show
     def activations(self) -> dict[str, float]:
-        """The activations of the current expression, intensity and time."""
+        """The activations of the current expression, intensity and time, with the ones set
+        by hand (:meth:`set_activation`) in their place.
+        """
         ex = self.face.expressions[self.expression]
-        if self.time_s is None:
-            return ex.scaled(self.intensity)
-        return ex.at(self.time_s, self.intensity)
+        acts = ex.scaled(self.intensity) if self.time_s is None else ex.at(
+            self.time_s, self.intensity)
+        return {**acts, **self.overrides}
+
+    def set_activation(self, muscle: str, value: float | None) -> None:
+        """Set one muscle's activation by hand (None: back to the expression's)."""
+        self.face.muscle(muscle)
+        if value is None:
+            self.overrides.pop(muscle, None)
+        else:
+            if not 0.0 <= value <= 1.0:
+                raise ValueError(f"activation of {muscle!r} = {value:g} is outside [0, 1]")
+            self.overrides[muscle] = float(value)
+        self._changed()
 
     def state(self) -> FaceState:
         """The evaluated frame (cached until something changes)."""
@@ -74,6 +88,7 @@ class Session:
             raise KeyError(f"unknown expression {name!r}; this face has: "
                            f"{', '.join(self.face.expressions)}")
         self.expression = name
+        self.overrides.clear()
         self._changed()
 
     def set_intensity(self, value: float) -> None:

@@ -211,7 +211,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self.activation_box.setRange(0.0, 1.0)
         self.activation_box.setSingleStep(0.05)
         self.activation_box.setValue(self.session.activations().get(name, 0.0))
-        self.activation_box.setEnabled(False)
+        self.activation_box.setKeyboardTracking(False)
+        self.activation_box.setToolTip("Set by hand over the expression; choosing an "
+                                       "expression again resets it")
+        self.activation_box.valueChanged.connect(self.set_activation)
         self.param_form.addRow("activation", self.activation_box)
         self.derived_label = QtWidgets.QLabel()
         self.param_form.addRow("derived", self.derived_label)
@@ -296,6 +299,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self.refresh()
         return True
 
+    def set_activation(self, value: float) -> None:
+        """Set the selected muscle's activation by hand."""
+        if self._updating_controls or self.session.muscle is None:
+            return
+        self.session.set_activation(self.session.muscle, float(value))
+        self.refresh()
+
     def _on_pick(self, point) -> None:
         if point is None:
             return
@@ -335,7 +345,9 @@ class MainWindow(QtWidgets.QMainWindow):
         finally:
             self._syncing = False
         if self.session.muscle is not None and hasattr(self, "activation_box"):
+            self._updating_controls = True
             self.activation_box.setValue(state.activations.get(self.session.muscle, 0.0))
+            self._updating_controls = False
         if self.probed_vertex is not None:
             self.probe_vertex(self.probed_vertex)
         self._sync_views()

@@ -15,9 +15,10 @@ from .scenes import (
     render_field,
     set_camera,
     testing_theme,
+    to_multiblock,
 )
 
 __all__ = ["BONE", "CAMERAS", "FIELDS", "LAYERS", "NAN_COLOR", "SKIN", "FieldInfo",
            "add_muscles", "add_skin", "add_skull", "clear_scene", "field_array_name", "field_info",
            "field_range", "muscle_mesh", "render_field", "set_camera", "testing_theme",
-           "to_polydata", "to_surface_polydata"]
+           "to_multiblock", "to_polydata", "to_surface_polydata"]

@@ -11,7 +11,7 @@ from .fields import NAN_COLOR, field_info, field_range
 from .polydata import field_array_name, to_polydata, to_surface_polydata
 
 __all__ = ["BONE", "CAMERAS", "LAYERS", "SKIN", "add_muscles", "add_skin", "add_skull",
-           "clear_scene",
+           "clear_scene", "to_multiblock",
            "muscle_mesh", "render_field", "set_camera", "testing_theme"]
 
 SKIN = "#f1c9a5"
@@ -116,6 +116,22 @@ def muscle_mesh(muscle, activation: float = 0.0) -> pv.PolyData:
             else pv.Sphere(radius=2.0, center=pts[0])
     mesh.point_data["activation"] = np.full(mesh.n_points, float(activation))
     return mesh
+
+
+def to_multiblock(state: FaceState) -> pv.MultiBlock:
+    """The three layers of a frame as one ``pyvista.MultiBlock``.
+
+    Blocks: ``skin`` (:func:`~wrinkle_vis.plotting.to_polydata`, every field as a point
+    array), ``skull`` (when the face has one) and ``muscles`` (a block per muscle, from
+    :func:`muscle_mesh`, with its ``activation``).
+    """
+    face = state.face
+    muscles = pv.MultiBlock({m.name: muscle_mesh(m, state.activations[m.name])
+                             for m in face.muscles})
+    blocks = {"skin": to_polydata(state), "muscles": muscles}
+    if face.skull is not None:
+        blocks["skull"] = to_surface_polydata(face.skull)
+    return pv.MultiBlock(blocks)
 
 
 def add_muscles(plotter: pv.Plotter, face: FaceModel, activations=None, *,
