@@ -208,3 +208,16 @@ def test_closing_prints_no_vtk_warnings(qtbot, wv_face, settings, capfd):
     gc.collect()
     out, err = capfd.readouterr()
     assert "vtk" not in (out + err).lower() and "error" not in (out + err).lower()
+
+
+def test_in_place_update_draws_what_a_rebuild_draws(window):
+    window.muscle_box.setCurrentText("frontalis_major_L")
+    window.field_box.setCurrentText("eps")
+    window.intensity_slider.setValue(60)  # activations only: updated in place
+    in_place = window.skin_view.screenshot(return_img=True).astype(int)
+    window._scene_key = None
+    window.refresh()  # from scratch
+    rebuilt = window.skin_view.screenshot(return_img=True).astype(int)
+    assert np.abs(in_place - rebuilt).max() <= 2
+    window.intensity_slider.setValue(100)
+    assert np.abs(window.skin_view.screenshot(return_img=True).astype(int) - rebuilt).max() > 20

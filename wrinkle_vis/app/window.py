@@ -16,7 +16,8 @@ from qtpy import QtCore, QtGui, QtWidgets
 from ..core.face import FIELD_NAMES
 from ..core.layout import LayoutError
 from ..core.muscle import MuscleParameterError
-from ..plotting import add_muscles, add_skin, add_skull, clear_scene, set_camera
+from ..plotting import add_muscles, add_skin, add_skull, clear_scene, field_range, set_camera
+from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
 from .session import EDITABLE, Session
 
@@ -45,6 +46,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.resize(1500, 800)
         self._syncing = False
         self._updating_controls = False
+        self._scene_key = None
         self.plotters: list[QtInteractor] = []
         self._build_views()
         self._build_controls()
@@ -333,13 +335,12 @@ class MainWindow(QtWidgets.QMainWindow):
         state = s.state()
         self._syncing = True  # one render per view at the end, not one per change
         try:
-            clear_scene(self.skin_view)
-            add_skin(self.skin_view, state, s.field, s.muscle)
-            clear_scene(self.muscle_view)
-            add_skin(self.muscle_view, state, None, opacity=0.25)
-            add_muscles(self.muscle_view, s.face, state.activations)
-            clear_scene(self.skull_view)
-            add_skull(self.skull_view, s.face)
+            key = (id(s.face), s.field, s.muscle)
+            if reset_camera or key != self._scene_key:
+                self._rebuild(state)
+                self._scene_key = key
+            else:
+                self._update_in_place(state)
             if reset_camera:
                 set_camera(self.skin_view, "front", s.face)
         finally:
@@ -358,6 +359,35 @@ class MainWindow(QtWidgets.QMainWindow):
             f"{s.frame_ms:.2f} ms, drawn in {total_ms:.1f} ms  |  "
             f"{s.face.skin.n_triangles} triangles")
         self._update_title()
+
+    def _rebuild(self, state) -> None:
+        """Build the three scenes from scratch (field, muscle or face changed)."""
+        s = self.session
+        clear_scene(self.skin_view)
+        add_skin(self.skin_view, state, s.field, s.muscle)
+        self._skin_mesh = self.skin_view.mesh
+        clear_scene(self.muscle_view)
+        add_skin(self.muscle_view, state, None, opacity=0.25)
+        self._ghost_mesh = self.muscle_view.mesh
+        self._muscle_meshes = add_muscles(self.muscle_view, s.face, state.activations)
+        clear_scene(self.skull_view)
+        add_skull(self.skull_view, s.face)
+
+    def _update_in_place(self, state) -> None:
+        """Only activations changed: move the skin and recolour, without new actors.
+
+        ``add_mesh`` renders a shallow copy of each mesh, which shares its VTK arrays, so
+        the new values are written into those arrays and the arrays marked modified.
+        """
+        s = self.session
+        array = self.active_array()
+        values = state.W if s.muscle is None else state.fields[s.muscle][s.field]
+        _write(self._skin_mesh, state.points, array, values)
+        self.skin_view.actors["skin"].mapper.scalar_range = field_range(
+            field_info(s.field), values)
+        _write(self._ghost_mesh, state.points)
+        for name, mesh in self._muscle_meshes.items():
+            _write(mesh, None, "activation", state.activations[name])
 
     def active_array(self) -> str:
         """The point array the skin view colours by."""
@@ -465,6 +495,17 @@ class MainWindow(QtWidgets.QMainWindow):
         for p in self.plotters:
             p.close()
         event.accept()
+
+
+def _write(mesh, points=None, array: str | None = None, values=None) -> None:
+    """Write into a mesh's existing VTK buffers (shared with PyVista's shallow copies)."""
+    if points is not None:
+        mesh.points[:] = points
+        mesh.GetPoints().Modified()
+    if array is not None:
+        mesh.point_data[array][:] = values
+        mesh.GetPointData().GetArray(array).Modified()
+    mesh.Modified()
 
 
 def _resolved(muscle, param: str) -> float:

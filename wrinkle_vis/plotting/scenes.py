@@ -135,19 +135,27 @@ def to_multiblock(state: FaceState) -> pv.MultiBlock:
 
 
 def add_muscles(plotter: pv.Plotter, face: FaceModel, activations=None, *,
-                scalar_bar: bool = True) -> list:
-    """Add every muscle, coloured by its activation (white at rest, red when contracting)."""
+                scalar_bar: bool = True) -> dict[str, pv.PolyData]:
+    """Add every muscle, coloured by its activation (white at rest, red when contracting).
+
+    Returns
+    -------
+    dict of str to pyvista.PolyData
+        The mesh drawn for each muscle; writing into its ``activation`` array (and marking
+        the array modified) recolours it without new actors.
+    """
     activations = activations or {}
-    actors = []
+    meshes = {}
     for i, m in enumerate(face.muscles):
         show_bar = scalar_bar and i == 0
-        actors.append(plotter.add_mesh(
-            muscle_mesh(m, activations.get(m.name, 0.0)), scalars="activation", cmap="Reds",
-            clim=(0.0, 1.0), smooth_shading=True, name=f"muscle:{m.name}", render=False,
-            show_scalar_bar=show_bar,
+        mesh = muscle_mesh(m, activations.get(m.name, 0.0))
+        plotter.add_mesh(
+            mesh, scalars="activation", cmap="Reds", clim=(0.0, 1.0), smooth_shading=True,
+            name=f"muscle:{m.name}", render=False, show_scalar_bar=show_bar,
             scalar_bar_args=_scalar_bar(plotter, "activation", nan=False) if show_bar
-            else None))
-    return actors
+            else None)
+        meshes[m.name] = mesh
+    return meshes
 
 
 def add_skull(plotter: pv.Plotter, face: FaceModel, *, attachments: bool = True):
