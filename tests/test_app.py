@@ -221,3 +221,18 @@ def test_in_place_update_draws_what_a_rebuild_draws(window):
     assert np.abs(in_place - rebuilt).max() <= 2
     window.intensity_slider.setValue(100)
     assert np.abs(window.skin_view.screenshot(return_img=True).astype(int) - rebuilt).max() > 20
+
+
+def test_a_closed_window_and_its_plotters_are_collected(wv_face, settings, qapp):
+    import weakref
+
+    w = MainWindow(Session(wv_face), settings)
+    w.show()
+    refs = [weakref.ref(w)] + [weakref.ref(p) for p in w.plotters]
+    w.close()
+    w.deleteLater()
+    del w
+    QtCore.QCoreApplication.sendPostedEvents(None, QtCore.QEvent.DeferredDelete.value)
+    qapp.processEvents()
+    gc.collect()
+    assert [r() for r in refs] == [None] * 4

@@ -74,7 +74,7 @@ class MainWindow(QtWidgets.QMainWindow):
         camera = self.skin_view.renderer.camera
         for p in self.plotters[1:]:
             p.renderer.camera = camera
-        camera.AddObserver("ModifiedEvent", self._sync_views)
+        self._camera_observer = camera.AddObserver("ModifiedEvent", self._sync_views)
         self.skin_view.enable_point_picking(self._on_pick, use_picker=True, show_message=False,
                                             show_point=True, left_clicking=False)
 
@@ -492,6 +492,10 @@ class MainWindow(QtWidgets.QMainWindow):
                 event.ignore()
                 return
         self.timer.stop()
+        # VTK holds these callbacks strongly, out of Python's sight: drop them, or the
+        # window and its plotters could never be collected
+        self.skin_view.renderer.GetActiveCamera().RemoveObserver(self._camera_observer)
+        self.skin_view.disable_picking()
         for p in self.plotters:
             p.close()
         event.accept()
