@@ -1,0 +1,20 @@
+import tomllib
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_every_package_directory_is_declared():
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    declared = set(config["packages"])
+    mapping = {"wrinkle_vis": ROOT / "wrinkle_vis", "wrinkle_vis.widgets": ROOT / "widgets",
+               "wrinkle_vis.datasets": ROOT / "datasets"}
+    found = set()
+    for name, folder in mapping.items():
+        for init in folder.rglob("__init__.py"):
+            rel = init.parent.relative_to(folder).parts
+            found.add(".".join((name, *rel)) if rel else name)
+        for data in folder.rglob("*.json"):  # data folders must be packages too
+            rel = data.parent.relative_to(folder).parts
+            found.add(".".join((name, *rel)) if rel else name)
+    assert found <= declared, f"not in [tool.setuptools] packages: {sorted(found - declared)}"
