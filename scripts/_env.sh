@@ -10,9 +10,10 @@ fi
 stamp=".venv/.installed-$(cat pyproject.toml tests/plugins/*/pyproject.toml | sha256sum | cut -c1-16)-${1:-run}"
 if [ ! -f "$stamp" ]; then
   if [ "${1:-run}" = test ]; then
-    .venv/bin/python -m pip install --quiet -e ".[test]" -e tests/plugins/wrinkle_vis_ring
+    PYTHONWARNINGS=ignore .venv/bin/python -m pip install --quiet -e ".[test]" \
+      -e tests/plugins/wrinkle_vis_ring
   else
-    .venv/bin/python -m pip install --quiet -e .
+    PYTHONWARNINGS=ignore .venv/bin/python -m pip install --quiet -e .
   fi
   touch "$stamp"
 fi
