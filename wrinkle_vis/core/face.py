@@ -174,7 +174,9 @@ class _Assembly:
     def arrays(self) -> list[np.ndarray]:
         """Every array a frame reads (for the memory-stream floor of the benchmarks)."""
         out = []
-        for value in vars(self).values():
+        for key, value in vars(self).items():
+            if key == "local":  # only the build uses it
+                continue
             if isinstance(value, np.ndarray):
                 out.append(value)
             elif sp.issparse(value):
