@@ -89,7 +89,8 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
 
 
 def muscle_mesh(muscle, activation: float = 0.0) -> pv.PolyData:
-    """The muscle as geometry: a tapered fibre (linear) or a ribbon of fibres (sheet).
+    """The muscle as geometry: a tapered fibre (linear) or a ribbon of seven fibres from the
+    attachment line to the insertion line (sheet).
 
     Point array ``activation`` holds the activation everywhere, for colouring.
     """
@@ -101,14 +102,14 @@ def muscle_mesh(muscle, activation: float = 0.0) -> pv.PolyData:
         mesh = line.tube(scalars="r", absolute=True, n_sides=12, capping=True)
     elif isinstance(muscle, SheetMuscle):
         att, ins = np.asarray(muscle.attachment_line), np.asarray(muscle.insertion_line)
-        n_fibres = 6
-        s = np.linspace(0.0, 1.0, n_fibres)[:, None]
+        s = np.linspace(0.0, 1.0, 7)[:, None]
         starts = att[0] + s * (att[1] - att[0])
         ends = ins[0] + s * (ins[1] - ins[0])
-        u = np.linspace(0.0, 1.0, 12)[None, :, None]
-        grid = starts[:, None, :] + u * (ends - starts)[:, None, :]
-        mesh = pv.StructuredGrid(*np.moveaxis(grid, -1, 0)).extract_surface(
-            algorithm="dataset_surface")
+        radius = 0.012 * muscle.fibre_length
+        mesh = pv.merge([pv.Line(a, b, resolution=8).tube(radius=radius, n_sides=8,
+                                                          capping=True)
+                         for a, b in zip(starts, ends, strict=True)])
+        mesh = mesh.extract_surface(algorithm="dataset_surface")
     else:  # a plug-in type: a line through its point parameters
         pts = np.concatenate([np.asarray(getattr(muscle, p), float).reshape(-1, 3)
                               for p in muscle.point_parameters])
