@@ -29,6 +29,7 @@ from .equations import anisotropy, compression_operator
 from .expressions import Expression, paper_expressions
 from .mesh import MeshError, TriangleSurface, triangle_normals, unit_rows
 from .muscle import Muscle, check_activation
+from .refine import bent_triangles, refine_triangles
 
 __all__ = ["FIELD_NAMES", "FaceModel", "FaceState"]
 
@@ -265,6 +266,7 @@ class FaceModel:
             _caches = ({}, OrderedDict())
         self._muscle_data: dict[Muscle, _MuscleData] = _caches[0]
         self._assemblies: OrderedDict = _caches[1] if _caches[1] is not None else OrderedDict()
+        self._refinements: OrderedDict = OrderedDict()
 
     # ------------------------------------------------------------------ access
     @property
@@ -349,7 +351,8 @@ class FaceModel:
                            f"muscles are: {', '.join(self.muscle_names) or 'none'}")
         return {n: float(activations.get(n, 0.0)) for n in self.muscle_names}
 
-    def evaluate(self, activations=None, intensity: float = 1.0) -> FaceState:
+    def evaluate(self, activations=None, intensity: float = 1.0, *, refine: bool = False,
+                 refine_angle_deg: float = 5.0, refine_levels: int = 3) -> FaceState:
         """One frame of the wrinkle model.
 
         Parameters
@@ -359,13 +362,59 @@ class FaceModel:
             activation in ``[0, 1]``; ``None`` is neutral.
         intensity : float, default 1.0
             Scales every activation, in ``[0, 1]``.
+        refine : bool, default False
+            Refine the skin adaptively where the wrinkled surface bends (paper Sec. 3,
+            Fig. 11): level after level, the triangles around wrinkled vertices whose vertex
+            normals differ by more than ``refine_angle_deg`` are split 1-to-4 and the
+            split closed conformingly (:mod:`wrinkle_vis.core.refine`). New vertices get
+            rest positions at rest-edge midpoints and every quantity is evaluated at them
+            exactly. A refined skin is cached per set of split triangles.
+        refine_angle_deg : float, default 5.0
+            The bending threshold.
+        refine_levels : int, default 3
+            At most this many levels.
 
         Returns
         -------
         FaceState
-            Deformed and wrinkled points, total :math:`W`, and per-muscle fields.
+            Deformed and wrinkled points, total :math:`W`, and per-muscle fields; with
+            ``refine`` its ``face`` and ``triangles`` are the refined ones.
         """
         acts = self.activations_for({} if activations is None else activations, intensity)
+        state = self._frame(acts)
+        if not refine:
+            return state
+        if not (0.0 < refine_angle_deg < 180.0):
+            raise ValueError(f"refine_angle_deg = {refine_angle_deg:g} is outside (0, 180)")
+        if int(refine_levels) < 0:
+            raise ValueError(f"refine_levels = {refine_levels} must be >= 0")
+        face = self
+        for _ in range(int(refine_levels)):
+            wrinkled = state.W != 0.0
+            candidates = wrinkled[face.skin.triangles].any(axis=1)
+            marked = bent_triangles(face.skin, state.points, refine_angle_deg, candidates)
+            if not marked.any():
+                break
+            face = face._refined(marked)
+            state = face._frame(acts)
+        return state
+
+    def _refined(self, marked: np.ndarray) -> FaceModel:
+        """The face on this skin refined at ``marked`` triangles (cached)."""
+        key = np.packbits(marked).tobytes()
+        face = self._refinements.get(key)
+        if face is None:
+            skin = refine_triangles(self.skin, marked).surface
+            face = FaceModel(skin, self.skull, self.muscles, self.expressions, name=self.name)
+            self._refinements[key] = face
+            while len(self._refinements) > 8:
+                self._refinements.popitem(last=False)
+        else:
+            self._refinements.move_to_end(key)
+        return face
+
+    def _frame(self, acts: dict[str, float]) -> FaceState:
+        """The unrefined frame for resolved activations."""
         active = tuple(n for n, a in acts.items() if a > 0.0)
         rest = self.skin.points
         n = self.skin.n_points
