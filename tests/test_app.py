@@ -236,3 +236,23 @@ def test_a_closed_window_and_its_plotters_are_collected(wv_face, settings, qapp)
     qapp.processEvents()
     gc.collect()
     assert [r() for r in refs] == [None] * 4
+
+
+def test_refinement_toggle_and_wireframe(window, wv_face):
+    base = window.skin_view.mesh.n_cells
+    assert base == wv_face.skin.n_triangles
+    window.refine_box.setChecked(True)
+    refined = window.skin_view.mesh.n_cells
+    assert refined > base
+    assert refined == len(wv_face.evaluate("surprise", refine=True).triangles)
+    newest = len(window.session.state().points) - 1  # a vertex the refinement made
+    assert newest >= wv_face.skin.n_points
+    window.probe_vertex(newest)
+    window.wireframe_box.setChecked(True)
+    assert window.skin_view.actors["skin"].prop.show_edges
+    window.intensity_slider.setValue(40)  # a new refinement pattern: rebuilt, still right
+    assert window.skin_view.mesh.n_cells == len(window.session.state().triangles)
+    window.probe_vertex(len(window.session.state().points) - 1)
+    window.refine_box.setChecked(False)
+    assert window.skin_view.mesh.n_cells == base
+    assert window.probed_vertex is None  # its vertex is gone with the refinement

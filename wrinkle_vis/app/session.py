@@ -45,6 +45,7 @@ class Session:
         self.time_s: float | None = None  # None: the expression at its peak
         self.field = "W"
         self.muscle: str | None = None  # None: the total
+        self.refine = False  # adaptive refinement (paper Fig. 11)
         self.overrides: dict[str, float] = {}  # activations set by hand, over the expression
         self.dirty = False
         self.frame_ms = 0.0  # how long the last evaluation took
@@ -75,7 +76,7 @@ class Session:
         """The evaluated frame (cached until something changes)."""
         if self._state is None:
             t0 = time.perf_counter()
-            self._state = self.face.evaluate(self.activations())
+            self._state = self.face.evaluate(self.activations(), refine=self.refine)
             self.frame_ms = 1e3 * (time.perf_counter() - t0)
         return self._state
 
@@ -101,6 +102,11 @@ class Session:
     def set_time(self, t: float | None) -> None:
         """Show the expression's ramp at ``t`` seconds (None: at its peak)."""
         self.time_s = None if t is None else float(t)
+        self._changed()
+
+    def set_refine(self, on: bool) -> None:
+        """Switch adaptive refinement on or off."""
+        self.refine = bool(on)
         self._changed()
 
     def set_field(self, field: str, muscle: str | None = None) -> None:
@@ -132,6 +138,8 @@ class Session:
         {field: ..}}`` for the muscles that define anything there (NaN elsewhere).
         """
         state = self.state()
+        if not 0 <= vertex < state.n_points:
+            raise IndexError(f"vertex {vertex} is not on the skin (0..{state.n_points - 1})")
         out = {"total": {"W": float(state.W[vertex])}}
         for name in self.face.muscle_names:
             values = {f: float(state.fields[name][f][vertex]) for f in FIELD_NAMES}

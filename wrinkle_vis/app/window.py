@@ -122,6 +122,14 @@ class MainWindow(QtWidgets.QMainWindow):
         self.muscle_box = QtWidgets.QComboBox()
         self.muscle_box.currentTextChanged.connect(self._on_field)
         view.addRow("Muscle", self.muscle_box)
+        row = QtWidgets.QHBoxLayout()
+        self.refine_box = QtWidgets.QCheckBox("Refine adaptively")
+        self.refine_box.toggled.connect(self._on_refine)
+        self.wireframe_box = QtWidgets.QCheckBox("Wireframe")
+        self.wireframe_box.toggled.connect(lambda _: self.refresh())
+        row.addWidget(self.refine_box)
+        row.addWidget(self.wireframe_box)
+        view.addRow("Mesh", row)
         form.addLayout(view)
 
         self.param_group = QtWidgets.QGroupBox("Parameters of the selected muscle")
@@ -252,6 +260,10 @@ class MainWindow(QtWidgets.QMainWindow):
             t = ex.onset_s + 0.5 * ex.hold_s
         return round(300 * t / ex.duration_s) if ex.duration_s > 0 else 0
 
+    def _on_refine(self, on: bool) -> None:
+        self.session.set_refine(on)
+        self.refresh()
+
     def _on_play(self, playing: bool) -> None:
         self.play_button.setText("Pause" if playing else "Play")
         if playing:
@@ -335,7 +347,9 @@ class MainWindow(QtWidgets.QMainWindow):
         state = s.state()
         self._syncing = True  # one render per view at the end, not one per change
         try:
-            key = (id(s.face), s.field, s.muscle)
+            # the drawn meshes can be updated in place only on the same triangles
+            key = (id(s.face), id(state.face), s.field, s.muscle,
+                   self.wireframe_box.isChecked())
             if reset_camera or key != self._scene_key:
                 self._rebuild(state)
                 self._scene_key = key
@@ -349,6 +363,8 @@ class MainWindow(QtWidgets.QMainWindow):
             self._updating_controls = True
             self.activation_box.setValue(state.activations.get(self.session.muscle, 0.0))
             self._updating_controls = False
+        if self.probed_vertex is not None and self.probed_vertex >= len(state.points):
+            self.probed_vertex = None  # a vertex of a refinement that is gone
         if self.probed_vertex is not None:
             self.probe_vertex(self.probed_vertex)
         self._sync_views()
@@ -364,7 +380,8 @@ class MainWindow(QtWidgets.QMainWindow):
         """Build the three scenes from scratch (field, muscle or face changed)."""
         s = self.session
         clear_scene(self.skin_view)
-        add_skin(self.skin_view, state, s.field, s.muscle)
+        add_skin(self.skin_view, state, s.field, s.muscle,
+                 show_edges=self.wireframe_box.isChecked())
         self._skin_mesh = self.skin_view.mesh
         clear_scene(self.muscle_view)
         add_skin(self.muscle_view, state, None, opacity=0.25)
