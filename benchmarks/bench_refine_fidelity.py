@@ -1,0 +1,102 @@
+"""Adaptive refinement against VTK's uniform linear subdivision, side by side.
+
+Run:  .venv/bin/python benchmarks/bench_refine_fidelity.py
+
+Fidelity is the largest distance, along the central fibre of frontalis_major_L on surprise,
+from the reference wrinkled surface (the model evaluated on the skin subdivided uniformly
+four times, 1.15 M triangles) to each candidate's wrinkled surface. Candidates: the adaptive
+refinement of ``evaluate(refine=True)`` at the paper's size, and the skin subdivided
+uniformly n times by VTK (``PolyData.subdivide(n, "linear")``) and then evaluated the same
+way. Time: building the model for that mesh plus one frame (``setup+frame``), and a frame
+once everything is cached (``frame``); medians of 5.
+"""
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+
+import wrinkle_vis as wv
+from wrinkle_vis.core.mesh import closest_points
+from wrinkle_vis.plotting import to_surface_polydata
+
+MUSCLE = "frontalis_major_L"
+
+
+def fibre_band(state, width=0.5):
+    """Final points of ``state`` within ``width`` of the muscle's central fibre, in its region."""
+    m = state.face.muscle(MUSCLE)
+    _, s, _ = m.frame
+    v = state.rest_points - m.attachment_center
+    near = (np.abs(v @ s) < width) & np.isfinite(state.fields[MUSCLE]["H"])
+    return state.points[near], (v @ m.frame[0])[near], state.fields[MUSCLE]["H"][near]
+
+
+def crests(l, h, m):
+    h = h[np.argsort(l)]
+    above = h > 0.5 * (m.d + (m.d - m.k0 * 2**m.alpha))
+    return int(np.count_nonzero(above[1:] & ~above[:-1]) + int(above[0]))
+
+
+def fidelity(reference_points, state):
+    surface = wv.TriangleSurface(state.points, state.triangles)
+    return float(np.linalg.norm(closest_points(surface, reference_points) - reference_points,
+                                axis=1).max())
+
+
+def timed(fn, n=5):
+    times = []
+    for _ in range(n):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return 1e3 * statistics.median(times), out
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--angle", type=float, default=5.0, help="refine_angle_deg")
+    parser.add_argument("--levels", type=int, default=3, help="refine_levels")
+    args = parser.parse_args()
+    options = {"refine": True, "refine_angle_deg": args.angle, "refine_levels": args.levels}
+    base = wv.datasets.load_face()
+    muscle = base.muscle(MUSCLE)
+    ref_face = wv.FaceModel(wv.subdivide(base.skin, 4), base.skull, base.muscles,
+                            base.expressions)
+    ref_points, ref_l, ref_h = fibre_band(ref_face.evaluate("surprise"), width=0.3)
+    print(f"reference: {ref_face.skin.n_triangles} triangles, {len(ref_points)} points along "
+          f"the fibre, {crests(ref_l, ref_h, muscle)} crests (n_w = {muscle.n_wrinkles})")
+    rows = []
+
+    def adaptive_setup():
+        face = wv.FaceModel(base.skin, base.skull, base.muscles, base.expressions)
+        return face.evaluate("surprise", **options)
+
+    setup_ms, state = timed(adaptive_setup)
+    frame_ms, _ = timed(lambda: base.evaluate("surprise", **options), n=20)
+    rows.append(("adaptive", state, setup_ms, frame_ms))
+    for n in (1, 2, 3):
+        poly = to_surface_polydata(base.skin).subdivide(n, "linear")
+        skin = wv.TriangleSurface(poly.points, poly.faces.reshape(-1, 4)[:, 1:])
+
+        def uniform_setup(skin=skin):
+            face = wv.FaceModel(skin, base.skull, base.muscles, base.expressions)
+            return face.evaluate("surprise")
+
+        subdiv_ms, _ = timed(lambda n=n: to_surface_polydata(base.skin).subdivide(n, "linear"))
+        setup_ms, state = timed(uniform_setup, n=3)
+        face = state.face
+        frame_ms, _ = timed(lambda face=face: face.evaluate("surprise"), n=20)
+        rows.append((f"VTK linear x{n}", state, subdiv_ms + setup_ms, frame_ms))
+
+    print(f"{'':16}{'triangles':>11}{'fidelity mm':>13}{'crests':>8}{'setup+frame ms':>16}"
+          f"{'frame ms':>10}")
+    for name, state, setup, frame in rows:
+        _, l, h = fibre_band(state, width=1.0)
+        print(f"{name:16}{len(state.triangles):>11}{fidelity(ref_points, state):>13.3f}"
+              f"{crests(l, h, muscle):>8}{setup:>16.1f}{frame:>10.2f}")
+
+
+if __name__ == "__main__":
+    main()
