@@ -8,9 +8,8 @@ evaluation and the rendering of all three views.
 """
 
 import argparse
-import statistics
-import time
 
+from _timing import median_seconds
 from qtpy import QtCore, QtWidgets
 
 import wrinkle_vis as wv
@@ -19,13 +18,14 @@ from wrinkle_vis.app.window import MainWindow
 
 
 def timed(app, change, n=20):
-    times = []
-    for i in range(n):
-        t0 = time.perf_counter()
-        change(i)
+    """Median milliseconds of ``n`` changes, each with the redraw it causes."""
+    calls = iter(range(n))
+
+    def one():
+        change(next(calls))
         app.processEvents()
-        times.append(time.perf_counter() - t0)
-    return 1e3 * statistics.median(times)
+
+    return 1e3 * median_seconds(one, n, 1)
 
 
 def main():

@@ -11,24 +11,11 @@ from __future__ import annotations
 import argparse
 import json
 import resource
-import statistics
 import time
 import tracemalloc
 
 import numpy as np
-
-
-def median_time(fn, calls: int, rounds: int) -> float:
-    """Median over rounds of the median seconds of ``calls`` calls of ``fn``."""
-    per_round = []
-    for _ in range(rounds):
-        times = []
-        for _ in range(calls):
-            t0 = time.perf_counter()
-            fn()
-            times.append(time.perf_counter() - t0)
-        per_round.append(statistics.median(times))
-    return statistics.median(per_round)
+from _timing import median_seconds
 
 
 def stream_floor(face, acts):
@@ -88,10 +75,10 @@ def measure(label: str, face, calls: int, rounds: int) -> dict:
     face.evaluate(acts)
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
-    frame = median_time(lambda: face.evaluate(acts), calls, rounds)
-    floor = median_time(stream_floor(face, acts), calls, rounds)
-    ours = median_time(lambda: skin.vertex_normals(), max(3, calls // 4), rounds)
-    theirs = median_time(vtk_normals(skin), max(3, calls // 4), rounds)
+    frame = median_seconds(lambda: face.evaluate(acts), calls, rounds)
+    floor = median_seconds(stream_floor(face, acts), calls, rounds)
+    ours = median_seconds(lambda: skin.vertex_normals(), max(3, calls // 4), rounds)
+    theirs = median_seconds(vtk_normals(skin), max(3, calls // 4), rounds)
     return {
         "mesh": label, "triangles": skin.n_triangles, "vertices": skin.n_points,
         "muscles_active": len(acts), "first_frame_s": setup, "frame_ms": 1e3 * frame,

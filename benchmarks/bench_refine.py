@@ -8,22 +8,11 @@ frame. The fidelity comparison with VTK's uniform subdivision is not here yet.
 """
 
 import argparse
-import statistics
 import time
 
+from _timing import median_seconds
+
 import wrinkle_vis as wv
-
-
-def median_ms(fn, calls=50, rounds=5):
-    out = []
-    for _ in range(rounds):
-        times = []
-        for _ in range(calls):
-            t0 = time.perf_counter()
-            fn()
-            times.append(time.perf_counter() - t0)
-        out.append(statistics.median(times))
-    return 1e3 * statistics.median(out)
 
 
 def main():
@@ -35,8 +24,9 @@ def main():
         t0 = time.perf_counter()
         state = face.evaluate(name, refine=True)
         first = 1e3 * (time.perf_counter() - t0)
-        refined = median_ms(lambda n=name: face.evaluate(n, refine=True), rounds=args.rounds)
-        plain = median_ms(lambda n=name: face.evaluate(n), rounds=args.rounds)
+        refined = 1e3 * median_seconds(lambda n=name: face.evaluate(n, refine=True), 50,
+                                       args.rounds)
+        plain = 1e3 * median_seconds(lambda n=name: face.evaluate(n), 50, args.rounds)
         print(f"{name:9s} {face.skin.n_triangles} -> {len(state.triangles)} triangles: first "
               f"refined frame {first:.0f} ms, then {refined:.2f} ms (unrefined {plain:.3f} ms)")
 

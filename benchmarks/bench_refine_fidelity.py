@@ -12,10 +12,9 @@ once everything is cached (``frame``); medians of 5.
 """
 
 import argparse
-import statistics
-import time
 
 import numpy as np
+from _timing import median_seconds
 
 import wrinkle_vis as wv
 from wrinkle_vis.core.mesh import closest_points
@@ -46,12 +45,9 @@ def fidelity(reference_points, state):
 
 
 def timed(fn, n=5):
-    times = []
-    for _ in range(n):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return 1e3 * statistics.median(times), out
+    """Median milliseconds of ``n`` calls, and the last call's result."""
+    out = fn()
+    return 1e3 * median_seconds(fn, n, 1), out
 
 
 def main():

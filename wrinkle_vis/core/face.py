@@ -310,16 +310,8 @@ class FaceModel:
         return data
 
     def _assembly(self, names: tuple[str, ...]) -> _Assembly:
-        asm = self._assemblies.get(names)
-        if asm is None:
-            datas = [self.muscle_data(self.muscle(n)) for n in names]
-            asm = _Assembly.build(self.skin, names, datas)
-            self._assemblies[names] = asm
-            while len(self._assemblies) > 32:
-                self._assemblies.popitem(last=False)
-        else:
-            self._assemblies.move_to_end(names)
-        return asm
+        return _lru(self._assemblies, names, 32, lambda: _Assembly.build(
+            self.skin, names, [self.muscle_data(self.muscle(n)) for n in names]))
 
     # ------------------------------------------------------------------ evaluation
     def activations_for(self, activations, intensity: float = 1.0) -> dict[str, float]:
@@ -401,17 +393,9 @@ class FaceModel:
 
     def _refined(self, marked: np.ndarray) -> FaceModel:
         """The face on this skin refined at ``marked`` triangles (cached)."""
-        key = np.packbits(marked).tobytes()
-        face = self._refinements.get(key)
-        if face is None:
-            skin = refine_triangles(self.skin, marked).surface
-            face = FaceModel(skin, self.skull, self.muscles, self.expressions, name=self.name)
-            self._refinements[key] = face
-            while len(self._refinements) > 8:
-                self._refinements.popitem(last=False)
-        else:
-            self._refinements.move_to_end(key)
-        return face
+        return _lru(self._refinements, np.packbits(marked).tobytes(), 8, lambda: FaceModel(
+            refine_triangles(self.skin, marked).surface, self.skull, self.muscles,
+            self.expressions, name=self.name))
 
     def _frame(self, acts: dict[str, float]) -> FaceState:
         """The unrefined frame for resolved activations."""
@@ -424,6 +408,18 @@ class FaceModel:
         asm = self._assembly(active)
         deformed, points, total, compact = asm.frame(rest, np.array([acts[m] for m in active]))
         return FaceState(self, acts, deformed, points, total, asm, compact)
+
+
+def _lru(cache: OrderedDict, key, size: int, build):
+    """``cache[key]``, built by ``build()`` when missing; keeps the ``size`` latest."""
+    value = cache.get(key)
+    if value is None:
+        value = cache[key] = build()
+        while len(cache) > size:
+            cache.popitem(last=False)
+    else:
+        cache.move_to_end(key)
+    return value
 
 
 def _check_skin(skin: TriangleSurface) -> None:
