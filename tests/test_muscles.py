@@ -10,14 +10,10 @@ from meshes import rotation
 import wrinkle_vis as wv
 
 
-def linear(**kw):
+def linear(attachment=(0, 0, 0), insertion=(10, 0, 0), **kw):
     args = dict(radius=20.0, max_angle_deg=45.0, lambda_w=0.25, n_wrinkles=3, k0=1.0,
                 alpha=1.0)
-    args.update(kw)
-    return wv.LinearMuscle("lin", kw.pop("attachment", (0, 0, 0)),
-                           kw.pop("insertion", (10, 0, 0)),
-                           **{k: v for k, v in args.items()
-                              if k not in ("attachment", "insertion")})
+    return wv.LinearMuscle("lin", attachment, insertion, **{**args, **kw})
 
 
 def sheet(**kw):
@@ -119,14 +115,6 @@ BAD_LINEAR = [
 ]
 
 
-@pytest.mark.parametrize(("changes", "param", "fragment"), BAD_LINEAR)
-def test_bad_linear_parameters_name_muscle_parameter_value_and_range(changes, param, fragment):
-    with pytest.raises(wv.MuscleParameterError) as info:
-        linear(**changes)
-    msg = str(info.value)
-    assert "'lin'" in msg and f"parameter {param} =" in msg and fragment in msg
-
-
 BAD_SHEET = [
     (dict(length=0.0), "length", "(0, inf)"),
     (dict(length=15.0), "length", "inside the AOI"),
@@ -138,12 +126,17 @@ BAD_SHEET = [
 ]
 
 
-@pytest.mark.parametrize(("changes", "param", "fragment"), BAD_SHEET)
-def test_bad_sheet_parameters(changes, param, fragment):
+@pytest.mark.parametrize(
+    ("make", "name", "changes", "param", "fragment"),
+    [(linear, "lin", *case) for case in BAD_LINEAR] + [(sheet, "sh", *case) for case in BAD_SHEET],
+)
+def test_bad_parameters_name_muscle_parameter_value_and_range(make, name, changes, param,
+                                                              fragment):
     with pytest.raises(wv.MuscleParameterError) as info:
-        sheet(**changes)
+        make(**changes)
     msg = str(info.value)
-    assert "'sh'" in msg and f"parameter {param} =" in msg and fragment in msg
+    assert f"'{name}'" in msg and f"parameter {param} =" in msg and fragment in msg
+    assert info.value.param == param
 
 
 def test_bad_sheet_lines():

@@ -537,13 +537,10 @@ def _resolved(muscle, param: str) -> float:
 
 
 def run(argv=None) -> int:
-    """Start the app on the built-in face (or ``--layout``); returns the exit code."""
+    """Start the app on the built-in face; returns the exit code."""
     from wrinkle_vis.datasets import load_face
 
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(argv or [])
-    layout = None
-    if argv and "--layout" in argv:
-        layout = argv[argv.index("--layout") + 1]
-    window = MainWindow(Session(load_face(layout=layout), layout))
+    window = MainWindow(Session(load_face()))
     window.show()
     return app.exec()

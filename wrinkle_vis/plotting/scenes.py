@@ -51,7 +51,7 @@ def clear_scene(plotter: pv.Plotter) -> None:
     plotter.enable_lightkit(only_active=True)
 
 
-def _scalar_bar(plotter: pv.Plotter, title: str, nan: bool = True) -> dict:
+def _scalar_bar(title: str, nan: bool = True) -> dict:
     return {"title": title, "nan_annotation": nan, "n_labels": 5, "fmt": "%.3g",
             "vertical": False, "position_x": 0.2, "position_y": 0.07, "width": 0.6,
             "height": 0.06}
@@ -65,7 +65,7 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
     ``field=None`` draws plain skin. Undefined values (NaN) take :data:`NAN_COLOR` and the
     scalar bar labels them. Returns the actor.
     """
-    mesh = to_polydata(state)
+    mesh = to_surface_polydata(state.face.skin, state.points)
     if field is None:
         return plotter.add_mesh(mesh, color=SKIN, smooth_shading=True, opacity=opacity,
                                 show_edges=show_edges, name="skin", render=False)
@@ -73,16 +73,17 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
     if muscle is None and field != "W":
         raise ValueError(f"field {field!r} belongs to one muscle; name it (only W has a "
                          "total)")
-    array = field_array_name(field, muscle)
-    if array not in mesh.point_data:
+    if muscle is not None and muscle not in state.face.muscle_names:
         raise KeyError(f"no muscle {muscle!r}; muscles: {', '.join(state.face.muscle_names)}")
-    values = mesh.point_data[array]
+    array = field_array_name(field, muscle)
+    values = np.asarray(state.W if muscle is None else state.fields[muscle][field])
+    mesh.point_data[array] = values  # only the field shown: the others stay in the core
     mesh.set_active_scalars(array)
     actor = plotter.add_mesh(
         mesh, scalars=array, cmap=info.cmap, clim=field_range(info, values),
         nan_color=NAN_COLOR, smooth_shading=True, opacity=opacity, show_edges=show_edges,
         show_scalar_bar=scalar_bar, name="skin", render=False,
-        scalar_bar_args=_scalar_bar(plotter, info.title(muscle)) if scalar_bar else None)
+        scalar_bar_args=_scalar_bar(info.title(muscle)) if scalar_bar else None)
     if scalar_bar:
         plotter.scalar_bars[info.title(muscle)].SetNanAnnotation("undefined")
     return actor
@@ -153,7 +154,7 @@ def add_muscles(plotter: pv.Plotter, face: FaceModel, activations=None, *,
         plotter.add_mesh(
             mesh, scalars="activation", cmap="Reds", clim=(0.0, 1.0), smooth_shading=True,
             name=f"muscle:{m.name}", render=False, show_scalar_bar=show_bar,
-            scalar_bar_args=_scalar_bar(plotter, "activation", nan=False) if show_bar
+            scalar_bar_args=_scalar_bar("activation", nan=False) if show_bar
             else None)
         meshes[m.name] = mesh
     return meshes
