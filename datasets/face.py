@@ -341,7 +341,8 @@ def load_face(n_triangles: int = DEFAULT_TRIANGLES, *, skin=None, skull=None, la
         skull = (base or Path.cwd()) / lay.skull
     if skin is None:
         return FaceModel(build_skin(n), _surface(skull) or build_skull(), lay.muscles,
-                         lay.expressions, name=lay.name)
+                         lay.expressions, name=lay.name,
+                         landmarks=lay.landmarks if landmarks is None else landmarks)
     return _scan_face(_surface(skin), _surface(skull), lay, layout is None, landmarks)
 
 
@@ -370,5 +371,6 @@ def _scan_face(skin, skull, lay, builtin_layout_used, landmarks):
             return FaceModel(skin, skull, (), {"neutral": paper_expressions()["neutral"]},
                              name="scan without muscles")
         lay = transfer_layout(lay, skin, landmarks, skull)
-    return FaceModel(skin, skull, lay.muscles, lay.expressions, name=lay.name)
+    return FaceModel(skin, skull, lay.muscles, lay.expressions, name=lay.name,
+                     landmarks=landmarks or lay.landmarks)
 

@@ -8,6 +8,7 @@ import pytest
 from qtpy import QtCore, QtWidgets
 
 import wrinkle_vis as wv
+from wrinkle_vis.app.recovery import Recovery
 from wrinkle_vis.app.session import Session
 from wrinkle_vis.app.window import MainWindow
 from wrinkle_vis.plotting.polydata import field_array_name
@@ -31,8 +32,13 @@ def settings(tmp_path):
 
 
 @pytest.fixture
-def window(qtbot, wv_face, settings):
-    w = MainWindow(Session(wv_face), settings)
+def recovery(tmp_path):
+    return Recovery(tmp_path / "recovery")
+
+
+@pytest.fixture
+def window(qtbot, wv_face, settings, recovery):
+    w = MainWindow(Session(wv_face), settings, recovery)
     qtbot.addWidget(w, before_close_func=_discard_changes)
     w.show()
     qtbot.waitExposed(w)
@@ -43,13 +49,18 @@ def _discard_changes(w):
     w.session.dirty = False
 
 
-def test_window_has_three_views_that_close_cleanly(qtbot, wv_face, settings):
-    w = MainWindow(Session(wv_face), settings)
+def skin_mesh(window):
+    """The mesh the skin view draws."""
+    return window.skin_view.actors["skin"].mapper.dataset
+
+
+def test_window_has_three_views_that_close_cleanly(qtbot, wv_face, settings, recovery):
+    w = MainWindow(Session(wv_face), settings, recovery)
     qtbot.addWidget(w)
     w.show()
     qtbot.waitExposed(w)
     assert len(w.plotters) == 3 and all(not p._closed for p in w.plotters)
-    assert w.skin_view.mesh is not None
+    assert skin_mesh(w) is not None
     w.close()
     assert all(p._closed for p in w.plotters)
 
@@ -68,12 +79,12 @@ def test_switching_field_changes_the_active_array_and_scalar_bar(window):
     window.muscle_box.setCurrentText("corrugator_L")
     window.field_box.setCurrentText("gamma")
     assert window.active_array() == "corrugator_L.gamma"
-    assert window.skin_view.mesh.active_scalars_name == "corrugator_L.gamma"
+    assert skin_mesh(window).active_scalars_name == "corrugator_L.gamma"
     bars = window.skin_view.scalar_bars
     assert "gamma, corrugator_L" in bars and "W (mm), total" not in bars  # W's bar is gone
     window.muscle_box.setCurrentText("total")  # only W has a total
     assert window.field_box.currentText() == "W"
-    assert window.skin_view.mesh.active_scalars_name == "W"
+    assert skin_mesh(window).active_scalars_name == "W"
 
 
 def test_probe_reports_what_the_core_computes(window, wv_face):
@@ -98,12 +109,12 @@ def test_pick_callback_probes_the_nearest_vertex(window):
 
 def test_a_parameter_change_updates_the_skin(window):
     window.muscle_box.setCurrentText("corrugator_L")
-    before = np.array(window.skin_view.mesh.points)
+    before = np.array(skin_mesh(window).points)
     window.expression_box.setCurrentText("frown")
-    frown_before = np.array(window.skin_view.mesh.points)
+    frown_before = np.array(skin_mesh(window).points)
     assert not np.array_equal(before, frown_before)
     window.param_widgets["k0"].setValue(4.0)
-    after = np.array(window.skin_view.mesh.points)
+    after = np.array(skin_mesh(window).points)
     assert window.session.face.muscle("corrugator_L").k0 == 4.0
     assert not np.array_equal(after, frown_before)
     assert "d = 3" in window.derived_label.text()  # d = 0.75 k0 at alpha = 1
@@ -189,11 +200,11 @@ def test_activation_set_by_hand_recomputes_at_once(window):
     window.expression_box.setCurrentText("neutral")
     window.muscle_box.setCurrentText("zygomaticus_major_L")
     assert not window.session.state().W.any()
-    rest = np.array(window.skin_view.mesh.points)
+    rest = np.array(skin_mesh(window).points)
     window.activation_box.setValue(0.8)
     assert window.session.state().activations["zygomaticus_major_L"] == 0.8
     assert window.session.state().W.any()
-    assert not np.array_equal(np.array(window.skin_view.mesh.points), rest)
+    assert not np.array_equal(np.array(skin_mesh(window).points), rest)
     window.expression_box.setCurrentText("frown")  # a new expression resets hand-set values
     assert window.session.state().activations["zygomaticus_major_L"] == 0.0
 
@@ -215,7 +226,7 @@ def test_in_place_update_draws_what_a_rebuild_draws(window):
     window.field_box.setCurrentText("eps")
     window.intensity_slider.setValue(60)  # activations only: updated in place
     in_place = window.skin_view.screenshot(return_img=True).astype(int)
-    window._scene_key = None
+    window.views.invalidate()
     window.refresh()  # from scratch
     rebuilt = window.skin_view.screenshot(return_img=True).astype(int)
     assert np.abs(in_place - rebuilt).max() <= 2
@@ -239,10 +250,10 @@ def test_a_closed_window_and_its_plotters_are_collected(wv_face, settings, qapp)
 
 
 def test_refinement_toggle_and_wireframe(window, wv_face):
-    base = window.skin_view.mesh.n_cells
+    base = skin_mesh(window).n_cells
     assert base == wv_face.skin.n_triangles
     window.refine_box.setChecked(True)
-    refined = window.skin_view.mesh.n_cells
+    refined = skin_mesh(window).n_cells
     assert refined > base
     assert refined == len(wv_face.evaluate("surprise", refine=True).triangles)
     newest = len(window.session.state().points) - 1  # a vertex the refinement made
@@ -251,8 +262,8 @@ def test_refinement_toggle_and_wireframe(window, wv_face):
     window.wireframe_box.setChecked(True)
     assert window.skin_view.actors["skin"].prop.show_edges
     window.intensity_slider.setValue(40)  # a new refinement pattern: rebuilt, still right
-    assert window.skin_view.mesh.n_cells == len(window.session.state().triangles)
+    assert skin_mesh(window).n_cells == len(window.session.state().triangles)
     window.probe_vertex(len(window.session.state().points) - 1)
     window.refine_box.setChecked(False)
-    assert window.skin_view.mesh.n_cells == base
+    assert skin_mesh(window).n_cells == base
     assert window.probed_vertex is None  # its vertex is gone with the refinement

@@ -8,8 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.editing import mirrored, unique_name
 from ..core.face import FIELD_NAMES, FaceModel, FaceState
 from ..core.layout import Layout, load_layout, save_layout
+from ..core.registry import get_muscle_type
 
 __all__ = ["EDITABLE", "Session"]
 
@@ -120,12 +122,72 @@ class Session:
         self.field, self.muscle = field, muscle
 
     # ------------------------------------------------------------------ editing
+    # The ``*ed`` methods build the edited face and change nothing, so that the app can
+    # wrap each edit in an undoable command; :meth:`set_face` shows one.
+    def set_face(self, face: FaceModel) -> None:
+        """Show another version of the face (an edit, an undo or a redo)."""
+        self.face = face
+        if self.muscle is not None and self.muscle not in face.muscle_names:
+            self.muscle, self.field = None, "W"
+        self.overrides = {k: v for k, v in self.overrides.items() if k in face.muscle_names}
+        self._changed()
+
     def set_parameter(self, muscle: str, param: str, value) -> None:
         """Change one parameter of a muscle; an invalid value raises and changes nothing."""
-        new = self.face.muscle(muscle).replace(**{param: value})
-        self.face = self.face.with_muscle(new)
+        self.set_face(self.with_parameter(muscle, param, value))
         self.dirty = True
-        self._changed()
+
+    def with_parameter(self, muscle: str, param: str, value) -> FaceModel:
+        """The face with one parameter of a muscle changed (raises if invalid)."""
+        return self.face.with_muscle(self.face.muscle(muscle).replace(**{param: value}))
+
+    def renamed(self, muscle: str, new_name: str) -> FaceModel:
+        """The face with ``muscle`` called ``new_name`` (in the expressions too)."""
+        new_name = new_name.strip()
+        if not new_name:
+            raise ValueError("a muscle's name cannot be empty")
+        if new_name != muscle and new_name in self.face.muscle_names:
+            raise ValueError(f"a muscle named {new_name!r} exists already; choose another name")
+        return self.face.with_muscle(self.face.muscle(muscle).replace(name=new_name), muscle)
+
+    def deleted(self, muscle: str) -> FaceModel:
+        """The face without ``muscle`` (and without it in the expressions)."""
+        return self.face.without_muscle(muscle)
+
+    def duplicated(self, muscle: str) -> tuple[FaceModel, str]:
+        """The face with a copy of ``muscle`` under a free name; returns it and the name."""
+        name = unique_name(f"{muscle}_copy", self.face.muscle_names)
+        return self.face.with_muscle(self.face.muscle(muscle).replace(name=name)), name
+
+    def mirrored(self, muscle: str) -> tuple[FaceModel, str]:
+        """The face with the twin of ``muscle`` across its symmetry plane, its points snapped
+        onto their surfaces; the twin replaces a muscle of its name (``_L`` <-> ``_R``) or is
+        added, taking the original's activation in every expression. Returns the face and
+        the twin's name.
+        """
+        from wrinkle_vis.widgets.placement import snapped
+
+        original = self.face.muscle(muscle)
+        point, normal = self.face.symmetry_plane()
+        twin = snapped(mirrored(original, point, normal), self.face)
+        face = self.face.with_muscle(twin)
+        if twin.name not in self.face.muscle_names:
+            face = face.with_expressions({
+                k: dataclasses.replace(ex, activations={
+                    **ex.activations, twin.name: ex.activations[muscle]})
+                if muscle in ex.activations else ex for k, ex in face.expressions.items()})
+        return face, twin.name
+
+    def added(self, type_name: str, at) -> tuple[FaceModel, str]:
+        """The face with a new muscle of type ``type_name``, its insertion on the skin at
+        ``at`` ``(3,)``, made by the type's widget (:meth:`PlacementWidget.create`).
+        """
+        from wrinkle_vis.widgets import widget_factory
+
+        cls = get_muscle_type(type_name)
+        name = unique_name(f"{type_name}_1", self.face.muscle_names)
+        return self.face.with_muscle(widget_factory(cls).create(cls, name, self.face, at)), \
+            name
 
     def derived(self, muscle: str) -> dict[str, float]:
         """The muscle's derived d (Eq. 8) and u (Eq. 6)."""
@@ -152,7 +214,8 @@ class Session:
         """The current muscles and expressions as a :class:`Layout`."""
         base = load_layout(self.layout_path) if self.layout_path else Layout()
         return dataclasses.replace(base, name=self.face.name, muscles=self.face.muscles,
-                                   expressions=self.face.expressions)
+                                   expressions=self.face.expressions,
+                                   landmarks=self.face.landmarks or base.landmarks)
 
     def save(self, path: str | Path | None = None) -> Path:
         """Save the layout atomically to ``path`` (default the open file)."""
@@ -162,3 +225,4 @@ class Session:
         save_layout(self.layout(), path)
         self.layout_path, self.dirty = path, False
         return path
+

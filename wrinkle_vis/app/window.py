@@ -7,19 +7,27 @@ one session attribute and calls :meth:`MainWindow.refresh`, which redraws from t
 from __future__ import annotations
 
 import time
+import weakref
 from pathlib import Path
 
 import numpy as np
 from pyvistaqt import QtInteractor
 from qtpy import QtCore, QtGui, QtWidgets
+from vtkmodules.vtkRenderingCore import vtkPropPicker
 
+from ..core.editing import with_point
 from ..core.face import FIELD_NAMES
 from ..core.layout import LayoutError
 from ..core.muscle import MuscleParameterError
-from ..plotting import add_muscles, add_skin, add_skull, clear_scene, field_range, set_camera
-from ..plotting.fields import field_info
+from ..core.registry import muscle_types
+from ..plotting import (
+    set_camera,
+)
 from ..plotting.polydata import field_array_name
+from ..widgets.panels import MuscleListPanel
+from .recovery import Recovery
 from .session import EDITABLE, Session
+from .views import LinkedViews
 
 __all__ = ["MainWindow"]
 
@@ -36,17 +44,31 @@ class MainWindow(QtWidgets.QMainWindow):
         What to show.
     settings : QSettings, optional
         Where the recent-files list lives (tests pass a temporary one).
+    recovery : Recovery, optional
+        Where the layout is autosaved while the user works (default
+        :func:`~wrinkle_vis.app.recovery.default_directory`).
     """
 
-    def __init__(self, session: Session, settings: QtCore.QSettings | None = None):
+    def __init__(self, session: Session, settings: QtCore.QSettings | None = None,
+                 recovery: Recovery | None = None):
         super().__init__()
         self.session = session
         self.settings = settings or QtCore.QSettings("wrinkle-vis", "wrinkle-vis")
+        self.recovery = recovery or Recovery()
+        self.undo_stack = QtGui.QUndoStack(self)
+        self.undo_stack.cleanChanged.connect(self._on_clean_changed)
+        self.undo_stack.indexChanged.connect(lambda _: self.autosave_timer.start())
+        self.autosave_timer = QtCore.QTimer(self)
+        self.autosave_timer.setSingleShot(True)
+        self.autosave_timer.setInterval(1000)
+        self.autosave_timer.timeout.connect(self.autosave)
+        self._drag_before = None
+        self._drawn_face = None
+        self._press = None
         self.setWindowTitle("wrinkle-vis")
         self.resize(1500, 800)
         self._syncing = False
         self._updating_controls = False
-        self._scene_key = None
         self.plotters: list[QtInteractor] = []
         self._build_views()
         self._build_controls()
@@ -71,12 +93,41 @@ class MainWindow(QtWidgets.QMainWindow):
             self.plotters.append(plotter)
         self.setCentralWidget(splitter)
         self.skin_view, self.muscle_view, self.skull_view = self.plotters
+        self.views = LinkedViews(*self.plotters, on_move=self._on_handle_moved,
+                                 on_start=self._on_handle_start)
         camera = self.skin_view.renderer.camera
         for p in self.plotters[1:]:
             p.renderer.camera = camera
         self._camera_observer = camera.AddObserver("ModifiedEvent", self._sync_views)
         self.skin_view.enable_point_picking(self._on_pick, use_picker=True, show_message=False,
                                             show_point=True, left_clicking=False)
+        iren = self.muscle_view.iren
+        iren.add_observer("LeftButtonPressEvent", self._on_muscle_press)
+        iren.add_observer("LeftButtonReleaseEvent", self._on_muscle_release)
+
+    def _on_muscle_press(self, iren, _event) -> None:
+        self._press = iren.GetEventPosition()
+
+    def _on_muscle_release(self, iren, _event) -> None:
+        """A click (press and release within 3 pixels) on a muscle selects it."""
+        x, y = iren.GetEventPosition()
+        if self._press is not None and max(abs(x - self._press[0]),
+                                           abs(y - self._press[1])) <= 3:
+            name = self.muscle_at(x, y)
+            if name is not None:
+                self.select_muscle(name)
+        self._press = None
+
+    def muscle_at(self, x: int, y: int) -> str | None:
+        """The muscle drawn at display position ``(x, y)`` of the muscles view, if any."""
+        picker = vtkPropPicker()
+        if not picker.Pick(x, y, 0, self.muscle_view.renderer):
+            return None
+        actor = picker.GetViewProp()
+        for name, a in self.muscle_view.actors.items():
+            if a is actor and name.startswith("muscle:"):
+                return name.removeprefix("muscle:")
+        return None
 
     def _sync_views(self, *_) -> None:
         """Render every view at once when the shared camera moves (no timer tick)."""
@@ -84,9 +135,7 @@ class MainWindow(QtWidgets.QMainWindow):
             return
         self._syncing = True
         try:
-            for p in self.plotters:
-                if not getattr(p, "_closed", False):
-                    p.render_window.Render()
+            self.views.render()
         finally:
             self._syncing = False
 
@@ -151,6 +200,35 @@ class MainWindow(QtWidgets.QMainWindow):
         dock.setWidget(panel)
         self.addDockWidget(QtCore.Qt.LeftDockWidgetArea, dock)
         self.probed_vertex: int | None = None
+        self._build_muscle_dock()
+
+    def _build_muscle_dock(self) -> None:
+        self.add_menu = QtWidgets.QMenu("&Add muscle", self)
+        for name in muscle_types():
+            self.add_menu.addAction(name).triggered.connect(
+                lambda checked=False, n=name: self.add_muscle(n))
+        add = self.add_menu.menuAction()
+        add.setToolTip("Add a muscle of a type, inserted at the probed point (right-click "
+                       "the skin first) or at the middle of the skin view")
+        self.edit_actions = {"add": add}
+        for key, text, shortcut, slot in (
+                ("delete", "&Delete", "Del", self.delete_muscle),
+                ("duplicate", "D&uplicate", "Ctrl+D", self.duplicate_muscle),
+                ("rename", "&Rename...", "F2", self.rename_dialog),
+                ("mirror", "&Mirror", "Ctrl+M", self.mirror_muscle)):
+            action = QtGui.QAction(text, self)
+            action.setShortcut(QtGui.QKeySequence(shortcut))
+            action.triggered.connect(lambda checked=False, f=slot: f())
+            self.edit_actions[key] = action
+        self.edit_actions["mirror"].setToolTip(
+            "Copy the muscle to the other side of the face's symmetry plane, replacing its "
+            "twin (_L <-> _R) if there is one")
+        dock = QtWidgets.QDockWidget("Muscles", self)
+        dock.setObjectName("muscles")
+        self.muscle_panel = MuscleListPanel(list(self.edit_actions.values()))
+        self.muscle_panel.selected.connect(lambda name: self.select_muscle(name or None))
+        dock.setWidget(self.muscle_panel)
+        self.addDockWidget(QtCore.Qt.LeftDockWidgetArea, dock)
 
     def _build_menus(self) -> None:
         file_menu = self.menuBar().addMenu("&File")
@@ -161,12 +239,27 @@ class MainWindow(QtWidgets.QMainWindow):
         self._action(file_menu, "&Export screenshot...", "Ctrl+P", self.screenshot_dialog)
         file_menu.addSeparator()
         self._action(file_menu, "&Quit", "Ctrl+Q", self.close)
+        edit_menu = self.menuBar().addMenu("&Edit")
+        undo = self.undo_stack.createUndoAction(self, "&Undo")
+        undo.setShortcut(QtGui.QKeySequence.Undo)
+        redo = self.undo_stack.createRedoAction(self, "&Redo")
+        redo.setShortcut(QtGui.QKeySequence.Redo)
+        edit_menu.addActions([undo, redo])
+        edit_menu.addSeparator()
+        edit_menu.addMenu(self.add_menu)
+        edit_menu.addActions([self.edit_actions[k] for k in
+                              ("delete", "duplicate", "rename", "mirror")])
         view_menu = self.menuBar().addMenu("&View")
         for name, key in (("front", "1"), ("three_quarter", "2"), ("side", "3"),
                           ("forehead", "4")):
             self._action(view_menu, f"Camera: {name}", key,
                          lambda checked=False, n=name: self.set_camera(n))
         self._action(view_menu, "Play / pause", "Space", self.play_button.toggle)
+        self.aa_action = view_menu.addAction("&Anti-aliasing (slower drawing)")
+        self.aa_action.setCheckable(True)
+        self.aa_action.setChecked(self.settings.value("antialiasing", False, type=bool))
+        self.aa_action.toggled.connect(self.set_anti_aliasing)
+        self.set_anti_aliasing(self.aa_action.isChecked())
         self._update_recent_menu()
 
     def _action(self, menu, text, shortcut, slot) -> QtGui.QAction:
@@ -191,9 +284,34 @@ class MainWindow(QtWidgets.QMainWindow):
             self.field_box.setCurrentText(s.field)
         finally:
             self._updating_controls = False
+        self.muscle_panel.set_muscles(s.face.muscle_names, s.muscle)
+        self._update_edit_actions()
         self._build_parameter_panel()
 
+    def _update_edit_actions(self) -> None:
+        for key in ("delete", "duplicate", "rename", "mirror"):
+            self.edit_actions[key].setEnabled(self.session.muscle is not None)
+
+    def _sync_parameter_panel(self) -> None:
+        """Show the selected muscle's values: in place when the panel already shows that
+        muscle's type (an undo, a redo or a drag), else built again.
+        """
+        name = self.session.muscle
+        muscle = self.session.face.muscle(name) if name is not None else None
+        if muscle is None or self._panel_for != (name, muscle.type_name):
+            self._build_parameter_panel()
+            return
+        for param, widget in self.param_widgets.items():
+            value = getattr(muscle, param)
+            widget.blockSignals(True)
+            widget.setValue(value if value is not None else _resolved(muscle, param))
+            widget.blockSignals(False)
+        self._show_derived()
+
     def _build_parameter_panel(self) -> None:
+        name = self.session.muscle
+        self._panel_for = None if name is None else (
+            name, self.session.face.muscle(name).type_name)
         while self.param_form.rowCount():
             self.param_form.removeRow(0)
         self.param_widgets = {}
@@ -288,8 +406,14 @@ class MainWindow(QtWidgets.QMainWindow):
         changed_muscle = muscle != self.session.muscle
         self.session.set_field(field, muscle)
         if changed_muscle:
+            self.muscle_panel.set_current(muscle)
+            self._update_edit_actions()
             self._build_parameter_panel()
         self.refresh()
+
+    def select_muscle(self, name: str | None) -> None:
+        """Select a muscle (None: none): its fields, parameters and placement widget show."""
+        self.muscle_box.setCurrentText(name or TOTAL)
 
     def set_parameter(self, param: str, value) -> bool:
         """Set a parameter of the selected muscle; an invalid value is refused with its
@@ -298,7 +422,7 @@ class MainWindow(QtWidgets.QMainWindow):
         name = self.session.muscle
         value = int(value) if param == "n_wrinkles" else float(value)
         try:
-            self.session.set_parameter(name, param, value)
+            face = self.session.with_parameter(name, param, value)
         except (MuscleParameterError, ValueError) as exc:
             self.param_error.setText(str(exc))
             widget = self.param_widgets[param]
@@ -309,8 +433,9 @@ class MainWindow(QtWidgets.QMainWindow):
             widget.blockSignals(False)
             return False
         self.param_error.setText("")
-        self._show_derived()
-        self.refresh()
+        label = dict((p, lbl) for p, lbl, _ in EDITABLE.get(
+            self.session.face.muscle(name).type_name, ())).get(param, param)
+        self.edit(f"Set {label} of {name} to {value:g}", face)
         return True
 
     def set_activation(self, value: float) -> None:
@@ -339,22 +464,172 @@ class MainWindow(QtWidgets.QMainWindow):
                 self.probe_table.setItem(row, col, QtWidgets.QTableWidgetItem(text))
         return values
 
+    # ------------------------------------------------------------------ editing
+    def edit(self, text: str, face, select: str | None | type(...) = ...) -> None:
+        """Show ``face`` as one undoable step called ``text``; ``select`` the muscle to
+        select after it (default: keep the selection).
+        """
+        before = self.session.face
+        keep = self.session.muscle
+        after_select = keep if select is ... else select
+        self.undo_stack.push(FaceCommand(self, text, before, face, keep, after_select))
+
+    def show_face(self, face, select: str | None = None) -> None:
+        """Show a version of the face and select ``select`` (an undo or a redo)."""
+        s = self.session
+        if face is s.face and select == s.muscle and self._drawn_face is face:
+            return  # a drag's end: already on screen
+        names_changed = face.muscle_names != s.face.muscle_names
+        field = s.field
+        s.set_face(face)
+        if select is not None and select in face.muscle_names:
+            s.set_field(field, select)
+        elif select is None and s.muscle is not None:
+            s.set_field("W", None)
+        if names_changed or self.muscle_box.currentText() != (s.muscle or TOTAL):
+            self._populate()
+        else:
+            self._sync_parameter_panel()
+        self.refresh()
+
+    def _on_clean_changed(self, clean: bool) -> None:
+        self.session.dirty = not clean
+        self._update_title()
+        self.autosave_timer.start()
+
+    def _selected_or_warn(self) -> str | None:
+        if self.session.muscle is None:
+            self.statusBar().showMessage("Select a muscle first (in the list, or click it)")
+        return self.session.muscle
+
+    def add_muscle(self, type_name: str) -> str | None:
+        """Add a muscle of ``type_name`` at the probed point (or the middle of the skin
+        view) and select it; returns its name, or None if the type cannot make one.
+        """
+        at = self._placement_point()
+        try:
+            face, name = self.session.added(type_name, at)
+        except (NotImplementedError, MuscleParameterError, ValueError, KeyError) as exc:
+            QtWidgets.QMessageBox.warning(self, "Cannot add muscle", str(exc))
+            return None
+        self.edit(f"Add {name}", face, select=name)
+        return name
+
+    def _placement_point(self):
+        """Where a new muscle goes: the probed vertex (at rest), else the middle of the
+        skin view, else the front of the face.
+        """
+        skin = self.session.face.skin
+        if self.probed_vertex is not None and self.probed_vertex < skin.n_points:
+            return skin.points[self.probed_vertex]
+        picker = vtkPropPicker()
+        w, h = self.skin_view.render_window.GetSize()
+        if picker.Pick(w / 2, h / 2, 0, self.skin_view.renderer):
+            return np.array(picker.GetPickPosition())
+        return skin.points[np.argmax(skin.points[:, 2])]
+
+    def delete_muscle(self) -> None:
+        """Delete the selected muscle."""
+        name = self._selected_or_warn()
+        if name is not None:
+            self.edit(f"Delete {name}", self.session.deleted(name), select=None)
+
+    def duplicate_muscle(self) -> str | None:
+        """Copy the selected muscle under a free name and select the copy."""
+        name = self._selected_or_warn()
+        if name is None:
+            return None
+        face, copy = self.session.duplicated(name)
+        self.edit(f"Duplicate {name}", face, select=copy)
+        return copy
+
+    def rename_muscle(self, new_name: str) -> bool:
+        """Rename the selected muscle; a bad name is refused with the reason."""
+        name = self._selected_or_warn()
+        if name is None:
+            return False
+        try:
+            face = self.session.renamed(name, new_name)
+        except (ValueError, MuscleParameterError) as exc:
+            QtWidgets.QMessageBox.warning(self, "Cannot rename", str(exc))
+            return False
+        self.edit(f"Rename {name} to {new_name.strip()}", face, select=new_name.strip())
+        return True
+
+    def rename_dialog(self) -> None:
+        """Ask for a new name for the selected muscle."""
+        name = self._selected_or_warn()
+        if name is not None:
+            text, ok = QtWidgets.QInputDialog.getText(self, "Rename muscle", "New name:",
+                                                      text=name)
+            if ok and text != name:
+                self.rename_muscle(text)
+
+    def mirror_muscle(self) -> str | None:
+        """Mirror the selected muscle across the face's symmetry plane (see
+        :meth:`Session.mirrored`); returns the twin's name.
+        """
+        name = self._selected_or_warn()
+        if name is None:
+            return None
+        try:
+            face, twin = self.session.mirrored(name)
+        except (MuscleParameterError, ValueError) as exc:
+            QtWidgets.QMessageBox.warning(self, "Cannot mirror", str(exc))
+            return None
+        self.edit(f"Mirror {name} to {twin}", face)
+        return twin
+
+    # ------------------------------------------------------------------ placement
+    @property
+    def placement(self):
+        """The selected muscle's placement widget (None when no muscle is selected)."""
+        return self.views.placement
+
+    def _on_handle_start(self, handle) -> None:
+        self._drag_before = self.session.face
+        self.views.begin_drag()
+
+    def _on_handle_moved(self, handle, point, finished: bool) -> None:
+        """A handle moved to rest position ``point``: move the muscle's point there and
+        redraw (an invalid position is refused with the reason, the handle put back); the
+        whole drag is one undo step.
+        """
+        s = self.session
+        name = self.placement.muscle.name
+        try:
+            new = with_point(s.face.muscle(name), handle.param, handle.index, point)
+        except MuscleParameterError as exc:
+            self.param_error.setText(str(exc))
+            self.statusBar().showMessage(f"Refused: {exc}")
+            self.placement.update(s.face.muscle(name), s.state())
+            self._sync_views()
+        else:
+            self.param_error.setText("")
+            s.set_face(s.face.with_muscle(new))
+            self._show_derived()
+            # the handle's own view is rendered by its widget right after this callback
+            self.refresh(skip=() if finished else (self.placement.views[handle.layer],))
+        if finished:
+            self.views.end_drag()
+            self.views.render()
+            before, self._drag_before = self._drag_before, None
+            if before is not None and before is not s.face:
+                self.edit(f"Move {handle.label} of {name}", s.face)
+
     # ------------------------------------------------------------------ drawing
-    def refresh(self, reset_camera: bool = False) -> None:
-        """Recompute the frame and redraw the three views."""
+    def refresh(self, reset_camera: bool = False, skip=()) -> None:
+        """Recompute the frame and redraw the three views (less the plotters in ``skip``)."""
         t0 = time.perf_counter()
         s = self.session
         state = s.state()
         self._syncing = True  # one render per view at the end, not one per change
         try:
             # the drawn meshes can be updated in place only on the same triangles
-            key = (id(s.face), id(state.face), s.field, s.muscle,
-                   self.wireframe_box.isChecked())
-            if reset_camera or key != self._scene_key:
-                self._rebuild(state)
-                self._scene_key = key
-            else:
-                self._update_in_place(state)
+            if reset_camera:
+                self.views.invalidate()
+            self.views.draw(s, state, wireframe=self.wireframe_box.isChecked())
+            self._drawn_face = s.face
             if reset_camera:
                 set_camera(self.skin_view, "front", s.face)
         finally:
@@ -367,7 +642,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.probed_vertex = None  # a vertex of a refinement that is gone
         if self.probed_vertex is not None:
             self.probe_vertex(self.probed_vertex)
-        self._sync_views()
+        self.views.render(only_changed=not reset_camera, skip=skip)
         total_ms = 1e3 * (time.perf_counter() - t0)
         self.statusBar().showMessage(
             f"{s.expression} x {s.intensity:.2f}"
@@ -376,39 +651,21 @@ class MainWindow(QtWidgets.QMainWindow):
             f"{s.face.skin.n_triangles} triangles")
         self._update_title()
 
-    def _rebuild(self, state) -> None:
-        """Build the three scenes from scratch (field, muscle or face changed)."""
-        s = self.session
-        clear_scene(self.skin_view)
-        add_skin(self.skin_view, state, s.field, s.muscle,
-                 show_edges=self.wireframe_box.isChecked())
-        self._skin_mesh = self.skin_view.mesh
-        clear_scene(self.muscle_view)
-        add_skin(self.muscle_view, state, None, opacity=0.25)
-        self._ghost_mesh = self.muscle_view.mesh
-        self._muscle_meshes = add_muscles(self.muscle_view, s.face, state.activations)
-        clear_scene(self.skull_view)
-        add_skull(self.skull_view, s.face)
-
-    def _update_in_place(self, state) -> None:
-        """Only activations changed: move the skin and recolour, without new actors.
-
-        ``add_mesh`` renders a shallow copy of each mesh, which shares its VTK arrays, so
-        the new values are written into those arrays and the arrays marked modified.
-        """
-        s = self.session
-        array = self.active_array()
-        values = state.W if s.muscle is None else state.fields[s.muscle][s.field]
-        _write(self._skin_mesh, state.points, array, values)
-        self.skin_view.actors["skin"].mapper.scalar_range = field_range(
-            field_info(s.field), values)
-        _write(self._ghost_mesh, state.points)
-        for name, mesh in self._muscle_meshes.items():
-            _write(mesh, None, "activation", state.activations[name])
-
     def active_array(self) -> str:
         """The point array the skin view colours by."""
         return field_array_name(self.session.field, self.session.muscle)
+
+    def set_anti_aliasing(self, on: bool) -> None:
+        """8x multisampling in the three views, or none (the default: in software rendering
+        it costs about 2x per frame, see ``benchmarks/bench_drag.py``).
+        """
+        self.settings.setValue("antialiasing", bool(on))
+        for p in self.plotters:
+            if on:
+                p.enable_anti_aliasing("msaa", multi_samples=8)
+            else:
+                p.disable_anti_aliasing()
+        self._sync_views()
 
     def set_camera(self, name: str) -> None:
         """Move the shared camera to a named view."""
@@ -431,6 +688,8 @@ class MainWindow(QtWidgets.QMainWindow):
             QtWidgets.QMessageBox.warning(self, "Cannot open layout", str(exc))
             return False
         self.session = Session(face, path)
+        self.undo_stack.clear()
+        self.recovery.discard()
         self._remember(path)
         self._populate()
         self.refresh(reset_camera=True)
@@ -449,6 +708,8 @@ class MainWindow(QtWidgets.QMainWindow):
         except OSError as exc:
             QtWidgets.QMessageBox.warning(self, "Cannot save layout", str(exc))
             return False
+        self.undo_stack.setClean()
+        self.recovery.discard()
         self._remember(path)
         self._update_title()
         return True
@@ -496,6 +757,71 @@ class MainWindow(QtWidgets.QMainWindow):
             action.triggered.connect(lambda checked=False, p=path: self.open_layout(p))
         self.recent_menu.setEnabled(bool(self.recent_files()))
 
+    # ------------------------------------------------------------------ recovery
+    def autosave(self) -> None:
+        """Write the layout to the recovery file while it has unsaved changes (remove the
+        file when it has none).
+        """
+        if not self.session.dirty:
+            self.recovery.discard()
+            return
+        try:
+            self.recovery.save(self.session.layout(), self.session.layout_path,
+                               self.session.face.skin.n_triangles)
+        except OSError as exc:
+            self.statusBar().showMessage(f"Autosave failed: {exc}")
+
+    def offer_recovery(self) -> bool:
+        """If an earlier session did not exit cleanly, offer to restore its autosaved
+        layout; returns whether one was restored.
+        """
+        orphans = self.recovery.orphans()
+        if not orphans:
+            return False
+        answer = QtWidgets.QMessageBox.question(
+            self, "Recover unsaved work?",
+            f"wrinkle-vis did not close cleanly last time and autosaved its layout in\n"
+            f"{orphans[0]}\n\nRestore it? (No discards it.)",
+            QtWidgets.QMessageBox.Yes | QtWidgets.QMessageBox.No,
+            QtWidgets.QMessageBox.Yes)
+        if answer != QtWidgets.QMessageBox.Yes:
+            for path in orphans:
+                path.unlink(missing_ok=True)
+            return False
+        return self.restore(orphans[0], others=orphans[1:])
+
+    def restore(self, path, others=()) -> bool:
+        """Restore the layout of recovery file ``path`` as unsaved changes; a file that
+        cannot be read is kept beside as ``.bad`` and reported.
+        """
+        from wrinkle_vis.datasets import load_face
+
+        path = Path(path)
+        try:
+            rec = Recovery.load(path)
+            base = rec.source.parent if rec.source else Path.cwd()
+            face = load_face(rec.n_triangles, layout=rec.layout,
+                             skin=rec.layout.resolve("skin", base),
+                             skull=rec.layout.resolve("skull", base))
+        except (OSError, LayoutError, ValueError, KeyError) as exc:
+            path.replace(path.with_suffix(".bad"))
+            QtWidgets.QMessageBox.warning(
+                self, "Cannot recover", f"{exc}\n\nThe file was kept as "
+                f"{path.with_suffix('.bad')}.")
+            return False
+        self.session = Session(face, rec.source if rec.source and rec.source.exists()
+                               else None)
+        self.undo_stack.clear()
+        self.undo_stack.resetClean()  # the restored edits are unsaved
+        self._populate()
+        self.refresh(reset_camera=True)
+        self.autosave()  # ours now holds them: the orphans can go
+        for p in (path, *others):
+            p.unlink(missing_ok=True)
+        self.statusBar().showMessage(f"Restored the layout autosaved at "
+                                     f"{time.ctime(rec.saved_at)}")
+        return True
+
     # ------------------------------------------------------------------ closing
     def closeEvent(self, event) -> None:  # noqa: N802 (Qt's name)
         """Ask about unsaved changes, then close every plotter cleanly."""
@@ -509,24 +835,19 @@ class MainWindow(QtWidgets.QMainWindow):
                 event.ignore()
                 return
         self.timer.stop()
+        self.autosave_timer.stop()
+        self.views.close_placement()
+        self.undo_stack.clear()
+        self.recovery.discard()  # a clean exit leaves nothing to recover
         # VTK holds these callbacks strongly, out of Python's sight: drop them, or the
         # window and its plotters could never be collected
         self.skin_view.renderer.GetActiveCamera().RemoveObserver(self._camera_observer)
         self.skin_view.disable_picking()
+        self.muscle_view.iren.remove_observers("LeftButtonPressEvent")
+        self.muscle_view.iren.remove_observers("LeftButtonReleaseEvent")
         for p in self.plotters:
             p.close()
         event.accept()
-
-
-def _write(mesh, points=None, array: str | None = None, values=None) -> None:
-    """Write into a mesh's existing VTK buffers (shared with PyVista's shallow copies)."""
-    if points is not None:
-        mesh.points[:] = points
-        mesh.GetPoints().Modified()
-    if array is not None:
-        mesh.point_data[array][:] = values
-        mesh.GetPointData().GetArray(array).Modified()
-    mesh.Modified()
 
 
 def _resolved(muscle, param: str) -> float:
@@ -543,4 +864,29 @@ def run(argv=None) -> int:
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(argv or [])
     window = MainWindow(Session(load_face()))
     window.show()
+    window.offer_recovery()
     return app.exec()
+
+
+class FaceCommand(QtGui.QUndoCommand):
+    """One undoable edit: the face before and after, and the selection with each.
+
+    It holds the window weakly (the window owns the stack that owns the command).
+    """
+
+    def __init__(self, window: MainWindow, text: str, before, after, select_before,
+                 select_after):
+        super().__init__(text)
+        self._window = weakref.ref(window)
+        self.before, self.after = before, after
+        self.select_before, self.select_after = select_before, select_after
+
+    def redo(self) -> None:
+        window = self._window()
+        if window is not None:
+            window.show_face(self.after, self.select_after)
+
+    def undo(self) -> None:
+        window = self._window()
+        if window is not None:
+            window.show_face(self.before, self.select_before)

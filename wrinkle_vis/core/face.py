@@ -16,6 +16,7 @@ of vectorized steps whatever the number of muscles:
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 from collections import OrderedDict
 from collections.abc import Iterable, Mapping
@@ -232,6 +233,9 @@ class FaceModel:
         Named expressions; default the paper's (:func:`paper_expressions`).
     name : str
         A label for the face.
+    landmarks : mapping of str to (3,) array_like, optional
+        Named points on the skin (see :data:`wrinkle_vis.datasets.scans.LANDMARKS`); left and
+        right pairs (``*_L``, ``*_R``) give the face's symmetry plane.
 
     Notes
     -----
@@ -241,7 +245,7 @@ class FaceModel:
 
     def __init__(self, skin: TriangleSurface, skull: TriangleSurface | None = None,
                  muscles: Iterable[Muscle] = (), expressions=None, *, name: str = "face",
-                 _caches=None):
+                 landmarks=None, _caches=None):
         if not isinstance(skin, TriangleSurface):
             raise TypeError(f"skin must be a TriangleSurface; got {type(skin).__name__}")
         if skull is not None and not isinstance(skull, TriangleSurface):
@@ -249,6 +253,8 @@ class FaceModel:
         self.skin = skin
         self.skull = skull
         self.name = name
+        self.landmarks: dict[str, tuple] = {
+            str(k): tuple(float(x) for x in v) for k, v in dict(landmarks or {}).items()}
         self.muscles: tuple[Muscle, ...] = tuple(muscles)
         seen: set[str] = set()
         for m in self.muscles:
@@ -282,24 +288,60 @@ class FaceModel:
         raise KeyError(f"the face has no muscle {name!r}; its muscles are: "
                        f"{', '.join(self.muscle_names) or 'none'}")
 
-    def with_muscle(self, muscle: Muscle) -> FaceModel:
-        """A face with ``muscle`` replacing the one of the same name, or added."""
+    def with_muscle(self, muscle: Muscle, replacing: str | None = None) -> FaceModel:
+        """A face with ``muscle`` in place of the one called ``replacing`` (default: the one
+        of the same name), or added at the end if there is none.
+
+        Replacing a muscle by one of another name renames it in every expression too.
+        """
+        old = muscle.name if replacing is None else replacing
         names = self.muscle_names
+        if muscle.name != old and muscle.name in names:
+            raise ValueError(f"a muscle named {muscle.name!r} exists already; choose another "
+                             "name")
         muscles = list(self.muscles)
-        if muscle.name in names:
-            muscles[names.index(muscle.name)] = muscle
+        if old in names:
+            muscles[names.index(old)] = muscle
+        elif replacing is not None:
+            self.muscle(replacing)  # raises, naming the face's muscles
         else:
             muscles.append(muscle)
-        return self._derived(muscles)
+        expressions = self.expressions if muscle.name == old else {
+            k: _renamed(ex, old, muscle.name) for k, ex in self.expressions.items()}
+        return self._derived(muscles, expressions)
 
     def without_muscle(self, name: str) -> FaceModel:
-        """A face without the muscle called ``name``."""
+        """A face without the muscle called ``name`` (dropped from the expressions too)."""
         self.muscle(name)
-        return self._derived([m for m in self.muscles if m.name != name])
+        expressions = {k: _renamed(ex, name, None) for k, ex in self.expressions.items()}
+        return self._derived([m for m in self.muscles if m.name != name], expressions)
 
-    def _derived(self, muscles) -> FaceModel:
-        return FaceModel(self.skin, self.skull, muscles, self.expressions, name=self.name,
-                         _caches=(self._muscle_data, None))
+    def with_expressions(self, expressions) -> FaceModel:
+        """A face with these expressions (``{name: Expression}``) and the same muscles."""
+        return self._derived(self.muscles, dict(expressions))
+
+    def symmetry_plane(self) -> tuple[np.ndarray, np.ndarray]:
+        """``((3,), (3,))``: a point on the face's left-right symmetry plane and its unit
+        normal (pointing to the subject's left).
+
+        From the left and right landmark pairs (``name_L``, ``name_R``) where there are
+        any: the normal is the mean of the unit ``L - R`` vectors and the point the mean of
+        the pairs' midpoints. Without pairs, the plane ``x = 0`` of the built-in face's
+        frame (x to the subject's left).
+        """
+        from .editing import symmetry_plane
+
+        return symmetry_plane(self.landmarks)
+
+    def _derived(self, muscles, expressions=None) -> FaceModel:
+        cache = self._muscle_data
+        if len(cache) > 4 * len(muscles) + 64:  # edits leave old versions behind: drop them
+            keep = set(muscles)
+            for m in [m for m in cache if m not in keep]:
+                del cache[m]
+        return FaceModel(self.skin, self.skull, muscles,
+                         self.expressions if expressions is None else expressions,
+                         name=self.name, landmarks=self.landmarks, _caches=(cache, None))
 
     def muscle_data(self, muscle: Muscle) -> _MuscleData:
         """The cached rest-skin data of ``muscle`` (built on first use)."""
@@ -395,7 +437,7 @@ class FaceModel:
         """The face on this skin refined at ``marked`` triangles (cached)."""
         return _lru(self._refinements, np.packbits(marked).tobytes(), 8, lambda: FaceModel(
             refine_triangles(self.skin, marked).surface, self.skull, self.muscles,
-            self.expressions, name=self.name))
+            self.expressions, name=self.name, landmarks=self.landmarks))
 
     def _frame(self, acts: dict[str, float]) -> FaceState:
         """The unrefined frame for resolved activations."""
@@ -408,6 +450,15 @@ class FaceModel:
         asm = self._assembly(active)
         deformed, points, total, compact = asm.frame(rest, np.array([acts[m] for m in active]))
         return FaceState(self, acts, deformed, points, total, asm, compact)
+
+
+def _renamed(expression: Expression, old: str, new: str | None) -> Expression:
+    """``expression`` with muscle ``old`` called ``new`` (None: dropped)."""
+    if old not in expression.activations:
+        return expression
+    acts = {(new if k == old else k): v for k, v in expression.activations.items()
+            if k != old or new is not None}
+    return dataclasses.replace(expression, activations=acts)
 
 
 def _lru(cache: OrderedDict, key, size: int, build):

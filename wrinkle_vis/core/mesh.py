@@ -10,8 +10,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 from scipy.spatial import cKDTree
 
-__all__ = ["MeshError", "MeshReport", "TriangleSurface", "closest_points", "subdivide",
-           "triangle_normals", "unit_rows"]
+__all__ = ["MeshError", "MeshReport", "TriangleSurface", "barycentric_points", "closest_points",
+           "subdivide", "surface_coordinates", "triangle_normals", "unit_rows"]
 
 
 class MeshError(ValueError):
@@ -203,6 +203,11 @@ class TriangleSurface:
         cols = np.repeat(np.arange(m), 3)
         return sp.csr_matrix((np.ones(3 * m), (rows, cols)), shape=(self.n_points, m))
 
+    @cached_property
+    def kdtree(self) -> cKDTree:
+        """A ``scipy.spatial.cKDTree`` of the vertices (built on first use)."""
+        return cKDTree(self.points)
+
     # ------------------------------------------------------------------ geometry
     @cached_property
     def _corners(self) -> np.ndarray:
@@ -364,16 +369,65 @@ def closest_points(surface: TriangleSurface, queries) -> np.ndarray:
     Exact among the triangles around the few nearest vertices, which is the closest point
     on an even triangulation.
     """
+    tri, bary = surface_coordinates(surface, queries)
+    return barycentric_points(surface, tri, bary)
+
+
+def surface_coordinates(surface: TriangleSurface, queries) -> tuple[np.ndarray, np.ndarray]:
+    """Where on ``surface`` the closest points to ``queries`` lie, as triangles and weights.
+
+    Parameters
+    ----------
+    surface : TriangleSurface
+        The surface.
+    queries : (k, 3) array_like
+        Points anywhere.
+
+    Returns
+    -------
+    triangles : (k,) int ndarray
+        The triangle of each closest point.
+    barycentric : (k, 3) float ndarray
+        Its barycentric coordinates in that triangle (rows sum to 1). The same coordinates on
+        a surface with the same triangles and moved points (:meth:`TriangleSurface.with_points`)
+        carry a point from one to the other, e.g. from the deformed skin to the rest skin.
+    """
     q = np.atleast_2d(np.asarray(queries, dtype=float))
-    _, near = cKDTree(surface.points).query(q, k=min(4, surface.n_points))
+    _, near = surface.kdtree.query(q, k=min(4, surface.n_points))
     near = np.atleast_2d(near)
-    inc = surface.incidence.tocsr()
+    inc = surface.incidence
+    best_tri = np.empty(len(q), dtype=np.intp)
     best = np.empty_like(q)
     for i, (point, verts) in enumerate(zip(q, near, strict=True)):
         tris = np.unique(np.concatenate([inc[v].indices for v in verts]))
         cand = _closest_on_triangles(point, surface.points[surface.triangles[tris]])
-        best[i] = cand[np.argmin(np.linalg.norm(cand - point, axis=1))]
-    return best
+        j = int(np.argmin(np.linalg.norm(cand - point, axis=1)))
+        best_tri[i], best[i] = tris[j], cand[j]
+    return best_tri, _barycentric(surface.points[surface.triangles[best_tri]], best)
+
+
+def barycentric_points(surface: TriangleSurface, triangles, barycentric,
+                       points=None) -> np.ndarray:
+    """``(k, 3)``: the points at ``barycentric`` ``(k, 3)`` in ``triangles`` ``(k,)``, on the
+    surface's vertices or on ``points`` ``(n, 3)`` (the same triangles elsewhere, e.g.
+    deformed).
+    """
+    verts = surface.points if points is None else np.asarray(points, dtype=float)
+    corners = verts[surface.triangles[np.asarray(triangles)]]
+    return np.einsum("kj,kjd->kd", np.asarray(barycentric, dtype=float), corners)
+
+
+def _barycentric(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """``(k, 3)``: barycentric coordinates of points ``(k, 3)`` in triangles ``(k, 3, 3)``."""
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    v0, v1, v2 = b - a, c - a, p - a
+    d00, d01, d11 = (np.einsum("ij,ij->i", x, y) for x, y in ((v0, v0), (v0, v1), (v1, v1)))
+    d20, d21 = np.einsum("ij,ij->i", v2, v0), np.einsum("ij,ij->i", v2, v1)
+    denom = d00 * d11 - d01 * d01
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v = np.where(denom != 0, (d11 * d20 - d01 * d21) / denom, 0.0)
+        w = np.where(denom != 0, (d00 * d21 - d01 * d20) / denom, 0.0)
+    return np.stack([1.0 - v - w, v, w], axis=1)
 
 
 def _closest_on_triangles(p: np.ndarray, tri: np.ndarray) -> np.ndarray:

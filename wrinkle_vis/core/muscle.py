@@ -132,10 +132,16 @@ class Muscle:
     attributes ``type_name`` (the registry key) and ``point_parameters`` (the names of
     parameters that are 3D points or pairs of points, which placement widgets edit), and
     implement ``_geometry``, ``_falloff``, ``wrinkle_length`` and ``attenuation_range``.
+
+    A type may declare its placement widget as ``widget = "package.module:Factory"`` (a
+    string, so the core never imports VTK); :func:`wrinkle_vis.widgets.widget_factory` looks
+    it up along the class hierarchy, and a type with none gets a generic widget with a handle
+    per point parameter.
     """
 
     type_name: ClassVar[str] = ""
     point_parameters: ClassVar[tuple[str, ...]] = ()
+    widget: ClassVar[str | None] = None
     length_parameters: ClassVar[tuple[str, ...]] = ("k0",)
 
     name: str

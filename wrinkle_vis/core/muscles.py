@@ -83,6 +83,7 @@ class LinearMuscle(Muscle):
 
     type_name = "linear"
     point_parameters = ("attachment", "insertion")
+    widget = "wrinkle_vis.widgets.placement:LinearWidget"
     length_parameters = ("radius", "k0", "fall_start", "strength")
 
     attachment: tuple
@@ -218,6 +219,7 @@ class SheetMuscle(Muscle):
 
     type_name = "sheet"
     point_parameters = ("attachment_line", "insertion_line")
+    widget = "wrinkle_vis.widgets.placement:SheetWidget"
     length_parameters = ("length", "width", "depth", "k0", "attenuation_start", "fall_start",
                          "strength")
 

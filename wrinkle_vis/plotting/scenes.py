@@ -10,7 +10,8 @@ from ..core.muscles import LinearMuscle, SheetMuscle
 from .fields import NAN_COLOR, field_info, field_range
 from .polydata import field_array_name, to_polydata, to_surface_polydata
 
-__all__ = ["BONE", "CAMERAS", "LAYERS", "SKIN", "add_muscles", "add_skin", "add_skull",
+__all__ = ["BONE", "CAMERAS", "LAYERS", "SKIN", "add_attachments", "add_muscle", "add_muscles",
+           "add_skin", "add_skull", "replace_mesh",
            "clear_scene", "to_multiblock",
            "muscle_mesh", "render_field", "set_camera", "testing_theme"]
 
@@ -106,11 +107,11 @@ def muscle_mesh(muscle, activation: float = 0.0) -> pv.PolyData:
         s = np.linspace(0.0, 1.0, 7)[:, None]
         starts = att[0] + s * (att[1] - att[0])
         ends = ins[0] + s * (ins[1] - ins[0])
-        radius = 0.012 * muscle.fibre_length
-        mesh = pv.merge([pv.Line(a, b, resolution=8).tube(radius=radius, n_sides=8,
-                                                          capping=True)
-                         for a, b in zip(starts, ends, strict=True)])
-        mesh = mesh.extract_surface(algorithm="dataset_surface")
+        t = np.linspace(0.0, 1.0, 9)[None, :, None]
+        points = (starts[:, None] + t * (ends - starts)[:, None]).reshape(-1, 3)
+        lines = np.hstack([np.full((7, 1), 9), np.arange(63).reshape(7, 9)]).ravel()
+        mesh = pv.PolyData(points, lines=lines).tube(  # seven fibres in one filter run
+            radius=0.012 * muscle.fibre_length, n_sides=8, capping=True)
     else:  # a plug-in type: a line through its point parameters
         pts = np.concatenate([np.asarray(getattr(muscle, p), float).reshape(-1, 3)
                               for p in muscle.point_parameters])
@@ -147,17 +148,36 @@ def add_muscles(plotter: pv.Plotter, face: FaceModel, activations=None, *,
         the array modified) recolours it without new actors.
     """
     activations = activations or {}
-    meshes = {}
-    for i, m in enumerate(face.muscles):
-        show_bar = scalar_bar and i == 0
-        mesh = muscle_mesh(m, activations.get(m.name, 0.0))
-        plotter.add_mesh(
-            mesh, scalars="activation", cmap="Reds", clim=(0.0, 1.0), smooth_shading=True,
-            name=f"muscle:{m.name}", render=False, show_scalar_bar=show_bar,
-            scalar_bar_args=_scalar_bar("activation", nan=False) if show_bar
-            else None)
-        meshes[m.name] = mesh
-    return meshes
+    return {m.name: add_muscle(plotter, m, activations.get(m.name, 0.0),
+                               scalar_bar=scalar_bar and i == 0)
+            for i, m in enumerate(face.muscles)}
+
+
+def add_muscle(plotter: pv.Plotter, muscle, activation: float = 0.0, *,
+               scalar_bar: bool = False) -> pv.PolyData:
+    """Add one muscle (actor ``muscle:<name>``, replacing one of that name); returns its
+    mesh (see :func:`add_muscles`).
+    """
+    mesh = muscle_mesh(muscle, activation)
+    plotter.add_mesh(
+        mesh, scalars="activation", cmap="Reds", clim=(0.0, 1.0), smooth_shading=True,
+        name=f"muscle:{muscle.name}", render=False, show_scalar_bar=scalar_bar,
+        reset_camera=False,
+        scalar_bar_args=_scalar_bar("activation", nan=False) if scalar_bar else None)
+    return mesh
+
+
+def replace_mesh(plotter: pv.Plotter, name: str, mesh: pv.PolyData) -> bool:
+    """Show ``mesh`` in place of what actor ``name`` draws, keeping the actor and its
+    mapper settings (much cheaper than ``add_mesh`` while dragging). ``mesh`` itself is
+    drawn, so writing into its arrays later updates the view. Returns False, doing nothing,
+    if there is no such actor.
+    """
+    actor = plotter.actors.get(name)
+    if actor is None or getattr(actor, "mapper", None) is None:
+        return False
+    actor.mapper.dataset = mesh  # PyVista reconnects its scalars pipeline to it
+    return True
 
 
 def add_skull(plotter: pv.Plotter, face: FaceModel, *, attachments: bool = True):
@@ -167,13 +187,20 @@ def add_skull(plotter: pv.Plotter, face: FaceModel, *, attachments: bool = True)
     actor = plotter.add_mesh(to_surface_polydata(face.skull), color=BONE,
                              smooth_shading=True, name="skull", render=False)
     if attachments:
-        pts = [np.asarray(getattr(m, p), float).reshape(-1, 3)
-               for m in face.muscles for p in m.point_parameters if p.startswith("attachment")]
-        if pts:
-            plotter.add_points(np.concatenate(pts), color="#7a1f1f", point_size=9,
-                               render_points_as_spheres=True, name="attachments",
-                               render=False)
+        add_attachments(plotter, face)
     return actor
+
+
+def add_attachments(plotter: pv.Plotter, face: FaceModel) -> None:
+    """Mark every muscle's attachment points (actor ``attachments``, replaced if there)."""
+    pts = [np.asarray(getattr(m, p), float).reshape(-1, 3)
+           for m in face.muscles for p in m.point_parameters if p.startswith("attachment")]
+    if not pts:
+        plotter.remove_actor("attachments", render=False)
+        return
+    plotter.add_points(np.concatenate(pts), color="#7a1f1f", point_size=9,
+                       render_points_as_spheres=True, name="attachments", render=False,
+                       reset_camera=False, pickable=False)
 
 
 def set_camera(plotter: pv.Plotter, name: str, face: FaceModel) -> None:

@@ -24,6 +24,7 @@ class RingMuscle(Muscle):
 
     type_name = "ring"
     point_parameters = ("center",)
+    widget = "wrinkle_vis_ring.widget:RingWidget"  # its own placement widget
     length_parameters = ("radius", "depth", "k0", "strength")
 
     center: tuple

@@ -1,0 +1,480 @@
+"""Placement widgets: handles that slide on the skin or the skull, and the muscle's AOI drawn.
+
+A widget belongs to one muscle and draws into the app's three views, given as a mapping
+``{"skin": plotter, "muscles": plotter, "skull": plotter}`` whose skin and skull views hold
+actors named ``"skin"`` and ``"skull"`` (as :func:`wrinkle_vis.plotting.add_skin` and
+:func:`~wrinkle_vis.plotting.add_skull` name them).
+
+Each handle is a ``vtkHandleWidget`` whose ``vtkPolygonalSurfacePointPlacer`` keeps it on its
+layer's surface under the mouse. Skin handles slide on the skin as drawn (deformed by the
+current expression) and report the REST position under them, the muscle's parameter, by
+carrying the barycentric coordinates of the deformed triangle over to the rest triangle.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import pyvista as pv
+import vtk
+
+from wrinkle_vis.core.face import FaceModel, FaceState
+from wrinkle_vis.core.mesh import barycentric_points, surface_coordinates
+from wrinkle_vis.core.muscle import Muscle
+from wrinkle_vis.plotting.scenes import replace_mesh
+
+__all__ = ["GenericWidget", "Handle", "LinearWidget", "PlacementWidget", "SheetWidget",
+           "boundary_lines", "handles_for", "layer_of", "register_widget", "snapped",
+           "snapped_points", "spherical_sector", "widget_factory"]
+
+#: Handle colours by layer, and the colours of the AOI and the wrinkling region.
+COLORS = {"skin": "#1f5fbf", "skull": "#8a1c1c", "aoi": "#2a9d8f", "region": "#e9c46a"}
+
+_WIDGETS: dict[type, Callable] = {}
+
+OnMove = Callable[["Handle", np.ndarray, bool], None]
+
+
+@dataclass(frozen=True)
+class Handle:
+    """One draggable point of a muscle: ``param`` (row ``index`` of a line) on ``layer``."""
+
+    param: str
+    index: int | None
+    layer: str  # "skin" or "skull"
+
+    @property
+    def label(self) -> str:
+        """``param`` or ``param[index]``."""
+        return self.param if self.index is None else f"{self.param}[{self.index}]"
+
+    def value(self, muscle: Muscle) -> np.ndarray:
+        """``(3,)``: the handle's point in ``muscle`` (a rest position)."""
+        arr = np.asarray(getattr(muscle, self.param), dtype=float)
+        return arr if self.index is None else arr[self.index]
+
+
+def layer_of(param: str) -> str:
+    """The surface a point parameter lies on by convention: ``attachment*`` on the skull,
+    everything else on the skin.
+    """
+    return "skull" if param.startswith("attachment") else "skin"
+
+
+def handles_for(muscle: Muscle) -> tuple[Handle, ...]:
+    """A handle per point of each point parameter (two for a line), on :func:`layer_of`."""
+    out = []
+    for param in muscle.point_parameters:
+        arr = np.asarray(getattr(muscle, param), dtype=float)
+        rows = [None] if arr.ndim == 1 else range(len(arr))
+        out += [Handle(param, i, layer_of(param)) for i in rows]
+    return tuple(out)
+
+
+# ---------------------------------------------------------------------- the registry
+def register_widget(muscle_type: type, factory: Callable | None = None):
+    """Use ``factory`` (a :class:`PlacementWidget` subclass) for ``muscle_type`` and its
+    subclasses, over what the type declares in its ``widget`` attribute. Usable as a
+    decorator: ``@register_widget(MyMuscle)``.
+    """
+    if factory is None:
+        return lambda f: register_widget(muscle_type, f)
+    if not (isinstance(muscle_type, type) and issubclass(muscle_type, Muscle)):
+        raise TypeError(f"{muscle_type!r} is not a Muscle subclass")
+    _WIDGETS[muscle_type] = factory
+    return factory
+
+
+def widget_factory(muscle_type: type) -> Callable:
+    """The widget factory of a muscle type, looked up along its class hierarchy.
+
+    At each class, a factory registered with :func:`register_widget` comes first, then the
+    class's own ``widget = "module:attribute"``; a type with neither anywhere gets
+    :class:`GenericWidget`.
+
+    Raises
+    ------
+    ImportError
+        If a declared ``widget`` cannot be imported; the message names the type and the
+        declaration.
+    """
+    for cls in muscle_type.__mro__:
+        if cls in _WIDGETS:
+            return _WIDGETS[cls]
+        declared = cls.__dict__.get("widget")
+        if declared:
+            return _resolve(declared, cls)
+    return GenericWidget
+
+
+def _resolve(declared, cls: type) -> Callable:
+    if callable(declared):
+        return declared
+    module, _, attr = str(declared).partition(":")
+    try:
+        return getattr(importlib.import_module(module), attr)
+    except (ImportError, AttributeError) as exc:
+        raise ImportError(
+            f"muscle type {cls.__name__} declares widget = {declared!r}, which cannot be "
+            f"imported ({exc}); install the package that provides it, or fix the declaration "
+            "as 'package.module:Class'") from exc
+
+
+# ---------------------------------------------------------------------- drawing helpers
+def boundary_lines(points: np.ndarray, triangles: np.ndarray, mask: np.ndarray) -> pv.PolyData:
+    """The outline of the patch of triangles whose three vertices are in ``mask``.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Vertex positions to draw at.
+    triangles : (t, 3) int
+        The triangles.
+    mask : (n,) bool
+        The vertices of the region.
+
+    Returns
+    -------
+    pyvista.PolyData
+        Line segments along the edges that belong to exactly one patch triangle (empty when
+        the patch is empty).
+    """
+    patch = triangles[mask[triangles].all(axis=1)]
+    edges = np.sort(patch[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    uniq, counts = np.unique(edges, axis=0, return_counts=True)
+    edges = uniq[counts == 1]
+    if not len(edges):
+        return pv.PolyData()
+    used, inverse = np.unique(edges, return_inverse=True)
+    lines = np.hstack([np.full((len(edges), 1), 2), inverse.reshape(-1, 2)]).ravel()
+    return pv.PolyData(np.asarray(points[used], dtype=float), lines=lines)
+
+
+def spherical_sector(apex, axis, radius: float, half_angle_deg: float,
+                     resolution: int = 24) -> pv.PolyData:
+    """A cone of half-angle ``half_angle_deg`` from ``apex`` along ``axis``, closed by a
+    spherical cap of ``radius``: the linear muscle's AOI.
+    """
+    axis = np.asarray(axis, float) / np.linalg.norm(axis)
+    e1 = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    phi = np.radians(np.linspace(0.0, half_angle_deg, resolution // 3 + 2))
+    t = np.linspace(0.0, 2 * np.pi, resolution, endpoint=False)
+    ring = np.cos(t)[:, None] * e1 + np.sin(t)[:, None] * e2
+    cap = (np.cos(phi)[:, None, None] * axis + np.sin(phi)[:, None, None] * ring) * radius
+    pts = np.vstack([np.asarray(apex, float)[None], (cap + apex).reshape(-1, 3)])
+    m = len(t)
+    faces = []
+    for i in range(len(phi) - 1):  # cap quads between rings i and i + 1
+        for j in range(m):
+            a, b = 1 + i * m + j, 1 + i * m + (j + 1) % m
+            faces += [4, a, b, b + m, a + m]
+    last = 1 + (len(phi) - 1) * m
+    for j in range(m):  # the cone's side, from the apex to the cap's rim
+        faces += [3, 0, last + (j + 1) % m, last + j]
+    return pv.PolyData(pts, faces=np.array(faces))
+
+
+# ---------------------------------------------------------------------- the widgets
+class PlacementWidget:
+    """Handles for one muscle's points, and its AOI and wrinkling region drawn.
+
+    Parameters
+    ----------
+    views : mapping of str to pyvista.Plotter
+        ``"skin"``, ``"muscles"`` and ``"skull"`` views (see the module docstring).
+    muscle : Muscle
+        The muscle to place.
+    state : FaceState
+        The frame on display (its skin, deformed, is where skin handles slide).
+    on_move : callable, optional
+        ``on_move(handle, rest_point, finished)`` while a handle is dragged (``finished``
+        False) and once when it is let go (True). ``rest_point`` is ``(3,)``: on the rest
+        skin for skin handles, on the skull for skull handles.
+    on_start : callable, optional
+        ``on_start(handle)`` when a drag starts.
+
+    Notes
+    -----
+    Subclasses override :meth:`handles` (which points, on which layer) and
+    :meth:`aoi_meshes` (the shapes drawn in the muscles view).
+    """
+
+    handle_size = 18.0
+
+    def __init__(self, views: Mapping[str, pv.Plotter], muscle: Muscle, state: FaceState,
+                 on_move: OnMove | None = None, on_start: Callable | None = None):
+        self.views = views
+        self.on_move = on_move
+        self.on_start = on_start
+        self.muscle = muscle
+        self.state = state
+        self.widgets: dict[Handle, vtk.vtkHandleWidget] = {}
+        self._placers: dict[Handle, vtk.vtkPolygonalSurfacePointPlacer] = {}
+        self._overlays: list[tuple[pv.Plotter, str]] = []
+        for handle in self.handles(muscle):
+            self._add_handle(handle)
+        self.update(muscle, state)
+
+    # -------------------------------------------------------------- what subclasses say
+    @classmethod
+    def handles(cls, muscle: Muscle) -> tuple[Handle, ...]:
+        """The handles for ``muscle`` (default: :func:`handles_for`)."""
+        return handles_for(muscle)
+
+    def aoi_meshes(self, muscle: Muscle) -> dict[str, pv.PolyData]:
+        """Named shapes of the muscle's area of influence for the muscles view."""
+        return {}
+
+    @classmethod
+    def create(cls, muscle_type: type, name: str, face: FaceModel, at) -> Muscle:
+        """A new muscle of ``muscle_type`` called ``name`` with its insertion at ``at``
+        ``(3,)`` on the skin, ready to be dragged into place.
+
+        Raises
+        ------
+        NotImplementedError
+            When the widget does not know how to make one (the generic widget); the message
+            says what to do instead.
+        """
+        raise NotImplementedError(
+            f"the {muscle_type.type_name!r} muscle type's widget ({cls.__name__}) cannot "
+            "create a new muscle; load one from a layout file, or give the type a widget "
+            "with a create() method")
+
+    # -------------------------------------------------------------- handles
+    def _add_handle(self, handle: Handle) -> None:
+        plotter = self.views[handle.layer]
+        placer = vtk.vtkPolygonalSurfacePointPlacer()
+        placer.AddProp(plotter.actors[handle.layer])
+        rep = vtk.vtkPointHandleRepresentation3D()
+        self._placers[handle] = placer
+        rep.SetPointPlacer(placer)
+        rep.SetHandleSize(self.handle_size)
+        rep.AllOn()
+        rep.GetProperty().SetColor(pv.Color(COLORS[handle.layer]).float_rgb)
+        rep.GetProperty().SetLineWidth(3)
+        rep.GetSelectedProperty().SetColor(1.0, 0.5, 0.0)
+        rep.GetSelectedProperty().SetLineWidth(4)
+        widget = vtk.vtkHandleWidget()
+        widget.SetInteractor(plotter.iren.interactor)
+        widget.SetRepresentation(rep)
+        widget.SetCurrentRenderer(plotter.renderer)
+        widget.AddObserver("StartInteractionEvent", lambda *_: self._started(handle))
+        widget.AddObserver("InteractionEvent", lambda *_: self._moved(handle, False))
+        widget.AddObserver("EndInteractionEvent", lambda *_: self._moved(handle, True))
+        widget.EnabledOn()
+        self.widgets[handle] = widget
+
+    def rebind(self, state: FaceState) -> None:
+        """Follow scenes that were cleared and built again: slide on the new skin and skull
+        actors and show the handles again. Safe during a drag (the widgets stay; closing a
+        widget inside its own event would crash VTK).
+        """
+        for handle, widget in self.widgets.items():
+            plotter = self.views[handle.layer]
+            placer = self._placers[handle]
+            placer.RemoveAllProps()
+            placer.AddProp(plotter.actors[handle.layer])
+            rep = widget.GetRepresentation()
+            if not plotter.renderer.HasViewProp(rep):
+                plotter.renderer.AddViewProp(rep)
+        self._overlays = []
+        self.update(self.muscle, state)
+
+    def _started(self, handle: Handle) -> None:
+        if self.on_start is not None:
+            self.on_start(handle)
+
+    def _moved(self, handle: Handle, finished: bool) -> None:
+        if self.on_move is not None:
+            self.on_move(handle, self.rest_point(handle), finished)
+
+    def position(self, handle: Handle) -> np.ndarray:
+        """``(3,)``: where the handle is drawn (on the deformed skin, or the skull)."""
+        return np.array(self.widgets[handle].GetRepresentation().GetWorldPosition())
+
+    def rest_point(self, handle: Handle) -> np.ndarray:
+        """``(3,)``: the rest position under the handle (what the muscle's parameter takes)."""
+        drawn = self.position(handle)
+        if handle.layer != "skin":
+            return drawn
+        rest_skin = self.state.face.skin
+        tri, bary = surface_coordinates(rest_skin.with_points(self.state.points), drawn[None])
+        return barycentric_points(rest_skin, tri, bary)[0]
+
+    def drawn_points(self, handles, rests) -> np.ndarray:
+        """``(k, 3)``: where rest points ``(k, 3)`` of ``handles`` are drawn in the frame."""
+        out = np.array(rests, dtype=float).reshape(-1, 3)
+        on_skin = np.array([h.layer == "skin" for h in handles], dtype=bool)
+        if on_skin.any():
+            skin = self.state.face.skin  # the rest skin: its search tree is kept
+            tri, bary = surface_coordinates(skin, out[on_skin])
+            out[on_skin] = barycentric_points(skin, tri, bary, points=self.state.points)
+        return out
+
+    # -------------------------------------------------------------- drawing
+    def update(self, muscle: Muscle, state: FaceState) -> None:
+        """Follow a new version of the muscle or a new frame: move the handles, redraw the
+        AOI and the region (nothing is rendered; the caller renders).
+        """
+        self.muscle, self.state = muscle, state
+        handles = list(self.widgets)
+        drawn = self.drawn_points(handles, [h.value(muscle) for h in handles])
+        for handle, point in zip(handles, drawn, strict=True):
+            self.widgets[handle].GetRepresentation().SetWorldPosition(point)
+        self._draw_overlays()
+
+    def _draw_overlays(self) -> None:
+        face: FaceModel = self.state.face
+        data = face.muscle_data(self.muscle)
+        n = self.state.n_points
+        lines = {}
+        for kind, ids in (("aoi", data.aoi), ("region", data.region)):
+            mask = np.zeros(n, dtype=bool)
+            mask[ids] = True
+            lift = self.state.points + 0.4 * self.state.normals
+            lines[kind] = boundary_lines(lift, face.skin.triangles, mask)
+        for view in ("skin", "muscles"):
+            for kind, mesh in lines.items():
+                self._overlay(view, f"widget:{kind}", mesh, color=COLORS[kind], line_width=3)
+        for name, mesh in self.aoi_meshes(self.muscle).items():
+            # opaque lines: translucency would cost most of the view's render in software
+            self._overlay("muscles", f"widget:{name}", mesh, color=COLORS["aoi"],
+                          style="wireframe", line_width=1.5)
+
+    def _overlay(self, view: str, name: str, mesh: pv.PolyData, **kwargs) -> None:
+        plotter = self.views[view]
+        if mesh.n_points == 0:
+            plotter.remove_actor(name, render=False)
+            if (plotter, name) in self._overlays:
+                self._overlays.remove((plotter, name))
+            return
+        if (plotter, name) in self._overlays and replace_mesh(plotter, name, mesh):
+            return
+        plotter.add_mesh(mesh, name=name, pickable=False, reset_camera=False, render=False,
+                         lighting=False, **kwargs)
+        if (plotter, name) not in self._overlays:
+            self._overlays.append((plotter, name))
+
+    def close(self) -> None:
+        """Remove the handles and the overlays (safe to call twice)."""
+        for widget in self.widgets.values():
+            widget.EnabledOff()
+            widget.RemoveAllObservers()
+            widget.SetInteractor(None)
+        self.widgets, self._placers = {}, {}
+        for plotter, name in self._overlays:
+            if not getattr(plotter, "_closed", False):
+                plotter.remove_actor(name, render=False)
+        self._overlays = []
+
+
+class GenericWidget(PlacementWidget):
+    """For a muscle type that declares no widget: a handle per point parameter (both ends
+    of a line), ``attachment*`` on the skull and the rest on the skin, and the AOI and
+    wrinkling region outlined on the skin.
+    """
+
+
+class LinearWidget(PlacementWidget):
+    """Linear muscle: insertion on the skin, attachment on the skull, and the AOI, the
+    cone of angle Φ and radius R around the fibre, drawn in the muscles view.
+    """
+
+    @classmethod
+    def handles(cls, muscle) -> tuple[Handle, ...]:
+        """The insertion on the skin and the attachment on the skull."""
+        return (Handle("insertion", None, "skin"), Handle("attachment", None, "skull"))
+
+    @classmethod
+    def create(cls, muscle_type, name, face, at):
+        """A muscle from the skull above ``at`` to ``at``, R = 1.3 x its length, Φ = 25°."""
+        ins, att = _anchor(face, at)
+        length = float(np.linalg.norm(ins - att))
+        return muscle_type(name, tuple(att), tuple(ins), radius=1.3 * length,
+                           max_angle_deg=25.0, lambda_w=0.4, n_wrinkles=2, k0=0.8)
+
+    def aoi_meshes(self, muscle) -> dict[str, pv.PolyData]:
+        """The cone of half-angle Φ capped at radius R, from the attachment."""
+        return {"aoi_volume": spherical_sector(muscle.attachment, muscle.fibre, muscle.radius,
+                                               muscle.max_angle_deg)}
+
+
+class SheetWidget(PlacementWidget):
+    """Sheet muscle: the two ends of the insertion line on the skin and of the attachment
+    line on the skull, and the AOI, the rectangle of length L_s and width W_s from the
+    attachment line's centre, swept to its depth bound on both sides, in the muscles view.
+    """
+
+    @classmethod
+    def handles(cls, muscle) -> tuple[Handle, ...]:
+        """Both ends of the insertion line (skin) and of the attachment line (skull)."""
+        return (Handle("insertion_line", 0, "skin"), Handle("insertion_line", 1, "skin"),
+                Handle("attachment_line", 0, "skull"), Handle("attachment_line", 1, "skull"))
+
+    @classmethod
+    def create(cls, muscle_type, name, face, at):
+        """A 16 mm wide sheet from the skull above ``at`` to ``at``."""
+        ins, att = _anchor(face, at)
+        across = np.array([8.0, 0.0, 0.0])
+        ins_line = snapped_points(face.skin, [ins - across, ins + across])
+        att_line = snapped_points(face.skull or face.skin, [att - across, att + across])
+        return muscle_type(name, attachment_line=att_line, insertion_line=ins_line,
+                           lambda_w=0.3, n_wrinkles=3, k0=2.0)
+
+    def aoi_meshes(self, muscle) -> dict[str, pv.PolyData]:
+        """The AOI rectangle and the box of its depth bound."""
+        f, s, n = muscle.frame
+        length, width, depth = muscle.length_value, muscle.width_value, muscle.depth_value
+        c = muscle.attachment_center
+        corners = [c + a * length * f + b * 0.5 * width * s + d * depth * n
+                   for d in (-1, 1) for b in (-1, 1) for a in (0, 1)]
+        box = pv.PolyData(np.array(corners), faces=np.array(
+            [4, 0, 1, 3, 2, 4, 4, 6, 7, 5, 4, 0, 4, 5, 1, 4, 2, 3, 7, 6, 4, 0, 2, 6, 4,
+             4, 1, 5, 7, 3]))
+        rect = pv.PolyData(np.array([c + a * length * f + b * 0.5 * width * s
+                                     for b in (-1, 1) for a in (0, 1)]),
+                           faces=np.array([4, 0, 1, 3, 2]))
+        return {"aoi_volume": box, "aoi_rectangle": rect}
+
+
+# ---------------------------------------------------------------------- placing muscles
+def snapped(muscle: Muscle, face: FaceModel) -> Muscle:
+    """The muscle with each handle's point moved onto its layer (skin at rest, or skull):
+    after a mirror, say, whose reflected points lie near but not on an asymmetric mesh.
+    """
+    from wrinkle_vis.core.mesh import closest_points
+
+    surfaces = {"skin": face.skin, "skull": face.skull or face.skin}
+    changes: dict[str, np.ndarray] = {}
+    for handle in widget_factory(type(muscle)).handles(muscle):
+        arr = changes.setdefault(handle.param,
+                                 np.array(getattr(muscle, handle.param), dtype=float))
+        row = arr if handle.index is None else arr[handle.index]
+        row[...] = closest_points(surfaces[handle.layer], row[None])[0]
+    return muscle.replace(**changes)
+
+
+def snapped_points(surface, points) -> tuple:
+    """``((3,), ...)``: the closest points of ``surface`` to ``points``, as tuples."""
+    from wrinkle_vis.core.mesh import closest_points
+
+    return tuple(map(tuple, closest_points(surface, np.asarray(points, float))))
+
+
+def _anchor(face: FaceModel, insertion) -> tuple[np.ndarray, np.ndarray]:
+    """A point on the skin at ``insertion`` and its attachment on the skull, 30 % of the
+    skin's height above, for a new muscle to start from.
+    """
+    from wrinkle_vis.core.mesh import closest_points
+
+    ins = closest_points(face.skin, np.asarray(insertion, float)[None])[0]
+    lo, hi = face.skin.bounds()
+    above = ins + np.array([0.0, 0.15 * (hi[1] - lo[1]), 0.0])
+    skull = face.skull or face.skin
+    return ins, closest_points(skull, above[None])[0]

@@ -1,0 +1,115 @@
+"""Crash recovery: the layout autosaved while the user works, offered back after a crash.
+
+Each running app writes ``recovery-<pid>.json`` in the recovery folder (atomically, so a
+kill mid-write leaves the previous copy) and removes it on a clean exit. A file whose process
+is gone is an orphan: the next start offers to restore it. No Qt here.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..core.layout import Layout, LayoutError, atomic_write_text
+
+__all__ = ["Recovered", "Recovery", "default_directory"]
+
+VERSION = 1
+
+
+def default_directory() -> Path:
+    """``$WRINKLE_VIS_RECOVERY_DIR``, else ``$XDG_STATE_HOME/wrinkle-vis/recovery`` (default
+    ``~/.local/state``).
+    """
+    env = os.environ.get("WRINKLE_VIS_RECOVERY_DIR")
+    if env:
+        return Path(env)
+    state = os.environ.get("XDG_STATE_HOME") or Path.home() / ".local" / "state"
+    return Path(state) / "wrinkle-vis" / "recovery"
+
+
+@dataclass(frozen=True)
+class Recovered:
+    """What a recovery file holds."""
+
+    path: Path
+    layout: Layout
+    source: Path | None  # the layout file the user had open, if any
+    n_triangles: int
+    saved_at: float  # seconds since the epoch
+
+
+class Recovery:
+    """The recovery file of this process, and the orphans of processes that did not exit cleanly.
+
+    Parameters
+    ----------
+    directory : path, optional
+        Where recovery files live (default :func:`default_directory`).
+    """
+
+    def __init__(self, directory: str | Path | None = None):
+        self.directory = Path(directory) if directory else default_directory()
+        self.path = self.directory / f"recovery-{os.getpid()}.json"
+
+    def save(self, layout: Layout, source: str | Path | None, n_triangles: int) -> Path:
+        """Write the layout to this process's recovery file (atomically)."""
+        self.directory.mkdir(parents=True, exist_ok=True)
+        data = {"wrinkle_vis_recovery": VERSION, "pid": os.getpid(), "saved_at": time.time(),
+                "source": str(source) if source else None, "n_triangles": int(n_triangles),
+                "layout": layout.to_dict()}
+        atomic_write_text(self.path, json.dumps(data, indent=1))
+        return self.path
+
+    def discard(self) -> None:
+        """Remove this process's recovery file (a clean exit, or nothing left to recover)."""
+        self.path.unlink(missing_ok=True)
+
+    def orphans(self) -> list[Path]:
+        """Recovery files of processes that are gone, newest first."""
+        if not self.directory.is_dir():
+            return []
+        found = []
+        for path in self.directory.glob("recovery-*.json"):
+            pid = path.stem.removeprefix("recovery-")
+            if path != self.path and not (pid.isdigit() and _alive(int(pid))):
+                found.append(path)
+        return sorted(found, key=lambda p: p.stat().st_mtime, reverse=True)
+
+    @staticmethod
+    def load(path: str | Path) -> Recovered:
+        """Read a recovery file.
+
+        Raises
+        ------
+        LayoutError
+            If the file is not a wrinkle-vis recovery file or its layout is malformed (the
+            message names the file, where, and what was expected).
+        """
+        path = Path(path)
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise LayoutError(str(path), "$", "a readable JSON recovery file", exc) from exc
+        if not isinstance(data, dict) or data.get("wrinkle_vis_recovery") != VERSION:
+            raise LayoutError(str(path), "$.wrinkle_vis_recovery",
+                              f"a wrinkle-vis recovery file of version {VERSION}",
+                              data.get("wrinkle_vis_recovery") if isinstance(data, dict)
+                              else type(data).__name__)
+        layout = Layout.from_dict(data.get("layout"), source=f"{path}: $.layout")
+        source = data.get("source")
+        return Recovered(path, layout, Path(source) if source else None,
+                         int(data.get("n_triangles", 4500)), float(data.get("saved_at", 0)))
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's process
+        return True
+    return True
