@@ -1,57 +1,19 @@
-"""The Qt app in a real window (Xvfb, xcb) driven by pytest-qt."""
+"""The Qt app in a real window (Xvfb, xcb) driven by pytest-qt (fixtures: conftest.py)."""
 
 import gc
 import json
 
 import numpy as np
 import pytest
+from conftest import _discard_changes, skin_mesh
 from qtpy import QtCore, QtWidgets
 
 import wrinkle_vis as wv
-from wrinkle_vis.app.recovery import Recovery
 from wrinkle_vis.app.session import Session
 from wrinkle_vis.app.window import MainWindow
 from wrinkle_vis.plotting.polydata import field_array_name
 
-
-@pytest.fixture(autouse=True)
-def no_leaked_plotters():
-    """Like pyvistaqt's leak check: a test must close every plotter it opens."""
-    from pyvista.plotting.plotter import _ALL_PLOTTERS
-
-    before = {k for k, p in _ALL_PLOTTERS.items() if not p._closed}
-    yield
-    gc.collect()
-    leaked = [k for k, p in _ALL_PLOTTERS.items() if not p._closed and k not in before]
-    assert not leaked, f"plotters left open: {leaked}"
-
-
-@pytest.fixture
-def settings(tmp_path):
-    return QtCore.QSettings(str(tmp_path / "settings.ini"), QtCore.QSettings.IniFormat)
-
-
-@pytest.fixture
-def recovery(tmp_path):
-    return Recovery(tmp_path / "recovery")
-
-
-@pytest.fixture
-def window(qtbot, wv_face, settings, recovery):
-    w = MainWindow(Session(wv_face), settings, recovery)
-    qtbot.addWidget(w, before_close_func=_discard_changes)
-    w.show()
-    qtbot.waitExposed(w)
-    return w
-
-
-def _discard_changes(w):
-    w.session.dirty = False
-
-
-def skin_mesh(window):
-    """The mesh the skin view draws."""
-    return window.skin_view.actors["skin"].mapper.dataset
+pytestmark = pytest.mark.usefixtures("no_leaked_plotters")
 
 
 def test_window_has_three_views_that_close_cleanly(qtbot, wv_face, settings, recovery):

@@ -105,12 +105,12 @@ class MainWindow(QtWidgets.QMainWindow):
         iren.add_observer("LeftButtonPressEvent", self._on_muscle_press)
         iren.add_observer("LeftButtonReleaseEvent", self._on_muscle_release)
 
-    def _on_muscle_press(self, iren, _event) -> None:
-        self._press = iren.GetEventPosition()
+    def _on_muscle_press(self, *_) -> None:
+        self._press = self.muscle_view.iren.get_event_position()
 
-    def _on_muscle_release(self, iren, _event) -> None:
+    def _on_muscle_release(self, *_) -> None:
         """A click (press and release within 3 pixels) on a muscle selects it."""
-        x, y = iren.GetEventPosition()
+        x, y = self.muscle_view.iren.get_event_position()
         if self._press is not None and max(abs(x - self._press[0]),
                                            abs(y - self._press[1])) <= 3:
             name = self.muscle_at(x, y)
@@ -183,9 +183,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
         self.param_group = QtWidgets.QGroupBox("Parameters of the selected muscle")
         self.param_form = QtWidgets.QFormLayout(self.param_group)
-        self.param_error = QtWidgets.QLabel()
-        self.param_error.setStyleSheet("color: #b00020")
-        self.param_error.setWordWrap(True)
+        self.param_error = _error_label()
         self.param_widgets: dict[str, QtWidgets.QAbstractSpinBox] = {}
         form.addWidget(self.param_group)
 
@@ -313,7 +311,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self._panel_for = None if name is None else (
             name, self.session.face.muscle(name).type_name)
         while self.param_form.rowCount():
-            self.param_form.removeRow(0)
+            self.param_form.removeRow(0)  # deletes the rows' widgets, the error label too
+        self.param_error = _error_label()
         self.param_widgets = {}
         name = self.session.muscle
         if name is None:
@@ -465,11 +464,12 @@ class MainWindow(QtWidgets.QMainWindow):
         return values
 
     # ------------------------------------------------------------------ editing
-    def edit(self, text: str, face, select: str | None | type(...) = ...) -> None:
+    def edit(self, text: str, face, select: str | None | type(...) = ..., before=None) -> None:
         """Show ``face`` as one undoable step called ``text``; ``select`` the muscle to
-        select after it (default: keep the selection).
+        select after it (default: keep the selection); ``before`` the face to go back to
+        (default: the one shown; a drag has shown its steps already).
         """
-        before = self.session.face
+        before = self.session.face if before is None else before
         keep = self.session.muscle
         after_select = keep if select is ... else select
         self.undo_stack.push(FaceCommand(self, text, before, face, keep, after_select))
@@ -615,7 +615,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.views.render()
             before, self._drag_before = self._drag_before, None
             if before is not None and before is not s.face:
-                self.edit(f"Move {handle.label} of {name}", s.face)
+                self.edit(f"Move {handle.label} of {name}", s.face, before=before)
 
     # ------------------------------------------------------------------ drawing
     def refresh(self, reset_camera: bool = False, skip=()) -> None:
@@ -848,6 +848,14 @@ class MainWindow(QtWidgets.QMainWindow):
         for p in self.plotters:
             p.close()
         event.accept()
+
+
+def _error_label() -> QtWidgets.QLabel:
+    """A red, wrapping label for the reason a value was refused."""
+    label = QtWidgets.QLabel()
+    label.setStyleSheet("color: #b00020")
+    label.setWordWrap(True)
+    return label
 
 
 def _resolved(muscle, param: str) -> float:
