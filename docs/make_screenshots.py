@@ -8,6 +8,7 @@ from pathlib import Path
 from qtpy import QtCore, QtWidgets
 
 import wrinkle_vis as wv
+from wrinkle_vis.app.recovery import Recovery
 from wrinkle_vis.app.session import Session
 from wrinkle_vis.app.window import MainWindow
 from wrinkle_vis.plotting import render_field
@@ -27,7 +28,7 @@ def main():
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
     settings = QtCore.QSettings(str(OUT / ".screenshots.ini"), QtCore.QSettings.IniFormat)
     face = wv.datasets.load_face(20000)
-    window = MainWindow(Session(face), settings)
+    window = MainWindow(Session(face), settings, Recovery(OUT / ".recovery"))
     window.resize(1600, 820)
     window.show()
     settle(app)
@@ -41,6 +42,12 @@ def main():
     window.probe_vertex(int(window.session.state().W.argmin()))
     settle(app)
     window.grab().save(str(OUT / "app_frown_gamma.png"))
+    window.expression_box.setCurrentText("smile")
+    window.field_box.setCurrentText("W")
+    window.select_muscle("zygomaticus_major_L")
+    window.set_camera("three_quarter")
+    settle(app)
+    window.grab().save(str(OUT / "app_placement.png"))
     window.session.dirty = False
     window.close()
     (OUT / ".screenshots.ini").unlink(missing_ok=True)

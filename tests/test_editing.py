@@ -192,3 +192,13 @@ def test_generic_types_cannot_be_added_and_say_why(wv_face):
             Session(wv_face).added("bare_for_test", (0, 0, 100))
     finally:
         _REGISTRY.pop("bare_for_test")
+
+
+def test_many_edits_keep_the_per_muscle_cache_bounded(wv_face):
+    face = wv_face
+    m = face.muscle("corrugator_L")
+    for k in range(150):  # a long drag: a new version of the muscle each move
+        face = face.with_muscle(with_point(m, "insertion", None,
+                                           np.add(m.insertion, [0.01 * k, 0, 0])))
+        face.evaluate({"corrugator_L": 1.0})
+    assert len(face._muscle_data) <= 4 * len(face.muscles) + 64 + 1

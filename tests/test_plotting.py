@@ -67,3 +67,19 @@ def test_muscle_meshes_carry_their_activation(wv_face):
         assert mesh.n_points > 0 and np.all(mesh["activation"] == 0.25)
     ring = wv.muscle_types()["ring"]("r", (0, 0, 0), (0, 0, 1), radius=10.0)
     assert muscle_mesh(ring).n_points > 0
+
+
+def test_a_named_camera_looks_the_same_whatever_came_before(wv_face):
+    import pyvista as pv
+
+    from wrinkle_vis.plotting import set_camera
+
+    p = pv.Plotter(off_screen=True, window_size=(100, 100))
+    try:
+        set_camera(p, "front", wv_face)
+        fresh = p.camera.view_angle
+        set_camera(p, "forehead", wv_face)  # zooms in
+        set_camera(p, "front", wv_face)
+        assert p.camera.view_angle == pytest.approx(fresh)
+    finally:
+        p.close()

@@ -216,6 +216,7 @@ def set_camera(plotter: pv.Plotter, name: str, face: FaceModel) -> None:
     distance = 2.6 * float(np.max(hi - lo))
     plotter.camera_position = [tuple(center + distance * d), tuple(center), (0.0, 1.0, 0.0)]
     plotter.reset_camera_clipping_range()
+    plotter.camera.view_angle = 30.0  # zoom() narrows the current angle: start afresh
     plotter.camera.zoom(zoom)
 
 
