@@ -93,7 +93,9 @@ def test_a_drag_moves_the_muscle_redraws_and_is_one_undo_step(window, expression
     before_points = np.array(skin_mesh(window).points)
     before_image = window.muscle_view.screenshot(return_img=True).astype(int)
     steps_before = window.undo_stack.count()
+    camera = window.skin_view.camera_position
     handle = drag_handle(window, layer)
+    assert window.skin_view.camera_position == camera  # the handle took the drag, not the camera
     m = window.session.face.muscle(name)
     assert not np.allclose(handle.value(m), _value(before_layout, name, handle))
     surface = window.session.face.skin if layer == "skin" else window.session.face.skull
