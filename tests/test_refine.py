@@ -71,8 +71,9 @@ def test_refine_off_gives_exactly_the_unrefined_state(face):
         np.testing.assert_array_equal(a.W, b.W)
 
 
-def test_refined_state_is_conforming_and_refines_only_where_wrinkled(face):
+def test_refined_state_is_conforming_and_refines_only_influenced_triangles(face):
     state = face.evaluate("surprise", refine=True)
+    base = face.evaluate("surprise")
     assert len(state.triangles) > face.skin.n_triangles
     rep = state.surface().report()
     assert len(rep.boundary_edges) == len(face.skin.report().boundary_edges)
@@ -80,7 +81,17 @@ def test_refined_state_is_conforming_and_refines_only_where_wrinkled(face):
     # regions with no wrinkles keep their triangles: the lower face is untouched
     low = {tuple(t) for t in face.skin.triangles.tolist()
            if face.skin.points[t][:, 1].max() < 0.0}
-    assert low <= {tuple(t) for t in state.triangles.tolist()}
+    kept = {tuple(t) for t in state.triangles.tolist()}
+    assert low <= kept
+    # only influenced triangles (a corner moved or wrinkled) are split; the conforming
+    # closure reaches at most one ring further, so triangles two rings away are all kept
+    influenced = (base.W != 0) | (base.deformed_points != base.rest_points).any(axis=1)
+    near = influenced.copy()
+    for _ in range(2):
+        near = near | (face.skin.adjacency @ near.astype(float) > 0)
+    far = face.skin.triangles[~near[face.skin.triangles].any(axis=1)]
+    assert len(far) > 1000
+    assert {tuple(t) for t in far.tolist()} <= kept
 
 
 def test_fields_at_new_vertices_are_evaluated_exactly(face):
@@ -121,3 +132,4 @@ def test_bad_refinement_options(face):
         face.evaluate("surprise", refine=True, refine_angle_deg=0)
     with pytest.raises(ValueError, match="refine_levels"):
         face.evaluate("surprise", refine=True, refine_levels=-1)
+

@@ -386,7 +386,7 @@ class FaceModel:
         return {n: float(activations.get(n, 0.0)) for n in self.muscle_names}
 
     def evaluate(self, activations=None, intensity: float = 1.0, *, refine: bool = False,
-                 refine_angle_deg: float = 5.0, refine_levels: int = 3) -> FaceState:
+                 refine_angle_deg: float = 3.0, refine_levels: int = 3) -> FaceState:
         """One frame of the wrinkle model.
 
         Parameters
@@ -397,14 +397,16 @@ class FaceModel:
         intensity : float, default 1.0
             Scales every activation, in ``[0, 1]``.
         refine : bool, default False
-            Refine the skin adaptively where the wrinkled surface bends (paper Sec. 3,
-            Fig. 11): level after level, the triangles around wrinkled vertices whose vertex
-            normals differ by more than ``refine_angle_deg`` are split 1-to-4 and the
-            split closed conformingly (:mod:`wrinkle_vis.core.refine`). New vertices get
+            Refine the skin adaptively where the deformed surface bends (paper Sec. 3,
+            Fig. 11): level after level, the triangles influenced by an active muscle (a
+            corner moved or wrinkled) whose vertex normals differ by more than
+            ``refine_angle_deg`` are split 1-to-4 and the split closed conformingly
+            (:mod:`wrinkle_vis.core.refine`). New vertices get
             rest positions at rest-edge midpoints and every quantity is evaluated at them
             exactly. A refined skin is cached per set of split triangles.
-        refine_angle_deg : float, default 5.0
-            The bending threshold.
+        refine_angle_deg : float, default 3.0
+            The bending threshold (3 degrees and 3 levels match VTK's uniform subdivision
+            three times over along the forehead furrows, ``benchmarks/bench_refine_fidelity.py``).
         refine_levels : int, default 3
             At most this many levels.
 
@@ -424,8 +426,8 @@ class FaceModel:
             raise ValueError(f"refine_levels = {refine_levels} must be >= 0")
         face = self
         for _ in range(int(refine_levels)):
-            wrinkled = state.W != 0.0
-            candidates = wrinkled[face.skin.triangles].any(axis=1)
+            influenced = (state.W != 0.0) | (state.deformed_points != state.rest_points).any(1)
+            candidates = influenced[face.skin.triangles].any(axis=1)
             marked = bent_triangles(face.skin, state.points, refine_angle_deg, candidates)
             if not marked.any():
                 break
@@ -437,7 +439,8 @@ class FaceModel:
         """The face on this skin refined at ``marked`` triangles (cached)."""
         return _lru(self._refinements, np.packbits(marked).tobytes(), 8, lambda: FaceModel(
             refine_triangles(self.skin, marked).surface, self.skull, self.muscles,
-            self.expressions, name=self.name, landmarks=self.landmarks))
+            self.expressions, name=self.name, landmarks=self.landmarks,
+            _caches=({}, None)))  # a refined valid skin is valid: no check
 
     def _frame(self, acts: dict[str, float]) -> FaceState:
         """The unrefined frame for resolved activations."""
@@ -482,7 +485,12 @@ def _check_skin(skin: TriangleSurface) -> None:
             f"{e[1]}); weld coincident vertices with skin.welded() and drop degenerate "
             "triangles with skin.cleaned()"
         )
-    rep_dupes = len(np.unique(np.sort(skin.triangles, axis=1), axis=0))
+    t = np.sort(skin.triangles, axis=1).astype(np.int64)
+    n = np.int64(skin.n_points)
+    if skin.n_points < 2_000_000:  # one int64 key per triangle (n**3 < 2**63)
+        rep_dupes = len(np.unique((t[:, 0] * n + t[:, 1]) * n + t[:, 2]))
+    else:
+        rep_dupes = len(np.unique(t, axis=0))
     if rep_dupes != skin.n_triangles:
         raise MeshError(
             f"the skin has {skin.n_triangles - rep_dupes} duplicate triangle(s); remove them "

@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 from dataclasses import KW_ONLY, dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -283,13 +284,16 @@ class SheetMuscle(Muscle):
         """``(3,)``: :math:`m_{Ic}`."""
         return np.mean(self.insertion_line, axis=0)
 
-    @property
+    @cached_property  # frozen: computed once per muscle
     def frame(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``((3,), (3,), (3,))``: the orthonormal fibre, across and normal axes f, s, n."""
         f = _unit(self.insertion_center - self.attachment_center)
         a = np.subtract(self.attachment_line[1], self.attachment_line[0])
         s = _unit(a - (a @ f) * f)
-        return f, s, np.cross(f, s)
+        axes = (f, s, np.cross(f, s))
+        for axis in axes:
+            axis.setflags(write=False)  # cached: shared by every caller
+        return axes
 
     @property
     def fibre_length(self) -> float:
@@ -301,7 +305,7 @@ class SheetMuscle(Muscle):
         """:math:`L_s` actually used (the default resolved)."""
         return 1.25 * self.fibre_length if self.length is None else self.length
 
-    @property
+    @cached_property  # frozen: computed once per muscle
     def width_value(self) -> float:
         """:math:`W_s` actually used (the default resolved)."""
         if self.width is not None:
