@@ -11,7 +11,7 @@ import textwrap
 import numpy as np
 import pytest
 from conftest import skin_mesh
-from qtpy import QtWidgets
+from qtpy import QtCore, QtWidgets
 
 from wrinkle_vis.app.recovery import Recovery
 from wrinkle_vis.app.session import Session
@@ -299,3 +299,27 @@ def test_declining_recovery_discards_it_and_a_broken_file_is_kept_aside(qtbot, w
                         lambda *a, **k: QtWidgets.QMessageBox.No)
     assert not w.offer_recovery()
     assert recovery.orphans() == []
+
+
+def test_a_drag_with_real_qt_mouse_events(window, qtbot):
+    """The whole path: Qt mouse events on the view widget, pyvistaqt, VTK, the widget."""
+    from qtpy.QtTest import QTest
+
+    window.expression_box.setCurrentText("smile")
+    window.select_muscle("zygomaticus_major_L")
+    widget = window.placement
+    handle = widget.handles(widget.muscle)[0]
+    x, y = display_point(window.skin_view, widget.position(handle))
+    view = window.skin_view.interactor
+    ratio = view.devicePixelRatioF()
+    start = QtCore.QPoint(int(x / ratio), int(view.height() - y / ratio))
+    before = np.array(window.session.face.muscle("zygomaticus_major_L").insertion)
+    QTest.mouseMove(view, start)
+    QTest.mousePress(view, QtCore.Qt.LeftButton, QtCore.Qt.NoModifier, start)
+    for k in range(1, 6):
+        QTest.mouseMove(view, start + QtCore.QPoint(-2 * k, 2 * k))
+    QTest.mouseRelease(view, QtCore.Qt.LeftButton, QtCore.Qt.NoModifier,
+                       start + QtCore.QPoint(-10, 10))
+    after = np.array(window.session.face.muscle("zygomaticus_major_L").insertion)
+    assert np.linalg.norm(after - before) > 1.0
+    assert window.undo_stack.count() == 1

@@ -32,6 +32,7 @@ from .views import LinkedViews
 __all__ = ["MainWindow"]
 
 TOTAL = "total"
+KEEP = object()  # edit(): keep the selection
 MAX_RECENT = 8
 
 
@@ -464,14 +465,14 @@ class MainWindow(QtWidgets.QMainWindow):
         return values
 
     # ------------------------------------------------------------------ editing
-    def edit(self, text: str, face, select: str | None | type(...) = ..., before=None) -> None:
+    def edit(self, text: str, face, select=KEEP, before=None) -> None:
         """Show ``face`` as one undoable step called ``text``; ``select`` the muscle to
         select after it (default: keep the selection); ``before`` the face to go back to
         (default: the one shown; a drag has shown its steps already).
         """
         before = self.session.face if before is None else before
         keep = self.session.muscle
-        after_select = keep if select is ... else select
+        after_select = keep if select is KEEP else select
         self.undo_stack.push(FaceCommand(self, text, before, face, keep, after_select))
 
     def show_face(self, face, select: str | None = None) -> None:
