@@ -214,3 +214,30 @@ def test_placement_widget_image(wv_face, views, verify_image_cache, name):
     session = Session(wv_face)
     _select(views, session, name, camera="three_quarter")
     verify_image_cache(views.muscle_view)  # against tests/image_cache (looked at)
+
+
+def test_the_generic_widget_places_a_type_without_its_own(wv_face, views):
+    ring_type = wv.get_muscle_type("ring")
+
+    @dataclass(frozen=True)
+    class PlainRing(ring_type):  # says nothing of widgets: the generic one serves
+        widget = "wrinkle_vis.widgets.placement:GenericWidget"
+
+    at = wv_face.skin.points[np.argmax(wv_face.skin.points[:, 2])]  # the nose tip
+    ring = PlainRing("ring_plain", tuple(at), (0.0, 0.0, 1.0), radius=15.0)
+    face = wv_face.with_muscle(ring)
+    session = Session(face)
+    session.set_activation("ring_plain", 1.0)
+    moved = []
+    views.on_move = lambda h, p, f: moved.append((h, p, f))
+    widget = _select(views, session, "ring_plain")
+    assert type(widget) is GenericWidget
+    assert [(h.param, h.layer) for h in widget.handles(ring)] == [("center", "skin")]
+    assert {"widget:aoi", "widget:region"} <= set(views.skin_view.actors)
+    handle = widget.handles(ring)[0]
+    start = _display(views.skin_view, widget.position(handle))
+    drag(views.skin_view, start, start + (8, 8))
+    assert moved and moved[-1][2]
+    p = moved[-1][1]
+    assert np.linalg.norm(p - at) > 1.0
+    assert np.linalg.norm(closest_points(wv_face.skin, p[None])[0] - p) < 1e-6
