@@ -241,3 +241,13 @@ def test_the_generic_widget_places_a_type_without_its_own(wv_face, views):
     p = moved[-1][1]
     assert np.linalg.norm(p - at) > 1.0
     assert np.linalg.norm(closest_points(wv_face.skin, p[None])[0] - p) < 1e-6
+
+
+def test_a_face_without_skull_puts_skull_handles_on_the_skin(wv_face, views):
+    face = wv.FaceModel(wv_face.skin, None, wv_face.muscles, wv_face.expressions)
+    session = Session(face)
+    widget = _select(views, session, "zygomaticus_major_L")
+    handle = next(h for h in widget.handles(widget.muscle) if h.layer == "skull")
+    assert widget.views["skull"] is views.skin_view
+    assert "skull" not in views.skull_view.actors
+    assert widget.widgets[handle].GetEnabled()

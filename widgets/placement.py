@@ -250,7 +250,7 @@ class PlacementWidget:
     def _add_handle(self, handle: Handle) -> None:
         plotter = self.views[handle.layer]
         placer = vtk.vtkPolygonalSurfacePointPlacer()
-        placer.AddProp(plotter.actors[handle.layer])
+        placer.AddProp(self._surface_actor(handle))
         rep = vtk.vtkPointHandleRepresentation3D()
         self._placers[handle] = placer
         rep.SetPointPlacer(placer)
@@ -270,6 +270,13 @@ class PlacementWidget:
         widget.EnabledOn()
         self.widgets[handle] = widget
 
+    def _surface_actor(self, handle: Handle):
+        """The actor a handle slides on: its layer's, or the skin's in a view without it
+        (a face with no skull puts skull handles on the skin).
+        """
+        actors = self.views[handle.layer].actors
+        return actors[handle.layer] if handle.layer in actors else actors["skin"]
+
     def rebind(self, state: FaceState) -> None:
         """Follow scenes that were cleared and built again: slide on the new skin and skull
         actors and show the handles again. Safe during a drag (the widgets stay; closing a
@@ -279,7 +286,7 @@ class PlacementWidget:
             plotter = self.views[handle.layer]
             placer = self._placers[handle]
             placer.RemoveAllProps()
-            placer.AddProp(plotter.actors[handle.layer])
+            placer.AddProp(self._surface_actor(handle))
             rep = widget.GetRepresentation()
             if not plotter.renderer.HasViewProp(rep):
                 plotter.renderer.AddViewProp(rep)
@@ -334,10 +341,10 @@ class PlacementWidget:
         data = face.muscle_data(self.muscle)
         n = self.state.n_points
         lines = {}
+        lift = self.state.points + 0.4 * self.state.normals  # just above the skin
         for kind, ids in (("aoi", data.aoi), ("region", data.region)):
             mask = np.zeros(n, dtype=bool)
             mask[ids] = True
-            lift = self.state.points + 0.4 * self.state.normals
             lines[kind] = boundary_lines(lift, face.skin.triangles, mask)
         for view in ("skin", "muscles"):
             for kind, mesh in lines.items():
