@@ -179,6 +179,28 @@ def test_mirror_replaces_the_twin_with_the_mirror_image(window):
                   - flip * left.insertion).max() > 2.0
 
 
+def test_mirror_pair_swaps_the_sides_in_one_undo_step(window):
+    window.select_muscle("zygomaticus_major_L")
+    assert window.edit_actions["mirror_pair"].isEnabled()
+    drag_handle(window, "skin", offset=(-10, 10))  # make the pair asymmetric
+    before = layout_of(window)
+    face = window.session.face
+    left, right = face.muscle("zygomaticus_major_L"), face.muscle("zygomaticus_major_R")
+    window.edit_actions["mirror_pair"].trigger()
+    flip = np.array([-1.0, 1.0, 1.0])
+    face = window.session.face
+    assert np.abs(face.muscle("zygomaticus_major_R").insertion
+                  - flip * left.insertion).max() < 2.0
+    assert np.abs(face.muscle("zygomaticus_major_L").insertion
+                  - flip * right.insertion).max() < 2.0
+    assert window.session.muscle == "zygomaticus_major_L"
+    window.undo_stack.undo()
+    assert layout_of(window) == before
+    window.edit_actions["delete"].trigger()  # the right side loses its twin
+    window.select_muscle("zygomaticus_major_R")
+    assert not window.edit_actions["mirror_pair"].isEnabled()
+
+
 @pytest.mark.parametrize(("type_name", "widget"), [("linear", "LinearWidget"),
                                                    ("sheet", "SheetWidget"),
                                                    ("ring", "RingWidget")])

@@ -148,6 +148,34 @@ def test_mirror_of_each_left_muscle_matches_its_builtin_right_twin(wv_face):
         want.W)
 
 
+def test_mirroring_a_pair_swaps_its_sides_as_mirror_images(wv_face):
+    from wrinkle_vis.core.editing import with_point
+
+    left = wv_face.muscle("zygomaticus_major_L")
+    moved = with_point(left, "insertion", None, np.add(left.insertion, (4.0, 3.0, 0.0)))
+    session = Session(wv_face.with_muscle(moved))  # an asymmetric pair
+    assert session.twin_of("zygomaticus_major_L") == "zygomaticus_major_R"
+    face, twin = session.mirrored_pair("zygomaticus_major_L")
+    assert twin == "zygomaticus_major_R"
+    old, new = session.face, face
+    flip = np.array([-1.0, 1.0, 1.0])
+    for a, b in (("zygomaticus_major_L", "zygomaticus_major_R"),
+                 ("zygomaticus_major_R", "zygomaticus_major_L")):
+        for param in ("insertion", "attachment"):
+            # each side is the other's mirror image, snapped: within an edge length
+            got, want = getattr(new.muscle(a), param), flip * getattr(old.muscle(b), param)
+            assert np.abs(got - want).max() < 2.0
+    # the moved insertion went to the right side
+    assert np.abs(new.muscle(twin).insertion - flip * moved.insertion).max() < 2.0
+    assert np.abs(np.subtract(new.muscle(twin).insertion, old.muscle(twin).insertion)).max() > 3.0
+    assert new.expressions == old.expressions  # each keeps its activations
+    assert new.muscle_names == old.muscle_names
+    lone = Session(wv_face.without_muscle("zygomaticus_major_R"))
+    assert lone.twin_of("zygomaticus_major_L") is None
+    with pytest.raises(ValueError, match="no twin 'zygomaticus_major_R'.*Ctrl\\+M"):
+        lone.mirrored_pair("zygomaticus_major_L")
+
+
 def test_session_edits_change_nothing_until_shown(wv_face):
     session = Session(wv_face)
     face, copy = session.duplicated("corrugator_L")

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.editing import mirrored, unique_name
+from ..core.editing import mirror_name, mirrored, unique_name
 from ..core.face import FIELD_NAMES, FaceModel, FaceState
 from ..core.layout import Layout, load_layout, save_layout
 from ..core.registry import get_muscle_type
@@ -177,6 +177,33 @@ class Session:
                     **ex.activations, twin.name: ex.activations[muscle]})
                 if muscle in ex.activations else ex for k, ex in face.expressions.items()})
         return face, twin.name
+
+    def twin_of(self, muscle: str) -> str | None:
+        """The name of ``muscle``'s twin across the symmetry plane (``_L`` <-> ``_R``,
+        ``left`` <-> ``right``) when the face has it, else None.
+        """
+        twin = mirror_name(muscle)
+        return twin if twin != muscle and twin in self.face.muscle_names else None
+
+    def mirrored_pair(self, muscle: str) -> tuple[FaceModel, str]:
+        """The face with ``muscle`` and its twin both mirrored across the symmetry plane:
+        each side takes the mirror image of the other (snapped onto its surfaces) and keeps
+        its own activations. Returns the face and the twin's name; raises ValueError when
+        the muscle has no twin (use :meth:`mirrored` to make one).
+        """
+        from wrinkle_vis.widgets.placement import snapped
+
+        twin = self.twin_of(muscle)
+        if twin is None:
+            raise ValueError(
+                f"muscle {muscle!r} has no twin {mirror_name(muscle)!r} on the face; "
+                "Mirror (Ctrl+M) makes one")
+        point, normal = self.face.symmetry_plane()
+        face = self.face
+        for a, b in ((muscle, twin), (twin, muscle)):
+            face = face.with_muscle(
+                snapped(mirrored(self.face.muscle(b), point, normal, name=a), self.face))
+        return face, twin
 
     def added(self, type_name: str, at) -> tuple[FaceModel, str]:
         """The face with a new muscle of type ``type_name``, its insertion on the skin at

@@ -214,7 +214,8 @@ class MainWindow(QtWidgets.QMainWindow):
                 ("delete", "&Delete", "Del", self.delete_muscle),
                 ("duplicate", "D&uplicate", "Ctrl+D", self.duplicate_muscle),
                 ("rename", "&Rename...", "F2", self.rename_dialog),
-                ("mirror", "&Mirror", "Ctrl+M", self.mirror_muscle)):
+                ("mirror", "&Mirror", "Ctrl+M", self.mirror_muscle),
+                ("mirror_pair", "Mirror &pair", "Ctrl+Shift+M", self.mirror_pair)):
             action = QtGui.QAction(text, self)
             action.setShortcut(QtGui.QKeySequence(shortcut))
             action.triggered.connect(lambda checked=False, f=slot: f())
@@ -222,6 +223,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.edit_actions["mirror"].setToolTip(
             "Copy the muscle to the other side of the face's symmetry plane, replacing its "
             "twin (_L <-> _R) if there is one")
+        self.edit_actions["mirror_pair"].setToolTip(
+            "Mirror the muscle and its twin together: each side takes the mirror image of "
+            "the other")
         dock = QtWidgets.QDockWidget("Muscles", self)
         dock.setObjectName("muscles")
         self.muscle_panel = MuscleListPanel(list(self.edit_actions.values()))
@@ -247,7 +251,7 @@ class MainWindow(QtWidgets.QMainWindow):
         edit_menu.addSeparator()
         edit_menu.addMenu(self.add_menu)
         edit_menu.addActions([self.edit_actions[k] for k in
-                              ("delete", "duplicate", "rename", "mirror")])
+                              ("delete", "duplicate", "rename", "mirror", "mirror_pair")])
         view_menu = self.menuBar().addMenu("&View")
         for name, key in (("front", "1"), ("three_quarter", "2"), ("side", "3"),
                           ("forehead", "4")):
@@ -290,6 +294,9 @@ class MainWindow(QtWidgets.QMainWindow):
     def _update_edit_actions(self) -> None:
         for key in ("delete", "duplicate", "rename", "mirror"):
             self.edit_actions[key].setEnabled(self.session.muscle is not None)
+        self.edit_actions["mirror_pair"].setEnabled(
+            self.session.muscle is not None
+            and self.session.twin_of(self.session.muscle) is not None)
 
     def _sync_parameter_panel(self) -> None:
         """Show the selected muscle's values: in place when the panel already shows that
@@ -579,6 +586,21 @@ class MainWindow(QtWidgets.QMainWindow):
             QtWidgets.QMessageBox.warning(self, "Cannot mirror", str(exc))
             return None
         self.edit(f"Mirror {name} to {twin}", face)
+        return twin
+
+    def mirror_pair(self) -> str | None:
+        """Mirror the selected muscle and its twin together (see
+        :meth:`Session.mirrored_pair`); returns the twin's name.
+        """
+        name = self._selected_or_warn()
+        if name is None:
+            return None
+        try:
+            face, twin = self.session.mirrored_pair(name)
+        except (MuscleParameterError, ValueError) as exc:
+            QtWidgets.QMessageBox.warning(self, "Cannot mirror the pair", str(exc))
+            return None
+        self.edit(f"Mirror the pair {name} and {twin}", face)
         return twin
 
     # ------------------------------------------------------------------ placement
