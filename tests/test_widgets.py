@@ -85,10 +85,12 @@ def test_boundary_lines_of_a_square_patch():
     g = grid(6, 6, size=5.0)  # unit cells
     xy = g.points[:, :2]
     mask = (np.abs(xy) <= 1.5 + 1e-9).all(axis=1)  # a 3 x 3 cell square
-    lines = boundary_lines(g.points, g.triangles, mask)
+    lines = boundary_lines(g, mask)
     assert lines.n_lines == 12  # its perimeter, one unit edge each
     assert np.allclose(np.abs(lines.points[:, :2]).max(axis=1), 1.5)
-    assert boundary_lines(g.points, g.triangles, np.zeros(g.n_points, bool)).n_points == 0
+    assert boundary_lines(g, np.zeros(g.n_points, bool)).n_points == 0
+    lifted = boundary_lines(g, mask, g.points + (0.0, 0.0, 2.0))  # drawn elsewhere
+    assert lifted.n_lines == 12 and np.allclose(lifted.points[:, 2], g.points[0, 2] + 2.0)
 
 
 def test_spherical_sector_is_the_linear_aoi():
@@ -220,7 +222,7 @@ def test_the_generic_widget_places_a_type_without_its_own(wv_face, views):
     ring_type = wv.get_muscle_type("ring")
 
     @dataclass(frozen=True)
-    class PlainRing(ring_type):  # says nothing of widgets: the generic one serves
+    class PlainRing(ring_type):  # declares the generic widget over the ring's own
         widget = "wrinkle_vis.widgets.placement:GenericWidget"
 
     at = wv_face.skin.points[np.argmax(wv_face.skin.points[:, 2])]  # the nose tip

@@ -22,7 +22,12 @@ import pyvista as pv
 import vtk
 
 from wrinkle_vis.core.face import FaceModel, FaceState
-from wrinkle_vis.core.mesh import barycentric_points, surface_coordinates
+from wrinkle_vis.core.mesh import (
+    TriangleSurface,
+    barycentric_points,
+    closest_points,
+    surface_coordinates,
+)
 from wrinkle_vis.core.muscle import Muscle
 from wrinkle_vis.plotting.scenes import replace_mesh
 
@@ -124,17 +129,17 @@ def _resolve(declared, cls: type) -> Callable:
 
 
 # ---------------------------------------------------------------------- drawing helpers
-def boundary_lines(points: np.ndarray, triangles: np.ndarray, mask: np.ndarray) -> pv.PolyData:
+def boundary_lines(surface: TriangleSurface, mask: np.ndarray, points=None) -> pv.PolyData:
     """The outline of the patch of triangles whose three vertices are in ``mask``.
 
     Parameters
     ----------
-    points : (n, 3) float
-        Vertex positions to draw at.
-    triangles : (t, 3) int
-        The triangles.
+    surface : TriangleSurface
+        The triangles (and the cached edges of :attr:`TriangleSurface.triangle_edges`).
     mask : (n,) bool
         The vertices of the region.
+    points : (n, 3) float, optional
+        Vertex positions to draw at (default the surface's).
 
     Returns
     -------
@@ -142,15 +147,15 @@ def boundary_lines(points: np.ndarray, triangles: np.ndarray, mask: np.ndarray) 
         Line segments along the edges that belong to exactly one patch triangle (empty when
         the patch is empty).
     """
-    patch = triangles[mask[triangles].all(axis=1)]
-    edges = np.sort(patch[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    uniq, counts = np.unique(edges, axis=0, return_counts=True)
-    edges = uniq[counts == 1]
+    patch = mask[surface.triangles].all(axis=1)
+    counts = np.bincount(surface.triangle_edges[patch].ravel(), minlength=len(surface.edges))
+    edges = surface.edges[counts == 1]
     if not len(edges):
         return pv.PolyData()
     used, inverse = np.unique(edges, return_inverse=True)
     lines = np.hstack([np.full((len(edges), 1), 2), inverse.reshape(-1, 2)]).ravel()
-    return pv.PolyData(np.asarray(points[used], dtype=float), lines=lines)
+    pts = surface.points if points is None else np.asarray(points, dtype=float)
+    return pv.PolyData(pts[used], lines=lines)
 
 
 def spherical_sector(apex, axis, radius: float, half_angle_deg: float,
@@ -216,6 +221,7 @@ class PlacementWidget:
         self.widgets: dict[Handle, vtk.vtkHandleWidget] = {}
         self._placers: dict[Handle, vtk.vtkPolygonalSurfacePointPlacer] = {}
         self._overlays: list[tuple[pv.Plotter, str]] = []
+        self._drawn: tuple[FaceState, TriangleSurface] | None = None
         for handle in self.handles(muscle):
             self._add_handle(handle)
         self.update(muscle, state)
@@ -310,9 +316,16 @@ class PlacementWidget:
         drawn = self.position(handle)
         if handle.layer != "skin":
             return drawn
-        rest_skin = self.state.face.skin
-        tri, bary = surface_coordinates(rest_skin.with_points(self.state.points), drawn[None])
-        return barycentric_points(rest_skin, tri, bary)[0]
+        tri, bary = surface_coordinates(self._drawn_skin(), drawn[None])
+        return barycentric_points(self.state.face.skin, tri, bary)[0]
+
+    def _drawn_skin(self) -> TriangleSurface:
+        """The skin as drawn in the frame (deformed), kept with its search tree until the
+        frame changes: every mouse move of a drag looks up the handle on it.
+        """
+        if self._drawn is None or self._drawn[0] is not self.state:
+            self._drawn = (self.state, self.state.face.skin.with_points(self.state.points))
+        return self._drawn[1]
 
     def drawn_points(self, handles, rests) -> np.ndarray:
         """``(k, 3)``: where rest points ``(k, 3)`` of ``handles`` are drawn in the frame."""
@@ -345,7 +358,7 @@ class PlacementWidget:
         for kind, ids in (("aoi", data.aoi), ("region", data.region)):
             mask = np.zeros(n, dtype=bool)
             mask[ids] = True
-            lines[kind] = boundary_lines(lift, face.skin.triangles, mask)
+            lines[kind] = boundary_lines(face.skin, mask, lift)
         for view in ("skin", "muscles"):
             for kind, mesh in lines.items():
                 self._overlay(view, f"widget:{kind}", mesh, color=COLORS[kind], line_width=3)
@@ -455,8 +468,6 @@ def snapped(muscle: Muscle, face: FaceModel) -> Muscle:
     """The muscle with each handle's point moved onto its layer (skin at rest, or skull):
     after a mirror, say, whose reflected points lie near but not on an asymmetric mesh.
     """
-    from wrinkle_vis.core.mesh import closest_points
-
     surfaces = {"skin": face.skin, "skull": face.skull or face.skin}
     changes: dict[str, np.ndarray] = {}
     for handle in widget_factory(type(muscle)).handles(muscle):
@@ -469,8 +480,6 @@ def snapped(muscle: Muscle, face: FaceModel) -> Muscle:
 
 def snapped_points(surface, points) -> tuple:
     """``((3,), ...)``: the closest points of ``surface`` to ``points``, as tuples."""
-    from wrinkle_vis.core.mesh import closest_points
-
     return tuple(map(tuple, closest_points(surface, np.asarray(points, float))))
 
 
@@ -478,8 +487,6 @@ def _anchor(face: FaceModel, insertion) -> tuple[np.ndarray, np.ndarray]:
     """A point on the skin at ``insertion`` and its attachment on the skull, 30 % of the
     skin's height above, for a new muscle to start from.
     """
-    from wrinkle_vis.core.mesh import closest_points
-
     ins = closest_points(face.skin, np.asarray(insertion, float)[None])[0]
     lo, hi = face.skin.bounds()
     above = ins + np.array([0.0, 0.15 * (hi[1] - lo[1]), 0.0])

@@ -146,8 +146,6 @@ class Session:
         new_name = new_name.strip()
         if not new_name:
             raise ValueError("a muscle's name cannot be empty")
-        if new_name != muscle and new_name in self.face.muscle_names:
-            raise ValueError(f"a muscle named {new_name!r} exists already; choose another name")
         return self.face.with_muscle(self.face.muscle(muscle).replace(name=new_name), muscle)
 
     def deleted(self, muscle: str) -> FaceModel:
@@ -165,11 +163,7 @@ class Session:
         added, taking the original's activation in every expression. Returns the face and
         the twin's name.
         """
-        from wrinkle_vis.widgets.placement import snapped
-
-        original = self.face.muscle(muscle)
-        point, normal = self.face.symmetry_plane()
-        twin = snapped(mirrored(original, point, normal), self.face)
+        twin = self._mirror_image(muscle)
         face = self.face.with_muscle(twin)
         if twin.name not in self.face.muscle_names:
             face = face.with_expressions({
@@ -191,19 +185,22 @@ class Session:
         its own activations. Returns the face and the twin's name; raises ValueError when
         the muscle has no twin (use :meth:`mirrored` to make one).
         """
-        from wrinkle_vis.widgets.placement import snapped
-
         twin = self.twin_of(muscle)
         if twin is None:
             raise ValueError(
                 f"muscle {muscle!r} has no twin {mirror_name(muscle)!r} on the face; "
                 "Mirror (Ctrl+M) makes one")
+        face = self.face.with_muscle(self._mirror_image(twin, name=muscle))
+        return face.with_muscle(self._mirror_image(muscle, name=twin)), twin
+
+    def _mirror_image(self, muscle: str, name: str | None = None):
+        """``muscle`` reflected across the face's symmetry plane and snapped onto its
+        surfaces, called ``name`` (default its twin's name).
+        """
+        from wrinkle_vis.widgets.placement import snapped
+
         point, normal = self.face.symmetry_plane()
-        face = self.face
-        for a, b in ((muscle, twin), (twin, muscle)):
-            face = face.with_muscle(
-                snapped(mirrored(self.face.muscle(b), point, normal, name=a), self.face))
-        return face, twin
+        return snapped(mirrored(self.face.muscle(muscle), point, normal, name=name), self.face)
 
     def added(self, type_name: str, at) -> tuple[FaceModel, str]:
         """The face with a new muscle of type ``type_name``, its insertion on the skin at
@@ -252,4 +249,3 @@ class Session:
         save_layout(self.layout(), path)
         self.layout_path, self.dirty = path, False
         return path
-

@@ -19,6 +19,7 @@ from ..plotting import (
     add_muscles,
     add_skin,
     add_skull,
+    attachment_points,
     clear_scene,
     field_range,
     muscle_mesh,
@@ -95,7 +96,7 @@ class LinkedViews:
         self._drawn_activation = dict(state.activations)
         self._drawn_muscles = {m.name: m for m in face.muscles}
         clear_scene(self.skull_view)
-        self._attachments = _attachment_points(face)
+        self._attachments = attachment_points(face)
         if face.skull is not None:
             add_skull(self.skull_view, face)
         if keep:  # e.g. during a drag: the widget in use must not be destroyed
@@ -130,7 +131,7 @@ class LinkedViews:
                 # re-runs the actor's scalars pipeline at the next render
         self._drawn_activation = dict(state.activations)
         self._changed = {"skin", "muscles"}
-        attachments = _attachment_points(face)
+        attachments = attachment_points(face)
         if not np.array_equal(attachments, self._attachments):
             self._attachments = attachments
             if face.skull is not None:
@@ -182,12 +183,6 @@ class LinkedViews:
         if self.placement is not None:
             self.placement.close()
             self.placement = None
-
-
-def _attachment_points(face) -> np.ndarray:
-    pts = [np.asarray(getattr(m, p), float).reshape(-1, 3)
-           for m in face.muscles for p in m.point_parameters if p.startswith("attachment")]
-    return np.concatenate(pts) if pts else np.zeros((0, 3))
 
 
 def _write(mesh, points=None, array: str | None = None, values=None) -> None:

@@ -20,9 +20,7 @@ from ..core.face import FIELD_NAMES
 from ..core.layout import LayoutError
 from ..core.muscle import MuscleParameterError
 from ..core.registry import muscle_types
-from ..plotting import (
-    set_camera,
-)
+from ..plotting import set_camera
 from ..plotting.polydata import field_array_name
 from ..widgets.panels import MuscleListPanel
 from .recovery import Recovery
@@ -322,7 +320,6 @@ class MainWindow(QtWidgets.QMainWindow):
             self.param_form.removeRow(0)  # deletes the rows' widgets, the error label too
         self.param_error = _error_label()
         self.param_widgets = {}
-        name = self.session.muscle
         if name is None:
             self.param_form.addRow(QtWidgets.QLabel("Choose a muscle to edit it."))
             return
@@ -577,30 +574,28 @@ class MainWindow(QtWidgets.QMainWindow):
         """Mirror the selected muscle across the face's symmetry plane (see
         :meth:`Session.mirrored`); returns the twin's name.
         """
-        name = self._selected_or_warn()
-        if name is None:
-            return None
-        try:
-            face, twin = self.session.mirrored(name)
-        except (MuscleParameterError, ValueError) as exc:
-            QtWidgets.QMessageBox.warning(self, "Cannot mirror", str(exc))
-            return None
-        self.edit(f"Mirror {name} to {twin}", face)
-        return twin
+        return self._mirror(self.session.mirrored, "Cannot mirror", "Mirror {} to {}")
 
     def mirror_pair(self) -> str | None:
         """Mirror the selected muscle and its twin together (see
         :meth:`Session.mirrored_pair`); returns the twin's name.
         """
+        return self._mirror(self.session.mirrored_pair, "Cannot mirror the pair",
+                            "Mirror the pair {} and {}")
+
+    def _mirror(self, build, title: str, text: str) -> str | None:
+        """Apply ``build(name) -> (face, twin)`` to the selected muscle as one undoable step
+        called ``text.format(name, twin)``; a refusal is shown under ``title``.
+        """
         name = self._selected_or_warn()
         if name is None:
             return None
         try:
-            face, twin = self.session.mirrored_pair(name)
+            face, twin = build(name)
         except (MuscleParameterError, ValueError) as exc:
-            QtWidgets.QMessageBox.warning(self, "Cannot mirror the pair", str(exc))
+            QtWidgets.QMessageBox.warning(self, title, str(exc))
             return None
-        self.edit(f"Mirror the pair {name} and {twin}", face)
+        self.edit(text.format(name, twin), face)
         return twin
 
     # ------------------------------------------------------------------ placement

@@ -12,6 +12,7 @@ from .scenes import (
     add_muscles,
     add_skin,
     add_skull,
+    attachment_points,
     clear_scene,
     muscle_mesh,
     render_field,
@@ -22,7 +23,7 @@ from .scenes import (
 )
 
 __all__ = ["BONE", "CAMERAS", "FIELDS", "LAYERS", "NAN_COLOR", "SKIN", "FieldInfo",
-           "add_attachments", "add_muscle", "add_muscles", "add_skin", "add_skull", "clear_scene",
-           "field_array_name", "field_info", "field_range", "muscle_mesh", "render_field",
-           "replace_mesh", "set_camera", "testing_theme", "to_multiblock", "to_polydata",
-           "to_surface_polydata"]
+           "add_attachments", "add_muscle", "add_muscles", "add_skin", "add_skull",
+           "attachment_points", "clear_scene", "field_array_name", "field_info", "field_range",
+           "muscle_mesh", "render_field", "replace_mesh", "set_camera", "testing_theme",
+           "to_multiblock", "to_polydata", "to_surface_polydata"]

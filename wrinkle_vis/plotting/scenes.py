@@ -11,9 +11,8 @@ from .fields import NAN_COLOR, field_info, field_range
 from .polydata import field_array_name, to_polydata, to_surface_polydata
 
 __all__ = ["BONE", "CAMERAS", "LAYERS", "SKIN", "add_attachments", "add_muscle", "add_muscles",
-           "add_skin", "add_skull", "replace_mesh",
-           "clear_scene", "to_multiblock",
-           "muscle_mesh", "render_field", "set_camera", "testing_theme"]
+           "add_skin", "add_skull", "attachment_points", "clear_scene", "muscle_mesh",
+           "render_field", "replace_mesh", "set_camera", "testing_theme", "to_multiblock"]
 
 SKIN = "#f1c9a5"
 BONE = "#e3dac9"
@@ -191,14 +190,22 @@ def add_skull(plotter: pv.Plotter, face: FaceModel, *, attachments: bool = True)
     return actor
 
 
-def add_attachments(plotter: pv.Plotter, face: FaceModel) -> None:
-    """Mark every muscle's attachment points (actor ``attachments``, replaced if there)."""
+def attachment_points(face: FaceModel) -> np.ndarray:
+    """``(k, 3)``: every muscle's attachment points (its ``attachment*`` point parameters,
+    the ones on the skull), in muscle order.
+    """
     pts = [np.asarray(getattr(m, p), float).reshape(-1, 3)
            for m in face.muscles for p in m.point_parameters if p.startswith("attachment")]
-    if not pts:
+    return np.concatenate(pts) if pts else np.zeros((0, 3))
+
+
+def add_attachments(plotter: pv.Plotter, face: FaceModel) -> None:
+    """Mark every muscle's attachment points (actor ``attachments``, replaced if there)."""
+    pts = attachment_points(face)
+    if not len(pts):
         plotter.remove_actor("attachments", render=False)
         return
-    plotter.add_points(np.concatenate(pts), color="#7a1f1f", point_size=9,
+    plotter.add_points(pts, color="#7a1f1f", point_size=9,
                        render_points_as_spheres=True, name="attachments", render=False,
                        reset_camera=False, pickable=False)
 
