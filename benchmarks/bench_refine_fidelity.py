@@ -11,8 +11,8 @@ way. Time: building the model for that mesh plus one frame (``setup+frame``; for
 subdivision too), and a frame once everything is cached (``frame``); medians of 5.
 
 The last lines compare the adaptive refinement with the uniform subdivision that reaches the
-same fidelity (the first uniform candidate at least as far from the reference): the target
-is at most a fifth of the triangles and at most half the time.
+same fidelity (the first uniform candidate at least as close to the reference, within 5 %):
+the target is at most a fifth of the triangles and at most half the time.
 """
 
 import argparse

@@ -132,4 +132,3 @@ def test_bad_refinement_options(face):
         face.evaluate("surprise", refine=True, refine_angle_deg=0)
     with pytest.raises(ValueError, match="refine_levels"):
         face.evaluate("surprise", refine=True, refine_levels=-1)
-
