@@ -80,10 +80,42 @@ def test_displacement_is_linear_in_activation_and_zero_outside_aoi():
 
 
 def test_waters_radial_profile():
+    # Waters' sin/cos profile squared: the same rise and fall, zero slope at 0, R_s, R_f
     x = np.array([-1, 0, 5, 10, 15, 20, 25.0])
     np.testing.assert_allclose(wv.waters_radial(x, 10, 20),
-                               [0, 0, np.sin(np.pi / 4), 1, np.cos(np.pi / 4), 0, 0],
+                               [0, 0, np.sin(np.pi / 4) ** 2, 1, np.cos(np.pi / 4) ** 2, 0, 0],
                                atol=1e-15)
+
+
+def _max_slope_jump(f, knots, h=1e-6):
+    """Largest difference between the one-sided slopes of ``f`` at ``knots``."""
+    k = np.asarray(knots, float)
+    left = (f(k) - f(k - h)) / h
+    right = (f(k + h) - f(k)) / h
+    return np.max(np.abs(right - left))
+
+
+def test_builtin_falloffs_are_c1_at_every_knot():
+    from wrinkle_vis.core.muscle import plateau_fall, smooth_fall
+
+    assert _max_slope_jump(lambda x: wv.waters_radial(x, 10, 20), [0, 10, 20]) < 1e-5
+    assert _max_slope_jump(lambda x: plateau_fall(x, 3, 8), [-8, -3, 0, 3, 8]) < 1e-5
+    assert _max_slope_jump(smooth_fall, [0, 1]) < 1e-5
+    t = np.linspace(0, 1, 11)  # two facing falls add up to one: sheets join without a seam
+    np.testing.assert_allclose(smooth_fall(t) + smooth_fall(1 - t), 1.0, atol=1e-15)
+
+
+@pytest.mark.parametrize("kind", ["linear", "sheet"])
+def test_muscle_displacement_is_c1_across_the_aoi_boundary(kind):
+    """Along lines through the muscle, the displacement's slope does not jump anywhere."""
+    m = sheet() if kind == "sheet" else linear()
+    rng = np.random.default_rng(3)
+    for _ in range(6):
+        a, b = rng.uniform(-25, 25, 3), rng.uniform(-25, 25, 3)
+        t = np.linspace(0, 1, 20001)
+        d = m.displacement(a + t[:, None] * (b - a), 1.0)
+        second = np.diff(d, 2, axis=0)  # a kink shows as a spike of the second difference
+        assert np.abs(second).max() < 1e-5 * max(1.0, np.abs(d).max())
 
 
 def test_sheet_displacement_is_along_the_fibre_and_continuous_at_the_aoi_edge():

@@ -19,7 +19,8 @@ import numpy as np
 
 from .equations import attenuation, bulge_height, half_period, periodic_coordinate, shape_function
 
-__all__ = ["Geometry", "Muscle", "MuscleParameterError", "MuscleRegion", "waters_radial"]
+__all__ = ["Geometry", "Muscle", "MuscleParameterError", "MuscleRegion", "plateau_fall",
+           "smooth_fall", "waters_radial"]
 
 
 class MuscleParameterError(ValueError):
@@ -90,8 +91,31 @@ class MuscleRegion(Mapping):
             raise AttributeError(key) from None
 
 
+def smooth_fall(t) -> np.ndarray:
+    r"""The C1 fall from 1 to 0 that every built-in fall-off uses.
+
+    Parameters
+    ----------
+    t : (...) array_like
+        Position in the fall, 0 at its start and 1 at its end (clipped to ``[0, 1]``).
+
+    Returns
+    -------
+    (...) ndarray
+        .. math:: s(t) = \cos^2\left(\frac{\pi}{2} t\right) = \frac{1 + \cos \pi t}{2},
+
+        1 with zero slope at :math:`t = 0` and 0 with zero slope at :math:`t = 1`, so a
+        displacement built from it has no kink where it starts or stops falling. Two of them
+        facing each other add up to one, :math:`s(t) + s(1 - t) = 1`, so neighbouring sheets
+        whose falls overlap exactly move the skin between them as one.
+    """
+    t = np.clip(np.asarray(t, dtype=float), 0.0, 1.0)
+    return 0.5 * (1.0 + np.cos(np.pi * t))
+
+
 def waters_radial(x: np.ndarray, fall_start: float, end: float) -> np.ndarray:
-    r"""Waters' (1987) radial falloff, 0 at the attachment, 1 at the fall start, 0 at the end.
+    r"""Waters' (1987) radial fall-off made C1: 0 at the attachment, 1 at the fall start
+    :math:`R_s`, 0 at the end :math:`R_f`, with zero slope at all three.
 
     Parameters
     ----------
@@ -106,16 +130,42 @@ def waters_radial(x: np.ndarray, fall_start: float, end: float) -> np.ndarray:
         .. math::
 
             r(x) = \begin{cases}
-                \cos\left(\left(1 - \frac{x}{R_s}\right)\frac{\pi}{2}\right) & 0 \le x \le R_s\\
-                \cos\left(\frac{x - R_s}{R_f - R_s}\frac{\pi}{2}\right) & R_s < x \le R_f \\
+                \sin^2\left(\frac{x}{R_s}\frac{\pi}{2}\right) & 0 \le x \le R_s\\
+                \cos^2\left(\frac{x - R_s}{R_f - R_s}\frac{\pi}{2}\right)
+                    & R_s < x \le R_f \\
                 0 & \text{otherwise}
             \end{cases}
+
+    Notes
+    -----
+    Waters' own profile is the square root of this one, :math:`\cos((1 - x/R_s)\pi/2)`
+    and :math:`\cos((x - R_s)/(R_f - R_s)\,\pi/2)`: the same rise and fall, but its slope
+    jumps at :math:`0` and :math:`R_f`, which creases the skin where the pull begins and ends
+    (``docs/model.md``).
     """
     x = np.asarray(x, dtype=float)
-    rising = np.sin(0.5 * np.pi * np.clip(x / fall_start, 0.0, 1.0))
-    falling = np.cos(0.5 * np.pi * np.clip((x - fall_start) / (end - fall_start), 0.0, 1.0))
+    rising = smooth_fall(1.0 - x / fall_start)
+    falling = smooth_fall((x - fall_start) / (end - fall_start))
     out = np.where(x <= fall_start, rising, falling)
     return np.where((x >= 0.0) & (x <= end), out, 0.0)
+
+
+def plateau_fall(x, start: float, end: float) -> np.ndarray:
+    r"""``(n,)``: 1 up to ``start``, then :func:`smooth_fall` to 0 at ``end`` (C1).
+
+    .. math::
+
+        p(x) = \begin{cases} 1 & |x| \le x_c \\
+                             s\left(\frac{|x| - x_c}{x_e - x_c}\right) & x_c < |x| \le x_e\\
+                             0 & \text{otherwise} \end{cases}
+
+    The across-fibre and depth fall-off of a sheet, and the C1 twin of Eq. 15's profile
+    (:func:`~wrinkle_vis.core.equations.attenuation`, which stays the wrinkles' ``At``).
+    """
+    x = np.abs(np.asarray(x, dtype=float))
+    if end <= start:
+        return np.where(x <= end, 1.0, 0.0)
+    return smooth_fall((x - start) / (end - start))
 
 
 def _fmt(value) -> str:

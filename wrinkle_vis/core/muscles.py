@@ -9,8 +9,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .equations import attenuation
-from .muscle import Geometry, Muscle, waters_radial
+from .muscle import Geometry, Muscle, plateau_fall, smooth_fall, waters_radial
 from .registry import register_muscle_type
 
 __all__ = ["LinearMuscle", "SheetMuscle"]
@@ -71,15 +70,19 @@ class LinearMuscle(Muscle):
         \lambda_i = l_i / R, \quad \gamma_i = \varphi_i / \phi .
 
     The AOI is :math:`0 \le \lambda_i \le 1,\ \varphi_i \le \phi`; the contraction direction
-    at :math:`x_i` is :math:`(m_A - x_i)/\|m_A - x_i\|`. The displacement (Waters 1987) is
+    at :math:`x_i` is :math:`(m_A - x_i)/\|m_A - x_i\|`. The displacement (Waters 1987,
+    made C1) is
 
     .. math::
 
-        \Delta x_i = a\,K\,\cos\left(\frac{\varphi_i}{\phi}\frac{\pi}{2}\right)
+        \Delta x_i = a\,K\,\cos^2\left(\frac{\varphi_i}{\phi}\frac{\pi}{2}\right)
                      r(\|x_i - m_A\|)\,\frac{m_A - x_i}{\|m_A - x_i\|}
 
     with activation :math:`a`, strength :math:`K` and the radial falloff :math:`r` of
     :func:`~wrinkle_vis.core.muscle.waters_radial` (fall start :math:`R_s`, end :math:`R`).
+    Waters' angular factor is :math:`\cos(\ldots)`, whose slope jumps where it reaches 0 at
+    :math:`\phi`; its square reaches 0 with zero slope. On a face the skin slides along its
+    rest surface (:class:`~wrinkle_vis.core.face.FaceModel`).
     """
 
     type_name = "linear"
@@ -161,7 +164,7 @@ class LinearMuscle(Muscle):
                         extra={"angle_deg": angle, "distance": dist})
 
     def _falloff(self, points: np.ndarray, geometry: Geometry) -> np.ndarray:
-        angular = np.cos(0.5 * np.pi * np.clip(geometry.gamma, 0.0, 1.0))
+        angular = smooth_fall(geometry.gamma)
         radial = waters_radial(geometry.extra["distance"], self.fall_start_value, self.radius)
         return angular * radial
 
@@ -212,10 +215,19 @@ class SheetMuscle(Muscle):
     would reach through the head, so the AOI is also bounded in depth,
     :math:`|(x_i - m_{Ac})\cdot n| \le` ``depth``. The contraction direction is
     :math:`-f` everywhere. The displacement is
-    :math:`\Delta x_i = -a K r(l_i) At(h_i) f` with Waters' falloff :math:`r` along the
-    fibre (fall start :math:`R_s`, end :math:`L_s`) and, across it, the profile of Eq. 15:
-    the middle of the sheet moves as one and only its sides fall off, so that neighbouring
-    sheets that overlap a little move the skin together without shearing it.
+
+    .. math::
+
+        \Delta x_i = -a K\, r(l_i)\, p_{h^c, W_s/2}(h_i)\, p_{D/2, D}(d_i)\, f
+
+    with Waters' falloff :math:`r` along the fibre
+    (:func:`~wrinkle_vis.core.muscle.waters_radial`, fall start :math:`R_s`, end
+    :math:`L_s`) and the C1 plateau :math:`p` (:func:`~wrinkle_vis.core.muscle.plateau_fall`)
+    across it, from :math:`h^c` to :math:`W_s/2`, and through it, from half the depth bound
+    :math:`D` to :math:`D`. The middle of the sheet moves as one and only its sides fall
+    off; two sheets of one frame whose falls overlap exactly (one's :math:`[h^c, W_s/2]`
+    is the other's) add up to a uniform pull, so the skin between them is not sheared.
+    Every factor reaches 0 with zero slope at the AOI's boundary.
     """
 
     type_name = "sheet"
@@ -353,5 +365,8 @@ class SheetMuscle(Muscle):
                         direction=direction, extra={"h": h, "depth": depth})
 
     def _falloff(self, points: np.ndarray, geometry: Geometry) -> np.ndarray:
-        across = attenuation(geometry.extra["h"], *self.attenuation_range)
-        return across * waters_radial(geometry.l, self.fall_start_value, self.length_value)
+        across = plateau_fall(geometry.extra["h"], *self.attenuation_range)
+        depth = self.depth_value
+        through = plateau_fall(geometry.extra["depth"], 0.5 * depth, depth)
+        return across * through * waters_radial(geometry.l, self.fall_start_value,
+                                                 self.length_value)
