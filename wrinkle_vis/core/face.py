@@ -6,7 +6,9 @@ is stacked once per set of active muscles (:class:`_Assembly`), so a frame is a 
 of vectorized steps whatever the number of muscles:
 
 1. skin displacement: one sparse sum of the active muscles' unit displacements times their
-   activations;
+   activations; the skin slides along its rest surface (each muscle's pull is made tangent
+   to the rest surface once, and the summed pull :math:`D` is bent back onto the surface by
+   the second fundamental form, :math:`-\tfrac12 D^T S D\, n`);
 2. :math:`\tau` (Eq. 9) on the edges the active muscles touch, then :math:`\varepsilon` of
    every active muscle (Eq. 10) in one sparse mat-vec;
 3. :math:`W = \sum_m H\,A(\varepsilon)\,At` (Eq. 4, 11) summed by one sparse mat-vec;
@@ -28,7 +30,7 @@ import scipy.sparse as sp
 
 from .equations import anisotropy, compression_operator
 from .expressions import Expression, paper_expressions
-from .mesh import MeshError, TriangleSurface, triangle_normals, unit_rows
+from .mesh import MeshError, TriangleSurface, shape_operators, triangle_normals, unit_rows
 from .muscle import Muscle, check_activation
 from .refine import bent_triangles, refine_triangles
 
@@ -60,7 +62,7 @@ class _MuscleData:
         return self.aoi[self.region_pos]
 
     @classmethod
-    def build(cls, skin: TriangleSurface, muscle: Muscle) -> _MuscleData:
+    def build(cls, skin: TriangleSurface, muscle: Muscle, normals: np.ndarray) -> _MuscleData:
         reg = muscle.region(skin.points)
         aoi = np.flatnonzero(reg["in_aoi"])
         region_pos = np.flatnonzero(reg["in_region"][aoi])
@@ -69,11 +71,18 @@ class _MuscleData:
         edge_ids = np.flatnonzero(in_aoi[edges[:, 0]] | in_aoi[edges[:, 1]])
         directions = np.nan_to_num(reg["direction"], nan=0.0)
         op = compression_operator(skin.points, edges[edge_ids], directions, rows=aoi)
-        unit = muscle.unit_displacement(skin.points[aoi])
+        unit = tangential(muscle.unit_displacement(skin.points[aoi]), normals[aoi])
         return cls(aoi=aoi, region_pos=region_pos, unit_disp=unit, lam=reg["lam"][aoi],
                    gamma=reg["gamma"][aoi], l=reg["l"][aoi], at=reg["At"][aoi],
                    w=reg["w"][aoi][region_pos], h=reg["H"][aoi][region_pos],
                    edge_ids=edge_ids, eps_op=op)
+
+
+def tangential(vectors: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    r"""``(k, 3)``: ``vectors`` ``(k, 3)`` without their part along unit ``normals``,
+    :math:`v - (v \cdot n)\, n`.
+    """
+    return vectors - np.einsum("ij,ij->i", vectors, normals)[:, None] * normals
 
 
 def _summing(ids_list: list[np.ndarray]) -> tuple[np.ndarray, sp.csr_matrix]:
@@ -130,9 +139,12 @@ class _Assembly:
     w_sum: sp.csr_matrix  # (v, R)
     tris: np.ndarray  # (3, t) local corners of the triangles around the wrinkled vertices
     tri_inc: sp.csr_matrix  # (v, t)
+    slide_n: np.ndarray  # (3, u) rest unit normals of the moved vertices
+    slide_s: np.ndarray  # (6, u) their shape operators: xx, yy, zz, xy, xz, yz
 
     @classmethod
-    def build(cls, skin: TriangleSurface, names, datas: list[_MuscleData]) -> _Assembly:
+    def build(cls, skin: TriangleSurface, names, datas: list[_MuscleData],
+              rest: _RestFrame) -> _Assembly:
         k_counts = np.array([len(d.aoi) for d in datas], dtype=np.intp)
         k_offsets = np.concatenate([[0], np.cumsum(k_counts)])
         r_offsets = np.concatenate([[0], np.cumsum([len(d.region_pos) for d in datas])])
@@ -159,6 +171,7 @@ class _Assembly:
         tri_order = np.argsort(to_local[tris[:, 0]], kind="stable")
         eps_op = sp.vstack(blocks, format="csr")[:, edge_order].tocsr()
         moved = np.unique(stacked_aoi)
+        shape = rest.shape[moved]
         return cls(
             names=tuple(names), k_counts=k_counts, k_offsets=k_offsets, r_offsets=r_offsets,
             local=local, rest_local=np.ascontiguousarray(skin.points[local].T),
@@ -171,7 +184,22 @@ class _Assembly:
             hat=np.concatenate([d.h * d.at[d.region_pos] for d in datas]),
             wrinkled=wrinkled, wrinkled_local=to_local[wrinkled], w_sum=w_sum,
             tris=np.ascontiguousarray(to_local[tris[tri_order]].T),
-            tri_inc=inc[:, tri_ids[tri_order]].tocsr())
+            tri_inc=inc[:, tri_ids[tri_order]].tocsr(),
+            slide_n=np.ascontiguousarray(rest.normals[moved].T),
+            slide_s=np.ascontiguousarray(np.stack(
+                [shape[:, 0, 0], shape[:, 1, 1], shape[:, 2, 2], shape[:, 0, 1],
+                 shape[:, 0, 2], shape[:, 1, 2]])))
+
+    def _slide(self, p: np.ndarray) -> None:
+        r"""Bend the summed tangent pull of the moved vertices back onto the rest surface:
+        :math:`x \mathrel{-}= \tfrac12 (D^T S D)\, n` with :math:`D` the pull, in place.
+        """
+        d = np.take(p, self.moved_local, axis=1) - np.take(self.rest_local, self.moved_local,
+                                                              axis=1)
+        s = self.slide_s
+        q = (s[0] * d[0] * d[0] + s[1] * d[1] * d[1] + s[2] * d[2] * d[2]
+             + 2.0 * (s[3] * d[0] * d[1] + s[4] * d[0] * d[2] + s[5] * d[1] * d[2]))
+        p[:, self.moved_local] -= 0.5 * q * self.slide_n
 
     def arrays(self) -> list[np.ndarray]:
         """Every array a frame reads (for the memory-stream floor of the benchmarks)."""
@@ -199,6 +227,7 @@ class _Assembly:
         for c in range(3):
             p[c] += np.bincount(self.disp_rows, weights=self.unit_disp[c] * scale,
                                 minlength=p.shape[1])
+        self._slide(p)
         d = np.take(p, self.e1, axis=1)
         d -= np.take(p, self.e0, axis=1)
         tau = 1.0 - np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) / self.rest_len
@@ -215,6 +244,27 @@ class _Assembly:
         total = np.zeros(len(rest))
         total[self.wrinkled] = w_sum
         return deformed, points, total, {"eps": eps, "W": w_region}
+
+
+class _RestFrame:
+    """The rest skin's unit vertex normals and shape operators (built on first use), shared
+    by every face on the same skin.
+    """
+
+    def __init__(self, skin: TriangleSurface, normals=None):
+        self._skin = skin
+        if normals is not None:
+            self.normals = np.asarray(normals, dtype=float)
+
+    @cached_property
+    def normals(self) -> np.ndarray:
+        """``(n, 3)``: unit outward normals of the rest skin."""
+        return self._skin.vertex_normals()
+
+    @cached_property
+    def shape(self) -> np.ndarray:
+        """``(n, 3, 3)``: shape operators of the rest skin (:func:`shape_operators`)."""
+        return shape_operators(self._skin, self.normals)
 
 
 class FaceModel:
@@ -245,7 +295,7 @@ class FaceModel:
 
     def __init__(self, skin: TriangleSurface, skull: TriangleSurface | None = None,
                  muscles: Iterable[Muscle] = (), expressions=None, *, name: str = "face",
-                 landmarks=None, _caches=None):
+                 landmarks=None, _caches=None, _rest_normals=None):
         if not isinstance(skin, TriangleSurface):
             raise TypeError(f"skin must be a TriangleSurface; got {type(skin).__name__}")
         if skull is not None and not isinstance(skull, TriangleSurface):
@@ -269,9 +319,10 @@ class FaceModel:
         )
         if _caches is None:
             _check_skin(skin)
-            _caches = ({}, OrderedDict())
+            _caches = ({}, OrderedDict(), _RestFrame(skin, _rest_normals))
         self._muscle_data: dict[Muscle, _MuscleData] = _caches[0]
         self._assemblies: OrderedDict = _caches[1] if _caches[1] is not None else OrderedDict()
+        self._rest: _RestFrame = _caches[2]
         self._refinements: OrderedDict = OrderedDict()
 
     # ------------------------------------------------------------------ access
@@ -341,19 +392,20 @@ class FaceModel:
                 del cache[m]
         return FaceModel(self.skin, self.skull, muscles,
                          self.expressions if expressions is None else expressions,
-                         name=self.name, landmarks=self.landmarks, _caches=(cache, None))
+                         name=self.name, landmarks=self.landmarks,
+                         _caches=(cache, None, self._rest))
 
     def muscle_data(self, muscle: Muscle) -> _MuscleData:
         """The cached rest-skin data of ``muscle`` (built on first use)."""
         data = self._muscle_data.get(muscle)
         if data is None:
-            data = _MuscleData.build(self.skin, muscle)
+            data = _MuscleData.build(self.skin, muscle, self._rest.normals)
             self._muscle_data[muscle] = data
         return data
 
     def _assembly(self, names: tuple[str, ...]) -> _Assembly:
         return _lru(self._assemblies, names, 32, lambda: _Assembly.build(
-            self.skin, names, [self.muscle_data(self.muscle(n)) for n in names]))
+            self.skin, names, [self.muscle_data(self.muscle(n)) for n in names], self._rest))
 
     # ------------------------------------------------------------------ evaluation
     def activations_for(self, activations, intensity: float = 1.0) -> dict[str, float]:
@@ -402,8 +454,10 @@ class FaceModel:
             corner moved or wrinkled) whose vertex normals differ by more than
             ``refine_angle_deg`` are split 1-to-4 and the split closed conformingly
             (:mod:`wrinkle_vis.core.refine`). New vertices get
-            rest positions at rest-edge midpoints and every quantity is evaluated at them
-            exactly. A refined skin is cached per set of split triangles.
+            rest positions on the smooth surface through the rest vertices and their normals
+            (not the straight edge midpoints, which would keep the coarse facets) and every
+            quantity is evaluated at them exactly. A refined skin is cached per set of split
+            triangles.
         refine_angle_deg : float, default 3.0
             The bending threshold (3 degrees and 3 levels match VTK's uniform subdivision
             three times over along the forehead furrows, ``benchmarks/bench_refine_fidelity.py``).
@@ -437,10 +491,14 @@ class FaceModel:
 
     def _refined(self, marked: np.ndarray) -> FaceModel:
         """The face on this skin refined at ``marked`` triangles (cached)."""
-        return _lru(self._refinements, np.packbits(marked).tobytes(), 8, lambda: FaceModel(
-            refine_triangles(self.skin, marked).surface, self.skull, self.muscles,
-            self.expressions, name=self.name, landmarks=self.landmarks,
-            _caches=({}, None)))  # a refined valid skin is valid: no check
+        def build():
+            ref = refine_triangles(self.skin, marked, self._rest.normals)
+            return FaceModel(ref.surface, self.skull, self.muscles, self.expressions,
+                             name=self.name, landmarks=self.landmarks,
+                             _caches=({}, None, _RestFrame(ref.surface, ref.normals)))
+
+        # a refined valid skin is valid: no check
+        return _lru(self._refinements, np.packbits(marked).tobytes(), 8, build)
 
     def _frame(self, acts: dict[str, float]) -> FaceState:
         """The unrefined frame for resolved activations."""

@@ -11,7 +11,8 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components
 from scipy.spatial import cKDTree
 
 __all__ = ["MeshError", "MeshReport", "TriangleSurface", "barycentric_points", "closest_points",
-           "subdivide", "surface_coordinates", "triangle_normals", "unit_rows"]
+           "phong_midpoints", "shape_operators", "subdivide", "surface_coordinates",
+           "tangent_bases", "triangle_normals", "unit_rows"]
 
 
 class MeshError(ValueError):
@@ -517,3 +518,103 @@ def subdivide(surface: TriangleSurface, levels: int = 1) -> TriangleSurface:
         )
         surface = TriangleSurface(np.vstack([p, mid]), new_t)
     return surface
+
+
+def tangent_bases(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``((n, 3), (n, 3))``: two unit vectors spanning each tangent plane, ``u``, ``v``, with
+    ``(u, v, normal)`` right-handed; zero normals get an arbitrary basis.
+    """
+    n = np.asarray(normals, dtype=float)
+    helper = np.where((np.abs(n[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    u = unit_rows(np.cross(helper, n))
+    return u, np.cross(n, u)
+
+
+def shape_operators(surface: TriangleSurface, normals=None) -> np.ndarray:
+    r"""``(n, 3, 3)``: the shape operator :math:`S` of the surface at each vertex.
+
+    Parameters
+    ----------
+    surface : TriangleSurface
+        The surface.
+    normals : (n, 3) float, optional
+        Unit vertex normals; default :meth:`TriangleSurface.vertex_normals`.
+
+    Returns
+    -------
+    (n, 3, 3) float
+        Symmetric, acting on the tangent plane, with :math:`S e \approx n_j - n_i` for every
+        edge :math:`e = x_j - x_i` from the vertex (least squares over its one-ring, both
+        projected onto the tangent plane). The second fundamental form is
+        :math:`I\!I(v, v) = v^T S v`: a sphere of radius :math:`\rho` with outward normals has
+        :math:`S = P/\rho` (:math:`P` the tangent projector), and a tangent step :math:`v`
+        leaves the surface by :math:`I\!I(v, v)/2` along the normal, to second order.
+    """
+    nrm = surface.vertex_normals() if normals is None else np.asarray(normals, dtype=float)
+    e = surface.edges
+    i = np.concatenate([e[:, 0], e[:, 1]])
+    j = np.concatenate([e[:, 1], e[:, 0]])
+    u, v = tangent_bases(nrm)
+    d = surface.points[j] - surface.points[i]
+    dn = nrm[j] - nrm[i]
+    eu, ev = np.einsum("ij,ij->i", d, u[i]), np.einsum("ij,ij->i", d, v[i])
+    nu, nv = np.einsum("ij,ij->i", dn, u[i]), np.einsum("ij,ij->i", dn, v[i])
+    # unknowns (a, b, c) of [[a, b], [b, c]]: rows [eu, ev, 0] -> nu and [0, eu, ev] -> nv
+    n = surface.n_points
+
+    def acc(w):
+        return np.bincount(i, weights=w, minlength=n)
+
+    m = np.empty((n, 3, 3))
+    m[:, 0, 0] = acc(eu * eu)
+    m[:, 0, 1] = m[:, 1, 0] = acc(eu * ev)
+    m[:, 1, 1] = acc(ev * ev + eu * eu)
+    m[:, 1, 2] = m[:, 2, 1] = acc(eu * ev)
+    m[:, 0, 2] = m[:, 2, 0] = 0.0
+    m[:, 2, 2] = acc(ev * ev)
+    rhs = np.stack([acc(eu * nu), acc(ev * nu + eu * nv), acc(ev * nv)], axis=1)
+    scale = np.trace(m, axis1=1, axis2=2)[:, None, None]
+    m += 1e-9 * np.maximum(scale, 1e-300) * np.eye(3)  # lonely vertices: no curvature
+    a, b, c = np.linalg.solve(m, rhs[:, :, None])[:, :, 0].T
+    uu = u[:, :, None] * u[:, None, :]
+    vv = v[:, :, None] * v[:, None, :]
+    uv = u[:, :, None] * v[:, None, :]
+    return a[:, None, None] * uu + b[:, None, None] * (uv + uv.transpose(0, 2, 1)) + \
+        c[:, None, None] * vv
+
+
+def phong_midpoints(points: np.ndarray, normals: np.ndarray, pairs: np.ndarray):
+    r"""Edge midpoints on the smooth surface through the vertices and their tangent planes.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Vertex positions.
+    normals : (n, 3) float
+        Unit vertex normals.
+    pairs : (k, 2) int
+        The edges' end vertices.
+
+    Returns
+    -------
+    midpoints : (k, 3) float
+        Phong tessellation's point (Boubekeur and Alexa 2008) at the edge's middle with
+        shape factor :math:`1/2`,
+
+        .. math::
+
+            m^* = m - \tfrac14\left[((m - p_0)\cdot n_0)\, n_0 + ((m - p_1)\cdot n_1)\, n_1
+            \right], \qquad m = \tfrac12 (p_0 + p_1),
+
+        which lies on a sphere through :math:`p_0, p_1` with normals :math:`n_0, n_1` to
+        second order in the edge's angle (the straight midpoint misses it by the sagitta).
+    normals : (k, 3) float
+        :math:`\mathrm{unit}(n_0 + n_1)`, the normals for the next level.
+    """
+    p0, p1 = points[pairs[:, 0]], points[pairs[:, 1]]
+    n0, n1 = normals[pairs[:, 0]], normals[pairs[:, 1]]
+    m = 0.5 * (p0 + p1)
+    k0 = np.einsum("ij,ij->i", m - p0, n0)
+    k1 = np.einsum("ij,ij->i", m - p1, n1)
+    mid = m - 0.25 * (k0[:, None] * n0 + k1[:, None] * n1)
+    return mid, unit_rows(n0 + n1)

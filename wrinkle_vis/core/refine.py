@@ -6,6 +6,11 @@ Here a level splits every marked triangle 1-to-4 at its edge midpoints; a triang
 whose edges are split is split 1-to-4 too (repeated until stable), and a triangle with one
 split edge is bisected from the opposite corner, so the result is conforming: no hanging
 vertices, every interior edge shared by exactly two triangles.
+
+New vertices do not sit on the straight midpoints of the split edges, which would keep the
+coarse mesh's facets however often it is refined, but on the smooth surface through the old
+vertices and their tangent planes (:func:`~wrinkle_vis.core.mesh.phong_midpoints`); each new
+vertex carries the normal of that surface, so the next level is smooth too.
 """
 
 from __future__ import annotations
@@ -14,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .mesh import TriangleSurface, unit_rows
+from .mesh import TriangleSurface, phong_midpoints, unit_rows
 
 __all__ = ["Refinement", "bent_triangles", "refine_triangles"]
 
@@ -28,18 +33,21 @@ class Refinement:
     surface : TriangleSurface
         The refined surface: the old vertices first, then one per split edge.
     parents : (k, 2) int
-        The two old vertices whose midpoint each new vertex is.
+        The two old vertices of the edge each new vertex splits.
+    normals : (n + k, 3) float
+        Unit rest normals of every vertex of ``surface`` (the old ones as given).
     n_red, n_green : int
         Triangles split 1-to-4 and bisected.
     """
 
     surface: TriangleSurface
     parents: np.ndarray
+    normals: np.ndarray
     n_red: int
     n_green: int
 
 
-def refine_triangles(surface: TriangleSurface, marked) -> Refinement:
+def refine_triangles(surface: TriangleSurface, marked, normals=None) -> Refinement:
     """Split the ``marked`` triangles 1-to-4 and close the refinement conformingly.
 
     Parameters
@@ -48,11 +56,15 @@ def refine_triangles(surface: TriangleSurface, marked) -> Refinement:
         The surface (its ``points`` are the rest positions new vertices are made from).
     marked : (m,) bool or (k,) int
         Triangles to split.
+    normals : (n, 3) float, optional
+        Unit normals of the smooth surface at the vertices; default
+        :meth:`TriangleSurface.vertex_normals`.
 
     Returns
     -------
     Refinement
-        New vertices lie at the midpoints of the split edges, at rest.
+        New vertices lie on the smooth surface at the middle of the split edges
+        (:func:`~wrinkle_vis.core.mesh.phong_midpoints`), at rest.
     """
     tri, te, edges = surface.triangles, surface.triangle_edges, surface.edges
     mark = np.zeros(surface.n_triangles, bool)
@@ -85,9 +97,12 @@ def refine_triangles(surface: TriangleSurface, marked) -> Refinement:
     green_children = np.concatenate([np.c_[vk, m, vk2], np.c_[m, vk1, vk2]])
     keep = tri[count == 0]
     parents = edges[split]
-    points = np.vstack([surface.points, 0.5 * surface.points[parents].sum(axis=1)])
-    refined = TriangleSurface(points, np.concatenate([keep, red_children, green_children]))
-    return Refinement(refined, parents, int(red.sum()), len(green))
+    nrm = surface.vertex_normals() if normals is None else np.asarray(normals, dtype=float)
+    mid, mid_normals = phong_midpoints(surface.points, nrm, parents)
+    refined = TriangleSurface(np.vstack([surface.points, mid]),
+                              np.concatenate([keep, red_children, green_children]))
+    return Refinement(refined, parents, np.vstack([nrm, mid_normals]), int(red.sum()),
+                      len(green))
 
 
 def bent_triangles(surface: TriangleSurface, points: np.ndarray, angle_deg: float,
