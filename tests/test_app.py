@@ -229,3 +229,38 @@ def test_refinement_toggle_and_wireframe(window, wv_face):
     window.refine_box.setChecked(False)
     assert skin_mesh(window).n_cells == base
     assert window.probed_vertex is None  # its vertex is gone with the refinement
+
+
+def test_plain_skin_and_the_raking_light(window):
+    """Field "none" draws plain skin; View > Raking light swaps the skin view's lights for a
+    grazing key light and a weak headlight and back, across rebuilds, and the view changes.
+    """
+    renderer = window.skin_view.renderer
+    kit = len(renderer.lights)
+    assert kit == 5 and not window.raking_action.isChecked()  # pyvista's light kit
+    window.field_box.setCurrentText("none")
+    actor = window.skin_view.actors["skin"]
+    assert window.active_array() is None and not actor.mapper.scalar_visibility
+    assert not window.skin_view.scalar_bars and "W" not in skin_mesh(window).point_data
+    window.set_camera("forehead")
+    kit_image = window.skin_view.screenshot(return_img=True).astype(int)
+
+    window.raking_action.trigger()
+    assert window.raking_action.isChecked() and window.settings.value("raking_light", type=bool)
+    key, fill = renderer.lights
+    assert key.is_scene_light and not key.positional and fill.is_headlight
+    assert key.intensity > 2 * fill.intensity
+    towards = np.subtract(key.position, key.focal_point)
+    assert towards[1] > towards[2] > 0 and towards[0] > 0  # above, grazing, from the right
+    raking_image = window.skin_view.screenshot(return_img=True).astype(int)
+    assert np.abs(raking_image - kit_image).max() > 40
+
+    window.field_box.setCurrentText("W")  # a rebuild keeps the raking light
+    assert len(renderer.lights) == 2 and window.active_array() == "W"
+    window.field_box.setCurrentText("none")
+    window.expression_box.setCurrentText("frown")  # updated in place, still plain
+    np.testing.assert_allclose(skin_mesh(window).points, window.session.state().points)
+    assert not window.skin_view.actors["skin"].mapper.scalar_visibility
+
+    window.raking_action.trigger()
+    assert len(renderer.lights) == kit and not window.raking_action.isChecked()

@@ -1,4 +1,4 @@
-"""The ``wrinkle-vis`` command: summary, render, export and animate."""
+"""The ``wrinkle-vis`` command: summary, render, export, animate and figure."""
 
 from __future__ import annotations
 
@@ -8,7 +8,9 @@ import time
 from pathlib import Path
 
 FIELD_CHOICES = ("lambda", "gamma", "l", "w", "H", "At", "eps", "A", "W", "none")
-CAMERA_CHOICES = ("front", "three_quarter", "side", "forehead")
+CAMERA_CHOICES = ("front", "three_quarter", "side", "forehead", "upper_face")
+FIGURE_CHOICES = ("fig9", "fig11")
+FIG9_EXPRESSIONS = ("surprise", "frown", "fear")
 LAYER_CHOICES = ("skin", "muscles", "skull")
 
 
@@ -16,10 +18,11 @@ class CliError(Exception):
     """A bad argument the parser could not see; printed without a traceback."""
 
 
-def _common(p: argparse.ArgumentParser, *, expression_many: bool = False) -> None:
+def _common(p: argparse.ArgumentParser, *, expression_many: bool = False,
+            expression_default: str = "every expression") -> None:
     if expression_many:
         p.add_argument("--expression", "-e", action="append",
-                       help="expression name (repeatable; default: every expression)")
+                       help=f"expression name (repeatable; default: {expression_default})")
     else:
         p.add_argument("--expression", "-e", default="surprise",
                        help="expression name (default: surprise)")
@@ -65,6 +68,21 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--fps", type=int, default=12)
     p.add_argument("--size", type=int, nargs=2, default=(480, 480), metavar=("W", "H"))
     p.add_argument("--output", "-o", type=Path, required=True, help="a .gif or .mp4 file")
+
+    p = sub.add_parser(
+        "figure", help="render one of the paper's figures to a PNG, off screen",
+        description="fig9: each expression without and with wrinkles (paper Fig. 9); "
+                    "fig11: the adaptively refined mesh over the forehead during surprise "
+                    "(paper Fig. 11). Plain skin under a raking light.")
+    p.add_argument("figure", choices=FIGURE_CHOICES, help="which figure")
+    _common(p, expression_many=True, expression_default=(
+        f"fig9: one row each, {', '.join(FIG9_EXPRESSIONS)}; fig11: one, surprise"))
+    p.add_argument("--refine", action="store_true",
+                   help="fig9: evaluate with adaptive refinement (fig11 always refines)")
+    p.add_argument("--size", type=int, nargs=2, metavar=("W", "H"),
+                   help="image size in pixels (default: 880 by 400 per row for fig9, "
+                        "800 by 800 for fig11)")
+    p.add_argument("--output", "-o", type=Path, required=True, help="the PNG to write")
     return parser
 
 
@@ -183,6 +201,30 @@ def _animate(args) -> int:
     return 0
 
 
+def _figure(args) -> int:
+    from wrinkle_vis.plotting import figure_expressions, figure_refinement
+
+    if args.output.suffix.lower() != ".png":
+        raise CliError(f"--output must end in .png; got {args.output.name!r}")
+    if args.size is not None and min(args.size) < 16:
+        raise CliError(f"--size {args.size[0]} {args.size[1]} is too small (16 pixels at "
+                       "least each way)")
+    if args.figure == "fig11" and args.expression and len(args.expression) > 1:
+        raise CliError(f"fig11 shows one expression; got {len(args.expression)}")
+    if not args.expression:
+        args.expression = list(FIG9_EXPRESSIONS) if args.figure == "fig9" else ["surprise"]
+    face = _load(args)
+    size = None if args.size is None else tuple(args.size)
+    if args.figure == "fig9":
+        figure_expressions(face, args.expression, args.output, size=size,
+                           intensity=args.intensity, refine=args.refine)
+    else:
+        figure_refinement(face, args.output, expression=args.expression[0],
+                          size=size or (800, 800), intensity=args.intensity)
+    print(f"wrote {args.output}")
+    return 0
+
+
 def _app_or_summary(parser) -> int:
     import os
 
@@ -196,7 +238,8 @@ def _app_or_summary(parser) -> int:
     return _summary(parser.parse_args(["summary"]))
 
 
-COMMANDS = {"summary": _summary, "render": _render, "export": _export, "animate": _animate}
+COMMANDS = {"summary": _summary, "render": _render, "export": _export, "animate": _animate,
+            "figure": _figure}
 
 
 def main(argv=None) -> int:

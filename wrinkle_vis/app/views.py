@@ -4,7 +4,8 @@
 selected muscle, the skin's triangles, the set of muscles); otherwise it writes the new frame
 into the drawn meshes' VTK arrays, redraws only the muscles that were edited, and moves the
 selected muscle's placement widget. :meth:`LinkedViews.render` then renders the views that
-changed. The app's window and the drag benchmark both use it.
+changed. The app's window and the drag benchmark both use it. The skin view can show plain
+skin (no field) and be lit by a raking light (:meth:`LinkedViews.set_raking_light`).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from ..plotting import (
     add_attachments,
     add_muscle,
     add_muscles,
+    add_raking_light,
     add_skin,
     add_skull,
     attachment_points,
@@ -48,6 +50,7 @@ class LinkedViews:
         self.skin_view, self.muscle_view, self.skull_view = skin, muscles, skull
         self.on_move, self.on_start = on_move, on_start
         self.placement = None
+        self.raking_light = False
         self._key = None
         self._skin_mesh = self._ghost_mesh = None
         self._muscle_meshes: dict[str, pv.PolyData] = {}
@@ -66,29 +69,46 @@ class LinkedViews:
         self._key = None
 
     # ------------------------------------------------------------------ drawing
-    def draw(self, session, state: FaceState, *, wireframe: bool = False) -> bool:
+    def draw(self, session, state: FaceState, *, wireframe: bool = False,
+             plain: bool = False) -> bool:
         """Draw ``state`` of ``session`` (nothing is rendered); returns whether the scenes
-        were rebuilt.
+        were rebuilt. ``plain`` draws the skin view's skin without its field.
         """
         face = session.face
         key = (id(face.skin), id(state.face.skin), face.muscle_names, session.field,
-               session.muscle, wireframe)
+               session.muscle, wireframe, plain)
         if key != self._key:
-            self._rebuild(session, state, wireframe)
+            self._rebuild(session, state, wireframe, plain)
             self._key = key
             return True
-        self._update_in_place(session, state)
+        self._update_in_place(session, state, plain)
         return False
 
-    def _rebuild(self, session, state: FaceState, wireframe: bool) -> None:
+    def set_raking_light(self, on: bool) -> None:
+        """Light the skin view with :func:`~wrinkle_vis.plotting.add_raking_light` (on) or
+        the light kit (off); kept across rebuilds. Renders nothing.
+        """
+        self.raking_light = bool(on)
+        self._light_skin()
+        self._changed.add("skin")
+
+    def _light_skin(self) -> None:
+        if self.raking_light:
+            add_raking_light(self.skin_view)
+        else:
+            self.skin_view.enable_lightkit(only_active=True)
+
+    def _rebuild(self, session, state: FaceState, wireframe: bool, plain: bool) -> None:
         face = session.face
         keep = self.placement is not None and session.muscle == self.placement.muscle.name \
             and type(face.muscle(session.muscle)) is type(self.placement.muscle)
         if not keep:
             self.close_placement()
         clear_scene(self.skin_view)
-        actor = add_skin(self.skin_view, state, session.field, session.muscle,
-                         show_edges=wireframe)
+        if self.raking_light:
+            self._light_skin()
+        actor = add_skin(self.skin_view, state, None if plain else session.field,
+                         None if plain else session.muscle, show_edges=wireframe)
         self._skin_mesh = actor.mapper.dataset
         clear_scene(self.muscle_view)
         self._ghost_mesh = add_skin(self.muscle_view, state, None, opacity=0.25).mapper.dataset
@@ -106,17 +126,20 @@ class LinkedViews:
             self._make_placement(session, state)
         self._changed = {"skin", "muscles", "skull"}
 
-    def _update_in_place(self, session, state: FaceState) -> None:
+    def _update_in_place(self, session, state: FaceState, plain: bool = False) -> None:
         """Write the frame into the drawn meshes (``add_mesh`` renders a shallow copy that
         shares their VTK arrays) and redraw only the muscles that were edited.
         """
         face = session.face
-        array = field_array_name(session.field, session.muscle)
-        values = state.W if session.muscle is None else \
-            state.fields[session.muscle][session.field]
-        _write(self._skin_mesh, state.points, array, values)
-        self.skin_view.actors["skin"].mapper.scalar_range = field_range(
-            field_info(session.field), values)
+        if plain:
+            _write(self._skin_mesh, state.points)
+        else:
+            array = field_array_name(session.field, session.muscle)
+            values = state.W if session.muscle is None else \
+                state.fields[session.muscle][session.field]
+            _write(self._skin_mesh, state.points, array, values)
+            self.skin_view.actors["skin"].mapper.scalar_range = field_range(
+                field_info(session.field), values)
         _write(self._ghost_mesh, state.points)
         for m in face.muscles:
             if self._drawn_muscles.get(m.name) is not m:  # edited: draw it again

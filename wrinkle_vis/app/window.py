@@ -30,6 +30,7 @@ from .views import LinkedViews
 __all__ = ["MainWindow"]
 
 TOTAL = "total"
+PLAIN = "none"  # the field box's entry for plain skin (no field)
 KEEP = object()  # edit(): keep the selection
 MAX_RECENT = 8
 
@@ -68,6 +69,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.resize(1500, 800)
         self._syncing = False
         self._updating_controls = False
+        self.plain_skin = False  # the skin view shows no field
         self.plotters: list[QtInteractor] = []
         self._build_views()
         self._build_controls()
@@ -164,7 +166,9 @@ class MainWindow(QtWidgets.QMainWindow):
         row.addWidget(self.time_slider)
         view.addRow("Timeline", row)
         self.field_box = QtWidgets.QComboBox()
-        self.field_box.addItems(FIELD_NAMES)
+        self.field_box.addItems([*FIELD_NAMES, PLAIN])
+        self.field_box.setItemData(len(FIELD_NAMES), "Plain skin, no field (try View > Raking "
+                                   "light)", QtCore.Qt.ToolTipRole)
         self.field_box.currentTextChanged.connect(self._on_field)
         view.addRow("Field", self.field_box)
         self.muscle_box = QtWidgets.QComboBox()
@@ -261,6 +265,14 @@ class MainWindow(QtWidgets.QMainWindow):
         self.aa_action.setChecked(self.settings.value("antialiasing", False, type=bool))
         self.aa_action.toggled.connect(self.set_anti_aliasing)
         self.set_anti_aliasing(self.aa_action.isChecked())
+        self.raking_action = view_menu.addAction("&Raking light")
+        self.raking_action.setShortcut(QtGui.QKeySequence("L"))
+        self.raking_action.setToolTip("Light the skin from above and to the side at a grazing "
+                                      "angle: shallow furrows show on plain skin")
+        self.raking_action.setCheckable(True)
+        self.raking_action.setChecked(self.settings.value("raking_light", False, type=bool))
+        self.raking_action.toggled.connect(self.set_raking_light)
+        self.views.set_raking_light(self.raking_action.isChecked())
         self._update_recent_menu()
 
     def _action(self, menu, text, shortcut, slot) -> QtGui.QAction:
@@ -282,7 +294,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.muscle_box.clear()
             self.muscle_box.addItems([TOTAL, *s.face.muscle_names])
             self.muscle_box.setCurrentText(s.muscle or TOTAL)
-            self.field_box.setCurrentText(s.field)
+            self.field_box.setCurrentText(PLAIN if self.plain_skin else s.field)
         finally:
             self._updating_controls = False
         self.muscle_panel.set_muscles(s.face.muscle_names, s.muscle)
@@ -402,7 +414,10 @@ class MainWindow(QtWidgets.QMainWindow):
         field = self.field_box.currentText()
         muscle = self.muscle_box.currentText()
         muscle = None if muscle in ("", TOTAL) else muscle
-        if muscle is None and field != "W":
+        self.plain_skin = field == PLAIN
+        if self.plain_skin:  # the session keeps a field for the probe and a switch back
+            field = self.session.field if muscle is not None else "W"
+        elif muscle is None and field != "W":
             self._updating_controls = True
             self.field_box.setCurrentText("W")
             self._updating_controls = False
@@ -646,7 +661,8 @@ class MainWindow(QtWidgets.QMainWindow):
             # the drawn meshes can be updated in place only on the same triangles
             if reset_camera:
                 self.views.invalidate()
-            self.views.draw(s, state, wireframe=self.wireframe_box.isChecked())
+            self.views.draw(s, state, wireframe=self.wireframe_box.isChecked(),
+                            plain=self.plain_skin)
             self._drawn_face = s.face
             if reset_camera:
                 set_camera(self.skin_view, "front", s.face)
@@ -669,8 +685,10 @@ class MainWindow(QtWidgets.QMainWindow):
             f"{s.face.skin.n_triangles} triangles")
         self._update_title()
 
-    def active_array(self) -> str:
-        """The point array the skin view colours by."""
+    def active_array(self) -> str | None:
+        """The point array the skin view colours by (None: plain skin)."""
+        if self.plain_skin:
+            return None
         return field_array_name(self.session.field, self.session.muscle)
 
     def set_anti_aliasing(self, on: bool) -> None:
@@ -684,6 +702,17 @@ class MainWindow(QtWidgets.QMainWindow):
             else:
                 p.disable_anti_aliasing()
         self._sync_views()
+
+    def set_raking_light(self, on: bool) -> None:
+        """Light the skin view with the raking light (on) or the light kit (off), as
+        :func:`~wrinkle_vis.plotting.add_raking_light` describes; remembered in the settings.
+        """
+        self.settings.setValue("raking_light", bool(on))
+        if self.raking_action.isChecked() != bool(on):
+            self.raking_action.setChecked(bool(on))  # toggled() comes back here
+            return
+        self.views.set_raking_light(on)
+        self.views.render(only_changed=True)
 
     def set_camera(self, name: str) -> None:
         """Move the shared camera to a named view."""

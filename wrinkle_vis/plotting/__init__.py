@@ -1,6 +1,7 @@
 """PyVista adapters and off-screen rendering (no Qt)."""
 
 from .fields import FIELDS, NAN_COLOR, FieldInfo, field_info, field_range
+from .figures import figure_expressions, figure_refinement
 from .polydata import field_array_name, to_polydata, to_surface_polydata
 from .scenes import (
     BONE,
@@ -10,6 +11,7 @@ from .scenes import (
     add_attachments,
     add_muscle,
     add_muscles,
+    add_raking_light,
     add_skin,
     add_skull,
     attachment_points,
@@ -23,7 +25,8 @@ from .scenes import (
 )
 
 __all__ = ["BONE", "CAMERAS", "FIELDS", "LAYERS", "NAN_COLOR", "SKIN", "FieldInfo",
-           "add_attachments", "add_muscle", "add_muscles", "add_skin", "add_skull",
-           "attachment_points", "clear_scene", "field_array_name", "field_info", "field_range",
+           "add_attachments", "add_muscle", "add_muscles", "add_raking_light", "add_skin",
+           "add_skull", "attachment_points", "clear_scene", "field_array_name", "field_info",
+           "field_range", "figure_expressions", "figure_refinement",
            "muscle_mesh", "render_field", "replace_mesh", "set_camera", "testing_theme",
            "to_multiblock", "to_polydata", "to_surface_polydata"]

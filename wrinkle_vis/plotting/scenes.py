@@ -10,21 +10,25 @@ from ..core.muscles import LinearMuscle, SheetMuscle
 from .fields import NAN_COLOR, field_info, field_range
 from .polydata import field_array_name, to_polydata, to_surface_polydata
 
-__all__ = ["BONE", "CAMERAS", "LAYERS", "SKIN", "add_attachments", "add_muscle", "add_muscles",
-           "add_skin", "add_skull", "attachment_points", "clear_scene", "muscle_mesh",
-           "render_field", "replace_mesh", "set_camera", "testing_theme", "to_multiblock"]
+__all__ = ["BONE", "CAMERAS", "LAYERS", "SKIN", "add_attachments", "add_muscle",
+           "add_muscles", "add_raking_light", "add_skin", "add_skull", "attachment_points",
+           "clear_scene", "muscle_mesh", "render_field", "replace_mesh", "set_camera",
+           "testing_theme", "to_multiblock"]
 
 SKIN = "#f1c9a5"
 BONE = "#e3dac9"
 LAYERS = ("skin", "muscles", "skull")
-#: Named cameras: direction from the face to the eye (y up, face towards +z), zoom, and the
-#: fraction of the skin's height to look at (1 is the whole skin).
+#: Named cameras: direction from the face to the eye (y up, face towards +z) and zoom.
 CAMERAS = {
     "front": ((0.0, 0.0, 1.0), 1.0),
     "three_quarter": ((0.7, 0.1, 0.7), 1.0),
     "side": ((1.0, 0.0, 0.0), 1.0),
     "forehead": ((0.0, 0.15, 1.0), 2.2),
+    "upper_face": ((0.0, 0.1, 1.0), 2.2),
 }
+#: Cameras that look at a height of the skin (fraction of its height from the bottom) on its
+#: front, not at the middle of its bounds.
+_CAMERA_HEIGHTS = {"forehead": 0.72, "upper_face": 0.6}
 
 
 def testing_theme() -> pv.themes.DocumentTheme:
@@ -51,6 +55,54 @@ def clear_scene(plotter: pv.Plotter) -> None:
     plotter.enable_lightkit(only_active=True)
 
 
+def add_raking_light(plotter: pv.Plotter, elevation_deg: float = 20.0,
+                     azimuth_deg: float = 35.0, *, intensity: float = 1.0,
+                     fill: float = 0.35) -> tuple[pv.Light, pv.Light]:
+    r"""Light the active renderer for relief: a grazing key light and a weak fill.
+
+    Replaces the renderer's lights (the light kit) with a directional key light fixed to the
+    face (world coordinates: y up, the face looking towards +z) and a headlight as fill, so
+    shallow furrows read on plain skin whatever their direction. The key light comes from
+
+    .. math:: \mathbf{l} = (\cos e \sin a,\ \cos e \cos a,\ \sin e)
+
+    (towards the light), ``e`` above the face's frontal plane, ``a`` from straight above
+    towards the viewer's right. Horizontal furrows (surprise) need light from above
+    (``a`` near 0), vertical ones (frown) light from the side (``a`` near 90): the default
+    35 degrees shows both. The lower the elevation, the stronger the relief and the darker
+    the far side of the head: 20 degrees shows the built-in face's sub-millimetre furrows
+    and leaves the far half of the forehead readable. Undo with
+    ``plotter.enable_lightkit(only_active=True)``.
+
+    Parameters
+    ----------
+    plotter : pyvista.Plotter
+        Its active renderer (the current subplot) is lit.
+    elevation_deg : float
+        Angle of the key light above the face's frontal plane; 0 grazes, 90 is frontal.
+    azimuth_deg : float
+        Angle from straight above towards the viewer's right (negative: the left).
+    intensity, fill : float
+        Key light and headlight intensities.
+
+    Returns
+    -------
+    (pyvista.Light, pyvista.Light)
+        The key light and the fill.
+    """
+    e, a = np.radians(elevation_deg), np.radians(azimuth_deg)
+    towards = (np.cos(e) * np.sin(a), np.cos(e) * np.cos(a), np.sin(e))
+    key = pv.Light(position=towards, focal_point=(0.0, 0.0, 0.0), intensity=intensity,
+                   light_type="scene light")
+    key.positional = False
+    head = pv.Light(light_type="headlight", intensity=fill)
+    renderer = plotter.renderer
+    renderer.remove_all_lights()
+    renderer.add_light(key)
+    renderer.add_light(head)
+    return key, head
+
+
 def _scalar_bar(title: str, nan: bool = True) -> dict:
     return {"title": title, "nan_annotation": nan, "n_labels": 5, "fmt": "%.3g",
             "vertical": False, "position_x": 0.2, "position_y": 0.07, "width": 0.6,
@@ -59,16 +111,18 @@ def _scalar_bar(title: str, nan: bool = True) -> dict:
 
 def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
              muscle: str | None = None, *, opacity: float = 1.0, scalar_bar: bool = True,
-             show_edges: bool = False):
+             show_edges: bool = False, points=None, edge_color=None):
     """Add the final skin of ``state``, coloured by ``field`` (of ``muscle``, or total W).
 
-    ``field=None`` draws plain skin. Undefined values (NaN) take :data:`NAN_COLOR` and the
-    scalar bar labels them. Returns the actor.
+    ``field=None`` draws plain, matte skin. Undefined values (NaN) take :data:`NAN_COLOR` and
+    the scalar bar labels them. ``points`` (``(n, 3)``) draws the skin elsewhere, e.g. at
+    ``state.deformed_points`` (moved by the muscles, without wrinkles). Returns the actor.
     """
-    mesh = to_surface_polydata(state.face.skin, state.points)
+    mesh = to_surface_polydata(state.face.skin, state.points if points is None else points)
     if field is None:
         return plotter.add_mesh(mesh, color=SKIN, smooth_shading=True, opacity=opacity,
-                                show_edges=show_edges, name="skin", render=False)
+                                show_edges=show_edges, edge_color=edge_color, specular=0.0,
+                                diffuse=1.0, ambient=0.0, name="skin", render=False)
     info = field_info(field)
     if muscle is None and field != "W":
         raise ValueError(f"field {field!r} belongs to one muscle; name it (only W has a "
@@ -82,7 +136,7 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
     actor = plotter.add_mesh(
         mesh, scalars=array, cmap=info.cmap, clim=field_range(info, values),
         nan_color=NAN_COLOR, smooth_shading=True, opacity=opacity, show_edges=show_edges,
-        show_scalar_bar=scalar_bar, name="skin", render=False,
+        edge_color=edge_color, show_scalar_bar=scalar_bar, name="skin", render=False,
         scalar_bar_args=_scalar_bar(info.title(muscle)) if scalar_bar else None)
     if scalar_bar:
         plotter.scalar_bars[info.title(muscle)].SetNanAnnotation("undefined")
@@ -217,8 +271,8 @@ def set_camera(plotter: pv.Plotter, name: str, face: FaceModel) -> None:
     direction, zoom = CAMERAS[name]
     lo, hi = face.skin.bounds()
     center = 0.5 * (lo + hi)
-    if name == "forehead":
-        center = np.array([center[0], lo[1] + 0.72 * (hi[1] - lo[1]), hi[2]])
+    if name in _CAMERA_HEIGHTS:
+        center = np.array([center[0], lo[1] + _CAMERA_HEIGHTS[name] * (hi[1] - lo[1]), hi[2]])
     d = np.asarray(direction) / np.linalg.norm(direction)
     distance = 2.6 * float(np.max(hi - lo))
     plotter.camera_position = [tuple(center + distance * d), tuple(center), (0.0, 1.0, 0.0)]

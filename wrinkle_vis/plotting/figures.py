@@ -1,0 +1,150 @@
+"""The paper's figures, off screen: plain skin under a raking light.
+
+:func:`figure_expressions` is Fig. 9 (each expression without and with wrinkles),
+:func:`figure_refinement` is Fig. 11 (the adaptively refined mesh over the forehead during
+surprise). Both return the image and write it when given a file name; the ``wrinkle-vis
+figure`` command calls them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyvista as pv
+
+from ..core.face import FaceModel
+from .scenes import add_raking_light, add_skin, set_camera
+
+__all__ = ["EDGE_COLOR", "PANEL_SIZE", "figure_expressions", "figure_refinement"]
+
+#: Pixel size of one panel of :func:`figure_expressions` when no size is given.
+PANEL_SIZE = (440, 400)
+#: Colour of the mesh edges drawn over the skin in :func:`figure_refinement`.
+EDGE_COLOR = "#6b4330"
+
+
+def _title(plotter: pv.Plotter, text: str, width: int) -> None:
+    """A title at the top of the active renderer, on a translucent white band."""
+    size = max(6, round(min(width / 48, 0.75 * width / max(len(text), 1))))
+    actor = plotter.add_text(text, position="upper_edge", font_size=size, color="black",
+                             name="title")
+    prop = actor.GetTextProperty()
+    prop.SetBackgroundColor(1.0, 1.0, 1.0)
+    prop.SetBackgroundOpacity(0.75)
+
+
+def _label(expression) -> str:
+    return expression if isinstance(expression, str) else "custom"
+
+
+def figure_expressions(face: FaceModel, expressions=("surprise", "frown", "fear"),
+                       filename=None, *, size=None, intensity: float = 1.0,
+                       refine: bool = False, camera: str = "upper_face",
+                       elevation_deg: float = 20.0, azimuth_deg: float = 35.0,
+                       theme=None) -> np.ndarray:
+    """The paper's Fig. 9: each expression without and with wrinkles, side by side.
+
+    One row per expression. The left panel is the skin the muscles moved
+    (``state.deformed_points``: no wrinkle displacement :math:`W`), the right one the final
+    skin (``state.points``). Plain, matte skin under :func:`add_raking_light`, every panel
+    with the same camera and lights.
+
+    Parameters
+    ----------
+    face : FaceModel
+        The face.
+    expressions : sequence of (str, Expression or mapping)
+        What to evaluate, one row each (see :meth:`FaceModel.evaluate`).
+    filename : path, optional
+        Where to write the image (PNG, or any format ``Plotter.screenshot`` writes).
+    size : (int, int), optional
+        Image size in pixels; default :data:`PANEL_SIZE` per panel.
+    intensity : float
+        Scales every activation, in ``[0, 1]``.
+    refine : bool
+        Evaluate with adaptive refinement (both panels show the refined mesh).
+    camera : str
+        One of :data:`~wrinkle_vis.plotting.CAMERAS`; the default frames forehead to nose.
+    elevation_deg, azimuth_deg : float
+        The raking light (see :func:`add_raking_light`).
+    theme : pyvista theme, optional
+        For image tests.
+
+    Returns
+    -------
+    (h, w, 3) uint8 ndarray
+        The image.
+    """
+    expressions = list(expressions)
+    if not expressions:
+        raise ValueError("name at least one expression")
+    states = [face.evaluate(e, intensity, refine=refine) for e in expressions]
+    width, height = size or (2 * PANEL_SIZE[0], len(expressions) * PANEL_SIZE[1])
+    plotter = pv.Plotter(off_screen=True, shape=(len(expressions), 2), border=False,
+                         window_size=[int(width), int(height)], theme=theme)
+    try:
+        plotter.set_background("white")
+        for row, (expression, state) in enumerate(zip(expressions, states, strict=True)):
+            for col, (what, points) in enumerate((("without wrinkles", state.deformed_points),
+                                                  ("with wrinkles", state.points))):
+                plotter.subplot(row, col)
+                add_skin(plotter, state, None, points=points)
+                add_raking_light(plotter, elevation_deg, azimuth_deg)
+                _title(plotter, f"{_label(expression)}: {what}", width // 2)
+                set_camera(plotter, camera, face)
+        image = plotter.screenshot(None if filename is None else str(filename),
+                                   return_img=True)
+    finally:
+        plotter.close()
+    return image
+
+
+def figure_refinement(face: FaceModel, filename=None, *, expression="surprise",
+                      size=(800, 800), intensity: float = 1.0, camera: str = "forehead",
+                      elevation_deg: float = 20.0, azimuth_deg: float = 35.0,
+                      theme=None) -> np.ndarray:
+    """The paper's Fig. 11: the adaptively refined mesh over the shaded forehead.
+
+    ``expression`` is evaluated with ``refine=True``; the refined skin (``state.face.skin``
+    at ``state.points``) is drawn as plain skin under :func:`add_raking_light` with its
+    edges in :data:`EDGE_COLOR`. The title gives the triangle counts before and after.
+
+    Parameters
+    ----------
+    face : FaceModel
+        The face.
+    filename : path, optional
+        Where to write the image.
+    expression : str, Expression or mapping
+        What to evaluate (the paper shows surprise).
+    size : (int, int)
+        Image size in pixels.
+    intensity : float
+        Scales every activation, in ``[0, 1]``.
+    camera : str
+        One of :data:`~wrinkle_vis.plotting.CAMERAS`.
+    elevation_deg, azimuth_deg : float
+        The raking light (see :func:`add_raking_light`).
+    theme : pyvista theme, optional
+        For image tests.
+
+    Returns
+    -------
+    (h, w, 3) uint8 ndarray
+        The image.
+    """
+    state = face.evaluate(expression, intensity, refine=True)
+    width, height = size
+    plotter = pv.Plotter(off_screen=True, window_size=[int(width), int(height)], theme=theme)
+    try:
+        plotter.set_background("white")
+        actor = add_skin(plotter, state, None, show_edges=True, edge_color=EDGE_COLOR)
+        actor.prop.edge_opacity = 0.6  # the shading stays readable under dense edges
+        add_raking_light(plotter, elevation_deg, azimuth_deg)
+        _title(plotter, f"{_label(expression)}, refined: {state.face.skin.n_triangles:,} "
+                        f"triangles (from {face.skin.n_triangles:,})", width)
+        set_camera(plotter, camera, face)
+        image = plotter.screenshot(None if filename is None else str(filename),
+                                   return_img=True)
+    finally:
+        plotter.close()
+    return image
