@@ -206,27 +206,66 @@ def _mirror(muscle):
     return muscle.replace(name=muscle.name[:-2] + "_R", **changes)
 
 
+#: The frontalis: (name, centre x, width W_s, h^c) of each left sheet, mm. Neighbours'
+#: falls overlap exactly (one's [h^c, W_s/2] is the other's), so with equal activations the
+#: forehead from x = -44 to 44 rises as one, and the sheets join at the midline.
+FRONTALIS = (("frontalis_inner", 9.0, 30.0, 3.0), ("frontalis_major", 26.0, 28.0, 2.0),
+             ("frontalis_outer", 42.0, 28.0, 2.0))
+
+
+def _frontalis() -> list:
+    """The six frontalis sheets in one frame, so their furrows run on across the forehead.
+
+    Every sheet has the fibre f pointing down the forehead (tilted 8.5 degrees back, so the
+    furrows, which lie across f, are nearly horizontal) and the across axis s = x, and every sheet's
+    attachment line is the frame's, shifted along x (and along the sheet normal n = f x s,
+    which changes neither l nor h, to sit on the skull). So l, Eq. 7's w and Eq. 5's H are
+    one field over the forehead. The pull peaks at R_s, the brows, and falls to 0 at L_s,
+    below them; the wrinkling region runs from the hairline (l at y = 76) to L_s, and the fall
+    lies inside the last half period, so the skin over all n_w = 3 wrinkles is compressed.
+    """
+    from scipy.optimize import brentq
+
+    top = _on_skull(0.0, 84.0)
+    f = np.array([0.0, -1.0, 0.15]) / np.hypot(1.0, 0.15)  # down, tilted with the forehead
+    s = np.array([1.0, 0.0, 0.0])
+    n = np.cross(f, s)
+
+    def l_of(p):
+        return float((p - top) @ f)
+
+    peak = l_of(_on_skin(0.0, 25.0))  # the brows move most
+    end = l_of(_on_skin(0.0, 18.0))  # then the pull fades above the fold under the brows
+    start = l_of(_on_skin(0.0, 76.0))  # the wrinkling region starts under the hairline
+    out = []
+    for name, cx, width, h_c in FRONTALIS:
+        base = top + cx * s
+        t = brentq(lambda t, b=base: float(anatomy.skull_sdf((b + t * n)[None])[0]), -30.0,
+                   30.0)
+        m_ac = base + t * n
+        half = 0.5 * width * s
+        out.append(SheetMuscle(
+            name + "_L", attachment_line=(m_ac - half, m_ac + half),
+            insertion_line=(m_ac - half + peak * f, m_ac + half + peak * f),
+            length=end, width=width, depth=70.0, attenuation_start=h_c, fall_start=peak,
+            strength=5.0, lambda_w=start / end, n_wrinkles=3, k0=6.0, alpha=1.0))
+    return out
+
+
 def builtin_muscles() -> list:
     """The built-in muscle layout, left (``_L``, +x) and right (``_R``) muscles.
 
-    Attachments are placed on the skull and insertions on the skin by tracing from the front.
-    Frontalis inner, major and outer are sheet muscles from the hairline to the brows
-    (surprise); corrugator supercilii pulls the brows in from the glabella (frown); the
-    others move the mouth (zygomaticus major, levator labii superioris, depressor anguli
-    oris) and are linear muscles of Waters' kind.
+    Frontalis inner, major and outer are sheet muscles in one frame from the hairline to the
+    brows (surprise, :func:`_frontalis`); corrugator supercilii runs from the bone under the
+    glabella to the inner end of the brow, so its pull squeezes the skin between the brows
+    into vertical furrows (frown); the others move the mouth (zygomaticus major, levator
+    labii superioris, depressor anguli oris) and are linear muscles of Waters' kind.
+    Attachments lie on the skull, insertions on the skin.
     """
-    left = []
-    # the three frontalis parts overlap by a few mm, so together they lift the forehead as one
-    for name, x0, x1 in (("frontalis_inner", 1.0, 16.0), ("frontalis_major", 12.0, 32.0),
-                         ("frontalis_outer", 28.0, 46.0)):
-        left.append(SheetMuscle(
-            name + "_L",
-            attachment_line=(_on_skull(x0, 74.0), _on_skull(x1, 74.0)),
-            insertion_line=(_on_skin(x0, 30.0), _on_skin(x1, 30.0)),
-            lambda_w=0.3, n_wrinkles=3, k0=2.0, alpha=1.0, strength=6.0))
+    left = _frontalis()
     left.append(LinearMuscle(
-        "corrugator_L", _on_skull(3.0, 21.0), _on_skin(24.0, 29.0), radius=30.0,
-        max_angle_deg=40.0, lambda_w=0.05, n_wrinkles=2, k0=2.0, alpha=1.0))
+        "corrugator_L", _on_skull(1.5, 21.0), _on_skin(14.0, 27.0), radius=18.0,
+        max_angle_deg=70.0, lambda_w=0.1, n_wrinkles=2, k0=3.0, alpha=1.0, strength=3.5))
     for name, a, i, phi in (
         ("zygomaticus_major", (52.0, -14.0), (25.0, -57.0), 25.0),
         ("levator_labii_superioris", (22.0, -14.0), (14.0, -45.0), 25.0),
@@ -235,7 +274,7 @@ def builtin_muscles() -> list:
         m_a, m_i = _on_skull(*a), _on_skin(*i)
         left.append(LinearMuscle(
             name + "_L", m_a, m_i, radius=1.3 * float(np.linalg.norm(m_i - m_a)),
-            max_angle_deg=phi, lambda_w=0.4, n_wrinkles=2, k0=0.8, alpha=1.0))
+            max_angle_deg=phi, lambda_w=0.4, n_wrinkles=2, k0=0.8, alpha=1.0, strength=5.0))
     out = []
     for m in left:
         out += [m, _mirror(m)]
@@ -249,7 +288,7 @@ def _onto_skull_mesh(muscle):
     skull = build_skull()
     changes = {}
     for param in muscle.point_parameters:
-        if param.startswith("attachment"):
+        if param == "attachment":  # a sheet's line keeps its frame (see _frontalis)
             arr = np.asarray(getattr(muscle, param))
             changes[param] = closest_points(skull, arr.reshape(-1, 3)).reshape(arr.shape)
     return muscle.replace(**changes)

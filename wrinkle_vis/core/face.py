@@ -30,11 +30,22 @@ import scipy.sparse as sp
 
 from .equations import anisotropy, compression_operator
 from .expressions import Expression, paper_expressions
-from .mesh import MeshError, TriangleSurface, shape_operators, triangle_normals, unit_rows
+from .mesh import (
+    MeshError,
+    TriangleSurface,
+    shape_operators,
+    smoothed_normals,
+    triangle_normals,
+    unit_rows,
+)
 from .muscle import Muscle, check_activation
 from .refine import bent_triangles, refine_triangles
 
 __all__ = ["FIELD_NAMES", "FaceModel", "FaceState"]
+
+#: The scale the skin slides at, as a fraction of the skin's bounding-box diagonal (about
+#: 7.5 mm on the built-in face): features narrower than that move with the skin.
+SLIDE_SCALE = 0.025
 
 #: Per-muscle fields of a :class:`FaceState`, by name.
 FIELD_NAMES = ("lambda", "gamma", "l", "w", "H", "At", "eps", "A", "W")
@@ -185,21 +196,27 @@ class _Assembly:
             wrinkled=wrinkled, wrinkled_local=to_local[wrinkled], w_sum=w_sum,
             tris=np.ascontiguousarray(to_local[tris[tri_order]].T),
             tri_inc=inc[:, tri_ids[tri_order]].tocsr(),
-            slide_n=np.ascontiguousarray(rest.normals[moved].T),
+            slide_n=np.ascontiguousarray(rest.slide_normals[moved].T),
             slide_s=np.ascontiguousarray(np.stack(
                 [shape[:, 0, 0], shape[:, 1, 1], shape[:, 2, 2], shape[:, 0, 1],
                  shape[:, 0, 2], shape[:, 1, 2]])))
 
     def _slide(self, p: np.ndarray) -> None:
         r"""Bend the summed tangent pull of the moved vertices back onto the rest surface:
-        :math:`x \mathrel{-}= \tfrac12 (D^T S D)\, n` with :math:`D` the pull, in place.
+        :math:`x \mathrel{-}= b\, n` with :math:`D` the pull and
+        :math:`b = \beta / \sqrt{1 + (\beta / 0.3\|D\|)^2}`, :math:`\beta = \tfrac12 D^T S D`,
+        in place. The bend is second order in :math:`D`, exact to that order where the pull is
+        short beside the radius of curvature, and never more than :math:`0.3\|D\|` where it
+        is not (there the quadratic would overshoot).
         """
         d = np.take(p, self.moved_local, axis=1) - np.take(self.rest_local, self.moved_local,
                                                               axis=1)
         s = self.slide_s
         q = (s[0] * d[0] * d[0] + s[1] * d[1] * d[1] + s[2] * d[2] * d[2]
              + 2.0 * (s[3] * d[0] * d[1] + s[4] * d[0] * d[2] + s[5] * d[1] * d[2]))
-        p[:, self.moved_local] -= 0.5 * q * self.slide_n
+        reach = 0.3 * np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        bend = 0.5 * q / np.sqrt(1.0 + (0.5 * q / np.maximum(reach, 1e-300)) ** 2)
+        p[:, self.moved_local] -= bend * self.slide_n
 
     def arrays(self) -> list[np.ndarray]:
         """Every array a frame reads (for the memory-stream floor of the benchmarks)."""
@@ -247,14 +264,23 @@ class _Assembly:
 
 
 class _RestFrame:
-    """The rest skin's unit vertex normals and shape operators (built on first use), shared
-    by every face on the same skin.
+    """The rest skin's normals and shape operators (built on first use), shared by every face
+    on the same skin.
+
+    ``normals`` are the geometric vertex normals (refinement builds on them). The skin slides
+    along the surface seen at the scale ``radius``: ``slide_normals`` are the normals averaged
+    over balls of that radius, and ``shape`` the shape operators of that smoothed field, so a
+    groove narrower than the radius (the mouth line, the fold under the brow) neither bends
+    the pull nor scales its curvature correction, and the slide does not depend on the mesh
+    resolution.
     """
 
-    def __init__(self, skin: TriangleSurface, normals=None):
+    def __init__(self, skin: TriangleSurface, normals=None, radius: float | None = None):
         self._skin = skin
         if normals is not None:
             self.normals = np.asarray(normals, dtype=float)
+        lo, hi = skin.bounds()
+        self.radius = SLIDE_SCALE * float(np.linalg.norm(hi - lo)) if radius is None else radius
 
     @cached_property
     def normals(self) -> np.ndarray:
@@ -262,9 +288,14 @@ class _RestFrame:
         return self._skin.vertex_normals()
 
     @cached_property
+    def slide_normals(self) -> np.ndarray:
+        """``(n, 3)``: :attr:`normals` averaged over balls of :attr:`radius`."""
+        return smoothed_normals(self._skin, self.normals, self.radius)
+
+    @cached_property
     def shape(self) -> np.ndarray:
-        """``(n, 3, 3)``: shape operators of the rest skin (:func:`shape_operators`)."""
-        return shape_operators(self._skin, self.normals)
+        """``(n, 3, 3)``: shape operators of :attr:`slide_normals` (:func:`shape_operators`)."""
+        return shape_operators(self._skin, self.slide_normals)
 
 
 class FaceModel:
@@ -399,7 +430,7 @@ class FaceModel:
         """The cached rest-skin data of ``muscle`` (built on first use)."""
         data = self._muscle_data.get(muscle)
         if data is None:
-            data = _MuscleData.build(self.skin, muscle, self._rest.normals)
+            data = _MuscleData.build(self.skin, muscle, self._rest.slide_normals)
             self._muscle_data[muscle] = data
         return data
 
@@ -495,7 +526,8 @@ class FaceModel:
             ref = refine_triangles(self.skin, marked, self._rest.normals)
             return FaceModel(ref.surface, self.skull, self.muscles, self.expressions,
                              name=self.name, landmarks=self.landmarks,
-                             _caches=({}, None, _RestFrame(ref.surface, ref.normals)))
+                             _caches=({}, None, _RestFrame(ref.surface, ref.normals,
+                                                           self._rest.radius)))
 
         # a refined valid skin is valid: no check
         return _lru(self._refinements, np.packbits(marked).tobytes(), 8, build)

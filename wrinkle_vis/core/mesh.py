@@ -11,8 +11,8 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components
 from scipy.spatial import cKDTree
 
 __all__ = ["MeshError", "MeshReport", "TriangleSurface", "barycentric_points", "closest_points",
-           "phong_midpoints", "shape_operators", "subdivide", "surface_coordinates",
-           "tangent_bases", "triangle_normals", "unit_rows"]
+           "cotangent_laplacian", "phong_midpoints", "shape_operators", "smoothed_normals",
+           "subdivide", "surface_coordinates", "tangent_bases", "triangle_normals", "unit_rows"]
 
 
 class MeshError(ValueError):
@@ -618,3 +618,56 @@ def phong_midpoints(points: np.ndarray, normals: np.ndarray, pairs: np.ndarray):
     k1 = np.einsum("ij,ij->i", m - p1, n1)
     mid = m - 0.25 * (k0[:, None] * n0 + k1[:, None] * n1)
     return mid, unit_rows(n0 + n1)
+
+
+def cotangent_laplacian(surface: TriangleSurface) -> tuple[sp.csr_matrix, np.ndarray]:
+    r"""The cotangent stiffness matrix and the lumped vertex areas.
+
+    Returns
+    -------
+    stiffness : (n, n) sparse float
+        Symmetric positive semi-definite, :math:`K_{ij} = -\tfrac12(\cot\alpha_{ij} +
+        \cot\beta_{ij})` for an edge and :math:`K_{ii} = -\sum_j K_{ij}`, so
+        :math:`x^T K x = \int \|\nabla x\|^2`.
+    areas : (n,) float
+        A third of the area of each vertex's triangles.
+    """
+    p, t = surface.points, surface.triangles
+    rows, cols, vals = [], [], []
+    for k in range(3):
+        i, j, o = t[:, (k + 1) % 3], t[:, (k + 2) % 3], t[:, k]
+        u, v = p[i] - p[o], p[j] - p[o]
+        cross = np.linalg.norm(np.cross(u, v), axis=1)
+        cot = np.einsum("ij,ij->i", u, v) / np.maximum(cross, 1e-300)
+        rows += [i, j]
+        cols += [j, i]
+        vals += [-0.5 * cot, -0.5 * cot]
+    n = surface.n_points
+    off = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                        shape=(n, n))
+    stiffness = off - sp.diags(np.asarray(off.sum(axis=1)).ravel())
+    return stiffness.tocsr(), surface.incidence @ surface.triangle_areas() / 3.0
+
+
+def smoothed_normals(surface: TriangleSurface, normals, radius: float) -> np.ndarray:
+    r"""``(n, 3)``: unit normals smoothed over about ``radius`` by heat diffusion.
+
+    .. math:: (M + t K)\,\bar n = M n, \qquad t = r^2 / 2,
+
+    with :math:`K` and :math:`M` from :func:`cotangent_laplacian` (one implicit step of the
+    heat equation, a kernel of width about :math:`r` whatever the mesh resolution), then
+    normalized.
+    """
+    from scipy.sparse.linalg import cg
+
+    n = np.asarray(normals, dtype=float)
+    if radius <= 0:
+        return n
+    stiffness, areas = cotangent_laplacian(surface)
+    system = (sp.diags(areas) + 0.5 * radius**2 * stiffness).tocsr()
+    jacobi = sp.diags(1.0 / system.diagonal())
+    out = np.empty_like(n)
+    for c in range(3):
+        out[:, c], _ = cg(system, areas * n[:, c], x0=n[:, c], rtol=1e-6, maxiter=1000,
+                          M=jacobi)
+    return unit_rows(out)

@@ -20,7 +20,7 @@ import numpy as np
 from .equations import attenuation, bulge_height, half_period, periodic_coordinate, shape_function
 
 __all__ = ["Geometry", "Muscle", "MuscleParameterError", "MuscleRegion", "plateau_fall",
-           "smooth_fall", "waters_radial"]
+           "ramp_fall", "smooth_fall", "waters_radial"]
 
 
 class MuscleParameterError(ValueError):
@@ -147,6 +147,51 @@ def waters_radial(x: np.ndarray, fall_start: float, end: float) -> np.ndarray:
     rising = smooth_fall(1.0 - x / fall_start)
     falling = smooth_fall((x - fall_start) / (end - fall_start))
     out = np.where(x <= fall_start, rising, falling)
+    return np.where((x >= 0.0) & (x <= end), out, 0.0)
+
+
+def ramp_fall(x, peak: float, end: float) -> np.ndarray:
+    r"""``(n,)``: a uniform squeeze up to ``peak`` and a C1 fall to 0 at ``end``.
+
+    Parameters
+    ----------
+    x : (n,) float
+        Distance from the attachment along the fibre.
+    peak, end : float
+        Where the profile reaches 1 (:math:`R_s`) and 0 again (:math:`L_s`),
+        :math:`0 < R_s < L_s`.
+
+    Returns
+    -------
+    (n,) float
+        0 at :math:`x = 0`, rising with the constant slope :math:`m = 1/(R_s - \sigma)` between
+        two C1 shoulders of width :math:`\sigma = \min(L_s - R_s, R_s/2)`, 1 at :math:`R_s`,
+        then :func:`smooth_fall` over :math:`[R_s, L_s]`:
+
+        .. math::
+
+            r(x) = \begin{cases}
+                m x^2 / (2\sigma) & 0 \le x \le \sigma \\
+                m (x - \sigma/2) & \sigma < x \le R_s - \sigma \\
+                1 - m (R_s - x)^2 / (2\sigma) & R_s - \sigma < x \le R_s \\
+                s\left(\frac{x - R_s}{L_s - R_s}\right) & R_s < x \le L_s \\
+                0 & \text{otherwise.}
+            \end{cases}
+
+    Notes
+    -----
+    The pull of a sheet along its fibres. Skin pulled towards a line of attachment is
+    compressed where the pull grows along the fibre; a constant slope compresses the whole
+    wrinkling region alike, so each of its :math:`n_w` wrinkles appears, where Waters' radial
+    rise (:func:`waters_radial`) would leave the wrinkles near the peak flat.
+    """
+    x = np.asarray(x, dtype=float)
+    sigma = min(0.5 * (end - peak), 0.5 * peak)
+    m = 1.0 / (peak - sigma)
+    rise = np.where(x <= sigma, 0.5 * m * x * x / sigma,
+                    np.where(x <= peak - sigma, m * (x - 0.5 * sigma),
+                             1.0 - 0.5 * m * (peak - x) ** 2 / sigma))
+    out = np.where(x <= peak, rise, smooth_fall((x - peak) / (end - peak)))
     return np.where((x >= 0.0) & (x <= end), out, 0.0)
 
 

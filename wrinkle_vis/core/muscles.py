@@ -9,7 +9,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .muscle import Geometry, Muscle, plateau_fall, smooth_fall, waters_radial
+from .muscle import Geometry, Muscle, plateau_fall, ramp_fall, smooth_fall, waters_radial
 from .registry import register_muscle_type
 
 __all__ = ["LinearMuscle", "SheetMuscle"]
@@ -220,9 +220,10 @@ class SheetMuscle(Muscle):
 
         \Delta x_i = -a K\, r(l_i)\, p_{h^c, W_s/2}(h_i)\, p_{D/2, D}(d_i)\, f
 
-    with Waters' falloff :math:`r` along the fibre
-    (:func:`~wrinkle_vis.core.muscle.waters_radial`, fall start :math:`R_s`, end
-    :math:`L_s`) and the C1 plateau :math:`p` (:func:`~wrinkle_vis.core.muscle.plateau_fall`)
+    with a uniform squeeze :math:`r` along the fibre that peaks at :math:`R_s` and falls to 0
+    at :math:`L_s` (:func:`~wrinkle_vis.core.muscle.ramp_fall`; Waters' 1987 model has no
+    sheet, and his radial rise would leave the wrinkles near the peak flat) and the C1
+    plateau :math:`p` (:func:`~wrinkle_vis.core.muscle.plateau_fall`)
     across it, from :math:`h^c` to :math:`W_s/2`, and through it, from half the depth bound
     :math:`D` to :math:`D`. The middle of the sheet moves as one and only its sides fall
     off; two sheets of one frame whose falls overlap exactly (one's :math:`[h^c, W_s/2]`
@@ -368,5 +369,5 @@ class SheetMuscle(Muscle):
         across = plateau_fall(geometry.extra["h"], *self.attenuation_range)
         depth = self.depth_value
         through = plateau_fall(geometry.extra["depth"], 0.5 * depth, depth)
-        return across * through * waters_radial(geometry.l, self.fall_start_value,
-                                                 self.length_value)
+        return across * through * ramp_fall(geometry.l, self.fall_start_value,
+                                             self.length_value)
