@@ -464,17 +464,29 @@ class SheetWidget(PlacementWidget):
 
 
 # ---------------------------------------------------------------------- placing muscles
-def snapped(muscle: Muscle, face: FaceModel) -> Muscle:
+def snapped(muscle: Muscle, face: FaceModel, like: Muscle | None = None) -> Muscle:
     """The muscle with each handle's point moved onto its layer (skin at rest, or skull):
     after a mirror, say, whose reflected points lie near but not on an asymmetric mesh.
+
+    With ``like`` (the muscle it was made from, e.g. before the mirror), only the points
+    that lay on their layer in ``like`` are snapped; the others keep their place, such as
+    the lines of the built-in frontalis, which lie off the skull to share one frame.
     """
     surfaces = {"skin": face.skin, "skull": face.skull or face.skin}
+    lo, hi = face.skin.bounds()
+    tol = 1e-3 * float(np.linalg.norm(hi - lo))
     changes: dict[str, np.ndarray] = {}
     for handle in widget_factory(type(muscle)).handles(muscle):
+        surface = surfaces[handle.layer]
+        if like is not None:
+            old = np.asarray(getattr(like, handle.param), dtype=float)
+            old = old if handle.index is None else old[handle.index]
+            if np.linalg.norm(closest_points(surface, old[None])[0] - old) > tol:
+                continue
         arr = changes.setdefault(handle.param,
                                  np.array(getattr(muscle, handle.param), dtype=float))
         row = arr if handle.index is None else arr[handle.index]
-        row[...] = closest_points(surfaces[handle.layer], row[None])[0]
+        row[...] = closest_points(surface, row[None])[0]
     return muscle.replace(**changes)
 
 

@@ -200,7 +200,8 @@ class Session:
         from wrinkle_vis.widgets.placement import snapped
 
         point, normal = self.face.symmetry_plane()
-        return snapped(mirrored(self.face.muscle(muscle), point, normal, name=name), self.face)
+        source = self.face.muscle(muscle)
+        return snapped(mirrored(source, point, normal, name=name), self.face, like=source)
 
     def added(self, type_name: str, at) -> tuple[FaceModel, str]:
         """The face with a new muscle of type ``type_name``, its insertion on the skin at
