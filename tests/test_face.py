@@ -69,15 +69,19 @@ def test_eps_matches_the_public_compression_function(face):
 
 def test_deformation_and_final_points(face):
     """The summed pull made tangent, bent back by the second fundamental form, plus W."""
-    from wrinkle_vis.core.mesh import shape_operators
+    from wrinkle_vis.core.face import SLIDE_SCALE
+    from wrinkle_vis.core.mesh import shape_operators, smoothed_normals
 
     state = face.evaluate({"lin": 0.5, "sh": 1.0})
     rest = face.skin.points
-    n = face.skin.vertex_normals()
+    radius = SLIDE_SCALE * np.sqrt(face.skin.triangle_areas().sum())
+    n = smoothed_normals(face.skin, face.skin.vertex_normals(), radius)
     pull = sum(m.displacement(rest, state.activations[m.name]) for m in face.muscles)
     pull -= np.einsum("ij,ij->i", pull, n)[:, None] * n
-    bend = -0.5 * np.einsum("ij,ijk,ik->i", pull, shape_operators(face.skin), pull)
-    expected = rest + pull + bend[:, None] * n
+    beta = 0.5 * np.einsum("ij,ijk,ik->i", pull, shape_operators(face.skin, n), pull)
+    reach = 0.3 * np.linalg.norm(pull, axis=1)
+    bend = beta / np.sqrt(1.0 + (beta / np.maximum(reach, 1e-300)) ** 2)
+    expected = rest + pull - bend[:, None] * n
     np.testing.assert_allclose(state.deformed_points, expected, atol=1e-12)
     normals = face.skin.vertex_normals(state.deformed_points)
     np.testing.assert_allclose(state.points, expected + state.W[:, None] * normals, atol=1e-12)

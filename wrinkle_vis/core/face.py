@@ -43,9 +43,9 @@ from .refine import bent_triangles, refine_triangles
 
 __all__ = ["FIELD_NAMES", "FaceModel", "FaceState"]
 
-#: The scale the skin slides at, as a fraction of the skin's bounding-box diagonal (about
+#: The scale the skin slides at, as a fraction of the square root of the skin's area (about
 #: 7.5 mm on the built-in face): features narrower than that move with the skin.
-SLIDE_SCALE = 0.025
+SLIDE_SCALE = 0.029
 
 #: Per-muscle fields of a :class:`FaceState`, by name.
 FIELD_NAMES = ("lambda", "gamma", "l", "w", "H", "At", "eps", "A", "W")
@@ -279,8 +279,8 @@ class _RestFrame:
         self._skin = skin
         if normals is not None:
             self.normals = np.asarray(normals, dtype=float)
-        lo, hi = skin.bounds()
-        self.radius = SLIDE_SCALE * float(np.linalg.norm(hi - lo)) if radius is None else radius
+        size = float(np.sqrt(skin.triangle_areas().sum()))  # invariant under rigid motions
+        self.radius = SLIDE_SCALE * size if radius is None else radius
 
     @cached_property
     def normals(self) -> np.ndarray:

@@ -668,6 +668,6 @@ def smoothed_normals(surface: TriangleSurface, normals, radius: float) -> np.nda
     jacobi = sp.diags(1.0 / system.diagonal())
     out = np.empty_like(n)
     for c in range(3):
-        out[:, c], _ = cg(system, areas * n[:, c], x0=n[:, c], rtol=1e-6, maxiter=1000,
+        out[:, c], _ = cg(system, areas * n[:, c], x0=n[:, c], rtol=1e-12, maxiter=2000,
                           M=jacobi)
     return unit_rows(out)

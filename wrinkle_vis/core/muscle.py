@@ -165,7 +165,7 @@ def ramp_fall(x, peak: float, end: float) -> np.ndarray:
     -------
     (n,) float
         0 at :math:`x = 0`, rising with the constant slope :math:`m = 1/(R_s - \sigma)` between
-        two C1 shoulders of width :math:`\sigma = \min(L_s - R_s, R_s/2)`, 1 at :math:`R_s`,
+        two C1 shoulders of width :math:`\sigma = \min(L_s - R_s, R_s)/2`, 1 at :math:`R_s`,
         then :func:`smooth_fall` over :math:`[R_s, L_s]`:
 
         .. math::
