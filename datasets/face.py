@@ -247,7 +247,7 @@ def _frontalis() -> list:
         out.append(SheetMuscle(
             name + "_L", attachment_line=(m_ac - half, m_ac + half),
             insertion_line=(m_ac - half + peak * f, m_ac + half + peak * f),
-            length=end, width=width, depth=70.0, attenuation_start=h_c, fall_start=peak,
+            length=end, width=width, depth=90.0, attenuation_start=h_c, fall_start=peak,
             strength=5.0, lambda_w=start / end, n_wrinkles=3, k0=6.0, alpha=1.0))
     return out
 

@@ -150,8 +150,9 @@ def transfer_layout(layout: Layout, target_skin: TriangleSurface, landmarks: dic
     -------
     Layout
         Muscles mapped by the least-squares similarity of the landmarks, lengths scaled by
-        its scale, insertions projected onto the target skin and attachments onto the
-        target skull; the expressions unchanged; the target's landmarks.
+        its scale, insertion points projected onto the target skin and attachment points
+        onto the target skull (a sheet's lines are only mapped: they set its frame, which
+        neighbouring sheets share); the expressions unchanged; the target's landmarks.
     """
     names = _shared_landmarks(layout.landmarks, landmarks)
     rot, scale, shift = similarity_transform([layout.landmarks[n] for n in names],
@@ -164,6 +165,8 @@ def transfer_layout(layout: Layout, target_skin: TriangleSurface, landmarks: dic
         changes = {}
         for param in m.point_parameters:
             arr = np.asarray(getattr(moved, param), float)
+            if arr.ndim > 1:  # a sheet's lines are its frame: moved, not projected
+                continue
             surface = target_skull if param.startswith("attachment") else target_skin
             changes[param] = closest_points(surface, arr.reshape(-1, 3)).reshape(arr.shape)
         muscles.append(moved.replace(**changes))

@@ -68,11 +68,54 @@ def test_skull_is_closed_and_inside_the_skin_with_regional_gaps(face):
 def test_attachments_on_the_skull_and_insertions_on_the_skin(face):
     from wrinkle_vis.core.mesh import closest_points
 
-    for m in face.muscles:
-        for p in m.point_parameters:
-            pts = np.asarray(getattr(m, p)).reshape(-1, 3)
-            surf = face.skull if p.startswith("attachment") else face.skin
-            assert np.linalg.norm(closest_points(surf, pts) - pts, axis=1).max() < 0.75
+    # points only: a sheet's lines set its frame, shared by the six frontalis (next test)
+    points = [(m, p) for m in face.muscles for p in m.point_parameters
+              if np.ndim(getattr(m, p)) == 1]
+    assert len(points) == 16
+    for m, p in points:
+        pts = np.asarray(getattr(m, p)).reshape(-1, 3)
+        surf = face.skull if p.startswith("attachment") else face.skin
+        assert np.linalg.norm(closest_points(surf, pts) - pts, axis=1).max() < 0.75
+
+
+def test_the_frontalis_sheets_share_one_frame_so_their_furrows_join(face):
+    """Same fibre, across axis, origin of l, L_s, lambda_w and n_w: one w and H field."""
+    sheets = [m for m in face.muscles if m.name.startswith("frontalis")]
+    assert len(sheets) == 6
+    f0, s0, _ = sheets[0].frame
+    for m in sheets:
+        f, s, _ = m.frame
+        np.testing.assert_allclose(f, f0, atol=1e-12)
+        np.testing.assert_allclose(np.abs(s @ s0), 1.0, atol=1e-12)
+        assert m.attachment_center @ f == pytest.approx(sheets[0].attachment_center @ f0)
+        assert (m.length_value, m.lambda_w, m.n_wrinkles) == (
+            sheets[0].length_value, sheets[0].lambda_w, sheets[0].n_wrinkles)
+    rest = face.skin.points
+    w = [m.region(rest)["w"] for m in sheets]
+    both = np.isfinite(w[0]) & np.isfinite(w[2])  # inner_L and major_L overlap
+    assert both.any()
+    np.testing.assert_allclose(w[0][both], w[2][both], atol=1e-9)
+
+
+def test_neighbouring_frontalis_sheets_lift_the_forehead_as_one(face):
+    """Their falls across the fibre overlap exactly and add up to one: between x = -44 and
+    44 the six sheets pull like one sheet, -K r(l) f, with no seam where they meet.
+    """
+    from wrinkle_vis.core.muscle import ramp_fall
+
+    sheets = [m for m in face.muscles if m.name.startswith("frontalis")]
+    rest = face.skin.points
+    total = sum(m.unit_displacement(rest) for m in sheets)
+    m = sheets[0]
+    f = m.frame[0]
+    l = (rest - m.attachment_center) @ f
+    one = -m.strength * ramp_fall(l, m.fall_start_value, m.length_value)[:, None] * f
+    deep = [np.abs((rest - s.attachment_center) @ s.frame[2]) < 0.5 * s.depth_value
+            for s in sheets]
+    inside = (np.abs(rest[:, 0]) <= 44.0) & np.all(deep, axis=0) & (
+        np.abs(one).max(axis=1) > 0)
+    assert inside.sum() > 200
+    np.testing.assert_allclose(total[inside], one[inside], atol=1e-9)
 
 
 def test_triangles_are_well_shaped_and_even(face):

@@ -58,7 +58,7 @@ def test_transfer_puts_insertions_on_the_skin_and_attachments_on_the_skull():
     moved = transfer_layout(wv.load_layout(wv.datasets.BUILTIN_LAYOUT), skin, landmarks,
                             face.skull)
     for m in moved.muscles:
-        for p in m.point_parameters:
+        for p in [p for p in m.point_parameters if np.ndim(getattr(m, p)) == 1]:
             pts = np.asarray(getattr(m, p)).reshape(-1, 3)
             surf = face.skull if p.startswith("attachment") else skin
             assert np.abs(closest_points(surf, pts) - pts).max() < 1e-9
@@ -93,7 +93,10 @@ def test_transfer_onto_a_moved_copy_of_the_builtin_face_moves_the_muscles_with_i
     moved = transfer_layout(layout, skin, marks, skull)
     for a, b in zip(layout.muscles, moved.muscles, strict=True):
         for p in a.point_parameters:
-            np.testing.assert_allclose(getattr(b, p), move(getattr(a, p)), atol=1.5)
+            if np.ndim(getattr(a, p)) > 1:  # a sheet's frame lines are moved exactly
+                np.testing.assert_allclose(getattr(b, p), move(getattr(a, p)), atol=1e-9)
+            else:  # points are projected onto the moved (remeshed) surfaces
+                np.testing.assert_allclose(getattr(b, p), move(getattr(a, p)), atol=1.5)
     assert moved.muscles[0].k0 == pytest.approx(2 * layout.muscles[0].k0)
 
 
