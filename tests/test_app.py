@@ -87,8 +87,9 @@ def test_an_invalid_value_is_refused_with_its_reason(window):
     window.muscle_box.setCurrentText("corrugator_L")
     assert not window.set_parameter("lambda_w", 1.5)
     assert "lambda_w" in window.param_error.text() and "[0, 1)" in window.param_error.text()
-    assert window.session.face.muscle("corrugator_L").lambda_w == 0.05
-    assert window.param_widgets["lambda_w"].value() == pytest.approx(0.05)
+    before = window.session.face.muscle("corrugator_L").lambda_w
+    assert window.session.face.muscle("corrugator_L").lambda_w == before == pytest.approx(0.1)
+    assert window.param_widgets["lambda_w"].value() == pytest.approx(before)
 
 
 def test_intensity_and_timeline(window):
