@@ -9,7 +9,7 @@ For "surprise", "frown" and "fear" it evaluates the face and measures with
 
 - surprise: along the vertical sections x = -40, -24, -8, 8, 24, 40 mm of the rest skin,
   restricted to the union of the wrinkling regions of the ``frontalis*`` muscles, the crests
-  and furrows of the total amplitude W (prominence 0.05 mm), beside those muscles' n_w; the
+  and furrows of the total amplitude W (prominence 0.1 mm), beside those muscles' n_w; the
   median furrow depth and side slope over those sections; the furrow runs followed across
   sections every 2 mm from x = -60 to 60 (max jump 3 mm) that are at least 60 mm long; and
   the fraction of the normals' change that runs across the first frontalis sheet's fibre
@@ -36,12 +36,11 @@ import numpy as np
 
 import wrinkle_vis as wv
 from wrinkle_vis.core.analysis import (
-    crests,
     dihedral_change,
     furrow_runs,
-    furrows,
     normal_change_anisotropy,
-    section,
+    region_union,
+    section_extrema,
     turned_over,
 )
 
@@ -50,39 +49,10 @@ FOREHEAD_X = (-40.0, -24.0, -8.0, 8.0, 24.0, 40.0)
 RUN_X = np.arange(-60.0, 60.0 + 1e-9, 2.0)
 FROWN_Y = (20.0, 24.0, 28.0)
 FROWN_HALF_WIDTH = 20.0
-PROMINENCE = 0.05  # mm
+PROMINENCE = 0.1  # mm: deeper than the ripple Eq. 10's mesh noise leaves on a bulge
 MAX_JUMP = 3.0  # mm
 LONG_RUN = 60.0  # mm
 INTENSITIES = (0.25, 0.5, 0.75, 1.0)
-
-
-def region_union(face, prefix: str, rest: np.ndarray) -> np.ndarray:
-    """``(n,) bool``: union of the wrinkling regions of the muscles named ``prefix*``."""
-    mask = np.zeros(len(rest), bool)
-    for m in face.muscles:
-        if m.name.startswith(prefix):
-            mask |= np.asarray(m.region(rest)["in_region"], bool)
-    return mask
-
-
-def sections(surface, W, axis: int, offsets, mask) -> list[dict]:
-    """Crests and furrows of ``W`` on the planes ``x[axis] = c`` inside ``mask``."""
-    normal = np.eye(3)[axis]
-    rows = []
-    for c in offsets:
-        lines = section(surface, W, c * normal, normal, mask)
-        cr = [crests(ln.s, ln.values, PROMINENCE) for ln in lines]
-        fu = [furrows(ln.s, ln.values, PROMINENCE) for ln in lines]
-        rows.append({
-            "offset": float(c),
-            "length": float(sum(ln.length for ln in lines)),
-            "crests": int(sum(len(e) for e in cr)),
-            "furrows": int(sum(len(e) for e in fu)),
-            "depths": np.concatenate([e.depth for e in fu]).tolist() if fu else [],
-            "side_slopes_deg": (np.concatenate([e.side_slope_deg for e in fu]).tolist()
-                                if fu else []),
-        })
-    return rows
 
 
 def _median(values) -> float:
@@ -114,8 +84,8 @@ def folds_and_flips(face, expression: str, state, refine: bool) -> dict:
 def forehead(state) -> dict:
     """The surprise measurements on a frame."""
     face, surface, rest, W = state.face, state.face.skin, state.rest_points, state.W
-    mask = region_union(face, "frontalis", rest)
-    rows = sections(surface, W, 0, FOREHEAD_X, mask)
+    mask = region_union(face, "frontalis")
+    rows = section_extrema(surface, W, 0, FOREHEAD_X, mask, PROMINENCE)
     runs = furrow_runs(surface, W, RUN_X, 0, mask, PROMINENCE, MAX_JUMP)
     sheet = next(m for m in face.muscles
                  if m.name.startswith("frontalis") and isinstance(m, wv.SheetMuscle))
@@ -136,9 +106,9 @@ def forehead(state) -> dict:
 def glabella(state) -> dict:
     """The frown measurements on a frame."""
     rest = state.rest_points
-    mask = region_union(state.face, "corrugator", rest)
+    mask = region_union(state.face, "corrugator")
     mask &= np.abs(rest[:, 0]) < FROWN_HALF_WIDTH
-    rows = sections(state.face.skin, state.W, 1, FROWN_Y, mask)
+    rows = section_extrema(state.face.skin, state.W, 1, FROWN_Y, mask, PROMINENCE)
     return {"sections": rows,
             "furrow_depth_median": _median([d for r in rows for d in r["depths"]])}
 

@@ -235,7 +235,7 @@ def _frontalis() -> list:
         return float((p - top) @ f)
 
     peak = l_of(_on_skin(0.0, 25.0))  # the brows move most
-    end = l_of(_on_skin(0.0, 18.0))  # then the pull fades above the fold under the brows
+    end = l_of(_on_skin(0.0, 16.0))  # then the pull fades above the fold under the brows
     start = l_of(_on_skin(0.0, 76.0))  # the wrinkling region starts under the hairline
     out = []
     for name, cx, width, h_c in FRONTALIS:

@@ -28,6 +28,8 @@ from .mesh import TriangleSurface, unit_rows
 
 __all__ = [
     "Extrema",
+    "region_union",
+    "section_extrema",
     "FurrowRun",
     "Polyline",
     "crests",
@@ -641,3 +643,63 @@ def normal_change_anisotropy(surface: TriangleSurface, rest_points, points, fibr
     across = energy(t)
     total = across + energy(b)
     return across / total if total > 0 else float("nan")
+
+
+def region_union(face, prefix: str = "") -> np.ndarray:
+    """``(n,) bool``: the union of the wrinkling regions (Eq. 3, 14) of the face's muscles
+    whose names start with ``prefix``, on its rest skin.
+    """
+    rest = face.skin.points
+    mask = np.zeros(len(rest), bool)
+    for m in face.muscles:
+        if m.name.startswith(prefix):
+            mask |= np.asarray(m.region(rest)["in_region"], bool)
+    return mask
+
+
+def section_extrema(surface: TriangleSurface, W, axis: int, offsets, mask=None,
+                    prominence: float = 0.05) -> list[dict]:
+    """Crests and furrows of ``W`` on the planes ``x[axis] = c`` for ``c`` in ``offsets``.
+
+    Parameters
+    ----------
+    surface : TriangleSurface
+        The surface (its points are where the sections are cut, usually the rest skin).
+    W : (n,) float
+        The field, e.g. the total wrinkle amplitude.
+    axis : int
+        0, 1 or 2: the planes' normal axis.
+    offsets : (k,) float
+        The planes' positions along ``axis``.
+    mask : (n,) bool, optional
+        Keep only the parts of each section inside it (see :func:`section`).
+    prominence : float
+        The smallest crest or furrow counted (see :func:`crests`).
+
+    Returns
+    -------
+    list of dict
+        One per offset: ``offset``, ``length`` (of the kept sections), ``crests`` and
+        ``furrows`` (counts), ``crest_s`` and ``furrow_s`` (positions along the section),
+        ``furrow_points`` ``(f, 3)``, ``depths`` and ``side_slopes_deg`` of the furrows.
+    """
+    normal = np.eye(3)[axis]
+    rows = []
+    for c in offsets:
+        lines = section(surface, W, c * normal, normal, mask)
+        cr = [crests(ln.s, ln.values, prominence) for ln in lines]
+        fu = [furrows(ln.s, ln.values, prominence) for ln in lines]
+        rows.append({
+            "offset": float(c),
+            "length": float(sum(ln.length for ln in lines)),
+            "crests": int(sum(len(e) for e in cr)),
+            "furrows": int(sum(len(e) for e in fu)),
+            "crest_s": [float(x) for e in cr for x in e.s],
+            "furrow_s": [float(x) for e in fu for x in e.s],
+            "furrow_points": np.concatenate(
+                [ln.points[e.index] for ln, e in zip(lines, fu, strict=True)]
+                or [np.zeros((0, 3))]),
+            "depths": [float(x) for e in fu for x in e.depth],
+            "side_slopes_deg": [float(x) for e in fu for x in e.side_slope_deg],
+        })
+    return rows
