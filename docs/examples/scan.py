@@ -1,6 +1,7 @@
 """Wrinkles on a real scan: the built-in muscle layout moved onto the Lee Perry-Smith head.
 
-Usage:  python docs/examples/scan.py PATH/TO/lee_perry_smith_head.obj [--png out.png]
+Usage:  .venv/bin/python docs/examples/scan.py PATH/TO/lee_perry_smith_head.obj
+            [--png out.png] [--figure fig9.png]
 
 The scan is not shipped (CC BY 3.0, Lee Perry-Smith / Infinite Realities); in this
 repository's workspace it lies at ../shared/realmeshes/. The layout
@@ -20,6 +21,7 @@ EXAMPLE = Path(wv.datasets.__file__).with_name("examples") / "lee_perry_smith.js
 parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 parser.add_argument("mesh", help="path to lee_perry_smith_head.obj")
 parser.add_argument("--png", help="render W of surprise to this PNG")
+parser.add_argument("--figure", help="write the paper's Fig. 9 (refined) to this PNG")
 args = parser.parse_args()
 
 face = wv.datasets.load_face(skin=args.mesh, layout=EXAMPLE)
@@ -40,3 +42,8 @@ if args.png:
     plotter.screenshot(args.png)
     plotter.close()
     print(f"wrote {args.png}")
+if args.figure:
+    from wrinkle_vis.plotting.figures import figure_expressions
+
+    figure_expressions(face, refine=True, filename=args.figure)
+    print(f"wrote {args.figure}")

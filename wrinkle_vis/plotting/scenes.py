@@ -29,6 +29,11 @@ CAMERAS = {
 #: Cameras that look at a height of the skin (fraction of its height from the bottom) on its
 #: front, not at the middle of its bounds.
 _CAMERA_HEIGHTS = {"forehead": 0.72, "upper_face": 0.6}
+#: The same cameras on a face with landmarks: (height of the centre above the nasion, height
+#: of the view), in units of the span between the outer eye corners, so a scan of a head
+#: and shoulders in any unit is framed like the built-in face.
+_LANDMARK_FRAMES = {"forehead": (0.5, 1.7), "upper_face": (0.25, 1.7)}
+_FRAME_MARKS = ("nasion", "eye_outer_L", "eye_outer_R")
 
 
 def testing_theme() -> pv.themes.DocumentTheme:
@@ -265,15 +270,29 @@ def add_attachments(plotter: pv.Plotter, face: FaceModel) -> None:
 
 
 def set_camera(plotter: pv.Plotter, name: str, face: FaceModel) -> None:
-    """Point the camera at the face from a named view (:data:`CAMERAS`)."""
+    """Point the camera at the face from a named view (:data:`CAMERAS`).
+
+    ``forehead`` and ``upper_face`` frame the face by its landmarks (nasion and outer eye
+    corners) when it has them, whatever the scan's extent and unit.
+    """
     if name not in CAMERAS:
         raise KeyError(f"unknown camera {name!r}; cameras: {', '.join(CAMERAS)}")
     direction, zoom = CAMERAS[name]
+    d = np.asarray(direction) / np.linalg.norm(direction)
+    if name in _LANDMARK_FRAMES and all(k in face.landmarks for k in _FRAME_MARKS):
+        nasion, left, right = (np.asarray(face.landmarks[k]) for k in _FRAME_MARKS)
+        span = float(np.linalg.norm(left - right))
+        rise, height = _LANDMARK_FRAMES[name]
+        center = nasion + np.array([0.0, rise * span, 0.0])
+        distance = 0.5 * height * span / np.tan(np.radians(15.0))
+        plotter.camera_position = [tuple(center + distance * d), tuple(center), (0.0, 1.0, 0.0)]
+        plotter.camera.view_angle = 30.0
+        plotter.reset_camera_clipping_range()
+        return
     lo, hi = face.skin.bounds()
     center = 0.5 * (lo + hi)
     if name in _CAMERA_HEIGHTS:
         center = np.array([center[0], lo[1] + _CAMERA_HEIGHTS[name] * (hi[1] - lo[1]), hi[2]])
-    d = np.asarray(direction) / np.linalg.norm(direction)
     distance = 2.6 * float(np.max(hi - lo))
     plotter.camera_position = [tuple(center + distance * d), tuple(center), (0.0, 1.0, 0.0)]
     plotter.reset_camera_clipping_range()
