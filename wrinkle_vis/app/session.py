@@ -11,9 +11,10 @@ import numpy as np
 from ..core.editing import mirror_name, mirrored, unique_name
 from ..core.face import FIELD_NAMES, FaceModel, FaceState
 from ..core.layout import Layout, load_layout, save_layout
+from ..core.muscle import OPTIONS as MUSCLE_OPTIONS
 from ..core.registry import get_muscle_type
 
-__all__ = ["EDITABLE", "Session"]
+__all__ = ["EDITABLE", "OPTIONS", "Session"]
 
 #: Numeric parameters the parameter panel edits, by muscle type: (name, label, step).
 EDITABLE = {
@@ -25,6 +26,15 @@ EDITABLE = {
               ("lambda_w", "lambda_w", 0.05), ("length", "L_s", 1.0), ("width", "W_s", 1.0),
               ("attenuation_start", "h_c", 0.5)),
 }
+
+#: The options every muscle type has (:data:`wrinkle_vis.core.muscle.OPTIONS`, off by
+#: default), as the parameter panel shows them: (name, label, choices), with choices None
+#: for a check box, else ``{value: text}`` for a combo box in the core's order.
+OPTIONS = (
+    ("taper", "taper H", None),
+    ("compression", "eps from", dict(zip(MUSCLE_OPTIONS["compression"],
+                                         ("edges (Eq. 10)", "gradient"), strict=True))),
+)
 
 
 class Session:

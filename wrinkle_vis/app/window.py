@@ -24,7 +24,7 @@ from ..plotting import set_camera
 from ..plotting.polydata import field_array_name
 from ..widgets.panels import MuscleListPanel
 from .recovery import Recovery
-from .session import EDITABLE, Session
+from .session import EDITABLE, OPTIONS, Session
 from .views import LinkedViews
 
 __all__ = ["MainWindow"]
@@ -188,6 +188,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.param_form = QtWidgets.QFormLayout(self.param_group)
         self.param_error = _error_label()
         self.param_widgets: dict[str, QtWidgets.QAbstractSpinBox] = {}
+        self.option_widgets: dict[str, QtWidgets.QWidget] = {}  # a QCheckBox or a QComboBox
         form.addWidget(self.param_group)
 
         probe = QtWidgets.QGroupBox("Probe (right-click the skin)")
@@ -198,7 +199,15 @@ class MainWindow(QtWidgets.QMainWindow):
         box.addWidget(self.probe_table)
         form.addWidget(probe)
         form.addStretch(1)
-        dock.setWidget(panel)
+        # scrolled, so that a long parameter panel never makes the window grow
+        scroll = QtWidgets.QScrollArea()
+        scroll.setWidgetResizable(True)
+        scroll.setFrameShape(QtWidgets.QFrame.NoFrame)
+        scroll.setHorizontalScrollBarPolicy(QtCore.Qt.ScrollBarAlwaysOff)
+        scroll.setWidget(panel)
+        scroll.setMinimumWidth(panel.minimumSizeHint().width()
+                               + scroll.verticalScrollBar().sizeHint().width())
+        dock.setWidget(scroll)
         self.addDockWidget(QtCore.Qt.LeftDockWidgetArea, dock)
         self.probed_vertex: int | None = None
         self._build_muscle_dock()
@@ -322,6 +331,8 @@ class MainWindow(QtWidgets.QMainWindow):
             widget.blockSignals(True)
             widget.setValue(value if value is not None else _resolved(muscle, param))
             widget.blockSignals(False)
+        for param, widget in self.option_widgets.items():
+            _show_option(widget, getattr(muscle, param))
         self._show_derived()
 
     def _build_parameter_panel(self) -> None:
@@ -350,6 +361,21 @@ class MainWindow(QtWidgets.QMainWindow):
             w.setKeyboardTracking(False)
             w.valueChanged.connect(lambda v, p=param: self.set_parameter(p, v))
             self.param_widgets[param] = w
+            self.param_form.addRow(label, w)
+        self.option_widgets = {}
+        for param, label, choices in OPTIONS:  # every type has them (core.muscle.OPTIONS)
+            if choices is None:
+                w = QtWidgets.QCheckBox()
+                w.toggled.connect(lambda on, p=param: self.set_parameter(p, bool(on)))
+            else:
+                w = QtWidgets.QComboBox()
+                for value, text in choices.items():
+                    w.addItem(text, value)
+                w.currentIndexChanged.connect(
+                    lambda i, p=param, box=w: self.set_parameter(p, box.itemData(i)))
+            w.setToolTip(_OPTION_TIPS.get(param, ""))
+            _show_option(w, getattr(muscle, param))
+            self.option_widgets[param] = w
             self.param_form.addRow(label, w)
         self.activation_box = QtWidgets.QDoubleSpinBox()
         self.activation_box.setRange(0.0, 1.0)
@@ -439,22 +465,29 @@ class MainWindow(QtWidgets.QMainWindow):
         reason shown under the panel, and the field is put back.
         """
         name = self.session.muscle
-        value = int(value) if param == "n_wrinkles" else float(value)
+        option = param in self.option_widgets
+        if not option:
+            value = int(value) if param == "n_wrinkles" else float(value)
         try:
             face = self.session.with_parameter(name, param, value)
         except (MuscleParameterError, ValueError) as exc:
             self.param_error.setText(str(exc))
+            old = getattr(self.session.face.muscle(name), param)
+            if option:
+                _show_option(self.option_widgets[param], old)
+                return False
             widget = self.param_widgets[param]
             widget.blockSignals(True)
-            old = getattr(self.session.face.muscle(name), param)
             widget.setValue(old if old is not None else _resolved(
                 self.session.face.muscle(name), param))
             widget.blockSignals(False)
             return False
         self.param_error.setText("")
-        label = dict((p, lbl) for p, lbl, _ in EDITABLE.get(
-            self.session.face.muscle(name).type_name, ())).get(param, param)
-        self.edit(f"Set {label} of {name} to {value:g}", face)
+        labels = {p: lbl for p, lbl, _ in (*EDITABLE.get(
+            self.session.face.muscle(name).type_name, ()), *OPTIONS)}
+        shown = ("on" if value else "off") if isinstance(value, bool) else (
+            value if isinstance(value, str) else f"{value:g}")
+        self.edit(f"Set {labels.get(param, param)} of {name} to {shown}", face)
         return True
 
     def set_activation(self, value: float) -> None:
@@ -903,6 +936,25 @@ def _error_label() -> QtWidgets.QLabel:
     label.setStyleSheet("color: #b00020")
     label.setWordWrap(True)
     return label
+
+
+_OPTION_TIPS = {
+    "taper": "Taper H to 0, C1, over the first and last half period of the wrinkling region "
+             "(off: the paper's Eq. 5, which jumps to the furrow bottom there)",
+    "compression": "How eps is measured: the paper's Eq. 10 over the edges, or the "
+                   "deformation gradient's stretch along the contraction direction (exact "
+                   "for a uniform strain)",
+}
+
+
+def _show_option(widget: QtWidgets.QWidget, value) -> None:
+    """Show an option's ``value`` in its check box or combo box without emitting."""
+    widget.blockSignals(True)
+    if isinstance(widget, QtWidgets.QCheckBox):
+        widget.setChecked(bool(value))
+    else:
+        widget.setCurrentIndex(widget.findData(value))
+    widget.blockSignals(False)
 
 
 def _resolved(muscle, param: str) -> float:

@@ -4,6 +4,8 @@ Anatomy-Based Face", as vectorized numpy functions.
 Every function carries the equation it implements and its number in the paper. Where this
 module deviates from the paper it says so in the function's notes (``compression`` weights
 by :math:`|\cos\theta_{ij}|`; ``anisotropy`` clamps :math:`\varepsilon` at 1).
+``gradient_compression`` is not the paper's: it is the alternative to Eq. 10 that a muscle's
+``compression="gradient"`` option selects (``docs/model.md``, "Two options, off by default").
 """
 
 from __future__ import annotations
@@ -18,9 +20,12 @@ __all__ = [
     "compression",
     "compression_operator",
     "edge_shrinkage",
+    "gradient_compression",
+    "gradient_compression_operator",
     "half_period",
     "periodic_coordinate",
     "shape_function",
+    "triangle_stretch",
 ]
 
 
@@ -317,3 +322,140 @@ def compression(rest_points, points, edges, directions) -> np.ndarray:
     op = compression_operator(rest_points, edges, directions)
     tau = np.nan_to_num(edge_shrinkage(rest_points, points, edges), nan=0.0)
     return op @ tau
+
+
+def gradient_compression_operator(rest_points, triangles, directions, rows=None):
+    r"""What :func:`gradient_compression` needs from the rest mesh, once.
+
+    Parameters
+    ----------
+    rest_points : (n, 3) array_like
+        Rest positions.
+    triangles : (m, 3) array_like of int
+        The mesh's triangles.
+    directions : (n, 3) array_like
+        Contraction direction at each vertex (need not be unit); rows that are zero or
+        ``nan`` (outside a muscle's AOI) do not count.
+    rows : (k,) array_like of int, optional
+        Vertices to build rows for (all ``n`` by default), in this order.
+
+    Returns
+    -------
+    tri_ids : (t,) int
+        The triangles incident to ``rows``, ascending.
+    coefficients : (t, 2) float
+        :math:`(c_0, c_1)` with :math:`F_t d_t = c_0 (x_b - x_a) + c_1 (x_c - x_a)` for the
+        corners :math:`(a, b, c)` of each triangle: the rest edges' least-squares
+        (pseudo-inverse) coordinates of :math:`d_t`, the normalized sum of the corners' unit
+        directions projected into the rest triangle's plane. 0 where :math:`d_t` or the
+        triangle is degenerate.
+    operator : (k, t) scipy.sparse.csr_matrix
+        Row :math:`i` holds the rest areas of the triangles incident to vertex :math:`i`
+        over their sum (degenerate ones excluded): the area-weighted mean; an all-zero row
+        where there is none.
+    """
+    rest_points = np.asarray(rest_points, dtype=float)
+    triangles = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
+    directions = np.asarray(directions, dtype=float)
+    n = len(rest_points)
+    rows = np.arange(n) if rows is None else np.asarray(rows, dtype=np.intp)
+    position = np.full(n, -1, dtype=np.intp)
+    position[rows] = np.arange(len(rows))
+    tri_ids = np.flatnonzero((position[triangles] >= 0).any(axis=1))
+    tri = triangles[tri_ids]
+
+    dnorm = np.linalg.norm(directions, axis=1)
+    ok = np.isfinite(dnorm) & (dnorm > 0)
+    unit_dir = np.zeros_like(directions)
+    unit_dir[ok] = directions[ok] / dnorm[ok, None]
+    d = unit_dir[tri].sum(axis=1)
+    e1 = rest_points[tri[:, 1]] - rest_points[tri[:, 0]]
+    e2 = rest_points[tri[:, 2]] - rest_points[tri[:, 0]]
+    normal = np.cross(e1, e2)
+    double_area = np.linalg.norm(normal, axis=1)
+    flat = double_area > 0
+    normal[flat] /= double_area[flat, None]
+    d -= np.einsum("ij,ij->i", d, normal)[:, None] * normal
+    dlen = np.linalg.norm(d, axis=1)
+    valid = flat & (dlen > 1e-9)
+    d[valid] /= dlen[valid, None]
+    g11 = np.einsum("ij,ij->i", e1, e1)
+    g12 = np.einsum("ij,ij->i", e1, e2)
+    g22 = np.einsum("ij,ij->i", e2, e2)
+    r1 = np.einsum("ij,ij->i", e1, d)
+    r2 = np.einsum("ij,ij->i", e2, d)
+    det = np.where(valid, g11 * g22 - g12 * g12, 1.0)
+    coefficients = np.where(valid[:, None],
+                            np.c_[g22 * r1 - g12 * r2, g11 * r2 - g12 * r1] / det[:, None], 0.0)
+
+    weight = np.where(valid, 0.5 * double_area, 0.0)
+    pos = position[tri]
+    keep = pos >= 0
+    r_idx = pos[keep]
+    c_idx = np.broadcast_to(np.arange(len(tri))[:, None], pos.shape)[keep]
+    vals = weight[c_idx]
+    total = np.bincount(r_idx, weights=vals, minlength=len(rows))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        vals = np.where(total[r_idx] > 0, vals / total[r_idx], 0.0)
+    op = sp.csr_matrix((vals, (r_idx, c_idx)), shape=(len(rows), len(tri)))
+    op.eliminate_zeros()
+    return tri_ids, coefficients, op
+
+
+def triangle_stretch(points, triangles, coefficients) -> np.ndarray:
+    r"""``(t,)``: :math:`|F_t d_t|`, the stretch of each triangle along its contraction
+    direction, from deformed ``points`` ``(n, 3)``, ``triangles`` ``(t, 3)`` and the
+    ``coefficients`` ``(t, 2)`` of :func:`gradient_compression_operator`.
+    """
+    points = np.asarray(points, dtype=float)
+    tri = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
+    c = np.asarray(coefficients, dtype=float)
+    a = points[tri[:, 0]]
+    g = c[:, :1] * (points[tri[:, 1]] - a) + c[:, 1:] * (points[tri[:, 2]] - a)
+    return np.linalg.norm(g, axis=1)
+
+
+def gradient_compression(rest_points, points, triangles, directions) -> np.ndarray:
+    r"""Compression rate :math:`\varepsilon_i` from the deformation gradient (not the
+    paper's: the ``compression="gradient"`` option's alternative to Eq. 10).
+
+    Parameters
+    ----------
+    rest_points : (n, 3) array_like
+        Rest positions.
+    points : (n, 3) array_like
+        Deformed positions.
+    triangles : (m, 3) array_like of int
+        The mesh's triangles.
+    directions : (n, 3) array_like
+        Contraction direction at each vertex; zero or ``nan`` rows do not count.
+
+    Returns
+    -------
+    (n,) ndarray
+        For each triangle :math:`t`, with :math:`F_t` its deformation gradient (the linear
+        map from its rest edges to its deformed edges) and :math:`d_t` the unit contraction
+        direction in its rest plane,
+
+        .. math::
+
+            \varepsilon_t = 1 - |F_t d_t|, \qquad
+            \varepsilon_i = \frac{\sum_{t \ni i} a_t \varepsilon_t}{\sum_{t \ni i} a_t},
+
+        the area-weighted mean over the triangles around vertex :math:`i` (rest areas
+        :math:`a_t`); 0 where no triangle counts.
+
+    Notes
+    -----
+    Exact for a uniform strain: if the skin is compressed by :math:`e` along the contraction
+    direction (any affine map with :math:`|F d| = 1 - e`) every triangle gives :math:`e`,
+    whatever the mesh. Eq. 10 (:func:`compression`) averages the edges' shortening
+    :math:`\tau_{ij}`, which for that strain is :math:`e \cos^2\theta_{ij}` to first order,
+    with :math:`|\cos\theta_{ij}|` weights: about two thirds of :math:`e` for edges spread
+    evenly in angle, and a value that depends on the edge directions around each vertex on
+    an irregular mesh. A rigid motion gives :math:`|F_t d_t| = 1`, :math:`\varepsilon = 0`.
+    """
+    triangles = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
+    tri_ids, coefficients, op = gradient_compression_operator(rest_points, triangles,
+                                                              directions)
+    return op @ (1.0 - triangle_stretch(points, triangles[tri_ids], coefficients))

@@ -10,7 +10,9 @@ of vectorized steps whatever the number of muscles:
    to the rest surface once, and the summed pull :math:`D` is bent back onto the surface by
    the second fundamental form, :math:`-\tfrac12 D^T S D\, n`);
 2. :math:`\tau` (Eq. 9) on the edges the active muscles touch, then :math:`\varepsilon` of
-   every active muscle (Eq. 10) in one sparse mat-vec;
+   every active muscle (Eq. 10) in one sparse mat-vec; for the muscles whose ``compression``
+   option is ``"gradient"``, the stretch :math:`|F_t d_t|` of their triangles instead, all
+   stacked, and their area-weighted means in a second mat-vec;
 3. :math:`W = \sum_m H\,A(\varepsilon)\,At` (Eq. 4, 11) summed by one sparse mat-vec;
 4. final points: the deformed points moved by :math:`W` along the outward unit normal of the
    deformed skin, which is computed only where :math:`W` is defined.
@@ -28,7 +30,12 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from .equations import anisotropy, compression_operator
+from .equations import (
+    anisotropy,
+    compression_operator,
+    gradient_compression_operator,
+    triangle_stretch,
+)
 from .expressions import Expression, paper_expressions
 from .mesh import (
     MeshError,
@@ -64,8 +71,11 @@ class _MuscleData:
     at: np.ndarray  # (k,)
     w: np.ndarray  # (r,)
     h: np.ndarray  # (r,)
-    edge_ids: np.ndarray  # (q,) global edge ids incident to the AOI
-    eps_op: sp.csr_matrix  # (k, q)
+    edge_ids: np.ndarray  # (q,) global edge ids incident to the AOI ("edges" only)
+    eps_op: sp.csr_matrix  # (k, q): Eq. 10
+    tri_ids: np.ndarray  # (t,) global triangle ids incident to the AOI ("gradient" only)
+    tri_coef: np.ndarray  # (t, 2): F_t d_t = c0 (x_b - x_a) + c1 (x_c - x_a)
+    grad_op: sp.csr_matrix  # (k, t): area-weighted mean of 1 - |F_t d_t|
 
     @property
     def region(self) -> np.ndarray:
@@ -78,15 +88,35 @@ class _MuscleData:
         aoi = np.flatnonzero(reg["in_aoi"])
         region_pos = np.flatnonzero(reg["in_region"][aoi])
         in_aoi = reg["in_aoi"]
-        edges = skin.edges
-        edge_ids = np.flatnonzero(in_aoi[edges[:, 0]] | in_aoi[edges[:, 1]])
         directions = np.nan_to_num(reg["direction"], nan=0.0)
-        op = compression_operator(skin.points, edges[edge_ids], directions, rows=aoi)
+        if muscle.compression == "gradient":
+            edge_ids = np.zeros(0, np.intp)
+            op = sp.csr_matrix((len(aoi), 0))
+            tri_ids, coef, grad_op = gradient_compression_operator(
+                skin.points, skin.triangles, directions, rows=aoi)
+        else:
+            edges = skin.edges
+            edge_ids = np.flatnonzero(in_aoi[edges[:, 0]] | in_aoi[edges[:, 1]])
+            op = compression_operator(skin.points, edges[edge_ids], directions, rows=aoi)
+            tri_ids, coef = np.zeros(0, np.intp), np.zeros((0, 2))
+            grad_op = sp.csr_matrix((len(aoi), 0))
         unit = tangential(muscle.unit_displacement(skin.points[aoi]), normals[aoi])
         return cls(aoi=aoi, region_pos=region_pos, unit_disp=unit, lam=reg["lam"][aoi],
                    gamma=reg["gamma"][aoi], l=reg["l"][aoi], at=reg["At"][aoi],
                    w=reg["w"][aoi][region_pos], h=reg["H"][aoi][region_pos],
-                   edge_ids=edge_ids, eps_op=op)
+                   edge_ids=edge_ids, eps_op=op, tri_ids=tri_ids, tri_coef=coef,
+                   grad_op=grad_op)
+
+    def compression(self, skin: TriangleSurface, points: np.ndarray) -> np.ndarray:
+        r"""``(k,)``: :math:`\varepsilon` on the AOI for deformed ``points`` ``(n, 3)``
+        (the muscle's own measure; the frame computes it stacked, this is for a muscle at
+        rest).
+        """
+        e = skin.edges[self.edge_ids]
+        vec = points[e[:, 1]] - points[e[:, 0]]
+        tau = 1.0 - np.linalg.norm(vec, axis=1) / skin.rest_edge_lengths[self.edge_ids]
+        stretch = triangle_stretch(points, skin.triangles[self.tri_ids], self.tri_coef)
+        return self.eps_op @ tau + self.grad_op @ (1.0 - stretch)
 
 
 def tangential(vectors: np.ndarray, normals: np.ndarray) -> np.ndarray:
@@ -143,6 +173,11 @@ class _Assembly:
     e1: np.ndarray  # (q,)
     rest_len: np.ndarray  # (q,)
     eps_op: sp.csr_matrix  # (K, q)
+    g0: np.ndarray  # (T,) local corners a, b, c of the stacked "gradient" triangles
+    g1: np.ndarray  # (T,)
+    g2: np.ndarray  # (T,)
+    g_coef: np.ndarray  # (2, T)
+    grad_op: sp.csr_matrix  # (K, T)
     region_pos: np.ndarray  # (R,) into the K stack
     hat: np.ndarray  # (R,) H * At
     wrinkled: np.ndarray  # (v,) global ids of vertices in any active wrinkling region
@@ -174,13 +209,19 @@ class _Assembly:
         stacked_aoi = np.concatenate([d.aoi for d in datas])
         edges = skin.edges[edge_union]
         tris = skin.triangles[tri_ids]
-        local = np.unique(np.concatenate([stacked_aoi, edges.ravel(), tris.ravel()]))
+        g_tris = skin.triangles[np.concatenate([d.tri_ids for d in datas])]
+        local = np.unique(np.concatenate([stacked_aoi, edges.ravel(), tris.ravel(),
+                                          g_tris.ravel()]))
         local = local[morton_order(skin.points[local])]
         to_local = np.full(skin.n_points, -1, np.intp)
         to_local[local] = np.arange(len(local))
         edge_order = np.lexsort((to_local[edges[:, 1]], to_local[edges[:, 0]]))
         tri_order = np.argsort(to_local[tris[:, 0]], kind="stable")
         eps_op = sp.vstack(blocks, format="csr")[:, edge_order].tocsr()
+        g_local = to_local[g_tris].reshape(-1, 3)
+        g_order = np.argsort(g_local[:, 0], kind="stable")
+        grad_op = sp.block_diag([d.grad_op for d in datas], format="csr")[:, g_order].tocsr()
+        g_coef = np.concatenate([d.tri_coef for d in datas])[g_order]
         moved = np.unique(stacked_aoi)
         shape = rest.shape[moved]
         return cls(
@@ -190,6 +231,8 @@ class _Assembly:
             unit_disp=np.ascontiguousarray(np.concatenate([d.unit_disp for d in datas]).T),
             e0=to_local[edges[edge_order, 0]], e1=to_local[edges[edge_order, 1]],
             rest_len=skin.rest_edge_lengths[edge_union][edge_order], eps_op=eps_op,
+            g0=g_local[g_order, 0], g1=g_local[g_order, 1], g2=g_local[g_order, 2],
+            g_coef=np.ascontiguousarray(g_coef.T), grad_op=grad_op,
             region_pos=np.concatenate(
                 [d.region_pos + o for d, o in zip(datas, k_offsets[:-1], strict=True)]),
             hat=np.concatenate([d.h * d.at[d.region_pos] for d in datas]),
@@ -249,6 +292,11 @@ class _Assembly:
         d -= np.take(p, self.e0, axis=1)
         tau = 1.0 - np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) / self.rest_len
         eps = self.eps_op @ tau
+        if len(self.g0):  # muscles with compression="gradient": eps = mean of 1 - |F_t d_t|
+            a = np.take(p, self.g0, axis=1)
+            g = self.g_coef[0] * (np.take(p, self.g1, axis=1) - a)
+            g += self.g_coef[1] * (np.take(p, self.g2, axis=1) - a)
+            eps += self.grad_op @ (1.0 - np.sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]))
         w_region = self.hat * anisotropy(eps[self.region_pos])
         w_sum = self.w_sum @ w_region
         normals = unit_rows(self.tri_inc @ triangle_normals(p, self.tris))
@@ -643,11 +691,7 @@ class _MuscleFields(Mapping):
             eps = c["eps"][ks:ke]
             return {"eps": eps, "A": anisotropy(eps), "W": c["W"][rs:re]}
         # an inactive muscle: its compression is defined, but it makes no wrinkles
-        skin = state.face.skin
-        e = skin.edges[data.edge_ids]
-        vec = state.deformed_points[e[:, 1]] - state.deformed_points[e[:, 0]]
-        tau = 1.0 - np.linalg.norm(vec, axis=1) / skin.rest_edge_lengths[data.edge_ids]
-        eps = data.eps_op @ tau
+        eps = data.compression(state.face.skin, state.deformed_points)
         return {"eps": eps, "A": anisotropy(eps), "W": np.zeros(len(data.region_pos))}
 
     def _compute(self, key: str) -> np.ndarray:

@@ -12,15 +12,24 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
 
 from .equations import attenuation, bulge_height, half_period, periodic_coordinate, shape_function
 
-__all__ = ["Geometry", "Muscle", "MuscleParameterError", "MuscleRegion", "plateau_fall",
-           "ramp_fall", "smooth_fall", "waters_radial"]
+__all__ = ["COMPRESSION_MEASURES", "OPTIONS", "Geometry", "Muscle", "MuscleParameterError",
+           "MuscleRegion", "plateau_fall", "ramp_fall", "smooth_fall", "waters_radial"]
+
+#: The values of a muscle's ``compression`` option: ``"edges"`` is the paper's Eq. 10 (the
+#: default), ``"gradient"`` the deformation gradient's stretch along the contraction
+#: direction (:func:`~wrinkle_vis.core.equations.gradient_compression`).
+COMPRESSION_MEASURES = ("edges", "gradient")
+
+#: The options every muscle type has, off by default (``docs/model.md``, "Two options, off by
+#: default"), with their allowed values, the default first.
+OPTIONS = {"taper": (False, True), "compression": COMPRESSION_MEASURES}
 
 
 class MuscleParameterError(ValueError):
@@ -221,7 +230,7 @@ def _fmt(value) -> str:
 
 @dataclass(frozen=True)
 class Muscle:
-    """Base class of every muscle type (linear, sheet, and plug-ins).
+    r"""Base class of every muscle type (linear, sheet, and plug-ins).
 
     Subclasses are frozen dataclasses whose first field is ``name``. They set the class
     attributes ``type_name`` (the registry key) and ``point_parameters`` (the names of
@@ -232,6 +241,22 @@ class Muscle:
     string, so the core never imports VTK); :func:`wrinkle_vis.widgets.widget_factory` looks
     it up along the class hierarchy, and a type with none gets a generic widget with a handle
     per point parameter.
+
+    Every type inherits two keyword-only options (:data:`OPTIONS`), off by default so that
+    the paper's model is what a muscle computes unless asked otherwise, and validated by
+    :meth:`_check_common`:
+
+    Parameters
+    ----------
+    taper : bool, default False
+        Multiply :math:`H` by a C1 taper over the first and the last half period of the
+        wrinkling region (:meth:`taper_profile`), so that it rises from 0 where the region
+        starts and falls back to 0 where it ends instead of jumping to the furrow bottom.
+    compression : {"edges", "gradient"}, default "edges"
+        How :math:`\varepsilon` is measured: ``"edges"`` is Eq. 10 (with :math:`|\cos|`
+        weights); ``"gradient"`` is the deformation gradient's stretch along the contraction
+        direction, exact for a uniform strain
+        (:func:`~wrinkle_vis.core.equations.gradient_compression`).
     """
 
     type_name: ClassVar[str] = ""
@@ -240,6 +265,8 @@ class Muscle:
     length_parameters: ClassVar[tuple[str, ...]] = ("k0",)
 
     name: str
+    taper: bool = field(default=False, kw_only=True)
+    compression: str = field(default="edges", kw_only=True)
 
     # ------------------------------------------------------------ validation helpers
     def _fail(self, param: str, value, allowed: str, hint: str = "") -> None:
@@ -293,7 +320,7 @@ class Muscle:
         return arr
 
     def _check_common(self) -> None:
-        """Validate the name and the wrinkle parameters every type shares."""
+        """Validate the name, the wrinkle parameters and the options every type shares."""
         if not isinstance(self.name, str) or not self.name.strip():
             raise MuscleParameterError(
                 f"{self.type_name} muscle: name must be a non-empty string; got {self.name!r}"
@@ -302,6 +329,17 @@ class Muscle:
         self._check_int("n_wrinkles", 1)
         self._check("k0", 0.0)
         self._check("alpha", -1.0, 10.0, hint="alpha < -1 turns the furrow into a crest")
+        self._check_options()
+
+    def _check_options(self) -> None:
+        """Validate :data:`OPTIONS`: ``taper`` a bool, ``compression`` a known measure."""
+        if not isinstance(self.taper, (bool, np.bool_)):
+            self._fail("taper", self.taper, "True or False")
+        object.__setattr__(self, "taper", bool(self.taper))
+        if not isinstance(self.compression, str) or self.compression not in \
+                COMPRESSION_MEASURES:
+            self._fail("compression", self.compression,
+                       " or ".join(map(repr, COMPRESSION_MEASURES)))
 
     def _check_strength(self) -> None:
         r"""Validate ``strength`` against Waters' fall start: below :math:`2 R_s / \pi`."""
@@ -344,6 +382,36 @@ class Muscle:
         """Bulge height :math:`d` (Eq. 8)."""
         return bulge_height(self.k0, self.alpha)
 
+    def taper_profile(self, l) -> np.ndarray:
+        r"""The longitudinal taper of :math:`H` (the ``taper`` option), at distances ``l``.
+
+        Parameters
+        ----------
+        l : (n,) array_like
+            Distance from the attachment along the central fibre.
+
+        Returns
+        -------
+        (n,) ndarray
+            With :math:`s = l - \lambda_w R` the distance into the wrinkling region,
+            :math:`L_r = (1 - \lambda_w) R` its length and :math:`u` the half period (Eq. 6),
+
+            .. math::
+
+                T(s) = \rho\!\left(\frac{s}{u}\right)\rho\!\left(\frac{L_r - s}{u}\right),
+                \qquad \rho(t) = \sin^2\!\left(\frac{\pi}{2}\,
+                \operatorname{clip}(t, 0, 1)\right) = 1 - \operatorname{smooth\_fall}(t),
+
+            0 with zero slope at both ends of the region, 1 (also with zero slope) from one
+            half period in to one half period before the end. :math:`T H` is C1 across the
+            region's ends, where :math:`H` alone jumps from 0 to the furrow bottom
+            :math:`d - k_0 2^\alpha`.
+        """
+        u = self.u
+        s = np.asarray(l, dtype=float) - self.lambda_w * self.wrinkle_length
+        span = (1.0 - self.lambda_w) * self.wrinkle_length
+        return (1.0 - smooth_fall(s / u)) * (1.0 - smooth_fall((span - s) / u))
+
     # ------------------------------------------------------------ the model
     def region(self, rest_points) -> MuscleRegion:
         r"""The muscle's fields on rest points.
@@ -359,7 +427,8 @@ class Muscle:
             ``lam``, ``gamma``, ``l`` and type-specific geometry everywhere; ``in_aoi`` and
             ``in_region`` (Eq. 3 or 14: :math:`\lambda_w \le \lambda \le 1`,
             :math:`0 \le \gamma \le 1`); ``At`` and ``direction`` on the AOI; ``w`` (Eq. 7)
-            and ``H`` (Eq. 5) on the wrinkling region, ``nan`` elsewhere.
+            and ``H`` (Eq. 5; times :meth:`taper_profile` with the ``taper`` option) on the
+            wrinkling region, ``nan`` elsewhere.
         """
         p = _points(rest_points)
         g = self._geometry(p)
@@ -372,6 +441,8 @@ class Muscle:
             np.nan,
         )
         h = shape_function(w, self.u, self.k0, self.alpha)
+        if self.taper:
+            h = h * self.taper_profile(g.l)
         direction = np.where(g.in_aoi[:, None], g.direction, np.nan)
         arrays = dict(lam=g.lam, gamma=g.gamma, l=g.l, **g.extra)
         arrays.update(in_aoi=g.in_aoi, in_region=in_region, w=w, H=h, At=at,
@@ -400,10 +471,13 @@ class Muscle:
 
     # ------------------------------------------------------------ serialization
     def to_dict(self) -> dict[str, Any]:
-        """A plain, JSON-ready dict: ``{"type": type_name, "name": ..., parameters...}``."""
+        """A plain, JSON-ready dict: ``{"type": type_name, "name": ..., parameters...,
+        options...}`` (the :data:`OPTIONS` last; a dict without them gets their defaults).
+        """
         out: dict[str, Any] = {"type": self.type_name}
-        for f in dataclasses.fields(self):
-            out[f.name] = _plain(getattr(self, f.name))
+        names = [f.name for f in dataclasses.fields(self) if f.name not in OPTIONS]
+        for name in [*names, *OPTIONS]:
+            out[name] = _plain(getattr(self, name))
         return out
 
     @classmethod
