@@ -316,17 +316,22 @@ class _RestFrame:
     on the same skin.
 
     ``normals`` are the geometric vertex normals (refinement builds on them). The skin slides
-    along the surface seen at the scale ``radius``: ``slide_normals`` are the normals averaged
-    over balls of that radius, and ``shape`` the shape operators of that smoothed field, so a
+    along the surface seen at the scale ``radius``: ``slide_normals`` are the normals diffused
+    over that radius, and ``shape`` the shape operators of that smoothed field, so a
     groove narrower than the radius (the mouth line, the fold under the brow) neither bends
     the pull nor scales its curvature correction, and the slide does not depend on the mesh
     resolution.
     """
 
-    def __init__(self, skin: TriangleSurface, normals=None, radius: float | None = None):
+    def __init__(self, skin: TriangleSurface, normals=None, radius: float | None = None,
+                 parent: _RestFrame | None = None, parents=None):
         self._skin = skin
         if normals is not None:
             self.normals = np.asarray(normals, dtype=float)
+        if parent is not None:  # a refined skin: new vertices inherit from their edge's ends
+            self.slide_normals = np.vstack([
+                parent.slide_normals, unit_rows(parent.slide_normals[parents].sum(axis=1))])
+            self.shape = np.concatenate([parent.shape, parent.shape[parents].mean(axis=1)])
         size = float(np.sqrt(skin.triangle_areas().sum()))  # invariant under rigid motions
         self.radius = SLIDE_SCALE * size if radius is None else radius
 
@@ -337,7 +342,12 @@ class _RestFrame:
 
     @cached_property
     def slide_normals(self) -> np.ndarray:
-        """``(n, 3)``: :attr:`normals` averaged over balls of :attr:`radius`."""
+        """``(n, 3)``: :attr:`normals` diffused over :attr:`radius`
+        (:func:`~wrinkle_vis.core.mesh.smoothed_normals`); a refined skin inherits its
+        parent's, its new vertices taking unit(n_0 + n_1) of their edge's ends (and the mean
+        of their shape operators): the slide is a property of the surface at the scale
+        :attr:`radius`, which refinement does not change.
+        """
         return smoothed_normals(self._skin, self.normals, self.radius)
 
     @cached_property
@@ -572,10 +582,11 @@ class FaceModel:
         """The face on this skin refined at ``marked`` triangles (cached)."""
         def build():
             ref = refine_triangles(self.skin, marked, self._rest.normals)
+            rest = _RestFrame(ref.surface, ref.normals, self._rest.radius, self._rest,
+                              ref.parents)
             return FaceModel(ref.surface, self.skull, self.muscles, self.expressions,
                              name=self.name, landmarks=self.landmarks,
-                             _caches=({}, None, _RestFrame(ref.surface, ref.normals,
-                                                           self._rest.radius)))
+                             _caches=({}, None, rest))
 
         # a refined valid skin is valid: no check
         return _lru(self._refinements, np.packbits(marked).tobytes(), 8, build)
