@@ -1,13 +1,16 @@
-"""Adaptive refinement against VTK's uniform linear subdivision, side by side.
+"""Adaptive refinement against VTK's uniform subdivision (linear and butterfly), side by side.
 
 Run:  .venv/bin/python benchmarks/bench_refine_fidelity.py
 
 Fidelity is the largest distance, along the central fibre of frontalis_major_L on surprise,
-from the reference wrinkled surface (the model evaluated on the skin subdivided uniformly
-four times, 1.15 M triangles) to each candidate's wrinkled surface. Candidates: the adaptive
-refinement of ``evaluate(refine=True)`` at the paper's size, and the skin subdivided
-uniformly n times by VTK (``PolyData.subdivide(n, "linear")``) and then evaluated the same
-way. Time: building the model for that mesh plus one frame (``setup+frame``; for VTK the
+from the reference wrinkled surface to each candidate's wrinkled surface. The reference is
+the model evaluated on the skin refined uniformly four times with the refinement's own
+smooth (Phong) midpoints, 1.15 M triangles: the surface the adaptive refinement converges
+to. Candidates: the adaptive refinement of ``evaluate(refine=True)`` at the paper's size, and
+the skin subdivided uniformly n times by VTK and then evaluated the same way, with linear
+midpoints (``PolyData.subdivide(n, "linear")``, which keeps the coarse facets) and with the
+interpolating butterfly scheme (``"butterfly"``, smooth).
+Time: building the model for that mesh plus one frame (``setup+frame``; for VTK the
 subdivision too), and a frame once everything is cached (``frame``); medians of 5.
 
 The last lines compare the adaptive refinement with the uniform subdivision that reaches the
@@ -22,6 +25,7 @@ from _timing import median_seconds
 
 import wrinkle_vis as wv
 from wrinkle_vis.core.mesh import closest_points
+from wrinkle_vis.core.refine import refine_triangles
 from wrinkle_vis.plotting import to_surface_polydata
 
 MUSCLE = "frontalis_major_L"
@@ -48,6 +52,15 @@ def fidelity(reference_points, state):
                                 axis=1).max())
 
 
+def smooth_uniform(skin, levels):
+    """``skin`` refined uniformly ``levels`` times with the adaptive refinement's midpoints."""
+    normals = None
+    for _ in range(levels):
+        ref = refine_triangles(skin, np.ones(skin.n_triangles, bool), normals)
+        skin, normals = ref.surface, ref.normals
+    return skin
+
+
 def timed(fn, n=5):
     """Median milliseconds of ``n`` calls, and the last call's result."""
     out = fn()
@@ -62,7 +75,7 @@ def main():
     options = {"refine": True, "refine_angle_deg": args.angle, "refine_levels": args.levels}
     base = wv.datasets.load_face()
     muscle = base.muscle(MUSCLE)
-    ref_face = wv.FaceModel(wv.subdivide(base.skin, 4), base.skull, base.muscles,
+    ref_face = wv.FaceModel(smooth_uniform(base.skin, 4), base.skull, base.muscles,
                             base.expressions)
     ref_points, ref_l, ref_h = fibre_band(ref_face.evaluate("surprise"), width=0.3)
     print(f"reference: {ref_face.skin.n_triangles} triangles, {len(ref_points)} points along "
@@ -76,19 +89,20 @@ def main():
     setup_ms, state = timed(adaptive_setup)
     frame_ms, _ = timed(lambda: base.evaluate("surprise", **options), n=20)
     rows.append(("adaptive", state, setup_ms, frame_ms))
-    for n in (1, 2, 3):
-        poly = to_surface_polydata(base.skin).subdivide(n, "linear")
+    for scheme, n in [(s, n) for s in ("linear", "butterfly") for n in (1, 2, 3)]:
+        poly = to_surface_polydata(base.skin).subdivide(n, scheme)
         skin = wv.TriangleSurface(poly.points, poly.faces.reshape(-1, 4)[:, 1:])
 
         def uniform_setup(skin=skin):
             face = wv.FaceModel(skin, base.skull, base.muscles, base.expressions)
             return face.evaluate("surprise")
 
-        subdiv_ms, _ = timed(lambda n=n: to_surface_polydata(base.skin).subdivide(n, "linear"))
+        subdiv_ms, _ = timed(lambda n=n, scheme=scheme: to_surface_polydata(base.skin).subdivide(
+            n, scheme))
         setup_ms, state = timed(uniform_setup, n=3)
         face = state.face
         frame_ms, _ = timed(lambda face=face: face.evaluate("surprise"), n=20)
-        rows.append((f"VTK linear x{n}", state, subdiv_ms + setup_ms, frame_ms))
+        rows.append((f"VTK {scheme} x{n}", state, subdiv_ms + setup_ms, frame_ms))
 
     print(f"{'':16}{'triangles':>11}{'fidelity mm':>13}{'crests':>8}{'setup+frame ms':>16}"
           f"{'frame ms':>10}")
