@@ -30,6 +30,7 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
+from .cache import ByteBudgetCache
 from .equations import (
     anisotropy,
     compression_operator,
@@ -53,6 +54,10 @@ __all__ = ["FIELD_NAMES", "FaceModel", "FaceState"]
 #: The scale the skin slides at, as a fraction of the square root of the skin's area (about
 #: 7.5 mm on the built-in face): features narrower than that move with the skin.
 SLIDE_SCALE = 0.029
+
+#: The most bytes the refined skins of one face keep cached (with their per-muscle data and
+#: operators), however long an animation runs; the least recently used go first.
+REFINE_CACHE_BYTES = 160 * 2**20
 
 #: Per-muscle fields of a :class:`FaceState`, by name.
 FIELD_NAMES = ("lambda", "gamma", "l", "w", "H", "At", "eps", "A", "W")
@@ -412,7 +417,8 @@ class FaceModel:
         self._muscle_data: dict[Muscle, _MuscleData] = _caches[0]
         self._assemblies: OrderedDict = _caches[1] if _caches[1] is not None else OrderedDict()
         self._rest: _RestFrame = _caches[2]
-        self._refinements: OrderedDict = OrderedDict()
+        self._refinements = ByteBudgetCache(REFINE_CACHE_BYTES)  # shared by refined faces
+        self._refine_key: tuple = ()
 
     # ------------------------------------------------------------------ access
     @property
@@ -576,20 +582,30 @@ class FaceModel:
                 break
             face = face._refined(marked)
             state = face._frame(acts)
+            self._refinements.reweigh(face._refine_key, face._own_caches())
         return state
 
     def _refined(self, marked: np.ndarray) -> FaceModel:
-        """The face on this skin refined at ``marked`` triangles (cached)."""
+        """The face on this skin refined at ``marked`` triangles, from the root face's
+        byte-budgeted cache (:data:`REFINE_CACHE_BYTES`), keyed by every level's marks.
+        """
+        key = self._refine_key + (np.packbits(marked).tobytes(),)
+
         def build():
             ref = refine_triangles(self.skin, marked, self._rest.normals)
             rest = _RestFrame(ref.surface, ref.normals, self._rest.radius, self._rest,
                               ref.parents)
-            return FaceModel(ref.surface, self.skull, self.muscles, self.expressions,
+            face = FaceModel(ref.surface, self.skull, self.muscles, self.expressions,
                              name=self.name, landmarks=self.landmarks,
-                             _caches=({}, None, rest))
+                             _caches=({}, None, rest))  # a refined valid skin is valid
+            face._refinements, face._refine_key = self._refinements, key
+            return face
 
-        # a refined valid skin is valid: no check
-        return _lru(self._refinements, np.packbits(marked).tobytes(), 8, build)
+        return self._refinements.get(key, build)
+
+    def _own_caches(self) -> tuple:
+        """What this face alone holds (its skin, rest frame and caches), for weighing."""
+        return (self.skin, self._rest, self._muscle_data, self._assemblies)
 
     def _frame(self, acts: dict[str, float]) -> FaceState:
         """The unrefined frame for resolved activations."""
