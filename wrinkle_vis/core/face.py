@@ -419,6 +419,7 @@ class FaceModel:
         self._rest: _RestFrame = _caches[2]
         self._refinements = ByteBudgetCache(REFINE_CACHE_BYTES)  # shared by refined faces
         self._refine_key: tuple = ()
+        self._weighed = False
 
     # ------------------------------------------------------------------ access
     @property
@@ -582,7 +583,9 @@ class FaceModel:
                 break
             face = face._refined(marked)
             state = face._frame(acts)
-            self._refinements.reweigh(face._refine_key, face._own_caches())
+            if not face._weighed:  # its lazy caches are full after its first frame
+                self._refinements.reweigh(face._refine_key, face._own_caches())
+                face._weighed = True
         return state
 
     def _refined(self, marked: np.ndarray) -> FaceModel:
