@@ -1,7 +1,8 @@
 """Crash recovery: the layout autosaved while the user works, offered back after a crash.
 
-Each running app writes ``recovery-<pid>.json`` in the recovery folder (atomically, so a
-kill mid-write leaves the previous copy) and removes it on a clean exit. A file whose process
+Each running app writes ``recovery-<pid>.json`` in the recovery folder (atomically, through
+:func:`~wrinkle_vis.core.files.atomic_output`, so a kill or a full disk mid-write leaves the
+previous copy) and removes it on a clean exit. A file whose process
 is gone is an orphan: the next start offers to restore it. No Qt here.
 """
 
@@ -13,7 +14,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..core.layout import Layout, LayoutError, atomic_write_text
+from ..core.files import atomic_write_text
+from ..core.layout import Layout, LayoutError
 
 __all__ = ["Recovered", "Recovery", "default_directory"]
 
@@ -92,7 +94,7 @@ class Recovery:
         path = Path(path)
         try:
             data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
             raise LayoutError(str(path), "$", "a readable JSON recovery file", exc) from exc
         if not isinstance(data, dict) or data.get("wrinkle_vis_recovery") != VERSION:
             raise LayoutError(str(path), "$.wrinkle_vis_recovery",

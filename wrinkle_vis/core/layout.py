@@ -6,13 +6,18 @@
      "skin": "head.obj", "skull": null,
      "muscles": [{"type": "linear", "name": "corrugator_L", "attachment": [...], ...}],
      "expressions": {"frown": {"name": "frown", "activations": {"corrugator_L": 1.0}, ...}},
-     "landmarks": {"nose_tip": [0.0, -29.0, 110.0], ...}}
+     "landmarks": {"nose_tip": [0.0, -29.0, 110.0], ...},
+     "n_triangles": 4500}
 
 Mesh paths are relative to the layout file; ``null`` means the built-in face's mesh (skin)
-or, for the skull, one built from the skin. Saving is atomic: the file is written beside its
-destination, flushed to disk and renamed over it, so a crash never leaves half a file.
-Loading checks every field and names the file, the JSON path of the bad field, what was
-expected and what was found.
+or, for the skull, one built from the skin. ``n_triangles`` (optional) records the
+resolution the built-in skin was requested at, which rebuilds exactly the same mesh
+(:func:`wrinkle_vis.datasets.load_face`). Saving is atomic
+(:func:`wrinkle_vis.core.files.atomic_output`): the file is written beside its destination,
+flushed to disk and renamed over it, so a crash never leaves half a file, and a file saved
+over keeps its permissions. Loading checks every field and names the file, the JSON path of
+the bad field, what was expected and what was found; any unreadable file (not UTF-8, not
+JSON, nested too deeply) raises :class:`LayoutError`.
 """
 
 from __future__ import annotations
@@ -20,12 +25,12 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from .expressions import Expression
+from .files import atomic_write_text
 from .muscle import Muscle, MuscleParameterError
 from .registry import UnknownMuscleTypeError, get_muscle_type
 
@@ -71,6 +76,12 @@ class Layout:
         Named expressions over those muscles.
     skin, skull : str or None
         Mesh paths, relative to the layout file's folder when relative.
+    landmarks : dict of str to (3,) float
+        Named points on the skin.
+    n_triangles : int or None
+        The resolution the built-in skin was requested at (the ``n_triangles`` argument
+        of :func:`wrinkle_vis.datasets.load_face`), so that reopening the layout rebuilds
+        the same mesh; None when not recorded (the loader's default) or for a skin file.
     """
 
     name: str = "face"
@@ -79,6 +90,7 @@ class Layout:
     skin: str | None = None
     skull: str | None = None
     landmarks: dict = field(default_factory=dict)
+    n_triangles: int | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "muscles", tuple(self.muscles))
@@ -92,11 +104,14 @@ class Layout:
     __hash__ = None
 
     def to_dict(self) -> dict:
-        """The JSON-ready form of the file."""
-        return {"format": FORMAT, "version": VERSION, "name": self.name, "skin": self.skin,
-                "skull": self.skull, "muscles": [m.to_dict() for m in self.muscles],
-                "expressions": {k: e.to_dict() for k, e in self.expressions.items()},
-                "landmarks": {k: list(v) for k, v in self.landmarks.items()}}
+        """The JSON-ready form of the file (``n_triangles`` only when recorded)."""
+        out = {"format": FORMAT, "version": VERSION, "name": self.name, "skin": self.skin,
+               "skull": self.skull, "muscles": [m.to_dict() for m in self.muscles],
+               "expressions": {k: e.to_dict() for k, e in self.expressions.items()},
+               "landmarks": {k: list(v) for k, v in self.landmarks.items()}}
+        if self.n_triangles is not None:
+            out["n_triangles"] = int(self.n_triangles)
+        return out
 
     @classmethod
     def from_dict(cls, data: Any, source: str = "<layout>") -> Layout:
@@ -114,7 +129,7 @@ class Layout:
         _expect(version == VERSION, source, "$.version",
                 f"{VERSION} (this wrinkle-vis reads version {VERSION})", version)
         known = {"format", "version", "name", "skin", "skull", "muscles", "expressions",
-                 "landmarks"}
+                 "landmarks", "n_triangles"}
         for key in data:
             _expect(key in known, source, f"$.{key}", f"one of {sorted(known)}", key)
         name = data.get("name", "face")
@@ -123,12 +138,19 @@ class Layout:
             value = data.get(key)
             _expect(value is None or (isinstance(value, str) and value), source, f"$.{key}",
                     "a mesh path or null", value)
+        n_triangles = data.get("n_triangles")
+        _expect(n_triangles is None or (isinstance(n_triangles, int)
+                                        and not isinstance(n_triangles, bool)
+                                        and n_triangles > 0),
+                source, "$.n_triangles", "a positive whole number of triangles or null",
+                n_triangles)
         muscles = _muscles(data.get("muscles", []), source)
         expressions = _expressions(data.get("expressions", {}), source,
                                    {m.name for m in muscles})
         return cls(name=name, muscles=muscles, expressions=expressions,
                    skin=data.get("skin"), skull=data.get("skull"),
-                   landmarks=_landmarks(data.get("landmarks", {}), source))
+                   landmarks=_landmarks(data.get("landmarks", {}), source),
+                   n_triangles=n_triangles)
 
     def resolve(self, key: str, base: str | os.PathLike) -> Path | None:
         """The absolute path of ``skin`` or ``skull`` relative to folder ``base``."""
@@ -201,22 +223,6 @@ def _landmarks(items: Any, source: str) -> dict:
     return items
 
 
-def atomic_write_text(path: str | os.PathLike, text: str) -> None:
-    """Write ``text`` to ``path`` atomically (temporary file, fsync, rename)."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def save_layout(layout: Layout, path: str | os.PathLike) -> None:
     """Save ``layout`` as JSON at ``path``, atomically."""
     atomic_write_text(path, json.dumps(layout.to_dict(), indent=2) + "\n")
@@ -230,16 +236,36 @@ def load_layout(path: str | os.PathLike) -> Layout:
     FileNotFoundError
         Naming the path.
     LayoutError
-        For invalid JSON or any bad field, with the file, the JSON path, expected and found.
+        For a file that cannot be read (permissions, not UTF-8 text, invalid JSON, JSON
+        nested too deeply) or any bad field, with the file, the JSON path (or the line and
+        column), expected and found.
     """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no layout file at {path}; check the path, or save one "
                                 "with save_layout()")
-    text = path.read_text(encoding="utf-8")
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise LayoutError(str(path), "$", "a readable file", exc.strerror or str(exc)
+                          ) from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise LayoutError(str(path), f"line {line} (byte {exc.start})",
+                          "UTF-8 text (save the file as UTF-8)",
+                          f"the byte 0x{raw[exc.start]:02x}") from None
     try:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise LayoutError(str(path), f"line {exc.lineno} column {exc.colno}",
                           "valid JSON", exc.msg) from None
-    return Layout.from_dict(data, source=str(path))
+    except RecursionError:
+        raise LayoutError(str(path), "$", "JSON nested at most a few hundred levels deep",
+                          "deeper nesting") from None
+    try:
+        return Layout.from_dict(data, source=str(path))
+    except RecursionError:
+        raise LayoutError(str(path), "$", "JSON nested at most a few hundred levels deep",
+                          "deeper nesting") from None
