@@ -27,6 +27,8 @@ __all__ = ["BUILTIN_LAYOUT", "build_skin", "build_skull", "builtin_expressions",
 
 _SOURCES = (Path(anatomy.__file__), Path(sdf.__file__), Path(__file__))
 DEFAULT_TRIANGLES = 4500
+#: The built-in skin's supported resolutions (``n_triangles`` of :func:`load_face`).
+MIN_TRIANGLES, MAX_TRIANGLES = 500, 250_000
 
 
 def _cache_dir() -> Path:
@@ -137,15 +139,96 @@ def _triangles_to_points(n_triangles: int, open_surface: bool) -> int:
     return int(round(n_triangles / 2 + (60 if open_surface else 2)))
 
 
+def split_longest_edges(surface: TriangleSurface, n_triangles: int) -> TriangleSurface:
+    """``surface`` with its longest edges split at their midpoints until it has exactly
+    ``n_triangles`` triangles (a boundary edge adds one, an interior edge two).
+
+    Orientation is kept (each triangle ``(a, b, c)`` split on ``ab`` becomes ``(a, m, c)``
+    and ``(m, b, c)``); the new vertices lie on the straight edges (project them onto the
+    surface afterwards). Deterministic: ties are broken by edge index.
+
+    Raises
+    ------
+    ValueError
+        If ``surface`` has more triangles than ``n_triangles``, or an odd number of
+        triangles is missing and the surface has no boundary.
+    """
+    points, tris = np.asarray(surface.points, float), np.asarray(surface.triangles)
+    if len(tris) > n_triangles:
+        raise ValueError(f"the surface has {len(tris)} triangles, more than {n_triangles}")
+    while len(tris) < n_triangles:
+        s = TriangleSurface(points, tris)
+        deficit = n_triangles - len(tris)
+        tri_edges = s.triangle_edges
+        counts = np.bincount(tri_edges.ravel(), minlength=len(s.edges))
+        lengths = s.rest_edge_lengths
+        want = 1 if deficit % 2 else 2  # an odd deficit takes one boundary edge first
+        candidates = np.flatnonzero(counts == want)
+        if len(candidates) == 0:
+            raise ValueError(f"cannot reach {n_triangles} triangles: no "
+                             f"{'boundary' if want == 1 else 'interior'} edge to split")
+        candidates = candidates[np.lexsort((candidates, -lengths[candidates]))]
+        owners = np.argsort(tri_edges.ravel(), kind="stable")  # corner slots by edge id
+        first = np.searchsorted(tri_edges.ravel()[owners], candidates)
+        used = np.zeros(len(tris), bool)
+        budget = 1 if want == 1 else deficit // 2
+        new_points, new_tris, replaced = [], [], []
+        for edge, start in zip(candidates, first, strict=True):
+            slots = owners[start:start + want]
+            owner_tris = slots // 3
+            if used[owner_tris].any():
+                continue
+            used[owner_tris] = True
+            i, j = s.edges[edge]
+            m = len(points) + len(new_points)
+            new_points.append(0.5 * (points[i] + points[j]))
+            for slot in slots:
+                t, k = divmod(int(slot), 3)
+                a, b, c = (tris[t][(k + r) % 3] for r in range(3))
+                replaced.append(t)
+                new_tris += [(a, m, c), (m, b, c)]
+            budget -= 1
+            if budget == 0:
+                break
+        keep = np.ones(len(tris), bool)
+        keep[replaced] = False
+        points = np.vstack([points, new_points])
+        tris = np.vstack([tris[keep], np.asarray(new_tris, dtype=tris.dtype)])
+    return TriangleSurface(points, tris)
+
+
+def _remesh_exactly(raw, n_triangles: int, subdivide: int) -> TriangleSurface:
+    """Remesh with pyacvd to at most ``n_triangles`` triangles, then split the longest
+    edges up to exactly ``n_triangles`` (:func:`split_longest_edges`).
+
+    pyacvd's triangle count depends on how many vertices its clusters put on the boundary,
+    so the same request used to give a mesh of a nearby, different size, and asking for that
+    size gave yet another mesh. With an exact count, ``load_face(face.skin.n_triangles)``
+    rebuilds ``face``'s skin.
+    """
+    n_points = _triangles_to_points(n_triangles, True)
+    for _ in range(8):
+        surf = _remesh(raw, n_points, subdivide)
+        excess = surf.n_triangles - n_triangles
+        if excess <= 0:
+            return split_longest_edges(surf, n_triangles)
+        n_points -= excess // 2 + 1
+    raise RuntimeError(f"pyacvd gave more than {n_triangles} triangles 8 times; report this")
+
+
 def build_skin(n_triangles: int = DEFAULT_TRIANGLES) -> TriangleSurface:
     """The skin: the face and scalp in front of the ears, above the neck.
 
     The skin's signed distance field (:func:`~wrinkle_vis.datasets.anatomy.skin_sdf`) is
     sampled on a 1.6 mm grid, its zero level set extracted with VTK's flying edges, cut
     behind the ears (z = -15 mm) and under the chin (y = -112 mm), remeshed to an even
-    triangulation of about ``n_triangles`` triangles with pyacvd (finer versions subdivide
-    the contour first), and every vertex is projected onto the exact level set.
+    triangulation with pyacvd (finer versions subdivide the contour first), brought to
+    exactly ``n_triangles`` triangles by splitting the longest edges
+    (:func:`split_longest_edges`), and every vertex is projected onto the exact level set.
+    The same ``n_triangles`` always gives the same mesh, with ``n_triangles`` triangles.
     """
+    n_triangles = int(n_triangles)
+
     def build():
         raw = _contour(anatomy.skin_sdf, (-82, -118, -22), (82, 128, 112), 1.6)
         raw = raw.clip(normal=(0, 0, -1), origin=(0, 0, -15))
@@ -153,12 +236,12 @@ def build_skin(n_triangles: int = DEFAULT_TRIANGLES) -> TriangleSurface:
             algorithm="dataset_surface")
         raw = raw.triangulate().clean()
         sub = int(np.clip(np.ceil(np.log(max(n_triangles, 1) / 8000) / np.log(4)), 0, 3))
-        surf = _remesh(raw, _triangles_to_points(n_triangles, True), sub)
+        surf = _remesh_exactly(raw, n_triangles, sub)
         surf = TriangleSurface(project_to_surface(anatomy.skin_sdf, surf.points),
                                surf.triangles).oriented()
         return {"points": surf.points, "triangles": surf.triangles}
 
-    arrays = _cached("skin", (int(n_triangles),), build)
+    arrays = _cached("skin", (n_triangles,), build)
     return TriangleSurface(arrays["points"], arrays["triangles"])
 
 
@@ -329,19 +412,24 @@ def _as_layout(layout) -> tuple[Layout, Path | None]:
     return load_layout(path), path.parent
 
 
-def load_face(n_triangles: int = DEFAULT_TRIANGLES, *, skin=None, skull=None, layout=None,
+def load_face(n_triangles: int | None = None, *, skin=None, skull=None, layout=None,
               landmarks=None) -> FaceModel:
     """The built-in anatomy-based face, ready to evaluate.
 
     Parameters
     ----------
-    n_triangles : int, default 4500
-        About how many skin triangles (the paper's model has about 4,500). Finer versions up
-        to about 200,000 have the same shape and the same muscles.
+    n_triangles : int, optional
+        How many skin triangles the built-in skin has, exactly (the paper's model has about
+        4,500), in 500..250,000; the same number always gives the same mesh. Default: the
+        number a ``layout`` records (:attr:`Layout.n_triangles`), else 4,500. Finer
+        versions have the same shape and the same muscles. Ignored for a ``skin`` of your
+        own.
 
     skin : path or TriangleSurface, optional
         A face of your own (OBJ, PLY, STL, VTP, VTK, or what meshio reads); it is
-        triangulated and welded (:func:`~wrinkle_vis.datasets.scans.read_surface`).
+        triangulated, welded and oriented outward
+        (:func:`~wrinkle_vis.datasets.scans.read_surface`,
+        :func:`~wrinkle_vis.datasets.scans.orient_outward`).
     skull : path or TriangleSurface, optional
         Its skull; by default one is offset inwards from the skin by the regional tissue
         depth (with ``landmarks``) or by 2.5 % of the skin's height (without).
@@ -370,10 +458,13 @@ def load_face(n_triangles: int = DEFAULT_TRIANGLES, *, skin=None, skull=None, la
     ``~/.cache/wrinkle-vis``) under a key that changes with the code.
     Licence: the same as wrinkle-vis.
     """
-    n = int(n_triangles)
-    if not (500 <= n <= 250_000):
-        raise ValueError(f"n_triangles = {n} is outside the supported 500..250000")
     lay, base = _as_layout(layout)
+    if n_triangles is None:
+        n_triangles = lay.n_triangles if lay.n_triangles is not None else DEFAULT_TRIANGLES
+    n = int(n_triangles)
+    if not (MIN_TRIANGLES <= n <= MAX_TRIANGLES):
+        raise ValueError(f"n_triangles = {n} is outside the supported "
+                         f"{MIN_TRIANGLES}..{MAX_TRIANGLES}; choose a number in that range")
     if skin is None and lay.skin is not None:
         skin = (base or Path.cwd()) / lay.skin
     if skull is None and lay.skull is not None:
@@ -386,10 +477,13 @@ def load_face(n_triangles: int = DEFAULT_TRIANGLES, *, skin=None, skull=None, la
 
 
 def _surface(value):
-    if value is None or isinstance(value, TriangleSurface):
-        return value
-    from .scans import read_surface
+    """A skin or skull given as a path (read) or a surface, oriented outward."""
+    from .scans import orient_outward, read_surface
 
+    if value is None:
+        return None
+    if isinstance(value, TriangleSurface):
+        return orient_outward(value)
     return read_surface(value)
 
 

@@ -10,8 +10,8 @@ import numpy as np
 from wrinkle_vis.core import Layout, MeshError, TriangleSurface
 from wrinkle_vis.core.mesh import closest_points
 
-__all__ = ["LANDMARKS", "offset_skull", "read_surface", "similarity_transform",
-           "transfer_layout"]
+__all__ = ["LANDMARKS", "offset_skull", "orient_outward", "read_surface",
+           "similarity_transform", "transfer_layout"]
 
 #: The landmarks ``transfer_layout`` understands (L is the subject's left, +x).
 LANDMARKS = ("nasion", "nose_tip", "chin", "eye_inner_L", "eye_inner_R", "eye_outer_L",
@@ -22,25 +22,88 @@ def read_surface(path: str | os.PathLike, *, weld_tolerance: float = 0.0) -> Tri
     """Read a triangle surface from OBJ, PLY, STL, VTP, VTK (PyVista) or what meshio reads.
 
     Polygons are triangulated, duplicate vertices (UV seams) welded, unused vertices dropped
-    and coordinates checked. Boundaries and non-manifold edges are allowed; see
-    ``surface.report()``.
+    and coordinates checked, and the triangles are oriented consistently and outward
+    (:func:`orient_outward`): a scan saved inside out, or with some triangles flipped, would
+    otherwise put the skull outside the skin and push the wrinkles into the face.
+    Boundaries and non-manifold edges are allowed; see ``surface.report()``.
 
     Raises
     ------
     FileNotFoundError
         If there is no such file.
     MeshError
-        If the file holds no triangles or non-finite coordinates, naming the file.
+        If the file holds no triangles or non-finite coordinates, or cannot be oriented
+        consistently, naming the file.
     """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no mesh file at {path}; check the path")
     points, faces = _read_any(path)
     try:
-        surface = TriangleSurface(points, faces).welded(weld_tolerance).cleaned()
+        surface = orient_outward(TriangleSurface(points, faces).welded(weld_tolerance)
+                                 .cleaned())
     except MeshError as exc:
         raise MeshError(f"{path}: {exc}") from None
     return surface
+
+
+def orient_outward(surface: TriangleSurface) -> TriangleSurface:
+    """``surface`` with every connected component oriented consistently and outward.
+
+    Each component is first made consistent (triangles flipped to agree with their
+    neighbours across manifold edges, :meth:`TriangleSurface.oriented`), then turned
+    outward: flipped when its signed volume about its own centroid is negative. For a
+    closed component that is its enclosed volume; for an open scan (a face, a head open at
+    the neck) it is the volume of the cone from the centroid, positive when the normals
+    point away from the middle of the scan. A component too flat to tell (its volume below
+    1e-9 of its bounding box's) keeps its orientation. An outward, consistent surface is
+    returned as it is (the same object).
+
+    Raises
+    ------
+    MeshError
+        If a component cannot be oriented consistently (a non-orientable surface, such as a
+        Moebius strip, or triangles that cross themselves), with the way out.
+    """
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    rep = surface.report()
+    if rep.consistently_oriented:
+        oriented = surface
+    else:
+        oriented = surface.oriented()
+        if not oriented.report().consistently_oriented:
+            raise MeshError(
+                "the triangles cannot be oriented consistently (a non-orientable or "
+                "self-crossing surface); repair the mesh first, e.g. in MeshLab: Filters > "
+                "Normals > Re-Orient all faces coherently")
+    tris = oriented.triangles
+    tri_edges = oriented.triangle_edges
+    counts = np.bincount(tri_edges.ravel(), minlength=len(oriented.edges))
+    slots = np.argsort(tri_edges.ravel(), kind="stable")
+    edge_sorted = tri_edges.ravel()[slots]
+    pair = (edge_sorted[:-1] == edge_sorted[1:]) & (counts[edge_sorted[:-1]] == 2)
+    a, b = slots[:-1][pair] // 3, slots[1:][pair] // 3
+    m = len(tris)
+    graph = csr_matrix((np.ones(len(a)), (a, b)), shape=(m, m))
+    n_comp, comp = connected_components(graph, directed=False)
+    flip = np.zeros(n_comp, bool)
+    for c in range(n_comp):
+        t = tris[comp == c]
+        pts = oriented.points[np.unique(t)]
+        centre = pts.mean(axis=0)
+        p = oriented.points - centre
+        volume = float(np.einsum("ij,ij->", p[t[:, 0]], np.cross(p[t[:, 1]], p[t[:, 2]]))
+                       / 6.0)
+        extent = float(np.prod(np.maximum(np.ptp(pts, axis=0), 1e-300)))
+        flip[c] = volume < -1e-9 * extent
+    if not flip.any():
+        return oriented
+    out = tris.copy()
+    turn = flip[comp]
+    out[turn] = out[turn][:, ::-1]
+    return TriangleSurface(oriented.points, out)
 
 
 def _read_any(path: Path) -> tuple[np.ndarray, np.ndarray]:

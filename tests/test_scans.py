@@ -147,3 +147,90 @@ def test_landmarks_file_is_json_ready():
     layout = wv.load_layout(EXAMPLE)
     assert set(layout.landmarks) == set(wv.datasets.LANDMARKS)
     json.dumps(layout.to_dict())
+
+
+# ---------------------------------------------------------------------- orientation
+def _write_obj(path, points, triangles):
+    lines = [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in points]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in triangles]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def _flipped(triangles, how):
+    t = np.array(triangles)
+    if how == "inside out":
+        return t[:, ::-1]
+    mixed = np.random.default_rng(7).random(len(t)) < 0.4  # 40 % of the triangles flipped
+    t[mixed] = t[mixed][:, ::-1]
+    return t
+
+
+@needs_scans
+@pytest.mark.parametrize("how", ["inside out", "mixed"])
+def test_a_badly_oriented_scan_is_read_facing_outward(tmp_path, how):
+    good = read_surface(HEAD)
+    path = tmp_path / "head.obj"
+    _write_obj(path, good.points, _flipped(good.triangles, how))
+    back = read_surface(path)
+    np.testing.assert_array_equal(back.triangles, good.triangles)
+    assert back.signed_volume() > 0
+
+
+@needs_scans
+@pytest.mark.parametrize("how", ["inside out", "mixed"])
+def test_a_face_on_a_badly_oriented_scan_has_its_skull_inside(tmp_path, how):
+    good = read_surface(HEAD)
+    path = tmp_path / "head.obj"
+    _write_obj(path, good.points, _flipped(good.triangles, how))
+    face = wv.datasets.load_face(skin=path, layout=EXAMPLE)
+    ref = wv.datasets.load_face(skin=HEAD, layout=EXAMPLE)
+    np.testing.assert_array_equal(face.skull.points, ref.skull.points)
+    assert 0 < face.skull.signed_volume() < 0.9 * face.skin.signed_volume()  # inside
+    state, expected = face.evaluate("surprise"), ref.evaluate("surprise")
+    np.testing.assert_array_equal(state.points, expected.points)  # wrinkles push outward
+
+
+@pytest.mark.parametrize("how", ["inside out", "mixed"])
+def test_an_open_scan_is_turned_outward(how):
+    """The built-in skin is open (a mask): outward means away from its middle."""
+    from wrinkle_vis.datasets.scans import orient_outward
+
+    skin = wv.datasets.load_face().skin
+    bad = wv.TriangleSurface(skin.points, _flipped(skin.triangles, how))
+    np.testing.assert_array_equal(orient_outward(bad).triangles, skin.triangles)
+    assert orient_outward(skin) is skin
+
+
+def test_each_component_is_turned_outward_on_its_own():
+    from meshes import sphere
+
+    from wrinkle_vis.datasets.scans import orient_outward
+
+    a, b = sphere(2), sphere(2)
+    pts = np.vstack([a.points, b.points + [5.0, 0, 0]])
+    tri = np.vstack([a.triangles, b.triangles[:, ::-1] + a.n_points])  # the second inside out
+    out = orient_outward(wv.TriangleSurface(pts, tri))
+    np.testing.assert_array_equal(out.triangles[len(a.triangles):],
+                                  b.triangles + a.n_points)
+    np.testing.assert_array_equal(out.triangles[:len(a.triangles)], a.triangles)
+
+
+def test_a_non_orientable_scan_is_refused_with_the_way_out(tmp_path):
+    n = 24  # a Moebius strip
+    t = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    pts = []
+    for s in (-1.0, 1.0):
+        r = 10 + 2 * s * np.cos(t / 2)
+        pts.append(np.c_[r * np.cos(t), r * np.sin(t), 2 * s * np.sin(t / 2)])
+    pts = np.vstack(pts)
+    tris = []
+    for i in range(n):
+        j = (i + 1) % n
+        a, b = i, n + i  # the strip's two sides at i
+        c, d = (j, n + j) if j else (n, 0)  # the twist swaps them at the seam
+        tris += [(a, c, b), (b, c, d)]
+    path = tmp_path / "moebius.obj"
+    _write_obj(path, pts, tris)
+    with pytest.raises(wv.MeshError, match="moebius.obj: the triangles cannot be oriented "
+                                           "consistently.*Re-Orient all faces coherently"):
+        read_surface(path)
