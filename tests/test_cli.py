@@ -1,8 +1,15 @@
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import imageio.v3 as iio
 import numpy as np
 import pytest
 import pyvista as pv
 
+import wrinkle_vis as wv
 from wrinkle_vis.cli import main
 
 
@@ -93,3 +100,212 @@ def test_help_reads_well(capsys):
     out = capsys.readouterr().out
     for cmd in ("summary", "render", "export", "animate"):
         assert cmd in out
+
+
+# ---------------------------------------------------------------------- one-line errors
+CLI = Path(sys.executable).with_name("wrinkle-vis")
+
+
+def _layouts(folder: Path) -> None:
+    """Broken layout files, named by what is wrong with them."""
+    good = json.loads(wv.datasets.BUILTIN_LAYOUT.read_text())
+    (folder / "badjson.json").write_text('{"format": "wrinkle-vis-layout",')
+    (folder / "latin1.json").write_bytes(json.dumps(good).encode()[:40] + b"caf\xe9\n}")
+    (folder / "deep.json").write_text("[" * 100_000 + "]" * 100_000)
+    (folder / "format.json").write_text('{"format": "x"}')
+    (folder / "noskin.json").write_text(json.dumps({**good, "skin": "scans/missing.obj"}))
+    (folder / "noskull.json").write_text(json.dumps({**good, "skull": "missing.obj"}))
+    (folder / "long.json").write_text(json.dumps({**good, "expressions": {
+        **good["expressions"], "surprise": {**good["expressions"]["surprise"],
+                                            "hold_s": 100_000}}}))
+    (folder / "file.txt").write_text("in the way")
+
+
+BAD_INPUTS = [
+    # (argv, what the one line says)
+    (["render", "-o", "noext"], "--output must end in .png; got 'noext' (e.g. 'noext.png')"),
+    (["render", "-o", "x.jpg"], "--output must end in .png; got 'x.jpg'"),
+    (["render", "-o", "."], "'.' is a folder; give a file name inside it"),
+    (["render", "-o", "missing/x.png"], "folder"),
+    (["render", "-o", "file.txt/x.png"], "is not a folder"),
+    (["render", "--size", "0", "0", "-o", "x.png"], "--size 0 0 is too small"),
+    (["render", "--size", "-5", "100", "-o", "x.png"], "--size -5 100 is too small"),
+    (["render", "--size", "100000", "100000", "-o", "x.png"],
+     "too large (at most 16384 pixels each way"),
+    (["render", "--size", "16384", "16384", "-o", "x.png"], "e.g. 8192 8192"),
+    (["figure", "fig9", "--size", "9000", "9000", "-o", "x.png"], "too large"),
+    (["animate", "--fps", "0", "-o", "x.gif"], "--fps 0 is outside 1..120"),
+    (["animate", "--fps", "-3", "-o", "x.gif"], "--fps -3 is outside 1..120"),
+    (["animate", "--size", "0", "0", "-o", "x.gif"], "too small"),
+    (["animate", "-o", "x"], "--output must end in .gif or .mp4"),
+    (["animate", "--layout", "long.json", "-o", "x.gif"],
+     "1,200,025 frames at 12 fps, more than 10,000; shorten the expression's hold_s in "
+     "the layout (even 1 fps makes 100,003 frames)"),
+    (["summary", "--triangles", "10"], "--triangles 10 is outside 500..250000"),
+    (["export", "--triangles", "300000", "-o", "x.vtp"], "outside 500..250000"),
+    (["export", "-o", "x"], "--output must end in .vtp, .vtk, .ply or .vtm; got 'x'"),
+    (["export", "-o", "file.txt/x.vtp"], "is not a folder"),
+    (["figure", "fig9", "-o", "noext"], "--output must end in .png"),
+    (["summary", "--layout", "badjson.json"], "badjson.json: line 1 column 33: expected valid"),
+    (["summary", "--layout", "latin1.json"], "latin1.json: line 1 (byte 43): expected UTF-8"),
+    (["summary", "--layout", "deep.json"], "deep.json: $: expected JSON nested at most"),
+    (["render", "--layout", "format.json", "-o", "x.png"],
+     "format.json: $.format: expected 'wrinkle-vis-layout'"),
+    (["export", "--layout", "noskin.json", "-o", "x.vtp"],
+     "its skin file"),
+    (["export", "--layout", "noskull.json", "-o", "x.vtp"], "its skull file"),
+]
+
+
+@pytest.mark.parametrize(("argv", "message"), BAD_INPUTS,
+                         ids=[" ".join(a) for a, _ in BAD_INPUTS])
+def test_every_error_is_one_line_with_exit_status_2(argv, message, capsys, tmp_path,
+                                                    monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    _layouts(tmp_path)
+    assert main(argv) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1, err
+    assert err.startswith(f"wrinkle-vis {argv[0]}: ") and message in err
+    assert "Traceback" not in err
+    assert not any(p.suffix in (".png", ".gif", ".vtp") for p in tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("argv", [
+    ["render", "-o", "noext"], ["render", "-o", "x.png", "--size", "5", "5"],
+    ["export", "-o", "."], ["animate", "-o", "missing/x.gif"],
+])
+def test_outputs_are_checked_before_any_work(argv, tmp_path, monkeypatch, capsys):
+    import wrinkle_vis.datasets
+
+    def no_face(*args, **kwargs):
+        raise AssertionError("the face was built before the output was checked")
+
+    monkeypatch.setattr(wrinkle_vis.datasets, "load_face", no_face)
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_layout_errors_in_a_real_process_are_one_line(tmp_path):
+    _layouts(tmp_path)
+    for argv in (["summary", "--layout", "format.json"], ["summary", "--layout", "latin1.json"],
+                 ["summary", "--layout", "deep.json"], ["summary", "--triangles", "10"],
+                 ["render", "--size", "100000", "100000", "-o", "x.png"],
+                 ["summary", "--layout", "file.txt/x.json"], ["export", "-o", "x.stl"]):
+        done = subprocess.run([str(CLI), *argv], cwd=tmp_path, capture_output=True,
+                              text=True, timeout=300)
+        assert done.returncode == 2, (argv, done.stderr)
+        assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr, done.stderr
+
+
+@pytest.mark.parametrize(("name", "message"), [
+    ("latin1.json", "expected UTF-8 text"),
+    ("deep.json", "expected JSON nested at most"),
+    ("badjson.json", "expected valid JSON"),
+])
+def test_unreadable_layouts_raise_layout_error(tmp_path, name, message):
+    _layouts(tmp_path)
+    with pytest.raises(wv.LayoutError, match=message) as info:
+        wv.load_layout(tmp_path / name)
+    assert str(tmp_path / name) in str(info.value)
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["--version"])
+    assert info.value.code == 0
+    assert capsys.readouterr().out.strip() == f"wrinkle-vis {wv.__version__}"
+
+
+def test_render_reports_the_file_it_wrote(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["render", "--size", "64", "48", "-o", "w.png"]) == 0
+    assert capsys.readouterr().out.strip() == "wrote w.png"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["w.png"]
+
+
+def test_export_through_a_link_says_where_it_went(tmp_path, capsys):
+    (tmp_path / "real").mkdir()
+    (tmp_path / "face.vtp").symlink_to(tmp_path / "real" / "face.vtp")
+    assert main(["export", "-o", str(tmp_path / "face.vtp")]) == 0
+    assert f"(through the link, to {tmp_path / 'real' / 'face.vtp'})" in \
+        capsys.readouterr().out
+    assert (tmp_path / "face.vtp").is_symlink() and pv.read(tmp_path / "face.vtp").n_points
+
+
+def _env(**changes):
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY",
+                                                            "QT_QPA_PLATFORM")}
+    env.update(changes)
+    return env
+
+
+@pytest.mark.parametrize("display", [None, ":99"], ids=["no DISPLAY", "unreachable DISPLAY"])
+def test_the_app_without_a_display_says_how_to_work_headless(tmp_path, display):
+    env = _env(**({"DISPLAY": display} if display else {}))
+    done = subprocess.run([str(CLI)], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 2
+    assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr
+    assert "wrinkle-vis render" in done.stderr and "wrinkle-vis summary" in done.stderr
+    assert "xvfb-run" in done.stderr
+
+
+@pytest.mark.parametrize("display", [None, ":99"], ids=["no DISPLAY", "unreachable DISPLAY"])
+def test_a_headless_render_prints_no_x_server_warning(tmp_path, display):
+    env = _env(**({"DISPLAY": display} if display else {}))
+    done = subprocess.run([str(CLI), "render", "--size", "64", "64", "-o", "w.png"],
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "wrote w.png" and done.stderr == ""
+    assert iio.imread(tmp_path / "w.png").shape[:2] == (64, 64)
+
+
+# ---------------------------------------------------------------------- animate
+def test_animate_takes_field_muscle_and_layers(tmp_path):
+    out = tmp_path / "g.gif"
+    assert main(["animate", "-e", "frown", "-f", "gamma", "-m", "corrugator_L", "--layers",
+                 "skin", "muscles", "--fps", "2", "--size", "64", "48", "-o", str(out)]) == 0
+    frames = iio.imread(out, index=None)
+    assert frames.shape == (7, 48, 64, 3)  # 3 s at 2 fps, both ends
+
+
+def test_animate_needs_a_muscle_for_a_per_muscle_field(tmp_path, capsys):
+    assert main(["animate", "-f", "eps", "-o", str(tmp_path / "x.gif")]) == 2
+    assert "belongs to one muscle: add --muscle NAME" in capsys.readouterr().err
+
+
+def test_animate_refuses_absurd_frame_counts_before_rendering(tmp_path, capsys, monkeypatch):
+    import wrinkle_vis.plotting.animation as animation
+
+    _layouts(tmp_path)
+    monkeypatch.setattr(animation, "animation_frames", None)  # never reached
+    assert main(["animate", "--layout", str(tmp_path / "long.json"), "--fps", "1",
+                 "-o", str(tmp_path / "x.gif")]) == 2
+    err = capsys.readouterr().err
+    assert "100,003 frames at 1 fps, more than 10,000" in err and "hold_s" in err
+
+
+def test_frame_times_say_how_far_to_lower_the_fps():
+    from wrinkle_vis.plotting.animation import TooManyFramesError, frame_times
+
+    ex = wv.Expression("long", {}, onset_s=1.0, hold_s=998.0, release_s=1.0)  # 1000 s
+    assert len(frame_times(ex, 9)) == 9001
+    with pytest.raises(TooManyFramesError, match="lower the fps to 9 or less"):
+        frame_times(ex, 12)
+
+
+# ---------------------------------------------------------------------- n_w against the mesh
+def test_undersampled_wrinkles_are_one_warning_line(tmp_path, capsys):
+    out = tmp_path / "f.png"
+    assert main(["render", "-e", "frown", "--size", "64", "64", "-o", str(out)]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1, err  # the two corrugators share a line
+    line = err[0]
+    assert line.startswith("wrinkle-vis render: warning: muscles 'corrugator_L', "
+                           "'corrugator_R': wrinkle half period u = 4.05")
+    assert "median edge length 5.9" in line and "refine the skin" in line
+    assert "lower n_w to 1" in line
+    assert main(["render", "-e", "surprise", "--size", "64", "64", "-o", str(out)]) == 0
+    assert capsys.readouterr().err == ""  # the frontalis' wrinkles are resolved

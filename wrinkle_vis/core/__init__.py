@@ -13,6 +13,7 @@ from .equations import (
 )
 from .expressions import Expression, paper_expressions
 from .face import FIELD_NAMES, FaceModel, FaceState
+from .files import OutputPathError, WriteError
 from .layout import Layout, LayoutError, load_layout, save_layout
 from .mesh import MeshError, MeshReport, TriangleSurface, subdivide
 from .muscle import Muscle, MuscleParameterError, MuscleRegion, waters_radial
@@ -25,6 +26,7 @@ from .registry import (
     muscle_types,
     register_muscle_type,
 )
+from .sampling import UndersampledWrinklesWarning, undersampled_muscles, warn_undersampled
 
 __all__ = [
     "FIELD_NAMES",
@@ -40,9 +42,12 @@ __all__ = [
     "MuscleParameterError",
     "MusclePluginWarning",
     "MuscleRegion",
+    "OutputPathError",
     "SheetMuscle",
     "TriangleSurface",
+    "UndersampledWrinklesWarning",
     "UnknownMuscleTypeError",
+    "WriteError",
     "anisotropy",
     "attenuation",
     "bulge_height",
@@ -60,5 +65,7 @@ __all__ = [
     "save_layout",
     "shape_function",
     "subdivide",
+    "undersampled_muscles",
+    "warn_undersampled",
     "waters_radial",
 ]
