@@ -349,3 +349,16 @@ def test_export_onto_a_full_disk_in_a_real_process(tmp_path):
         assert "no space left on the device" in done.stderr
         assert target.read_bytes() == b"the old export"
         assert _leftovers(small) == [target.name]
+
+
+@pytest.mark.parametrize("argv", [["render", "--size", "32", "32"], ["export"],
+                                  ["animate", "--fps", "1"], ["figure", "fig11"]])
+def test_the_cli_refuses_a_read_only_folder_in_one_line(tmp_path, argv, capsys):
+    suffix = {"render": ".png", "export": ".vtp", "animate": ".gif", "figure": ".png"}
+    with _read_only_folder(tmp_path) as folder:
+        out = folder / f"x{suffix[argv[0]]}"
+        assert main([*argv, "-o", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"--output folder '{folder}'" in err
+        assert "read-only" in err or "not writable" in err
+        assert not out.exists()
