@@ -588,6 +588,18 @@ class FaceModel:
                 face._weighed = True
         return state
 
+    def plot(self, expression="surprise", field: str | None = "W", muscle: str | None = None,
+             *, intensity: float = 1.0, refine: bool = False, **kwargs):
+        """Evaluate ``expression`` (as :meth:`evaluate`) and show its skin coloured by
+        ``field`` (see :meth:`FaceState.plot`).
+
+        A bridge to :func:`wrinkle_vis.plotting.plot_face` (which documents ``kwargs``);
+        needs PyVista.
+        """
+        plotting = importlib.import_module("wrinkle_vis.plotting")
+        return plotting.plot_face(self, expression, field, muscle, intensity=intensity,
+                                  refine=refine, **kwargs)
+
     def _refined(self, marked: np.ndarray) -> FaceModel:
         """The face on this skin refined at ``marked`` triangles, from the root face's
         byte-budgeted cache (:data:`REFINE_CACHE_BYTES`), keyed by every level's marks.
@@ -813,6 +825,17 @@ class FaceState:
         """
         plotting = importlib.import_module("wrinkle_vis.plotting")
         return plotting.to_polydata(self)
+
+    def plot(self, field: str | None = "W", muscle: str | None = None, **kwargs):
+        """Show the skin coloured by ``field`` (of ``muscle``, or the total W; None for
+        plain skin): in a notebook with PyVista's trame backend when it is installed, else
+        as an image; elsewhere in a window, or off screen without a display.
+
+        A bridge to :func:`wrinkle_vis.plotting.plot_state` (which documents ``kwargs``);
+        needs PyVista.
+        """
+        plotting = importlib.import_module("wrinkle_vis.plotting")
+        return plotting.plot_state(self, field, muscle, **kwargs)
 
     def summary(self) -> str:
         """A few lines on the frame: activations and the range of each active field."""

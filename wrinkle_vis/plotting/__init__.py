@@ -2,6 +2,15 @@
 
 from .fields import FIELDS, NAN_COLOR, FieldInfo, field_info, field_range
 from .figures import figure_expressions, figure_refinement
+from .notebook import (
+    FaceExplorer,
+    default_backend,
+    has_display,
+    in_notebook,
+    notebook_plotter,
+    plot_face,
+    plot_state,
+)
 from .polydata import field_array_name, to_polydata, to_surface_polydata
 from .scenes import (
     BONE,
@@ -24,9 +33,10 @@ from .scenes import (
     to_multiblock,
 )
 
-__all__ = ["BONE", "CAMERAS", "FIELDS", "LAYERS", "NAN_COLOR", "SKIN", "FieldInfo",
+__all__ = ["BONE", "CAMERAS", "FIELDS", "LAYERS", "NAN_COLOR", "SKIN", "FaceExplorer", "FieldInfo",
            "add_attachments", "add_muscle", "add_muscles", "add_raking_light", "add_skin",
            "add_skull", "attachment_points", "clear_scene", "field_array_name", "field_info",
            "field_range", "figure_expressions", "figure_refinement",
            "muscle_mesh", "render_field", "replace_mesh", "set_camera", "testing_theme",
-           "to_multiblock", "to_polydata", "to_surface_polydata"]
+           "to_multiblock", "to_polydata", "to_surface_polydata", "default_backend",
+           "has_display", "in_notebook", "notebook_plotter", "plot_face", "plot_state"]
