@@ -20,6 +20,7 @@ import importlib.util
 import io
 import os
 import sys
+from contextlib import nullcontext
 
 import numpy as np
 import pyvista as pv
@@ -40,6 +41,8 @@ TRAME_PACKAGES = ("trame", "trame_vtk", "trame_vuetify", "trame_pyvista", "nest_
 BACKEND_VARIABLE = "WRINKLE_VIS_JUPYTER_BACKEND"
 #: The default view size in pixels (width, height).
 WINDOW_SIZE = (640, 560)
+#: The colour of the triangles' edges (``show_edges``): darker than the skin, not black.
+EDGE_COLOR = "#a0826d"
 
 
 def default_backend() -> str:
@@ -60,10 +63,21 @@ def in_notebook() -> bool:
     return scooby.in_ipykernel()
 
 
+def _offscreen():
+    """:mod:`wrinkle_vis.plotting.offscreen` (display checks, EGL without X), if present."""
+    try:
+        return importlib.import_module("wrinkle_vis.plotting.offscreen")
+    except ImportError:
+        return None
+
+
 def has_display() -> bool:
-    """Whether a native window can open: always on Windows and macOS, else with ``$DISPLAY``
-    or ``$WAYLAND_DISPLAY``.
+    """Whether a native window can open: always on Windows and macOS; on Linux an X display
+    that opens or a Wayland socket (``offscreen.display_available``).
     """
+    offscreen = _offscreen()
+    if offscreen is not None:
+        return offscreen.display_available()
     if sys.platform.startswith(("win", "darwin")):
         return True
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
@@ -72,13 +86,16 @@ def has_display() -> bool:
 def notebook_plotter(window_size=WINDOW_SIZE, *, off_screen: bool | None = None,
                      **kwargs) -> pv.Plotter:
     """A ``pyvista.Plotter`` that is safe here: off screen in a notebook and where there is
-    no display (``off_screen`` forces either way); ``kwargs`` go to the plotter.
+    no display (``off_screen`` forces either way), through EGL when no X display opens;
+    ``kwargs`` go to the plotter.
     """
     notebook = in_notebook()
     if off_screen is None:
         off_screen = notebook or pv.OFF_SCREEN or not has_display()
-    return pv.Plotter(off_screen=off_screen, notebook=notebook,
-                      window_size=list(window_size), **kwargs)
+    offscreen = _offscreen()
+    with offscreen.headless_rendering() if offscreen is not None else nullcontext():
+        return pv.Plotter(off_screen=off_screen, notebook=notebook,
+                          window_size=list(window_size), **kwargs)
 
 
 def _draw(plotter: pv.Plotter, state: FaceState, field, muscle, *, camera, raking_light,
@@ -87,7 +104,8 @@ def _draw(plotter: pv.Plotter, state: FaceState, field, muscle, *, camera, rakin
     if field is None and muscle is not None:
         raise ValueError("plain skin (field=None) shows no muscle's field; give a field")
     clear_scene(plotter)
-    actor = add_skin(plotter, state, field, muscle, show_edges=show_edges)
+    actor = add_skin(plotter, state, field, muscle, show_edges=show_edges,
+                     edge_color=EDGE_COLOR if show_edges else None)
     if field is not None and clim is not None:
         actor.mapper.scalar_range = tuple(clim)
     if (field is None) if raking_light is None else raking_light:
@@ -334,6 +352,7 @@ class FaceExplorer:
 
     def image(self) -> np.ndarray:
         """``(h, w, 3)`` uint8: the view now, rendered off screen."""
+        self.plotter.render()  # screenshot() itself renders only the first image
         return self.plotter.screenshot(return_img=True)
 
     def close(self) -> None:
