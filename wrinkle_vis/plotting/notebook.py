@@ -19,8 +19,6 @@ import base64
 import importlib.util
 import io
 import os
-import sys
-from contextlib import nullcontext
 
 import numpy as np
 import pyvista as pv
@@ -28,6 +26,7 @@ import scooby
 
 from ..core.face import FaceModel, FaceState
 from .fields import FIELDS, field_info, field_range
+from .offscreen import display_available, headless_rendering
 from .polydata import field_array_name, to_surface_polydata
 from .scenes import add_raking_light, add_skin, clear_scene, replace_mesh, set_camera
 
@@ -63,24 +62,11 @@ def in_notebook() -> bool:
     return scooby.in_ipykernel()
 
 
-def _offscreen():
-    """:mod:`wrinkle_vis.plotting.offscreen` (display checks, EGL without X), if present."""
-    try:
-        return importlib.import_module("wrinkle_vis.plotting.offscreen")
-    except ImportError:
-        return None
-
-
 def has_display() -> bool:
-    """Whether a native window can open: always on Windows and macOS; on Linux an X display
-    that opens or a Wayland socket (``offscreen.display_available``).
+    """Whether a native window can open (:func:`~wrinkle_vis.plotting.offscreen.display_available`:
+    always on Windows and macOS; on Linux an X display that opens or a Wayland socket).
     """
-    offscreen = _offscreen()
-    if offscreen is not None:
-        return offscreen.display_available()
-    if sys.platform.startswith(("win", "darwin")):
-        return True
-    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    return display_available()
 
 
 def notebook_plotter(window_size=WINDOW_SIZE, *, off_screen: bool | None = None,
@@ -92,8 +78,7 @@ def notebook_plotter(window_size=WINDOW_SIZE, *, off_screen: bool | None = None,
     notebook = in_notebook()
     if off_screen is None:
         off_screen = notebook or pv.OFF_SCREEN or not has_display()
-    offscreen = _offscreen()
-    with offscreen.headless_rendering() if offscreen is not None else nullcontext():
+    with headless_rendering():
         return pv.Plotter(off_screen=off_screen, notebook=notebook,
                           window_size=list(window_size), **kwargs)
 

@@ -1,0 +1,145 @@
+"""The documentation site: the whole Sphinx build with warnings as errors (in a copy of docs/,
+so nothing is written into the work tree), its gallery, its API reference with the equations
+typeset by the MathJax it serves itself, and no asset from a CDN.
+"""
+
+import asyncio
+import os
+import re
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from browser import Browser
+from browser import chromium as find_chromium
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+SCANS = ROOT.parent / "shared" / "realmeshes"
+EXAMPLES = ("expressions", "fields", "refinement", "real_head", "plugin_muscle", "your_scan")
+PAGES = ("index", "guide", "model", "face", "plugins", "benchmarks", "notebooks",
+         "api/index", "api/equations", "api/face", "api/notebook", "auto_examples/index")
+
+
+def _env(**extra):
+    return {**{k: v for k, v in os.environ.items() if not k.startswith("PYTEST")}, **extra}
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory):
+    """The site built from a copy of docs/ (sphinx-gallery writes its pages into the
+    source tree): (html folder, sphinx's output).
+    """
+    tmp = tmp_path_factory.mktemp("docs")
+    src = tmp / "docs"
+    shutil.copytree(DOCS, src, ignore=shutil.ignore_patterns("_build", "auto_examples",
+                                                             ".ipynb_checkpoints"))
+    html = tmp / "html"
+    done = subprocess.run(
+        [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-b", "html", "-q",
+         "-d", str(tmp / "doctrees"), str(src), str(html)],
+        capture_output=True, text=True, timeout=600, cwd=tmp,
+        env=_env(WRINKLE_VIS_REALMESHES=str(SCANS)))
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-6000:]
+    return html, done.stdout + done.stderr
+
+
+def test_the_site_builds_without_warnings(site):
+    html, output = site
+    assert "WARNING" not in output and "ERROR" not in output, output
+    for page in PAGES:
+        assert (html / f"{page}.html").is_file(), page
+    # the Markdown pages' figures came along
+    assert (html / "_images" / "before_after.png").is_file()
+
+
+def test_the_gallery_shows_every_example(site):
+    html, _ = site
+    index = (html / "auto_examples" / "index.html").read_text()
+    for name in EXAMPLES:
+        page = html / "auto_examples" / f"plot_{name}.html"
+        assert page.is_file() and f"plot_{name}.html" in index, name
+        if name == "real_head" and not (SCANS / "lee_perry_smith_head.obj").is_file():
+            continue
+        pattern = rf'src="(\.\./_images/sphx_glr_plot_{name}_\d+\.png)"'
+        images = re.findall(pattern, page.read_text())
+        assert images, f"the {name} example shows no scene"
+        for image in images:
+            assert (page.parent / image).resolve().stat().st_size > 5000
+
+
+def test_the_api_reference_has_the_equations_and_local_mathjax(site):
+    html, _ = site
+    page = (html / "api" / "equations.html").read_text()
+    for name in ("shape_function", "bulge_height", "anisotropy", "attenuation",
+                 "compression"):
+        assert f'id="wrinkle_vis.core.equations.{name}"' in page
+    assert page.count('class="math') >= 10
+    assert 'src="../_static/mathjax/tex-chtml.js' in page
+    assert (html / "_static" / "mathjax" / "tex-chtml.js").is_file()
+    assert (html / "_static" / "mathjax" / "output" / "chtml" / "fonts" / "woff-v2").is_dir()
+    notebook = (html / "api" / "notebook.html").read_text()
+    for name in ("plot_state", "plot_face", "FaceExplorer", "default_backend"):
+        assert f'id="wrinkle_vis.plotting.notebook.{name}"' in notebook
+    assert 'id="wrinkle_vis.core.face.FaceState.plot"' in (html / "api/face.html").read_text()
+
+
+def test_no_page_loads_anything_from_another_site(site):
+    html, _ = site
+    remote = re.compile(r'<(?:script|link|img)[^>]*(?:src|href)="(?:https?:)?//', re.I)
+    offending = [str(p.relative_to(html)) for p in html.rglob("*.html")
+                 if remote.search(p.read_text())]
+    assert not offending
+
+
+def test_the_real_head_example_skips_without_the_scan(tmp_path):
+    done = subprocess.run([sys.executable, str(DOCS / "gallery" / "plot_real_head.py")],
+                          capture_output=True, text=True, timeout=120, cwd=tmp_path,
+                          env=_env(WRINKLE_VIS_REALMESHES=str(tmp_path),
+                                   PYVISTA_OFF_SCREEN="true"))
+    assert done.returncode == 0, done.stderr
+    assert "The scan is not here" in done.stdout
+
+
+def test_the_equations_are_typeset_in_a_browser_without_network(site):
+    """The built site served from this machine: MathJax typesets the API reference's
+    equations and every resource the page loads comes from the same server.
+    """
+    html, _ = site
+    chromium = find_chromium()
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    server = subprocess.Popen([sys.executable, "-m", "http.server", str(port), "--bind",
+                               "127.0.0.1", "--directory", str(html)],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    for _ in range(100):  # until it listens
+        with socket.socket() as s:
+            if s.connect_ex(("127.0.0.1", port)) == 0:
+                break
+        time.sleep(0.1)
+
+    async def run():
+        async with Browser(chromium) as browser:
+            await browser.goto(f"http://127.0.0.1:{port}/api/equations.html")
+            for _ in range(120):
+                typeset = await browser.evaluate(
+                    "document.querySelectorAll('mjx-container').length")
+                if typeset and typeset >= 10:
+                    break
+                await asyncio.sleep(0.25)
+            assert typeset >= 10, "MathJax did not typeset the equations"
+            elsewhere = await browser.evaluate(
+                "performance.getEntriesByType('resource').map(r => r.name)"
+                f".filter(n => !n.startsWith('http://127.0.0.1:{port}/'))")
+            assert elsewhere == []
+
+    try:
+        asyncio.run(run())
+    finally:
+        server.terminate()
+        server.wait(10)
