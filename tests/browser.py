@@ -27,7 +27,7 @@ def chromium() -> str:
         pytest.skip("no Chromium, and it cannot be installed here (needs root and apt-get): "
                     "apt-get install chromium")
     env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
-    install = ["apt-get", "install", "-y", "-qq", "--no-install-recommends", "chromium"]
+    install = ["apt-get", "install", "-y", "-qq", "chromium"]
     log = ""
     for command in (install, ["apt-get", "update", "-qq"], install):
         try:
