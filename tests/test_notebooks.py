@@ -74,6 +74,15 @@ def test_plot_errors_close_their_plotter(wv_face, no_leaked_plotters):
         plot_state(wv_face)
 
 
+def test_a_static_image_in_a_notebook_closes_its_plotter(wv_face, monkeypatch,
+                                                        no_leaked_plotters):
+    monkeypatch.setattr(nbmod, "in_notebook", lambda: True)
+    shown = []
+    monkeypatch.setattr("IPython.display.display", shown.append)
+    wv_face.plot("frown", "W", jupyter_backend="static", window_size=(160, 120))
+    assert len(shown) == 1 and shown[0].size == (160, 120)  # a PIL image
+
+
 # ---------------------------------------------------------------------- the widget
 @pytest.fixture
 def explorer(wv_face, no_leaked_plotters):

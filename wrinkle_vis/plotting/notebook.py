@@ -147,7 +147,8 @@ def plot_state(state: FaceState, field: str | None = "W", muscle: str | None = N
     -------
     object
         The plotter with ``return_plotter``, else what ``Plotter.show`` returns (None in
-        a notebook, where the view is displayed, unless ``return_viewer`` is given).
+        a notebook, where the view is displayed, unless ``return_viewer`` is given). A
+        static image in a notebook closes its plotter once shown.
     """
     if not isinstance(state, FaceState):
         raise TypeError(f"state must be a FaceState; got {type(state).__name__}")
@@ -160,9 +161,15 @@ def plot_state(state: FaceState, field: str | None = "W", muscle: str | None = N
         raise
     if return_plotter:
         return plotter
-    if plotter.notebook:
-        show_kwargs.setdefault("jupyter_backend", jupyter_backend or default_backend())
-    return plotter.show(**show_kwargs)
+    if not plotter.notebook:
+        return plotter.show(**show_kwargs)
+    backend = show_kwargs.setdefault("jupyter_backend", jupyter_backend or default_backend())
+    if backend != "static" or show_kwargs.get("return_viewer"):
+        return plotter.show(**show_kwargs)  # the view lives on: PyVista keeps the plotter
+    try:  # the image is shown: free the render window (PyVista keeps notebook plotters)
+        return plotter.show(**show_kwargs)
+    finally:
+        plotter.close()
 
 
 def plot_face(face: FaceModel, expression="surprise", field: str | None = "W",
