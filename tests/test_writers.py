@@ -362,3 +362,23 @@ def test_the_cli_refuses_a_read_only_folder_in_one_line(tmp_path, argv, capsys):
         assert err.count("\n") == 1 and f"--output folder '{folder}'" in err
         assert "read-only" in err or "not writable" in err
         assert not out.exists()
+
+
+def test_the_library_renderers_write_their_png_atomically(tmp_path, wv_face):
+    from wrinkle_vis.plotting import figure_expressions, figure_refinement, render_field
+
+    target = tmp_path / "w.png"
+    target.write_bytes(b"old")
+    target.chmod(0o640)
+    image = render_field(wv_face, "surprise", size=(64, 48), filename=target)
+    assert stat.S_IMODE(target.stat().st_mode) == 0o640 and _leftovers(tmp_path) == ["w.png"]
+    import imageio.v3 as iio
+
+    np.testing.assert_array_equal(iio.imread(target)[..., :3], image[..., :3])
+    for call in (lambda p: render_field(wv_face, filename=p),
+                 lambda p: figure_expressions(wv_face, filename=p),
+                 lambda p: figure_refinement(wv_face, p)):
+        with pytest.raises(OutputPathError, match="does not exist"):
+            call(tmp_path / "missing" / "x.png")  # refused before rendering
+        with pytest.raises(OutputPathError, match="unsupported extension '.jpg'"):
+            call(tmp_path / "x.jpg")

@@ -13,6 +13,7 @@ import pyvista as pv
 
 from ..core.face import FaceModel
 from .scenes import add_raking_light, add_skin, set_camera
+from .writers import IMAGE_SUFFIXES, check_target, save_image
 
 __all__ = ["EDGE_COLOR", "PANEL_SIZE", "figure_expressions", "figure_refinement"]
 
@@ -55,7 +56,8 @@ def figure_expressions(face: FaceModel, expressions=("surprise", "frown", "fear"
     expressions : sequence of (str, Expression or mapping)
         What to evaluate, one row each (see :meth:`FaceModel.evaluate`).
     filename : path, optional
-        Where to write the image (PNG, or any format ``Plotter.screenshot`` writes).
+        Where to write the PNG, atomically
+        (:func:`~wrinkle_vis.plotting.writers.save_image`); checked before any work.
     size : (int, int), optional
         Image size in pixels; default :data:`PANEL_SIZE` per panel.
     intensity : float
@@ -77,6 +79,8 @@ def figure_expressions(face: FaceModel, expressions=("surprise", "frown", "fear"
     expressions = list(expressions)
     if not expressions:
         raise ValueError("name at least one expression")
+    if filename is not None:
+        check_target(filename, IMAGE_SUFFIXES)
     states = [face.evaluate(e, intensity, refine=refine) for e in expressions]
     width, height = size or (2 * PANEL_SIZE[0], len(expressions) * PANEL_SIZE[1])
     plotter = pv.Plotter(off_screen=True, shape=(len(expressions), 2), border=False,
@@ -91,10 +95,11 @@ def figure_expressions(face: FaceModel, expressions=("surprise", "frown", "fear"
                 add_raking_light(plotter, elevation_deg, azimuth_deg)
                 _title(plotter, f"{_label(expression)}: {what}", width // 2)
                 set_camera(plotter, camera, face)
-        image = plotter.screenshot(None if filename is None else str(filename),
-                                   return_img=True)
+        image = plotter.screenshot(None, return_img=True)
     finally:
         plotter.close()
+    if filename is not None:
+        save_image(image, filename)
     return image
 
 
@@ -113,7 +118,7 @@ def figure_refinement(face: FaceModel, filename=None, *, expression="surprise",
     face : FaceModel
         The face.
     filename : path, optional
-        Where to write the image.
+        Where to write the PNG, atomically; checked before any work.
     expression : str, Expression or mapping
         What to evaluate (the paper shows surprise).
     size : (int, int)
@@ -132,6 +137,8 @@ def figure_refinement(face: FaceModel, filename=None, *, expression="surprise",
     (h, w, 3) uint8 ndarray
         The image.
     """
+    if filename is not None:
+        check_target(filename, IMAGE_SUFFIXES)
     state = face.evaluate(expression, intensity, refine=True)
     width, height = size
     plotter = pv.Plotter(off_screen=True, window_size=[int(width), int(height)], theme=theme)
@@ -143,8 +150,9 @@ def figure_refinement(face: FaceModel, filename=None, *, expression="surprise",
         _title(plotter, f"{_label(expression)}, refined: {state.face.skin.n_triangles:,} "
                         f"triangles (from {face.skin.n_triangles:,})", width)
         set_camera(plotter, camera, face)
-        image = plotter.screenshot(None if filename is None else str(filename),
-                                   return_img=True)
+        image = plotter.screenshot(None, return_img=True)
     finally:
         plotter.close()
+    if filename is not None:
+        save_image(image, filename)
     return image

@@ -9,6 +9,7 @@ from ..core.face import FaceModel, FaceState
 from ..core.muscles import LinearMuscle, SheetMuscle
 from .fields import NAN_COLOR, field_info, field_range
 from .polydata import field_array_name, to_polydata, to_surface_polydata
+from .writers import IMAGE_SUFFIXES, check_target, save_image
 
 __all__ = ["BONE", "CAMERAS", "LAYERS", "SKIN", "add_attachments", "add_muscle",
            "add_muscles", "add_raking_light", "add_skin", "add_skull", "attachment_points",
@@ -323,7 +324,8 @@ def render_field(face: FaceModel, expression="surprise", field: str | None = "W"
     size : (int, int)
         Image size in pixels.
     filename : path, optional
-        Where to write the PNG.
+        Where to write the PNG, atomically
+        (:func:`~wrinkle_vis.plotting.writers.save_image`); checked before any work.
     plotter : pyvista.Plotter, optional
         Draw into this plotter (for image tests) instead of a new one; it is not closed.
 
@@ -335,6 +337,8 @@ def render_field(face: FaceModel, expression="surprise", field: str | None = "W"
     unknown = [layer for layer in layers if layer not in LAYERS]
     if unknown or not layers:
         raise ValueError(f"unknown layer(s) {unknown}; choose from {', '.join(LAYERS)}")
+    if filename is not None:
+        check_target(filename, IMAGE_SUFFIXES)
     state = face.evaluate(expression, intensity)
     own = plotter is None
     if own:
@@ -354,8 +358,10 @@ def render_field(face: FaceModel, expression="surprise", field: str | None = "W"
         plotter.add_title(title or f"{label}: {', '.join(what)}",
                           font_size=max(6, round(plotter.window_size[0] / 60)))
         set_camera(plotter, camera, face)
-        image = plotter.screenshot(filename, return_img=True)
+        image = plotter.screenshot(None, return_img=True)
     finally:
         if own:
             plotter.close()
+    if filename is not None:
+        save_image(image, filename)
     return image
