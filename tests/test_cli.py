@@ -65,7 +65,7 @@ def test_animate(tmp_path, suffix):
         (["render", "-f", "eps", "-o", "x.png"], "belongs to one muscle"),
         (["render", "-m", "nose", "-o", "x.png"], "unknown muscle 'nose'"),
         (["render", "-e", "laughing", "-o", "x.png"], "unknown expression 'laughing'"),
-        (["export", "-o", "x.stl"], "must end in .vtp, .vtk, .ply or .vtm"),
+        (["export", "-o", "x.stl"], "must end in .vtp, .vtk, .ply, .vtm or .glb"),
         (["animate", "-o", "x.avi"], "must end in .gif or .mp4"),
     ],
 )
@@ -143,7 +143,7 @@ BAD_INPUTS = [
      "the layout (even 1 fps makes 100,003 frames)"),
     (["summary", "--triangles", "10"], "--triangles 10 is outside 500..250000"),
     (["export", "--triangles", "300000", "-o", "x.vtp"], "outside 500..250000"),
-    (["export", "-o", "x"], "--output must end in .vtp, .vtk, .ply or .vtm; got 'x'"),
+    (["export", "-o", "x"], "--output must end in .vtp, .vtk, .ply, .vtm or .glb; got 'x'"),
     (["export", "-o", "file.txt/x.vtp"], "is not a folder"),
     (["figure", "fig9", "-o", "noext"], "--output must end in .png"),
     (["summary", "--layout", "badjson.json"], "badjson.json: line 1 column 33: expected valid"),

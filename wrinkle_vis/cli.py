@@ -1,4 +1,4 @@
-"""The ``wrinkle-vis`` command: summary, render, export, animate and figure.
+"""The ``wrinkle-vis`` command: summary, render, export, animate, figure and bake.
 
 Every error is one line on stderr that names the problem and the way out, with exit status
 2 and no traceback; outputs are checked (extension, folder) before any work and written
@@ -30,6 +30,8 @@ MAX_PIXELS = 16384
 MAX_AREA = 8192 * 8192
 _SIZES = f"{MIN_PIXELS} to {MAX_PIXELS} a side, 8192 by 8192 in all"
 MAX_FPS = 120
+#: The most texels of padding ``bake`` puts around a UV island.
+MAX_PADDING = 256
 
 
 class CliError(Exception):
@@ -86,11 +88,25 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--output", "-o", type=Path, required=True,
                    help="the PNG to write (must end in .png)")
 
-    p = sub.add_parser("export", help="write the skin with every field as point arrays")
+    p = sub.add_parser("export", help="write the skin with every field as point arrays, "
+                                      "the ramp as a time series, or glTF morph targets")
     _common(p)
+    p.set_defaults(expression=None)  # .glb: every expression; otherwise surprise
+    p.add_argument("--sequence", action="store_true",
+                   help="write the expression's onset, hold and release, one frame every "
+                        "1/fps s: NAME.pvd (ParaView time series, frames in NAME/), "
+                        "NAME_####.obj or NAME_####.ply (one numbered file per frame)")
+    p.add_argument("--fps", type=int, default=None,
+                   help=f"frames per second of --sequence (1 to {MAX_FPS}; default 12; at "
+                        f"most {_max_frames():,} frames in all)")
+    p.add_argument("--unit", choices=("mm", "cm", "m", "in"), default=None,
+                   help="the unit of the face's lengths, for .glb (metres): default the "
+                        "face's, mm for the built-in face")
     p.add_argument("--output", "-o", type=Path, required=True,
-                   help="a .vtp (ParaView), .vtk or .ply file for the skin, or .vtm for "
-                        "skin, skull and muscles")
+                   help="a .vtp (ParaView), .vtk or .ply file for the skin, .vtm for "
+                        "skin, skull and muscles, or .glb (glTF: the neutral skin with one "
+                        "morph target per expression, or per --expression); with --sequence "
+                        "NAME.pvd, NAME_####.obj or NAME_####.ply")
 
     p = sub.add_parser("animate", help="render the expression's ramp to a GIF or MP4",
                        description="Render the expression's onset, hold and release, frame "
@@ -125,6 +141,33 @@ def _parser() -> argparse.ArgumentParser:
                    help=f"image size in pixels ({_SIZES}; "
                         "default: 880 by 400 per row for fig9, 800 by 800 for fig11)")
     p.add_argument("--output", "-o", type=Path, required=True, help="the PNG to write")
+
+    p = sub.add_parser(
+        "bake", help="bake W, a normal map and field colour maps into textures (a skin "
+                     "with UVs)",
+        description="For a skin with UV coordinates (an OBJ with vt, e.g. the Lee "
+                    "Perry-Smith head): W as a 16-bit displacement map with its scale and "
+                    "offset in displacement.json, a tangent-space normal map of the "
+                    "wrinkles, and each --field as a colour map, padded across UV seams. "
+                    "W sampled back at the texel centres is reported.")
+    _common(p)
+    p.add_argument("--skin", type=Path,
+                   help="the skin: an OBJ with UV coordinates (default: the layout's skin)")
+    p.add_argument("--field", "-f", action="append", choices=FIELD_CHOICES[:-1],
+                   help="a field to bake as a colour map (repeatable; default W)")
+    p.add_argument("--muscle", "-m", help="whose fields (default: the total, W only)")
+    p.add_argument("--size", type=int, nargs=2, default=(1024, 1024), metavar=("W", "H"),
+                   help=f"map size in texels ({_SIZES}; default 1024 1024)")
+    p.add_argument("--unit", choices=("mm", "cm", "m", "in"), default=None,
+                   help="the unit of the face's lengths, recorded with the maps: default "
+                        "the face's, mm for the built-in face (the Lee Perry-Smith head is "
+                        "in m)")
+    p.add_argument("--padding", type=int, default=8,
+                   help=f"texels of padding around each UV island (0 to {MAX_PADDING}; "
+                        "default 8)")
+    p.add_argument("--output", "-o", type=Path, required=True,
+                   help="the folder for the maps (made, or replaced whole if it holds only "
+                        "maps)")
     return parser
 
 
@@ -202,6 +245,7 @@ def _wrote(args, written) -> str:
 
 def _load(args, *, refine: bool = False):
     from wrinkle_vis.core.layout import load_layout
+    from wrinkle_vis.core.mesh import MeshError
     from wrinkle_vis.datasets import load_face
 
     layout = None
@@ -214,12 +258,19 @@ def _load(args, *, refine: bool = False):
                     f"--layout {args.layout}: its {key} file {str(path)!r} does not exist; "
                     f"fix \"{key}\" in the layout (a path relative to the layout's folder, "
                     "or null for the built-in face)")
+    meshes = _layout_meshes(layout, args.layout)
+    skin = getattr(args, "skin", None)
+    if skin is not None:
+        meshes["skin"] = skin
     try:
-        face = load_face(args.triangles, layout=layout, **_layout_meshes(layout, args.layout))
+        face = load_face(args.triangles, layout=layout, **meshes)
     except ValueError as exc:  # a face the layout's meshes and landmarks cannot make
-        if args.layout is None:
+        if args.layout is None and skin is None:
             raise
-        raise CliError(f"--layout {args.layout}: {exc}") from None
+        if isinstance(exc, MeshError):  # names its file
+            raise
+        raise CliError(f"--{'layout' if args.layout else 'skin'} "
+                       f"{args.layout or skin}: {exc}") from None
     names = getattr(args, "expression", None)
     for name in names if isinstance(names, list) else [names] if names else []:
         if name not in face.expressions:
@@ -312,9 +363,24 @@ def _render(args) -> int:
 
 
 def _export(args) -> int:
+    from wrinkle_vis.plotting.exchange import GLTF_SUFFIXES
     from wrinkle_vis.plotting.writers import MESH_SUFFIXES, save_mesh
 
-    _output(args, MESH_SUFFIXES)
+    suffix = args.output.suffix.lower()
+    if args.sequence:
+        return _export_sequence(args)
+    if suffix in (".pvd", ".obj"):
+        raise CliError(f"--output {args.output.name!r}: {suffix} is written as a sequence of "
+                       "the expression's ramp; add --sequence")
+    if args.fps is not None:
+        raise CliError("--fps is the frame rate of --sequence; add --sequence or leave "
+                       "--fps out")
+    _output(args, MESH_SUFFIXES + GLTF_SUFFIXES)
+    if suffix == ".glb":
+        return _export_gltf(args)
+    if args.unit is not None:
+        raise CliError("--unit is for .glb output (glTF is in metres); leave it out")
+    args.expression = args.expression or "surprise"
     face = _load(args)
     state = face.evaluate(args.expression, args.intensity)
     if args.output.suffix.lower() == ".vtm":
@@ -324,6 +390,113 @@ def _export(args) -> int:
     else:
         written = save_mesh(state.to_polydata(), args.output)
     print(f"wrote {_wrote(args, written)}: {written.summary}")
+    return 0
+
+
+def _export_sequence(args) -> int:
+    from tqdm import tqdm
+
+    from wrinkle_vis.core.files import OutputPathError
+    from wrinkle_vis.plotting.animation import frame_times
+    from wrinkle_vis.plotting.exchange import (
+        SEQUENCE_SUFFIXES,
+        check_sequence_target,
+        save_sequence,
+        sequence_states,
+    )
+
+    _output(args, SEQUENCE_SUFFIXES)
+    try:
+        check_sequence_target(args.output)
+    except OutputPathError as exc:
+        raise CliError(f"--output {exc}") from None
+    if args.unit is not None:
+        raise CliError("--unit is for .glb output (glTF is in metres); leave it out")
+    args.expression = args.expression or "surprise"
+    face = _load(args)
+    expression = face.expressions[args.expression]
+    try:
+        times = frame_times(expression, args.fps or 12)
+    except ValueError as exc:
+        raise CliError(str(exc)) from None
+    states = sequence_states(face, expression, times, args.intensity)
+    progress = tqdm(states, total=len(times), desc=f"writing {args.output.name}",
+                    unit="frame", delay=0.5)
+    try:
+        written = save_sequence(progress, times, args.output)
+    finally:
+        progress.close()
+        states.close()
+    print(f"wrote {_wrote(args, written)}: {written.summary}")
+    return 0
+
+
+def _export_gltf(args) -> int:
+    from functools import partial
+
+    from tqdm import tqdm
+
+    from wrinkle_vis.plotting.exchange import METRES_PER_UNIT, face_unit, save_gltf
+
+    if args.intensity != 1.0:
+        raise CliError(f"--intensity {args.intensity:g}: a .glb holds each expression at "
+                       "full intensity (the morph target's weight is the intensity); leave "
+                       "--intensity out")
+    face = _load(args)
+    unit = args.unit or face_unit(face)
+    if unit not in METRES_PER_UNIT:
+        raise CliError(f"the face's unit {unit!r} is not one glTF can be scaled from; give "
+                       f"it with --unit ({', '.join(METRES_PER_UNIT)})")
+    names = [args.expression] if args.expression else list(face.expressions)
+    progress = partial(tqdm, desc=f"writing {args.output.name}", unit="expression",
+                       delay=0.5)
+    written = save_gltf(face, args.output, names, unit=unit, progress=progress)
+    print(f"wrote {_wrote(args, written)}: {written.summary}")
+    return 0
+
+
+def _bake(args) -> int:
+    from functools import partial
+
+    from tqdm import tqdm
+
+    from wrinkle_vis.core.files import OutputPathError
+    from wrinkle_vis.plotting.bake import bake_maps, check_bake_folder, read_obj_uvs, save_bake
+    from wrinkle_vis.plotting.exchange import face_unit
+
+    try:
+        check_bake_folder(args.output)
+    except OutputPathError as exc:
+        raise CliError(f"--output {exc}") from None
+    if not 0 <= args.padding <= MAX_PADDING:
+        raise CliError(f"--padding {args.padding} is outside 0..{MAX_PADDING}; choose a "
+                       "number of texels in that range (default 8)")
+    if args.skin is not None and not args.skin.is_file():
+        what = "is a folder, not a file" if args.skin.is_dir() else "no such file"
+        raise CliError(f"--skin {args.skin}: {what}; check the path")
+    fields = args.field or ["W"]
+    for name in fields:
+        if name != "W" and args.muscle is None:
+            raise CliError(f"--field {name} belongs to one muscle: add --muscle NAME")
+    source = args.skin
+    if source is None and args.layout is not None:
+        from wrinkle_vis.core.layout import load_layout
+
+        source = load_layout(args.layout).resolve("skin", args.layout.parent)
+    if source is None:
+        raise CliError("the built-in face has no UV coordinates; give a skin with UVs: "
+                       "--skin head.obj (an OBJ with vt), with --layout for its muscles")
+    face = _load(args)
+    uvs = read_obj_uvs(source, face.skin)
+    state = face.evaluate(args.expression, args.intensity)
+    progress = partial(tqdm, desc=f"baking {args.output.name}", unit="step", delay=0.5)
+    maps = bake_maps(state, uvs, tuple(args.size), fields=[(f, args.muscle) for f in fields],
+                     padding=args.padding, unit=args.unit or face_unit(face),
+                     progress=progress,
+                     info={"expression": args.expression, "intensity": args.intensity})
+    written = save_bake(maps, args.output)
+    print(f"wrote {args.output}: {written.summary}; W sampled back at the texel centres "
+          f"within {100 * maps.check['texel_centres_max']:.3g} % of its range")
     return 0
 
 
@@ -401,7 +574,7 @@ def _app(parser) -> int:
 
 
 COMMANDS = {"summary": _summary, "render": _render, "export": _export, "animate": _animate,
-            "figure": _figure}
+            "figure": _figure, "bake": _bake}
 
 
 def main(argv=None) -> int:

@@ -303,7 +303,6 @@ def _save_multiblock(blocks: pv.MultiBlock, real: Path) -> Written:
         work = Path(tempfile.mkdtemp(prefix=f".{stem}.", suffix=".tmp", dir=real.parent))
     except OSError as exc:
         raise write_error(real, exc) from exc
-    old = None
     try:
         try:
             (work / stem).mkdir()
@@ -318,23 +317,46 @@ def _save_multiblock(blocks: pv.MultiBlock, real: Path) -> Written:
                              "back; nothing was changed there")
         try:
             replace_permissions(work / real.name, real)
-            os.chmod(work / stem, folder.stat().st_mode & 0o7777 if folder.is_dir()
-                     else 0o777 & ~umask())
-            if folder.is_dir():
-                old = Path(tempfile.mkdtemp(prefix=f".{stem}.old.", dir=real.parent))
-                os.rename(folder, old / stem)
-            os.rename(work / stem, folder)
-            os.replace(work / real.name, real)
+            replace_folder(work / stem, folder,
+                           then=lambda: os.replace(work / real.name, real))
         except OSError as exc:
-            if old is not None and not folder.exists():  # put the old pieces back
-                os.rename(old / stem, folder)
             raise write_error(real, exc) from exc
     finally:
         shutil.rmtree(work, ignore_errors=True)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
     names = [blocks.get_block_name(i) for i in range(len(blocks))]
     return Written(real, f"{', '.join(names)} ({len(pieces)} pieces in {folder.name}/)")
+
+
+def replace_folder(new: Path, folder: Path, then=None) -> None:
+    """Rename the folder ``new`` to ``folder``, replacing an old ``folder`` whole, then run
+    ``then()`` (e.g. the index file's :func:`os.replace`).
+
+    ``new`` gets the old folder's permissions (or the umask's for a new one). The old folder
+    is moved aside (a hidden folder beside it) until the new one is in place, put back if
+    a rename fails, and removed at the end. ``new`` must lie on the same file system.
+
+    Raises
+    ------
+    OSError
+        If a rename failed; ``folder`` is then as it was, unless ``then()`` failed after
+        the new folder was in place.
+    """
+    old = None
+    try:
+        os.chmod(new, folder.stat().st_mode & 0o7777 if folder.is_dir() else 0o777 & ~umask())
+        if folder.is_dir():
+            old = Path(tempfile.mkdtemp(prefix=f".{folder.name}.old.", dir=folder.parent))
+            os.rename(folder, old / folder.name)
+        os.rename(new, folder)
+        if then is not None:
+            then()
+    except OSError:
+        if old is not None and not folder.exists():  # put the old folder back
+            os.rename(old / folder.name, folder)
+        raise
+    finally:
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
 
 
 def _write_synced(path: Path, data: bytes) -> None:
