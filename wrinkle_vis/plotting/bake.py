@@ -52,7 +52,7 @@ from .writers import Written, _write_synced, replace_folder
 
 __all__ = ["BAKE_FILE", "BakedMaps", "UVError", "UVRaster", "bake_maps", "check_bake_folder",
            "decode_displacement", "read_obj_uvs", "sample_bilinear", "save_bake",
-           "uv_raster"]
+           "tangent_space_normals", "uv_raster"]
 
 #: The names of the files :func:`save_bake` writes (a folder holding others is refused).
 BAKE_FILE = re.compile(r"(displacement|normal|field_[^/\\]+)\.(png|json)")
@@ -345,9 +345,36 @@ def _corner_tangents(points: np.ndarray, triangles: np.ndarray,
     return sums[0], sums[1]
 
 
-def _tangent_normals(raster: UVRaster, triangles, corner_t, corner_b, base_normals,
-                     final_normals, chunk: int = 1 << 20) -> np.ndarray:
-    """``(k, 3)``: the final normals in the tangent frames of the base surface."""
+def tangent_space_normals(raster: UVRaster, points: np.ndarray, triangles: np.ndarray,
+                          corner_uvs: np.ndarray, base_normals: np.ndarray,
+                          final_normals: np.ndarray, chunk: int = 1 << 20) -> np.ndarray:
+    r"""``(k, 3)``: unit ``final_normals`` in the tangent frames of a base surface, at the
+    texels of ``raster``.
+
+    Parameters
+    ----------
+    raster : UVRaster
+        The texels (:func:`uv_raster`).
+    points : (n, 3) float
+        The base surface (the one the map will be applied to).
+    triangles : (m, 3) int
+        Its triangles.
+    corner_uvs : (m, 3, 2) float
+        Their UVs.
+    base_normals, final_normals : (n, 3) float
+        Vertex normals of the base surface and of the detailed one.
+
+    Notes
+    -----
+    At a texel, :math:`N` is the interpolated base normal, :math:`T` the interpolated
+    direction of +u (area-weighted over the triangles that share the corner's vertex and
+    UV) made orthogonal to :math:`N`, and :math:`B = \pm N \times T`, the sign that of +v
+    (so mirrored islands work). The result is
+    :math:`(f \cdot T, f \cdot B, f \cdot N)` for the interpolated unit final normal
+    :math:`f`: OpenGL's convention, green up.
+    """
+    corner_t, corner_b = _corner_tangents(np.asarray(points, float), triangles,
+                                          np.asarray(corner_uvs, float))
     out = np.empty((len(raster.texel), 3))
     for s in range(0, len(raster.texel), chunk):
         part = UVRaster(raster.shape, raster.texel[s:s + chunk],
@@ -455,9 +482,8 @@ def bake_maps(state: FaceState, corner_uvs: np.ndarray, size: tuple[int, int] = 
     def normal():
         r = holder["r"]
         deformed = np.asarray(state.deformed_points, float)
-        corner_t, corner_b = _corner_tangents(deformed, tris, corner_uvs)
-        base_n = skin.vertex_normals(deformed)
-        ts = _tangent_normals(r, tris, corner_t, corner_b, base_n, np.asarray(state.normals))
+        ts = tangent_space_normals(r, deformed, tris, corner_uvs,
+                                   skin.vertex_normals(deformed), np.asarray(state.normals))
         rgb = np.clip(np.round((ts + 1.0) * 127.5), 0, 255).astype(np.uint8)
         out.images["normal.png"] = r.image(rgb, np.array([128, 128, 255], np.uint8))
         out.sidecars["normal.json"] = {
