@@ -24,6 +24,21 @@ __all__ = ["display_available", "headless_rendering", "x_display_reachable"]
 VTK_WINDOW_VARIABLE = "VTK_DEFAULT_OPENGL_WINDOW"
 
 
+def _quietly(call, *args):
+    """``call(*args)`` with the process's standard error (file descriptor 2) silenced, so a
+    C library's own messages (Xlib's "Authorization required, ...") do not reach the user.
+    """
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 2)
+            return call(*args)
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
 @functools.lru_cache(maxsize=8)
 def _x_reachable(display: str) -> bool:
     name = ctypes.util.find_library("X11") or "libX11.so.6"
@@ -34,7 +49,7 @@ def _x_reachable(display: str) -> bool:
     xlib.XOpenDisplay.restype = ctypes.c_void_p
     xlib.XOpenDisplay.argtypes = [ctypes.c_char_p]
     xlib.XCloseDisplay.argtypes = [ctypes.c_void_p]
-    handle = xlib.XOpenDisplay(display.encode())
+    handle = _quietly(xlib.XOpenDisplay, display.encode())  # Xlib prints its refusals
     if not handle:
         return False
     xlib.XCloseDisplay(handle)
