@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import os
 import time
 from pathlib import Path
 
@@ -13,8 +14,10 @@ from ..core.face import FIELD_NAMES, FaceModel, FaceState
 from ..core.layout import Layout, load_layout, save_layout
 from ..core.muscle import OPTIONS as MUSCLE_OPTIONS
 from ..core.registry import get_muscle_type
+from ..core.units import face_unit
+from ..plotting.fields import field_info, field_range
 
-__all__ = ["EDITABLE", "OPTIONS", "Session"]
+__all__ = ["EDITABLE", "OPTIONS", "Session", "load_session"]
 
 #: Numeric parameters the parameter panel edits, by muscle type: (name, label, step).
 EDITABLE = {
@@ -40,17 +43,32 @@ OPTIONS = (
 class Session:
     """The face, the expression and time, the field on display, and the open layout file.
 
+    The session holds its layout in memory: the file is read once (here, unless ``layout``
+    is given) and only written after that, so a file deleted, truncated or replaced on disk
+    while the user works changes nothing in the session, and Save writes what it shows.
+
     Parameters
     ----------
     face : FaceModel
         The face to show.
     layout_path : path, optional
         The file the face's layout came from (where Save writes).
+    layout : Layout, optional
+        That file's layout, already read (default: read ``layout_path`` now, or an empty
+        layout for the built-in face).
+    folder : path, optional
+        Where the layout's relative mesh paths start (default: ``layout_path``'s folder).
     """
 
-    def __init__(self, face: FaceModel, layout_path: str | Path | None = None):
+    def __init__(self, face: FaceModel, layout_path: str | Path | None = None, *,
+                 layout: Layout | None = None, folder: str | Path | None = None):
         self.face = face
         self.layout_path = Path(layout_path) if layout_path else None
+        if layout is None and self.layout_path is not None:
+            layout = load_layout(self.layout_path)  # the only read of the file
+        self._layout = layout if layout is not None else Layout()
+        self.folder = Path(folder) if folder else (
+            self.layout_path.parent if self.layout_path else None)
         self.expression = "surprise" if "surprise" in face.expressions else next(
             iter(face.expressions))
         self.intensity = 1.0
@@ -59,6 +77,7 @@ class Session:
         self.muscle: str | None = None  # None: the total
         self.refine = False  # adaptive refinement (paper Fig. 11)
         self.overrides: dict[str, float] = {}  # activations set by hand, over the expression
+        self.fixed_range: tuple[float, float] | None = None  # colour range (None: automatic)
         self.dirty = False
         self.frame_ms = 0.0  # how long the last evaluation took
         self._state: FaceState | None = None
@@ -131,6 +150,52 @@ class Session:
             self.face.muscle(muscle)
         self.field, self.muscle = field, muscle
 
+    @property
+    def unit(self) -> str:
+        """The unit of the face's lengths (:func:`~wrinkle_vis.core.units.face_unit`)."""
+        return face_unit(self.face)
+
+    def field_values(self, state: FaceState | None = None) -> np.ndarray:
+        """``(n,)``: the field on display in ``state`` (default :meth:`state`)."""
+        state = self.state() if state is None else state
+        return state.W if self.muscle is None else state.fields[self.muscle][self.field]
+
+    def set_fixed_range(self, lo_hi: tuple[float, float] | None) -> None:
+        """Fix the colour range to ``(lo, hi)`` with ``lo < hi`` (None: automatic)."""
+        if lo_hi is not None:
+            lo, hi = map(float, lo_hi)
+            if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+                raise ValueError(f"colour range [{lo:g}, {hi:g}]: min must be below max")
+            lo_hi = (lo, hi)
+        self.fixed_range = lo_hi
+
+    def colour_range(self, state: FaceState | None = None) -> tuple[float, float]:
+        """The colour range of the field on display: the fixed one, else the frame's own
+        (:func:`~wrinkle_vis.plotting.field_range`).
+        """
+        if self.fixed_range is not None:
+            return self.fixed_range
+        return field_range(field_info(self.field), self.field_values(state))
+
+    def ramp_range(self, samples: int = 9) -> tuple[float, float]:
+        """The colour range that holds the field over the whole ramp of the expression (at
+        the current intensity, without refinement): the union of ``samples`` frames of the
+        onset and the peak. The release mirrors the onset.
+        """
+        if self.fixed_range is not None:
+            return self.fixed_range
+        info = field_info(self.field)
+        if info.limits is not None:
+            return info.limits
+        ex = self.face.expressions[self.expression]
+        lo, hi = np.inf, -np.inf
+        for t in (*np.linspace(0.0, ex.onset_s, samples)[1:], ex.onset_s + 0.5 * ex.hold_s):
+            acts = {**ex.at(float(t), self.intensity), **self.overrides}
+            state = self.face.evaluate(acts)
+            a, b = field_range(info, self.field_values(state))
+            lo, hi = min(lo, a), max(hi, b)
+        return (lo, hi)
+
     # ------------------------------------------------------------------ editing
     # The ``*ed`` methods build the edited face and change nothing, so that the app can
     # wrap each edit in an undoable command; :meth:`set_face` shows one.
@@ -150,6 +215,21 @@ class Session:
     def with_parameter(self, muscle: str, param: str, value) -> FaceModel:
         """The face with one parameter of a muscle changed (raises if invalid)."""
         return self.face.with_muscle(self.face.muscle(muscle).replace(**{param: value}))
+
+    def with_activation(self, muscle: str, value: float) -> FaceModel:
+        """The face with ``muscle``'s peak activation in the current expression set to
+        ``value`` in ``[0, 1]`` (0 takes it out): an edit of the layout, so a muscle can
+        join an expression or leave it.
+        """
+        self.face.muscle(muscle)
+        ex = self.face.expressions[self.expression]
+        acts = dict(ex.activations)
+        if value:
+            acts[muscle] = float(value)
+        else:
+            acts.pop(muscle, None)
+        new = dataclasses.replace(ex, activations=acts)  # validates [0, 1]
+        return self.face.with_expressions({**self.face.expressions, self.expression: new})
 
     def renamed(self, muscle: str, new_name: str) -> FaceModel:
         """The face with ``muscle`` called ``new_name`` (in the expressions too)."""
@@ -245,18 +325,69 @@ class Session:
         return out
 
     # ------------------------------------------------------------------ files
-    def layout(self) -> Layout:
-        """The current muscles and expressions as a :class:`Layout`."""
-        base = load_layout(self.layout_path) if self.layout_path else Layout()
-        return dataclasses.replace(base, name=self.face.name, muscles=self.face.muscles,
-                                   expressions=self.face.expressions,
-                                   landmarks=self.face.landmarks or base.landmarks)
+    def layout(self, folder: str | Path | None = ...) -> Layout:
+        """The current muscles and expressions as a :class:`Layout`, from the layout held
+        in memory (the file is not read again). ``folder``: where its relative mesh paths
+        should start (default: where they start now; None: absolute paths).
+        """
+        base = self._layout
+        extra = {"n_triangles": self.face.skin.n_triangles} if base.skin is None else {}
+        layout = dataclasses.replace(base, name=self.face.name, muscles=self.face.muscles,
+                                     expressions=self.face.expressions,
+                                     landmarks=self.face.landmarks or base.landmarks,
+                                     **extra)
+        return layout if folder is ... else self._relocated(layout, folder)
+
+    def _relocated(self, layout: Layout, folder: str | Path | None) -> Layout:
+        """``layout`` with its relative mesh paths rewritten to start at ``folder`` (None:
+        absolute).
+        """
+        if self.folder is None:
+            return layout
+        here = self.folder.resolve()
+        there = Path(folder).resolve() if folder is not None else None
+        if there == here:
+            return layout
+        moved = {}
+        for key in ("skin", "skull"):
+            value = getattr(layout, key)
+            if value is None or Path(value).is_absolute():
+                continue
+            target = (here / value).resolve()
+            try:
+                moved[key] = str(target) if there is None else os.path.relpath(target, there)
+            except ValueError:  # another drive
+                moved[key] = str(target)
+        return dataclasses.replace(layout, **moved) if moved else layout
 
     def save(self, path: str | Path | None = None) -> Path:
-        """Save the layout atomically to ``path`` (default the open file)."""
+        """Save the layout atomically to ``path`` (default the open file); its relative mesh
+        paths are rewritten for the new folder.
+        """
         path = Path(path or self.layout_path or "")
         if not path.name:
             raise ValueError("no file to save to: choose one")
-        save_layout(self.layout(), path)
+        layout = self.layout(path.parent)
+        save_layout(layout, path)
+        self._layout, self.folder = layout, path.parent
         self.layout_path, self.dirty = path, False
         return path
+
+
+def load_session(path: str | Path | None = None, n_triangles: int | None = None) -> Session:
+    """A session on the layout file ``path``, read once (default: the built-in face).
+
+    ``n_triangles``: the built-in skin's resolution when the layout records none (default
+    the loader's). Raises ``FileNotFoundError``, :class:`~wrinkle_vis.core.layout.LayoutError`
+    or ``ValueError`` with the reason.
+    """
+    from wrinkle_vis.datasets import load_face
+
+    if path is None:
+        return Session(load_face(n_triangles))
+    path = Path(path)
+    layout = load_layout(path)
+    n = layout.n_triangles if layout.n_triangles is not None else n_triangles
+    face = load_face(n, layout=layout, skin=layout.resolve("skin", path.parent),
+                     skull=layout.resolve("skull", path.parent))
+    return Session(face, path, layout=layout)
