@@ -3,7 +3,10 @@
 Each running app writes ``recovery-<pid>.json`` in the recovery folder (atomically, through
 :func:`~wrinkle_vis.core.files.atomic_output`, so a kill or a full disk mid-write leaves the
 previous copy) and removes it on a clean exit. A file whose process
-is gone is an orphan: the next start offers to restore it. No Qt here.
+is gone is an orphan: the next start offers each one to restore, discard or keep. No file
+is deleted that the user was not asked about: not the other orphans, and not one that a dead
+process with this process's pid left (a pid comes back, in containers often): that one is
+an orphan too, and set aside before this process writes its own. No Qt here.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from ..core.layout import Layout, LayoutError
 __all__ = ["Recovered", "Recovery", "default_directory"]
 
 VERSION = 1
+_STARTED = time.time()  # a file of our pid older than this was not written by us
 
 
 def default_directory() -> Path:
@@ -58,8 +62,13 @@ class Recovery:
         self.path = self.directory / f"recovery-{os.getpid()}.json"
 
     def save(self, layout: Layout, source: str | Path | None, n_triangles: int) -> Path:
-        """Write the layout to this process's recovery file (atomically)."""
+        """Write the layout to this process's recovery file (atomically); an orphan of a
+        dead process that had this pid is renamed aside first (and offered later).
+        """
         self.directory.mkdir(parents=True, exist_ok=True)
+        if _stale(self.path):
+            self.path.replace(self.path.with_name(
+                f"recovery-{os.getpid()}-{self.path.stat().st_mtime_ns}.json"))
         data = {"wrinkle_vis_recovery": VERSION, "pid": os.getpid(), "saved_at": time.time(),
                 "source": str(source) if source else None, "n_triangles": int(n_triangles),
                 "layout": layout.to_dict()}
@@ -67,8 +76,11 @@ class Recovery:
         return self.path
 
     def discard(self) -> None:
-        """Remove this process's recovery file (a clean exit, or nothing left to recover)."""
-        self.path.unlink(missing_ok=True)
+        """Remove this process's recovery file (a clean exit, or nothing left to recover);
+        an orphan of a dead process that had this pid stays.
+        """
+        if not _stale(self.path):
+            self.path.unlink(missing_ok=True)
 
     def orphans(self) -> list[Path]:
         """Recovery files of processes that are gone, newest first."""
@@ -77,9 +89,12 @@ class Recovery:
         found = []
         for path in self.directory.glob("recovery-*.json"):
             pid = path.stem.removeprefix("recovery-")
-            if path != self.path and not (pid.isdigit() and _alive(int(pid))):
+            if pid == str(os.getpid()):  # ours, or a dead process's with our pid
+                if _stale(path):
+                    found.append(path)
+            elif not (pid.isdigit() and _alive(int(pid))):
                 found.append(path)
-        return sorted(found, key=lambda p: p.stat().st_mtime, reverse=True)
+        return sorted(found, key=_mtime, reverse=True)
 
     @staticmethod
     def load(path: str | Path) -> Recovered:
@@ -105,6 +120,21 @@ class Recovery:
         source = data.get("source")
         return Recovered(path, layout, Path(source) if source else None,
                          int(data.get("n_triangles", 4500)), float(data.get("saved_at", 0)))
+
+
+def _mtime(path: Path) -> float:
+    try:
+        return path.stat().st_mtime
+    except OSError:  # gone meanwhile
+        return 0.0
+
+
+def _stale(path: Path) -> bool:
+    """Whether ``path`` exists and is older than this process (so not this process's)."""
+    try:
+        return path.stat().st_mtime < _STARTED
+    except OSError:
+        return False
 
 
 def _alive(pid: int) -> bool:
