@@ -5,13 +5,21 @@ selected muscle, the skin's triangles, the set of muscles); otherwise it writes 
 into the drawn meshes' VTK arrays, redraws only the muscles that were edited, and moves the
 selected muscle's placement widget. :meth:`LinkedViews.render` then renders the views that
 changed. The app's window and the drag benchmark both use it. The skin view can show plain
-skin (no field) and be lit by a raking light (:meth:`LinkedViews.set_raking_light`).
+skin (no field) and be lit by a raking light (:meth:`LinkedViews.set_raking_light`), its
+colour range can be given (else each frame's own), and :meth:`LinkedViews.save_image`
+renders a view at any size without the placement widget.
 """
 
 from __future__ import annotations
 
+import weakref
+from itertools import pairwise
+from pathlib import Path
+
 import numpy as np
 import pyvista as pv
+import vtkmodules.vtkRenderingFreeType  # noqa: F401 (the text renderer's implementation)
+from vtkmodules.vtkRenderingCore import vtkCamera, vtkTextRenderer
 
 from ..core.face import FaceState
 from ..plotting import (
@@ -31,7 +39,81 @@ from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
 from ..widgets import widget_factory
 
-__all__ = ["LinkedViews"]
+__all__ = ["VIEWS", "LinkedViews", "add_field_bar"]
+
+#: The views, in order.
+VIEWS = ("skin", "muscles", "skull")
+#: Tick labels of a field's scalar bar, the first that keeps them apart on the bar as
+#: drawn: (number of labels, printf format). None fitting, the bar has no tick labels.
+BAR_LABELS = ((3, "%.3g"), (3, "%.2g"), (2, "%.3g"), (2, "%.2g"))
+BAR_GAP_PX = 8  # at least this much space between two labels
+BAR_FONT_PX, BAR_TITLE_PX = 12, 13  # fixed sizes, so that the labels can be measured
+_TEXT = vtkTextRenderer()
+
+
+def add_field_bar(plotter: pv.Plotter, mapper, title: str):
+    """Add the horizontal scalar bar of a field (``undefined`` for NaN) under the view; its
+    tick labels are fitted to the bar by :func:`fit_bar_labels`.
+    """
+    bar = plotter.add_scalar_bar(
+        title, mapper=mapper, n_labels=BAR_LABELS[0][0], fmt=BAR_LABELS[0][1],
+        nan_annotation=True, vertical=False, position_x=0.2, position_y=0.07, width=0.6,
+        height=0.06, label_font_size=BAR_FONT_PX, title_font_size=BAR_TITLE_PX,
+        unconstrained_font_size=True, render=False)
+    bar.SetNanAnnotation("undefined")
+    fit_bar_labels(bar, plotter.renderer)
+    return bar
+
+
+def bar_label_spans(bar, renderer, n: int | None = None, fmt: str | None = None,
+                    bar_px: tuple[float, float] | None = None) -> list[tuple[float, float]]:
+    """Where the tick labels of horizontal scalar bar ``bar`` lie, in pixels: ``(x0, x1)``
+    of each, centred on its value along the bar (VTK's layout).
+
+    ``n`` and ``fmt`` default to the bar's own; ``bar_px`` ``(x, width)`` of the colour bar
+    to the rectangle VTK drew it in at the last render.
+    """
+    n = bar.GetNumberOfLabels() if n is None else n
+    fmt = bar.GetLabelFormat() if fmt is None else fmt
+    if bar_px is None:
+        rect = [0, 0, 0, 0]
+        bar.GetScalarBarRect(rect, renderer)
+        bar_px = (rect[0], rect[2])
+    x, width = bar_px
+    lo, hi = bar.GetLookupTable().GetRange()
+    dpi = renderer.GetRenderWindow().GetDPI() if renderer.GetRenderWindow() else 72
+    spans = []
+    for i in range(n):
+        value = lo + (hi - lo) * i / max(n - 1, 1)
+        box = [0, 0, 0, 0]
+        _TEXT.GetBoundingBox(bar.GetLabelTextProperty(), fmt % value, box, dpi)
+        centre, half = x + width * i / max(n - 1, 1), 0.5 * (box[1] - box[0])
+        spans.append((centre - half, centre + half))
+    return spans
+
+
+def fit_bar_labels(bar, renderer) -> int:
+    """Choose the tick labels of ``bar`` (:data:`BAR_LABELS`) that keep at least
+    :data:`BAR_GAP_PX` apart on the bar at the view's present size; returns their number
+    (0: the bar shows none, it is too narrow for two).
+    """
+    frame_px = bar.GetWidth() * renderer.GetSize()[0]
+    rect = [0, 0, 0, 0]
+    bar.GetScalarBarRect(rect, renderer)  # as drawn at the last render, if any
+    last_frame = getattr(bar, "_fitted_frame_px", 0.0)
+    ratio = rect[2] / last_frame if 0 < rect[2] <= last_frame else 0.75
+    bar._fitted_frame_px = frame_px
+    bar_px = (0.0, 0.95 * ratio * frame_px)  # the colour bar is 0.75 to 0.9 of its frame
+    for n, fmt in BAR_LABELS:
+        spans = bar_label_spans(bar, renderer, n, fmt, bar_px)
+        if all(b[0] - a[1] >= BAR_GAP_PX for a, b in pairwise(spans)):
+            if (n, fmt) != (bar.GetNumberOfLabels(), bar.GetLabelFormat()):
+                bar.SetNumberOfLabels(n)
+                bar.SetLabelFormat(fmt)
+            bar.SetDrawTickLabels(True)
+            return n
+    bar.SetDrawTickLabels(False)
+    return 0
 
 
 class LinkedViews:
@@ -58,6 +140,16 @@ class LinkedViews:
         self._drawn_activation: dict[str, float] = {}
         self._attachments = None
         self._changed = {"skin", "muscles", "skull"}
+        self._bar = None  # the skin view's scalar bar
+        # before each render of the skin view (a redraw, a resize), fit the bar's labels
+        this = weakref.ref(self)
+        self._fit_observer = skin.renderer.AddObserver(
+            "StartEvent", lambda *_: this() is not None and this()._fit_bar())
+
+    def _fit_bar(self) -> None:
+        bar = self._bar
+        if bar is not None and self.skin_view.renderer.HasViewProp(bar):
+            fit_bar_labels(bar, self.skin_view.renderer)
 
     @property
     def plotters(self) -> tuple[pv.Plotter, pv.Plotter, pv.Plotter]:
@@ -70,19 +162,34 @@ class LinkedViews:
 
     # ------------------------------------------------------------------ drawing
     def draw(self, session, state: FaceState, *, wireframe: bool = False,
-             plain: bool = False) -> bool:
+             plain: bool = False, clim: tuple[float, float] | None = None,
+             unit: str = "mm") -> bool:
         """Draw ``state`` of ``session`` (nothing is rendered); returns whether the scenes
-        were rebuilt. ``plain`` draws the skin view's skin without its field.
+        were rebuilt. ``plain`` draws the skin view's skin without its field; ``clim`` is
+        its colour range (default: the frame's own, :func:`field_range`); ``unit`` the
+        unit of lengths on its scalar bar.
         """
         face = session.face
         key = (id(face.skin), id(state.face.skin), face.muscle_names, session.field,
-               session.muscle, wireframe, plain)
+               session.muscle, wireframe, plain, unit)
         if key != self._key:
-            self._rebuild(session, state, wireframe, plain)
+            self._rebuild(session, state, wireframe, plain, clim, unit)
             self._key = key
             return True
-        self._update_in_place(session, state, plain)
+        self._update_in_place(session, state, plain, clim)
         return False
+
+    @property
+    def skin_mesh(self) -> pv.PolyData | None:
+        """The mesh the skin view draws (its points and the field shown)."""
+        return self._skin_mesh
+
+    def scalar_range(self) -> tuple[float, float] | None:
+        """The skin view's colour range now (None for plain skin)."""
+        actor = self.skin_view.actors.get("skin")
+        if actor is None or not actor.mapper.scalar_visibility:
+            return None
+        return tuple(float(x) for x in actor.mapper.scalar_range)
 
     def set_raking_light(self, on: bool) -> None:
         """Light the skin view with :func:`~wrinkle_vis.plotting.add_raking_light` (on) or
@@ -98,7 +205,8 @@ class LinkedViews:
         else:
             self.skin_view.enable_lightkit(only_active=True)
 
-    def _rebuild(self, session, state: FaceState, wireframe: bool, plain: bool) -> None:
+    def _rebuild(self, session, state: FaceState, wireframe: bool, plain: bool,
+                 clim=None, unit: str = "mm") -> None:
         face = session.face
         keep = self.placement is not None and session.muscle == self.placement.muscle.name \
             and type(face.muscle(session.muscle)) is type(self.placement.muscle)
@@ -108,7 +216,14 @@ class LinkedViews:
         if self.raking_light:
             self._light_skin()
         actor = add_skin(self.skin_view, state, None if plain else session.field,
-                         None if plain else session.muscle, show_edges=wireframe)
+                         None if plain else session.muscle, show_edges=wireframe,
+                         scalar_bar=False)
+        if not plain:
+            if clim is not None:
+                actor.mapper.scalar_range = clim
+            self._bar = add_field_bar(self.skin_view, actor.mapper,
+                                      field_info(session.field).title(session.muscle,
+                                                                      units=unit))
         self._skin_mesh = actor.mapper.dataset
         clear_scene(self.muscle_view)
         self._ghost_mesh = add_skin(self.muscle_view, state, None, opacity=0.25).mapper.dataset
@@ -126,7 +241,8 @@ class LinkedViews:
             self._make_placement(session, state)
         self._changed = {"skin", "muscles", "skull"}
 
-    def _update_in_place(self, session, state: FaceState, plain: bool = False) -> None:
+    def _update_in_place(self, session, state: FaceState, plain: bool = False,
+                         clim=None) -> None:
         """Write the frame into the drawn meshes (``add_mesh`` renders a shallow copy that
         shares their VTK arrays) and redraw only the muscles that were edited.
         """
@@ -138,7 +254,7 @@ class LinkedViews:
             values = state.W if session.muscle is None else \
                 state.fields[session.muscle][session.field]
             _write(self._skin_mesh, state.points, array, values)
-            self.skin_view.actors["skin"].mapper.scalar_range = field_range(
+            self.skin_view.actors["skin"].mapper.scalar_range = clim or field_range(
                 field_info(session.field), values)
         _write(self._ghost_mesh, state.points)
         for m in face.muscles:
@@ -172,6 +288,48 @@ class LinkedViews:
             if not getattr(p, "_closed", False) and not any(p is q for q in skip) and (
                     not only_changed or name in self._changed):
                 p.render_window.Render()
+
+    def save_image(self, view: str, path: str | Path, size: tuple[int, int]) -> Path:
+        """Render view ``view`` (one of :data:`VIEWS`) off screen at ``size`` ``(width,
+        height)`` pixels to the PNG ``path``: the same actors, lights and camera, less the
+        placement widget's handles and outlines and the probe's marker.
+        """
+        width, height = (int(x) for x in size)
+        if not (16 <= width <= 8192 and 16 <= height <= 8192):
+            raise ValueError(f"image size {width} x {height}: each side must be in "
+                             "16..8192 pixels")
+        if view not in VIEWS:
+            raise KeyError(f"unknown view {view!r}; views: {', '.join(VIEWS)}")
+        source = dict(zip(VIEWS, self.plotters, strict=True))[view]
+        renderer = source.renderer
+        # held while in use: VTK gives back these very wrappers for their props
+        hidden = [a for name, a in source.actors.items()
+                  if name.startswith(("widget:", "_picked"))]
+        if self.placement is not None:
+            hidden += [w.GetRepresentation() for w in self.placement.widgets.values()]
+        props = renderer.GetViewProps()
+        props = [props.GetItemAsObject(i) for i in range(props.GetNumberOfItems())]
+        off = pv.Plotter(off_screen=True, window_size=[width, height], lighting="none")
+        try:
+            target = off.renderer
+            target.SetBackground(renderer.GetBackground())
+            camera = vtkCamera()
+            camera.DeepCopy(renderer.GetActiveCamera())
+            target.SetActiveCamera(camera)
+            lights = renderer.GetLights()
+            for i in range(lights.GetNumberOfItems()):
+                target.AddLight(lights.GetItemAsObject(i))
+            for prop in props:
+                if prop.GetVisibility() and not any(prop is h for h in hidden):
+                    target.AddViewProp(prop)
+            target.ResetCameraClippingRange()
+            path = Path(path)
+            off.screenshot(str(path))
+        finally:
+            off.renderer.RemoveAllViewProps()  # the actors are the views' own
+            off.renderer.RemoveAllLights()
+            off.close()
+        return path
 
     # ------------------------------------------------------------------ dragging
     def begin_drag(self) -> None:
