@@ -1,12 +1,69 @@
-"""Shared test set-up: nothing a test does may write into the user's home."""
+"""Shared test set-up: nothing a test does may write into the user's home, and every
+window and plotter a test makes is closed and freed.
+"""
 
 import gc
+import weakref
 
 import pytest
-from qtpy import QtCore
+from qtpy import QtCore, QtWidgets
 
 from wrinkle_vis.app.recovery import Recovery
 from wrinkle_vis.app.session import Session
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_makereport(item, call):
+    """Keep each phase's report on the test, for the leak check (skipped after a failure,
+    whose traceback holds the test's frames and what they reference).
+    """
+    report = yield
+    setattr(item, f"report_{report.when}", report)
+    return report
+
+
+@pytest.fixture(autouse=True)
+def no_leaks(request):
+    """Every main window and every PyVista plotter a test builds is freed once the test
+    is over: closed (by the test, or by pytest-qt for the widgets it was given), its last
+    reference gone and the garbage collected, its weak reference is dead, without any
+    deferred delete. Set up before every other fixture (it must not use monkeypatch), so
+    that it checks after they are all torn down.
+    """
+    import pyvista.plotting.plotter as plotter_module
+
+    from wrinkle_vis.app import window as window_module
+
+    made = []
+    original_init = window_module.MainWindow.__init__
+
+    def recording_init(self, *args, **kwargs):
+        made.append((type(self).__name__, weakref.ref(self)))
+        original_init(self, *args, **kwargs)
+
+    class Recording(dict):
+        def __setitem__(self, key, plotter):
+            made.append((f"{type(plotter).__name__} {key}", weakref.ref(plotter)))
+            super().__setitem__(key, plotter)
+
+    original_plotters = plotter_module._ALL_PLOTTERS
+    plotter_module._ALL_PLOTTERS = Recording(original_plotters)
+    window_module.MainWindow.__init__ = recording_init
+    try:
+        yield
+    finally:
+        window_module.MainWindow.__init__ = original_init
+        recorded, plotter_module._ALL_PLOTTERS = plotter_module._ALL_PLOTTERS, original_plotters
+        original_plotters.clear()
+        original_plotters.update(recorded)
+    call = getattr(request.node, "report_call", None)
+    if made and call is not None and call.passed:
+        request.node.funcargs.clear()  # the test's arguments: pytest drops them right after
+        gc.collect()
+        alive = [name for name, ref in made if ref() is not None]
+        assert not alive, (
+            f"still alive after the test, closed and collected: {alive} (build windows "
+            "with the make_window fixture: qtbot.addWidget's deleteLater would hide a leak)")
 
 
 @pytest.fixture(autouse=True)
@@ -41,17 +98,39 @@ def recovery(tmp_path):
 
 
 @pytest.fixture
-def window(qtbot, wv_face, settings, recovery):
-    """The main window on the built-in face, shown; closed after the test, changes
-    discarded.
+def make_window(qtbot, wv_face, settings, recovery):
+    """``make_window(session=None, recovery=None, show=True)``: a main window (default on
+    the built-in face, with the test's settings and recovery folder), closed after the
+    test with its changes discarded. Closed only, never deleteLater'd (as pytest-qt's
+    ``addWidget`` does), so that the leak check sees closing alone free it.
     """
     from wrinkle_vis.app.window import MainWindow
 
-    w = MainWindow(Session(wv_face), settings, recovery)
-    qtbot.addWidget(w, before_close_func=_discard_changes)
-    w.show()
-    qtbot.waitExposed(w)
-    return w
+    made = []
+
+    def make(session=None, recovery_=None, show=True, **kwargs):
+        w = MainWindow(session or Session(wv_face), settings, recovery_ or recovery, **kwargs)
+        made.append(weakref.ref(w))
+        if show:
+            w.show()
+            qtbot.waitUntil(w.isVisible)
+        return w
+
+    yield make
+    for ref in made:
+        w = ref()
+        if w is not None and not all(p._closed for p in w.plotters):
+            _discard_changes(w)
+            w.close()
+        del w
+
+
+@pytest.fixture
+def window(make_window):
+    """The main window on the built-in face, shown; closed after the test, changes
+    discarded.
+    """
+    return make_window()
 
 
 def _discard_changes(w):
@@ -61,3 +140,52 @@ def _discard_changes(w):
 def skin_mesh(window):
     """The mesh the skin view draws."""
     return window.skin_view.actors["skin"].mapper.dataset
+
+
+class DialogAnswers:
+    """Answers the modal dialogs the app opens, in order, by clicking the real button
+    with the given text (a timer looks for the active modal dialog), and keeps the text
+    of each dialog it answered in :attr:`asked`.
+    """
+
+    def __init__(self):
+        self.answers: list = []
+        self.asked: list[str] = []
+        self.timer = QtCore.QTimer()
+        self.timer.setInterval(20)
+        self.timer.timeout.connect(self._poll)
+
+    def __call__(self, *answers) -> "DialogAnswers":
+        """Queue answers: a button's text, or a function of the dialog that answers it."""
+        self.answers.extend(answers)
+        self.timer.start()
+        return self
+
+    def _poll(self) -> None:
+        dialog = QtWidgets.QApplication.activeModalWidget()
+        if dialog is None or not dialog.isVisible() or not self.answers:
+            return
+        answer = self.answers.pop(0)
+        self.asked.append(dialog.text() if isinstance(dialog, QtWidgets.QMessageBox)
+                          else dialog.windowTitle())
+        if callable(answer):
+            answer(dialog)
+            return
+        buttons = dialog.findChildren(QtWidgets.QAbstractButton)
+        matching = [b for b in buttons if b.text().replace("&", "") == answer]
+        if not matching:
+            dialog.reject()  # or the test would hang on it
+            raise AssertionError(f"no button {answer!r} in {self.asked[-1]!r}: "
+                                 f"{[b.text() for b in buttons]}")
+        matching[0].click()
+
+
+@pytest.fixture
+def answer(qapp):
+    """``answer("Discard", "Save", ...)``: click these buttons of the next modal dialogs
+    (see :class:`DialogAnswers`); every queued answer must have been used.
+    """
+    answers = DialogAnswers()
+    yield answers
+    answers.timer.stop()
+    assert not answers.answers, f"dialogs never asked: {answers.answers}"

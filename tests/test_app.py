@@ -5,8 +5,8 @@ import json
 
 import numpy as np
 import pytest
-from conftest import _discard_changes, skin_mesh
-from qtpy import QtCore, QtWidgets
+from conftest import skin_mesh
+from qtpy import QtWidgets
 
 import wrinkle_vis as wv
 from wrinkle_vis.app.session import Session
@@ -16,11 +16,8 @@ from wrinkle_vis.plotting.polydata import field_array_name
 pytestmark = pytest.mark.usefixtures("no_leaked_plotters")
 
 
-def test_window_has_three_views_that_close_cleanly(qtbot, wv_face, settings, recovery):
-    w = MainWindow(Session(wv_face), settings, recovery)
-    qtbot.addWidget(w)
-    w.show()
-    qtbot.waitExposed(w)
+def test_window_has_three_views_that_close_cleanly(make_window):
+    w = make_window()
     assert len(w.plotters) == 3 and all(not p._closed for p in w.plotters)
     assert skin_mesh(w) is not None
     w.close()
@@ -100,7 +97,7 @@ def test_intensity_and_timeline(window):
     assert not window.session.state().W.any()  # the ramp starts at rest
     window.time_slider.setValue(150)  # half way: the plateau
     assert window.session.state().W.any()
-    assert "frame" in window.statusBar().currentMessage()
+    assert "frame" in window.status_label.text() and "mm" in window.status_label.text()
 
 
 def test_play_advances_the_timeline(window, qtbot):
@@ -140,10 +137,8 @@ def test_screenshot(window, tmp_path):
     assert out.is_file() and out.stat().st_size > 1000
 
 
-def test_closing_with_unsaved_changes_asks(qtbot, wv_face, settings, monkeypatch):
-    w = MainWindow(Session(wv_face), settings)
-    qtbot.addWidget(w, before_close_func=_discard_changes)
-    w.show()
+def test_closing_with_unsaved_changes_asks(make_window, monkeypatch):
+    w = make_window()
     w.session.dirty = True
     monkeypatch.setattr(QtWidgets.QMessageBox, "question",
                         lambda *a: QtWidgets.QMessageBox.Cancel)
@@ -164,19 +159,19 @@ def test_activation_set_by_hand_recomputes_at_once(window):
     window.muscle_box.setCurrentText("zygomaticus_major_L")
     assert not window.session.state().W.any()
     rest = np.array(skin_mesh(window).points)
-    window.activation_box.setValue(0.8)
+    window.activation_box.setValue(0.8)  # joins "neutral": an edit of the layout
     assert window.session.state().activations["zygomaticus_major_L"] == 0.8
     assert window.session.state().W.any()
     assert not np.array_equal(np.array(skin_mesh(window).points), rest)
-    window.expression_box.setCurrentText("frown")  # a new expression resets hand-set values
+    window.expression_box.setCurrentText("frown")  # not in frown
     assert window.session.state().activations["zygomaticus_major_L"] == 0.0
+    assert window.activation_box.value() == 0.0
+    window.expression_box.setCurrentText("neutral")
+    assert window.activation_box.value() == 0.8
 
 
-def test_closing_prints_no_vtk_warnings(qtbot, wv_face, settings, capfd):
-    w = MainWindow(Session(wv_face), settings)
-    qtbot.addWidget(w, before_close_func=_discard_changes)
-    w.show()
-    qtbot.waitExposed(w)
+def test_closing_prints_no_vtk_warnings(make_window, capfd):
+    w = make_window()
     w.close()
     QtWidgets.QApplication.processEvents()
     gc.collect()
@@ -197,17 +192,31 @@ def test_in_place_update_draws_what_a_rebuild_draws(window):
     assert np.abs(window.skin_view.screenshot(return_img=True).astype(int) - rebuilt).max() > 20
 
 
-def test_a_closed_window_and_its_plotters_are_collected(wv_face, settings, qapp):
+def test_a_closed_window_and_its_plotters_are_collected(wv_face, settings, recovery, qtbot,
+                                                       tmp_path):
+    """Quit (the menu's action) frees the window and everything it drew, with no deferred
+    delete: no Qt connection or VTK observer holds it, after a session that used them all.
+    """
     import weakref
 
-    w = MainWindow(Session(wv_face), settings)
+    w = MainWindow(Session(wv_face), settings, recovery)
     w.show()
+    qtbot.waitUntil(w.isVisible)
+    w.select_muscle("zygomaticus_major_L")  # a placement widget with VTK observers
+    w.probe_vertex(100)
+    w.param_widgets["k0"].setValue(2.5)
+    w.undo_stack.undo()
+    w.save_as(tmp_path / "mine.json")  # a recent file: an action of the Open recent menu
+    w.show_shortcuts()
+    w.play_button.setChecked(True)
+    qtbot.wait(100)
+    w.play_button.setChecked(False)
     refs = [weakref.ref(w)] + [weakref.ref(p) for p in w.plotters]
-    w.close()
-    w.deleteLater()
-    del w
-    QtCore.QCoreApplication.sendPostedEvents(None, QtCore.QEvent.DeferredDelete.value)
-    qapp.processEvents()
+    quit_action = next(a for a in w.menuBar().actions()[0].menu().actions()
+                       if a.text() == "&Quit")
+    quit_action.trigger()
+    assert not w.isVisible()
+    del w, quit_action
     gc.collect()
     assert [r() for r in refs] == [None] * 4
 

@@ -14,8 +14,6 @@ from conftest import skin_mesh
 from qtpy import QtCore, QtWidgets
 
 from wrinkle_vis.app.recovery import Recovery
-from wrinkle_vis.app.session import Session
-from wrinkle_vis.app.window import MainWindow
 from wrinkle_vis.core.mesh import closest_points
 from wrinkle_vis.widgets import LinearWidget, SheetWidget
 
@@ -215,19 +213,17 @@ def test_add_a_muscle_of_each_type_including_the_plugin(window, type_name, widge
         assert "widget:aoi_disc" in window.muscle_view.actors
         handle = drag_handle(window, "skin", offset=(6, -6))
         assert handle.param == "center"
-    window.activation_box.setValue(1.0)
+    window.activation_box.setValue(1.0)  # the new muscle joins the expression
+    assert window.session.face.expressions[window.session.expression].activations[name] == 1
     assert np.isfinite(window.session.state().W).all()
-    window.undo_stack.undo() if type_name != "ring" else [window.undo_stack.undo()
-                                                          for _ in range(2)]
+    for _ in range(3 if type_name == "ring" else 2):  # (the drag,) the activation, the add
+        window.undo_stack.undo()
     assert name not in window.session.face.muscle_names
 
 
-def test_autosave_writes_a_recovery_file_and_a_clean_exit_removes_it(qtbot, wv_face,
-                                                                      settings, recovery,
-                                                                      monkeypatch):
-    w = MainWindow(Session(wv_face), settings, recovery)
-    qtbot.addWidget(w)
-    w.show()
+def test_autosave_writes_a_recovery_file_and_a_clean_exit_removes_it(qtbot, make_window,
+                                                                      recovery, monkeypatch):
+    w = make_window()
     w.select_muscle("corrugator_L")
     assert w.set_parameter("k0", 3.25)
     qtbot.waitUntil(recovery.path.exists, timeout=5000)
@@ -268,8 +264,7 @@ CHILD = textwrap.dedent("""
 """)
 
 
-def test_killing_the_app_and_restarting_restores_the_edits(qtbot, wv_face, settings,
-                                                          tmp_path, monkeypatch):
+def test_killing_the_app_and_restarting_restores_the_edits(make_window, tmp_path, answer):
     folder = tmp_path / "recovery"
     with subprocess.Popen([sys.executable, "-c", CHILD, str(folder),
                            str(tmp_path / "child.ini")], stdout=subprocess.PIPE,
@@ -282,14 +277,10 @@ def test_killing_the_app_and_restarting_restores_the_edits(qtbot, wv_face, setti
     assert (folder / f"recovery-{child.pid}.json").exists()
     recovery = Recovery(folder)
     assert recovery.orphans() == [folder / f"recovery-{child.pid}.json"]
-    asked = []
-    monkeypatch.setattr(QtWidgets.QMessageBox, "question",
-                        lambda *a, **k: asked.append(a[2]) or QtWidgets.QMessageBox.Yes)
-    w = MainWindow(Session(wv_face), settings, recovery)
-    qtbot.addWidget(w, before_close_func=lambda w: setattr(w.session, "dirty", False))
-    w.show()
+    w = make_window(recovery_=recovery)
+    answer("Restore")
     assert w.offer_recovery()
-    assert "did not close cleanly" in asked[0]
+    assert "did not close cleanly" in answer.asked[0]
     face = w.session.face
     assert "corrugator_edited" in face.muscle_names and "corrugator_L" not in face.muscle_names
     assert face.muscle("corrugator_edited").k0 == 3.5
@@ -299,26 +290,22 @@ def test_killing_the_app_and_restarting_restores_the_edits(qtbot, wv_face, setti
     assert recovery.path.exists() and recovery.orphans() == []
 
 
-def test_declining_recovery_discards_it_and_a_broken_file_is_kept_aside(qtbot, wv_face,
-                                                                       settings, tmp_path,
-                                                                       monkeypatch):
+def test_discarding_recovery_deletes_it_and_a_broken_file_is_kept_aside(make_window,
+                                                                       tmp_path,
+                                                                       monkeypatch, answer):
     folder = tmp_path / "recovery"
     folder.mkdir()
     (folder / "recovery-999999999.json").write_text("{ not json")
     recovery = Recovery(folder)
-    monkeypatch.setattr(QtWidgets.QMessageBox, "question",
-                        lambda *a, **k: QtWidgets.QMessageBox.Yes)
     warnings = []
     monkeypatch.setattr(QtWidgets.QMessageBox, "warning", lambda *a: warnings.append(a[2]))
-    w = MainWindow(Session(wv_face), settings, recovery)
-    qtbot.addWidget(w)
+    w = make_window(recovery_=recovery, show=False)
     assert not w.offer_recovery()
     assert "recovery-999999999.json" in warnings[0]
     assert (folder / "recovery-999999999.bad").exists()  # never thrown away silently
     Recovery(folder).save(w.session.layout(), None, 4500)
     os.rename(Recovery(folder).path, folder / "recovery-999999998.json")
-    monkeypatch.setattr(QtWidgets.QMessageBox, "question",
-                        lambda *a, **k: QtWidgets.QMessageBox.No)
+    answer("Discard")
     assert not w.offer_recovery()
     assert recovery.orphans() == []
 

@@ -2,10 +2,15 @@
 
 The window is a thin layer over :class:`~wrinkle_vis.app.session.Session`: each control sets
 one session attribute and calls :meth:`MainWindow.refresh`, which redraws from the session.
+
+No Qt connection or VTK observer holds the window strongly (:func:`_weak`), and the
+observers are removed on close, so a closed window is freed with everything it drew.
 """
 
 from __future__ import annotations
 
+import re
+import sys
 import time
 import weakref
 from pathlib import Path
@@ -21,11 +26,12 @@ from ..core.layout import LayoutError
 from ..core.muscle import MuscleParameterError
 from ..core.registry import muscle_types
 from ..plotting import set_camera
+from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
 from ..widgets.panels import MuscleListPanel
 from .recovery import Recovery
-from .session import EDITABLE, OPTIONS, Session
-from .views import LinkedViews
+from .session import EDITABLE, OPTIONS, Session, load_session
+from .views import VIEWS, LinkedViews
 
 __all__ = ["MainWindow"]
 
@@ -33,6 +39,25 @@ TOTAL = "total"
 PLAIN = "none"  # the field box's entry for plain skin (no field)
 KEEP = object()  # edit(): keep the selection
 MAX_RECENT = 8
+AUTOSAVE_QUIET_MS = 1000  # autosave after this long without an edit...
+AUTOSAVE_MAX_MS = 5000  # ...and at the latest this long after the first unsaved edit
+GUIDE = Path(__file__).resolve().parents[2] / "docs" / "guide.md"  # in a source checkout
+
+
+def _weak(method, *args, keep: int = 0):
+    """A slot calling ``method(*args, *signal_args[:keep])`` while ``method``'s object lives.
+
+    It holds the object weakly: a Qt connection or a VTK observer made with it keeps no
+    window alive (a lambda or a bound method there would, out of the garbage collector's
+    sight).
+    """
+    ref = weakref.WeakMethod(method)
+
+    def slot(*signal_args):
+        bound = ref()
+        return None if bound is None else bound(*args, *signal_args[:keep])
+
+    return slot
 
 
 class MainWindow(QtWidgets.QMainWindow):
@@ -57,11 +82,19 @@ class MainWindow(QtWidgets.QMainWindow):
         self.recovery = recovery or Recovery()
         self.undo_stack = QtGui.QUndoStack(self)
         self.undo_stack.cleanChanged.connect(self._on_clean_changed)
-        self.undo_stack.indexChanged.connect(lambda _: self.autosave_timer.start())
+        self.undo_stack.indexChanged.connect(self._schedule_autosave)
+        # autosave after a second of quiet, and at the latest 5 s after the first unsaved
+        # edit however the edits go on (a debounce alone would wait for ever)
         self.autosave_timer = QtCore.QTimer(self)
         self.autosave_timer.setSingleShot(True)
-        self.autosave_timer.setInterval(1000)
+        self.autosave_timer.setInterval(AUTOSAVE_QUIET_MS)
         self.autosave_timer.timeout.connect(self.autosave)
+        self.autosave_deadline = QtCore.QTimer(self)
+        self.autosave_deadline.setSingleShot(True)
+        self.autosave_deadline.setInterval(AUTOSAVE_MAX_MS)
+        self.autosave_deadline.timeout.connect(self.autosave)
+        self._undo_keys = _UndoKeysToWindow(self)
+        self._ramp = (None, None)  # (what it was computed for, the colour range over the ramp)
         self._drag_before = None
         self._drawn_face = None
         self._press = None
@@ -71,6 +104,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self._updating_controls = False
         self.plain_skin = False  # the skin view shows no field
         self.plotters: list[QtInteractor] = []
+        self.status_label = QtWidgets.QLabel()  # the frame's summary; messages go beside
+        self.statusBar().addPermanentWidget(self.status_label)
         self._build_views()
         self._build_controls()
         self._build_menus()
@@ -94,17 +129,19 @@ class MainWindow(QtWidgets.QMainWindow):
             self.plotters.append(plotter)
         self.setCentralWidget(splitter)
         self.skin_view, self.muscle_view, self.skull_view = self.plotters
-        self.views = LinkedViews(*self.plotters, on_move=self._on_handle_moved,
-                                 on_start=self._on_handle_start)
+        self.views = LinkedViews(*self.plotters, on_move=_weak(self._on_handle_moved, keep=3),
+                                 on_start=_weak(self._on_handle_start, keep=1))
         camera = self.skin_view.renderer.camera
         for p in self.plotters[1:]:
             p.renderer.camera = camera
-        self._camera_observer = camera.AddObserver("ModifiedEvent", self._sync_views)
-        self.skin_view.enable_point_picking(self._on_pick, use_picker=True, show_message=False,
-                                            show_point=True, left_clicking=False)
+        self._camera_observer = camera.AddObserver("ModifiedEvent", _weak(self._sync_views))
+        # PyVista calls back with (point, picker) when use_picker is on
+        self.skin_view.enable_point_picking(_weak(self._on_pick, keep=2), use_picker=True,
+                                            show_message=False, show_point=True,
+                                            left_clicking=False)
         iren = self.muscle_view.iren
-        iren.add_observer("LeftButtonPressEvent", self._on_muscle_press)
-        iren.add_observer("LeftButtonReleaseEvent", self._on_muscle_release)
+        iren.add_observer("LeftButtonPressEvent", _weak(self._on_muscle_press))
+        iren.add_observer("LeftButtonReleaseEvent", _weak(self._on_muscle_release))
 
     def _on_muscle_press(self, *_) -> None:
         self._press = self.muscle_view.iren.get_event_position()
@@ -178,10 +215,34 @@ class MainWindow(QtWidgets.QMainWindow):
         self.refine_box = QtWidgets.QCheckBox("Refine adaptively")
         self.refine_box.toggled.connect(self._on_refine)
         self.wireframe_box = QtWidgets.QCheckBox("Wireframe")
-        self.wireframe_box.toggled.connect(lambda _: self.refresh())
+        self.wireframe_box.toggled.connect(_weak(self.refresh))
         row.addWidget(self.refine_box)
         row.addWidget(self.wireframe_box)
         view.addRow("Mesh", row)
+        row = QtWidgets.QHBoxLayout()
+        self.range_box = QtWidgets.QComboBox()
+        self.range_box.addItems(["automatic", "fixed"])
+        self.range_box.setToolTip("Colour range of the field. automatic: each frame's own "
+                                  "while paused, the whole ramp's while playing; fixed: "
+                                  "min and max")
+        self.range_box.currentTextChanged.connect(self._on_range_mode)
+        self.range_min = QtWidgets.QDoubleSpinBox()
+        self.range_max = QtWidgets.QDoubleSpinBox()
+        for box, tip in ((self.range_min, "lowest value of the colour map"),
+                         (self.range_max, "highest value of the colour map")):
+            box.setRange(-1e9, 1e9)
+            box.setDecimals(6)
+            box.setKeyboardTracking(False)
+            box.setEnabled(False)
+            box.setToolTip(tip)
+            box.valueChanged.connect(self._on_range_value)
+            box.installEventFilter(self._undo_keys)
+        row.addWidget(self.range_box)
+        row.addWidget(self.range_min)
+        row.addWidget(self.range_max)
+        view.addRow("Colour range", row)
+        self.range_error = _error_label()
+        view.addRow(self.range_error)
         form.addLayout(view)
 
         self.param_group = QtWidgets.QGroupBox("Parameters of the selected muscle")
@@ -195,7 +256,8 @@ class MainWindow(QtWidgets.QMainWindow):
         box = QtWidgets.QVBoxLayout(probe)
         self.probe_table = QtWidgets.QTableWidget(len(FIELD_NAMES), 2)
         self.probe_table.setHorizontalHeaderLabels(["selected muscle", "total"])
-        self.probe_table.setVerticalHeaderLabels(FIELD_NAMES)
+        self.probe_table.setVerticalHeaderLabels(
+            [_field_label(f, self.session.unit) for f in FIELD_NAMES])
         box.addWidget(self.probe_table)
         form.addWidget(probe)
         form.addStretch(1)
@@ -215,8 +277,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def _build_muscle_dock(self) -> None:
         self.add_menu = QtWidgets.QMenu("&Add muscle", self)
         for name in muscle_types():
-            self.add_menu.addAction(name).triggered.connect(
-                lambda checked=False, n=name: self.add_muscle(n))
+            self.add_menu.addAction(name).triggered.connect(_weak(self.add_muscle, name))
         add = self.add_menu.menuAction()
         add.setToolTip("Add a muscle of a type, inserted at the probed point (right-click "
                        "the skin first) or at the middle of the skin view")
@@ -229,7 +290,7 @@ class MainWindow(QtWidgets.QMainWindow):
                 ("mirror_pair", "Mirror &pair", "Ctrl+Shift+M", self.mirror_pair)):
             action = QtGui.QAction(text, self)
             action.setShortcut(QtGui.QKeySequence(shortcut))
-            action.triggered.connect(lambda checked=False, f=slot: f())
+            action.triggered.connect(_weak(slot))
             self.edit_actions[key] = action
         self.edit_actions["mirror"].setToolTip(
             "Copy the muscle to the other side of the face's symmetry plane, replacing its "
@@ -240,7 +301,7 @@ class MainWindow(QtWidgets.QMainWindow):
         dock = QtWidgets.QDockWidget("Muscles", self)
         dock.setObjectName("muscles")
         self.muscle_panel = MuscleListPanel(list(self.edit_actions.values()))
-        self.muscle_panel.selected.connect(lambda name: self.select_muscle(name or None))
+        self.muscle_panel.selected.connect(self._on_list_selected)
         dock.setWidget(self.muscle_panel)
         self.addDockWidget(QtCore.Qt.LeftDockWidgetArea, dock)
 
@@ -251,6 +312,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._action(file_menu, "Save layout &as...", "Ctrl+Shift+S", self.save_as_dialog)
         self.recent_menu = file_menu.addMenu("Open &recent")
         self._action(file_menu, "&Export screenshot...", "Ctrl+P", self.screenshot_dialog)
+        self._action(file_menu, "Save view &image...", "Ctrl+Shift+P", self.image_dialog)
         file_menu.addSeparator()
         self._action(file_menu, "&Quit", "Ctrl+Q", self.close)
         edit_menu = self.menuBar().addMenu("&Edit")
@@ -266,8 +328,7 @@ class MainWindow(QtWidgets.QMainWindow):
         view_menu = self.menuBar().addMenu("&View")
         for name, key in (("front", "1"), ("three_quarter", "2"), ("side", "3"),
                           ("forehead", "4")):
-            self._action(view_menu, f"Camera: {name}", key,
-                         lambda checked=False, n=name: self.set_camera(n))
+            self._action(view_menu, f"Camera: {name}", key, _weak(self.set_camera, name))
         self._action(view_menu, "Play / pause", "Space", self.play_button.toggle)
         self.aa_action = view_menu.addAction("&Anti-aliasing (slower drawing)")
         self.aa_action.setCheckable(True)
@@ -282,6 +343,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.raking_action.setChecked(self.settings.value("raking_light", False, type=bool))
         self.raking_action.toggled.connect(self.set_raking_light)
         self.views.set_raking_light(self.raking_action.isChecked())
+        help_menu = self.menuBar().addMenu("&Help")
+        self._action(help_menu, "&Guide", "F1", self.show_guide)
+        self._action(help_menu, "&Keyboard shortcuts", "Ctrl+/", self.show_shortcuts)
         self._update_recent_menu()
 
     def _action(self, menu, text, shortcut, slot) -> QtGui.QAction:
@@ -333,6 +397,7 @@ class MainWindow(QtWidgets.QMainWindow):
             widget.blockSignals(False)
         for param, widget in self.option_widgets.items():
             _show_option(widget, getattr(muscle, param))
+        self._show_activation()
         self._show_derived()
 
     def _build_parameter_panel(self) -> None:
@@ -359,20 +424,20 @@ class MainWindow(QtWidgets.QMainWindow):
                 w.setSingleStep(step)
             w.setValue(value if value is not None else _resolved(muscle, param))
             w.setKeyboardTracking(False)
-            w.valueChanged.connect(lambda v, p=param: self.set_parameter(p, v))
+            w.valueChanged.connect(_weak(self.set_parameter, param, keep=1))
+            w.installEventFilter(self._undo_keys)  # Ctrl+Z undoes the edit, not the typing
             self.param_widgets[param] = w
             self.param_form.addRow(label, w)
         self.option_widgets = {}
         for param, label, choices in OPTIONS:  # every type has them (core.muscle.OPTIONS)
             if choices is None:
                 w = QtWidgets.QCheckBox()
-                w.toggled.connect(lambda on, p=param: self.set_parameter(p, bool(on)))
+                w.toggled.connect(_weak(self._on_option, param, keep=1))
             else:
                 w = QtWidgets.QComboBox()
                 for value, text in choices.items():
                     w.addItem(text, value)
-                w.currentIndexChanged.connect(
-                    lambda i, p=param, box=w: self.set_parameter(p, box.itemData(i)))
+                w.currentIndexChanged.connect(_weak(self._on_option, param, keep=1))
             w.setToolTip(_OPTION_TIPS.get(param, ""))
             _show_option(w, getattr(muscle, param))
             self.option_widgets[param] = w
@@ -380,10 +445,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self.activation_box = QtWidgets.QDoubleSpinBox()
         self.activation_box.setRange(0.0, 1.0)
         self.activation_box.setSingleStep(0.05)
-        self.activation_box.setValue(self.session.activations().get(name, 0.0))
         self.activation_box.setKeyboardTracking(False)
-        self.activation_box.setToolTip("Set by hand over the expression; choosing an "
-                                       "expression again resets it")
+        self.activation_box.setToolTip(
+            "The muscle's peak activation in the expression shown: an edit of the layout "
+            "(undoable, saved with it); 0 takes the muscle out of the expression")
+        self.activation_box.installEventFilter(self._undo_keys)
+        self._show_activation()
         self.activation_box.valueChanged.connect(self.set_activation)
         self.param_form.addRow("activation", self.activation_box)
         self.derived_label = QtWidgets.QLabel()
@@ -394,7 +461,18 @@ class MainWindow(QtWidgets.QMainWindow):
     def _show_derived(self) -> None:
         if self.session.muscle is not None:
             d = self.session.derived(self.session.muscle)
-            self.derived_label.setText(f"d = {d['d']:.4g}   u = {d['u']:.4g}")
+            unit = self.session.unit
+            self.derived_label.setText(f"d = {d['d']:.4g} {unit}   u = {d['u']:.4g} {unit}")
+
+    def _show_activation(self) -> None:
+        """Show the selected muscle's peak activation in the expression (no signal)."""
+        s = self.session
+        if s.muscle is None or not hasattr(self, "activation_box"):
+            return
+        value = s.face.expressions[s.expression].activations.get(s.muscle, 0.0)
+        self.activation_box.blockSignals(True)
+        self.activation_box.setValue(value)
+        self.activation_box.blockSignals(False)
 
     # ------------------------------------------------------------------ slots
     def _on_expression(self, name: str) -> None:
@@ -430,6 +508,49 @@ class MainWindow(QtWidgets.QMainWindow):
             self.timer.start()
         else:
             self.timer.stop()
+        self.refresh()  # the colour range: over the ramp while playing, else the frame's
+
+    def _on_range_mode(self, mode: str) -> None:
+        """Colour range automatic, or fixed at min and max (which start at the range shown)."""
+        fixed = mode == "fixed"
+        for box in (self.range_min, self.range_max):
+            box.setEnabled(fixed)
+        if fixed:
+            lo, hi = self.views.scalar_range() or self.session.colour_range()
+            for box, value in ((self.range_min, lo), (self.range_max, hi)):
+                box.blockSignals(True)
+                box.setValue(value)
+                box.blockSignals(False)
+            self._on_range_value()
+        else:
+            self.session.set_fixed_range(None)
+            self.range_error.setText("")
+            self.refresh()
+
+    def _on_range_value(self, _=None) -> None:
+        lo, hi = self.range_min.value(), self.range_max.value()
+        try:
+            self.session.set_fixed_range((lo, hi))
+        except ValueError as exc:
+            self.range_error.setText(str(exc))  # the range in use stays
+            return
+        self.range_error.setText("")
+        self.refresh()
+
+    def colour_range(self) -> tuple[float, float] | None:
+        """The colour range the skin view uses now: the fixed one; while playing, the one
+        over the expression's whole ramp (so the ramp shows); else None, each frame's own.
+        """
+        s = self.session
+        if s.fixed_range is not None:
+            return s.fixed_range
+        if not self.timer.isActive() or self.plain_skin:
+            return None
+        key = (s.face, s.expression, s.intensity, s.field, s.muscle,
+               tuple(sorted(s.overrides.items())))
+        if self._ramp[0] != key:
+            self._ramp = (key, s.ramp_range())
+        return self._ramp[1]
 
     def _tick(self) -> None:
         self.time_slider.setValue((self.time_slider.value() + 4) % 301)
@@ -447,6 +568,9 @@ class MainWindow(QtWidgets.QMainWindow):
             self._updating_controls = True
             self.field_box.setCurrentText("W")
             self._updating_controls = False
+            self.statusBar().showMessage(
+                f"{field} belongs to one muscle: choose the muscle first (in the Muscle box "
+                f"or the list); only W has a total", 10000)
             field = "W"
         changed_muscle = muscle != self.session.muscle
         self.session.set_field(field, muscle)
@@ -471,7 +595,7 @@ class MainWindow(QtWidgets.QMainWindow):
         try:
             face = self.session.with_parameter(name, param, value)
         except (MuscleParameterError, ValueError) as exc:
-            self.param_error.setText(str(exc))
+            self.param_error.setText(self._labelled(str(exc)))
             old = getattr(self.session.face.muscle(name), param)
             if option:
                 _show_option(self.option_widgets[param], old)
@@ -483,22 +607,62 @@ class MainWindow(QtWidgets.QMainWindow):
             widget.blockSignals(False)
             return False
         self.param_error.setText("")
-        labels = {p: lbl for p, lbl, _ in (*EDITABLE.get(
-            self.session.face.muscle(name).type_name, ()), *OPTIONS)}
         shown = ("on" if value else "off") if isinstance(value, bool) else (
             value if isinstance(value, str) else f"{value:g}")
-        self.edit(f"Set {labels.get(param, param)} of {name} to {shown}", face)
+        self.edit(f"Set {self._labels().get(param, param)} of {name} to {shown}", face)
         return True
 
-    def set_activation(self, value: float) -> None:
-        """Set the selected muscle's activation by hand."""
-        if self._updating_controls or self.session.muscle is None:
-            return
-        self.session.set_activation(self.session.muscle, float(value))
-        self.refresh()
+    def _labels(self) -> dict[str, str]:
+        """The selected muscle's parameters as the panel labels them."""
+        name = self.session.muscle
+        kind = self.session.face.muscle(name).type_name if name else None
+        return {p: lbl for p, lbl, _ in (*EDITABLE.get(kind, ()), *OPTIONS)}
 
-    def _on_pick(self, point) -> None:
+    def _labelled(self, message: str) -> str:
+        """``message`` with the parameters called by the labels the panel shows them under
+        (``parameter max_angle_deg = 95`` -> ``Phi (deg) = 95``).
+        """
+        labels = self._labels()
+        message = re.sub(r"\bparameter (\w+) =",
+                         lambda m: f"{labels.get(m.group(1), m.group(1))} =", message)
+        for param, label in labels.items():
+            if "_" in param and param != label:  # a name no word of the prose has
+                message = re.sub(rf"\b{param}\b", label, message)
+        return message
+
+    def _on_option(self, param: str, value) -> None:
+        """An option's check box (bool) or combo box (an index) changed."""
+        widget = self.option_widgets[param]
+        if isinstance(widget, QtWidgets.QComboBox):
+            value = widget.itemData(value)
+        self.set_parameter(param, bool(value) if isinstance(
+            widget, QtWidgets.QCheckBox) else value)
+
+    def set_activation(self, value: float) -> None:
+        """Set the selected muscle's peak activation in the expression shown: one undoable
+        edit of the layout (0 takes the muscle out of the expression).
+        """
+        s = self.session
+        if self._updating_controls or s.muscle is None:
+            return
+        try:
+            face = s.with_activation(s.muscle, float(value))
+        except ValueError as exc:
+            self.param_error.setText(str(exc))
+            self._show_activation()
+            return
+        self.edit(f"Set activation of {s.muscle} in {s.expression} to {value:g}", face)
+
+    def _on_pick(self, point, picker=None) -> None:
+        """A right-click on the skin view picked ``point``: probe the vertex there (the
+        skin's own vertex when the picker names it, else the nearest one).
+        """
         if point is None:
+            return
+        skin = self.views.skin_mesh
+        if picker is not None and skin is not None and picker.GetDataSet() is skin \
+                and 0 <= picker.GetPointId() < self.session.state().n_points:
+            self.probe_vertex(int(picker.GetPointId()))
             return
         points = self.session.state().points
         self.probe_vertex(int(np.argmin(np.linalg.norm(points - np.asarray(point), axis=1))))
@@ -507,6 +671,8 @@ class MainWindow(QtWidgets.QMainWindow):
         """Show every field's value at ``vertex`` in the probe table; returns them."""
         self.probed_vertex = vertex
         values = self.session.probe(vertex)
+        self.probe_table.setVerticalHeaderLabels(
+            [_field_label(f, self.session.unit) for f in FIELD_NAMES])
         muscle = self.session.muscle
         for row, field in enumerate(FIELD_NAMES):
             own = values.get(muscle, {}).get(field, np.nan) if muscle else np.nan
@@ -530,6 +696,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def show_face(self, face, select: str | None = None) -> None:
         """Show a version of the face and select ``select`` (an undo or a redo)."""
         s = self.session
+        self.param_error.setText("")  # a refusal is about the version left behind
         if face is s.face and select == s.muscle and self._drawn_face is face:
             return  # a drag's end: already on screen
         names_changed = face.muscle_names != s.face.muscle_names
@@ -548,7 +715,10 @@ class MainWindow(QtWidgets.QMainWindow):
     def _on_clean_changed(self, clean: bool) -> None:
         self.session.dirty = not clean
         self._update_title()
-        self.autosave_timer.start()
+        self._schedule_autosave()
+
+    def _on_list_selected(self, name: str) -> None:
+        self.select_muscle(name or None)
 
     def _selected_or_warn(self) -> str | None:
         if self.session.muscle is None:
@@ -666,8 +836,8 @@ class MainWindow(QtWidgets.QMainWindow):
         try:
             new = with_point(s.face.muscle(name), handle.param, handle.index, point)
         except MuscleParameterError as exc:
-            self.param_error.setText(str(exc))
-            self.statusBar().showMessage(f"Refused: {exc}")
+            self.param_error.setText(self._labelled(str(exc)))
+            self.statusBar().showMessage(f"Refused: {self._labelled(str(exc))}", 10000)
             self.placement.update(s.face.muscle(name), s.state())
             self._sync_views()
         else:
@@ -695,25 +865,23 @@ class MainWindow(QtWidgets.QMainWindow):
             if reset_camera:
                 self.views.invalidate()
             self.views.draw(s, state, wireframe=self.wireframe_box.isChecked(),
-                            plain=self.plain_skin)
+                            plain=self.plain_skin, clim=self.colour_range(), unit=s.unit)
             self._drawn_face = s.face
             if reset_camera:
                 set_camera(self.skin_view, "front", s.face)
         finally:
             self._syncing = False
-        if self.session.muscle is not None and hasattr(self, "activation_box"):
-            self._updating_controls = True
-            self.activation_box.setValue(state.activations.get(self.session.muscle, 0.0))
-            self._updating_controls = False
+        self._show_activation()
         if self.probed_vertex is not None and self.probed_vertex >= len(state.points):
             self.probed_vertex = None  # a vertex of a refinement that is gone
         if self.probed_vertex is not None:
             self.probe_vertex(self.probed_vertex)
         self.views.render(only_changed=not reset_camera, skip=skip)
         total_ms = 1e3 * (time.perf_counter() - t0)
-        self.statusBar().showMessage(
+        self.status_label.setText(
             f"{s.expression} x {s.intensity:.2f}"
-            f"{'' if s.time_s is None else f' at {s.time_s:.2f} s'}  |  frame "
+            f"{'' if s.time_s is None else f' at {s.time_s:.2f} s'}  |  W in "
+            f"[{state.W.min():.3g}, {state.W.max():.3g}] {s.unit}  |  frame "
             f"{s.frame_ms:.2f} ms, drawn in {total_ms:.1f} ms  |  "
             f"{s.face.skin.n_triangles} triangles")
         self._update_title()
@@ -758,22 +926,52 @@ class MainWindow(QtWidgets.QMainWindow):
         self.setWindowTitle(f"wrinkle-vis - {path.name if path else 'built-in face'}"
                             f"{' *' if self.session.dirty else ''}")
 
-    def open_layout(self, path: str | Path) -> bool:
-        """Open a layout file; a bad one is reported and the current face kept."""
-        from wrinkle_vis.datasets import load_face
+    def may_discard_changes(self, doing: str = "going on") -> bool:
+        """Whether the unsaved changes, if any, may be left behind: asks Save / Discard /
+        Cancel (Save saves them first, and a failed or cancelled save is a Cancel).
+        """
+        if not self.session.dirty:
+            return True
+        answer = QtWidgets.QMessageBox.question(
+            self, "Unsaved changes",
+            f"The layout has unsaved changes. Save them before {doing}?",
+            QtWidgets.QMessageBox.Save | QtWidgets.QMessageBox.Discard
+            | QtWidgets.QMessageBox.Cancel, QtWidgets.QMessageBox.Save)
+        if answer == QtWidgets.QMessageBox.Save:
+            return self.save()
+        return answer == QtWidgets.QMessageBox.Discard
 
+    def open_layout(self, path: str | Path) -> bool:
+        """Open a layout file (after asking about unsaved changes); a bad one is reported
+        and the current face kept.
+        """
+        if not self.may_discard_changes("opening another layout"):
+            return False
+        current = self.session
+        n = current.face.skin.n_triangles if current.layout().skin is None else None
         try:
-            face = load_face(self.session.face.skin.n_triangles, layout=path)
+            session = load_session(path, n_triangles=n)
         except (OSError, LayoutError, ValueError, KeyError) as exc:
             QtWidgets.QMessageBox.warning(self, "Cannot open layout", str(exc))
             return False
-        self.session = Session(face, path)
-        self.undo_stack.clear()
-        self.recovery.discard()
+        self._show_session(session)
+        self.recovery.discard()  # what it held was saved or discarded just now
         self._remember(path)
+        return True
+
+    def open_recent(self, path: str) -> bool:
+        """Open a layout of the Open recent menu."""
+        return self.open_layout(path)
+
+    def _show_session(self, session: Session) -> None:
+        """Show another session (a layout opened or restored), with the view's settings."""
+        session.refine = self.refine_box.isChecked()
+        session.fixed_range = self.session.fixed_range
+        self.session = session
+        self.undo_stack.clear()
+        self.param_error.setText("")
         self._populate()
         self.refresh(reset_camera=True)
-        return True
 
     def save(self) -> bool:
         """Save to the open file, or ask for one."""
@@ -785,7 +983,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """Save the layout atomically to ``path``."""
         try:
             self.session.save(path)
-        except OSError as exc:
+        except (OSError, ValueError) as exc:
             QtWidgets.QMessageBox.warning(self, "Cannot save layout", str(exc))
             return False
         self.undo_stack.setClean()
@@ -819,6 +1017,34 @@ class MainWindow(QtWidgets.QMainWindow):
         if path:
             self.screenshot(path)
 
+    def save_image(self, view: str, path: str | Path, size: tuple[int, int]) -> Path:
+        """Save view ``view`` (``"skin"``, ``"muscles"`` or ``"skull"``) as a PNG of
+        ``size`` ``(width, height)`` pixels, without the placement widget's handles and
+        outlines or the probe's marker (see :meth:`LinkedViews.save_image`).
+        """
+        return self.views.save_image(view, path, size)
+
+    def image_dialog(self) -> Path | None:
+        """Ask for a view, a size and a file, and save the view's image there."""
+        w, h = self.skin_view.window_size
+        dialog = ImageDialog(self, (2 * w, 2 * h))
+        if dialog.exec() != QtWidgets.QDialog.Accepted:
+            return None
+        path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save view image", "",
+                                                        "PNG images (*.png)")
+        if not path:
+            return None
+        if not path.lower().endswith(".png"):
+            path += ".png"
+        try:
+            out = self.save_image(dialog.view(), path, dialog.size())
+        except (OSError, ValueError, RuntimeError) as exc:
+            QtWidgets.QMessageBox.warning(self, "Cannot save the image", str(exc))
+            return None
+        self.statusBar().showMessage(f"Saved {out} ({dialog.size()[0]} x "
+                                     f"{dialog.size()[1]})", 10000)
+        return out
+
     def recent_files(self) -> list[str]:
         """The recently opened or saved layouts, newest first."""
         value = self.settings.value("recent", [])
@@ -833,101 +1059,284 @@ class MainWindow(QtWidgets.QMainWindow):
     def _update_recent_menu(self) -> None:
         self.recent_menu.clear()
         for path in self.recent_files():
-            action = self.recent_menu.addAction(path)
-            action.triggered.connect(lambda checked=False, p=path: self.open_layout(p))
+            self.recent_menu.addAction(path).triggered.connect(_weak(self.open_recent, path))
         self.recent_menu.setEnabled(bool(self.recent_files()))
 
+    # ------------------------------------------------------------------ help
+    def show_guide(self) -> QtWidgets.QDialog:
+        """Show the user guide (``docs/guide.md``) in a window of its own."""
+        if getattr(self, "guide_dialog", None) is None:
+            self.guide_dialog = TextDialog(self, "wrinkle-vis guide", _guide_text(),
+                                           GUIDE.parent)
+        self.guide_dialog.show()
+        self.guide_dialog.raise_()
+        return self.guide_dialog
+
+    def shortcuts(self) -> list[tuple[str, str, str]]:
+        """``(menu, action, shortcut)`` of every action of the menus that has a shortcut,
+        read from the actions themselves.
+        """
+        rows = []
+
+        def walk(menu: QtWidgets.QMenu, where: str) -> None:
+            for action in menu.actions():
+                text = action.text().replace("&", "").rstrip(".")
+                if action.menu() is not None:
+                    walk(action.menu(), f"{where} > {text}")
+                elif not action.isSeparator() and not action.shortcut().isEmpty():
+                    rows.append((where, text, action.shortcut().toString(
+                        QtGui.QKeySequence.NativeText)))
+
+        for top in self.menuBar().actions():
+            if top.menu() is not None:
+                walk(top.menu(), top.text().replace("&", ""))
+        return rows
+
+    def show_shortcuts(self) -> QtWidgets.QDialog:
+        """Show every action's shortcut (:meth:`shortcuts`) in a table."""
+        dialog = getattr(self, "shortcuts_dialog", None)
+        if dialog is None:
+            dialog = self.shortcuts_dialog = QtWidgets.QDialog(self)
+            dialog.setWindowTitle("Keyboard shortcuts")
+            box = QtWidgets.QVBoxLayout(dialog)
+            dialog.table = QtWidgets.QTableWidget(0, 3)
+            dialog.table.setHorizontalHeaderLabels(["menu", "action", "shortcut"])
+            dialog.table.verticalHeader().setVisible(False)
+            dialog.table.setEditTriggers(QtWidgets.QAbstractItemView.NoEditTriggers)
+            box.addWidget(dialog.table)
+            note = QtWidgets.QLabel("Mouse: drag to rotate, wheel to zoom, right-click the "
+                                    "skin to probe, click a muscle to select it, drag a "
+                                    "handle to move it.")
+            note.setWordWrap(True)
+            box.addWidget(note)
+            dialog.resize(560, 520)
+        rows = self.shortcuts()  # built afresh: the recent files and plug-ins may change
+        dialog.table.setRowCount(len(rows))
+        for i, row in enumerate(rows):
+            for j, text in enumerate(row):
+                dialog.table.setItem(i, j, QtWidgets.QTableWidgetItem(text))
+        dialog.table.resizeColumnsToContents()
+        dialog.show()
+        dialog.raise_()
+        return dialog
+
     # ------------------------------------------------------------------ recovery
+    def _schedule_autosave(self, *_) -> None:
+        """An edit: autosave after a second of quiet, and at the latest 5 s after the
+        first edit not autosaved yet.
+        """
+        self.autosave_timer.start()
+        if not self.autosave_deadline.isActive():
+            self.autosave_deadline.start()
+
     def autosave(self) -> None:
         """Write the layout to the recovery file while it has unsaved changes (remove the
         file when it has none).
         """
+        self.autosave_timer.stop()
+        self.autosave_deadline.stop()
         if not self.session.dirty:
             self.recovery.discard()
             return
-        try:
-            self.recovery.save(self.session.layout(), self.session.layout_path,
-                               self.session.face.skin.n_triangles)
+        s = self.session
+        try:  # mesh paths relative to the source's folder, else absolute
+            self.recovery.save(s.layout(s.layout_path.parent if s.layout_path else None),
+                               s.layout_path, s.face.skin.n_triangles)
         except OSError as exc:
             self.statusBar().showMessage(f"Autosave failed: {exc}")
 
     def offer_recovery(self) -> bool:
-        """If an earlier session did not exit cleanly, offer to restore its autosaved
-        layout; returns whether one was restored.
+        """Offer each layout that an earlier session autosaved and did not get to save
+        (newest first): Restore, Discard, or Keep it for the next start. Only the files
+        the user answers Discard about are deleted, and one restored becomes this
+        session's own. Returns whether one was restored.
         """
-        orphans = self.recovery.orphans()
-        if not orphans:
-            return False
-        answer = QtWidgets.QMessageBox.question(
-            self, "Recover unsaved work?",
-            f"wrinkle-vis did not close cleanly last time and autosaved its layout in\n"
-            f"{orphans[0]}\n\nRestore it? (No discards it.)",
-            QtWidgets.QMessageBox.Yes | QtWidgets.QMessageBox.No,
-            QtWidgets.QMessageBox.Yes)
-        if answer != QtWidgets.QMessageBox.Yes:
-            for path in orphans:
+        restored = False
+        for path in self.recovery.orphans():
+            try:
+                rec = Recovery.load(path)
+            except LayoutError as exc:
+                self._keep_aside(path, exc)
+                continue
+            answer = self._ask_recovery(rec, can_restore=not restored)
+            if answer == "restore":
+                restored = self.restore(path) or restored
+            elif answer == "discard":
                 path.unlink(missing_ok=True)
-            return False
-        return self.restore(orphans[0], others=orphans[1:])
+        return restored
 
-    def restore(self, path, others=()) -> bool:
-        """Restore the layout of recovery file ``path`` as unsaved changes; a file that
-        cannot be read is kept beside as ``.bad`` and reported.
+    def _ask_recovery(self, rec, can_restore: bool) -> str:
+        """Ask what to do with recovery file ``rec``: "restore", "discard" or "keep"."""
+        box = QtWidgets.QMessageBox(self)
+        box.setIcon(QtWidgets.QMessageBox.Question)
+        box.setWindowTitle("Recover unsaved work?")
+        source = rec.source if rec.source else "the built-in face"
+        box.setText(
+            f"wrinkle-vis did not close cleanly and autosaved unsaved work on {source} "
+            f"({len(rec.layout.muscles)} muscles) at {time.ctime(rec.saved_at)} in\n"
+            f"{rec.path}\n\n" + (
+                "Restore it? Discard deletes the file; Keep leaves it for the next start."
+                if can_restore else
+                "Another one was restored already. Discard deletes this file; Keep leaves "
+                "it for the next start."))
+        buttons = {}
+        if can_restore:
+            buttons[box.addButton("Restore", QtWidgets.QMessageBox.AcceptRole)] = "restore"
+        buttons[box.addButton("Discard", QtWidgets.QMessageBox.DestructiveRole)] = "discard"
+        keep = box.addButton("Keep", QtWidgets.QMessageBox.RejectRole)
+        buttons[keep] = "keep"
+        box.setEscapeButton(keep)  # closing the question keeps the file
+        box.setDefaultButton(next(iter(buttons)))
+        box.exec()
+        answer = buttons.get(box.clickedButton(), "keep")
+        box.deleteLater()
+        return answer
+
+    def _keep_aside(self, path: Path, exc: Exception) -> None:
+        """A recovery file that cannot be read is renamed ``.bad`` (never thrown away)."""
+        bad = path.with_suffix(".bad")
+        try:
+            path.replace(bad)
+        except OSError:
+            bad = path
+        QtWidgets.QMessageBox.warning(
+            self, "Cannot recover", f"{exc}\n\nThe file was kept as {bad}.")
+
+    def restore(self, path) -> bool:
+        """Restore the layout of recovery file ``path`` as unsaved changes (asking first
+        about unsaved changes of this session); a file that cannot be read is kept beside
+        as ``.bad`` and reported. Only ``path`` is removed, once this session's own
+        recovery file holds its layout.
         """
         from wrinkle_vis.datasets import load_face
 
+        if not self.may_discard_changes("restoring autosaved work"):
+            return False
         path = Path(path)
         try:
             rec = Recovery.load(path)
             base = rec.source.parent if rec.source else Path.cwd()
-            face = load_face(rec.n_triangles, layout=rec.layout,
-                             skin=rec.layout.resolve("skin", base),
+            n = rec.layout.n_triangles if rec.layout.n_triangles is not None \
+                else rec.n_triangles
+            face = load_face(n, layout=rec.layout, skin=rec.layout.resolve("skin", base),
                              skull=rec.layout.resolve("skull", base))
         except (OSError, LayoutError, ValueError, KeyError) as exc:
-            path.replace(path.with_suffix(".bad"))
-            QtWidgets.QMessageBox.warning(
-                self, "Cannot recover", f"{exc}\n\nThe file was kept as "
-                f"{path.with_suffix('.bad')}.")
+            self._keep_aside(path, exc)
             return False
-        self.session = Session(face, rec.source if rec.source and rec.source.exists()
-                               else None)
-        self.undo_stack.clear()
+        source = rec.source if rec.source and rec.source.exists() else None
+        self._show_session(Session(face, source, layout=rec.layout, folder=base))
         self.undo_stack.resetClean()  # the restored edits are unsaved
-        self._populate()
-        self.refresh(reset_camera=True)
-        self.autosave()  # ours now holds them: the orphans can go
-        for p in (path, *others):
-            p.unlink(missing_ok=True)
+        self.session.dirty = True
+        self._update_title()
+        self.autosave()  # ours now holds them: the orphan can go
+        if self.recovery.path.exists():
+            path.unlink(missing_ok=True)
         self.statusBar().showMessage(f"Restored the layout autosaved at "
-                                     f"{time.ctime(rec.saved_at)}")
+                                     f"{time.ctime(rec.saved_at)}", 10000)
         return True
 
     # ------------------------------------------------------------------ closing
     def closeEvent(self, event) -> None:  # noqa: N802 (Qt's name)
-        """Ask about unsaved changes, then close every plotter cleanly."""
-        if self.session.dirty:
-            answer = QtWidgets.QMessageBox.question(
-                self, "Unsaved changes", "The layout has unsaved changes. Save them?",
-                QtWidgets.QMessageBox.Save | QtWidgets.QMessageBox.Discard
-                | QtWidgets.QMessageBox.Cancel)
-            if answer == QtWidgets.QMessageBox.Cancel or (
-                    answer == QtWidgets.QMessageBox.Save and not self.save()):
-                event.ignore()
-                return
+        """Ask about unsaved changes, then close every plotter and let go of everything
+        that could keep the window alive.
+        """
+        if not self.may_discard_changes("closing"):
+            event.ignore()
+            return
         self.timer.stop()
         self.autosave_timer.stop()
+        self.autosave_deadline.stop()
         self.views.close_placement()
         self.undo_stack.clear()
         self.recovery.discard()  # a clean exit leaves nothing to recover
-        # VTK holds these callbacks strongly, out of Python's sight: drop them, or the
-        # window and its plotters could never be collected
+        # VTK holds observers strongly, out of Python's sight: remove them
         self.skin_view.renderer.GetActiveCamera().RemoveObserver(self._camera_observer)
         self.skin_view.disable_picking()
         self.muscle_view.iren.remove_observers("LeftButtonPressEvent")
         self.muscle_view.iren.remove_observers("LeftButtonReleaseEvent")
         for p in self.plotters:
             p.close()
+        for dialog in ("guide_dialog", "shortcuts_dialog"):
+            if getattr(self, dialog, None) is not None:
+                getattr(self, dialog).close()
         event.accept()
+
+
+class _UndoKeysToWindow(QtCore.QObject):
+    """An event filter that lets Undo and Redo reach the window's actions from a spin box
+    (whose line edit would take Ctrl+Z for its own text).
+    """
+
+    def eventFilter(self, obj, event) -> bool:  # noqa: N802 (Qt's name)
+        if event.type() == QtCore.QEvent.ShortcutOverride and (
+                event.matches(QtGui.QKeySequence.Undo)
+                or event.matches(QtGui.QKeySequence.Redo)):
+            event.ignore()  # not the box's: the shortcut goes to the window
+            return True
+        return False
+
+
+class ImageDialog(QtWidgets.QDialog):
+    """Which view to save as an image, and at what size in pixels."""
+
+    def __init__(self, parent, size: tuple[int, int]):
+        super().__init__(parent)
+        self.setWindowTitle("Save view image")
+        form = QtWidgets.QFormLayout(self)
+        self.view_box = QtWidgets.QComboBox()
+        self.view_box.addItems(list(VIEWS))
+        form.addRow("View", self.view_box)
+        self.width_box, self.height_box = QtWidgets.QSpinBox(), QtWidgets.QSpinBox()
+        for box, value in ((self.width_box, size[0]), (self.height_box, size[1])):
+            box.setRange(16, 8192)
+            box.setSuffix(" px")
+            box.setValue(int(value))
+        form.addRow("Width", self.width_box)
+        form.addRow("Height", self.height_box)
+        form.addRow(QtWidgets.QLabel("Without the handles, the outlines and the probe."))
+        buttons = QtWidgets.QDialogButtonBox(
+            QtWidgets.QDialogButtonBox.Ok | QtWidgets.QDialogButtonBox.Cancel)
+        buttons.accepted.connect(self.accept)
+        buttons.rejected.connect(self.reject)
+        form.addRow(buttons)
+
+    def view(self) -> str:
+        """The chosen view."""
+        return self.view_box.currentText()
+
+    def size(self) -> tuple[int, int]:  # noqa: D102 (shadows QWidget.size on purpose)
+        return self.width_box.value(), self.height_box.value()
+
+
+class TextDialog(QtWidgets.QDialog):
+    """A window showing Markdown text (the guide), images found beside it."""
+
+    def __init__(self, parent, title: str, markdown: str, folder: Path):
+        super().__init__(parent)
+        self.setWindowTitle(title)
+        box = QtWidgets.QVBoxLayout(self)
+        self.browser = QtWidgets.QTextBrowser()
+        self.browser.setSearchPaths([str(folder)])
+        self.browser.setOpenExternalLinks(True)
+        self.browser.setMarkdown(markdown)
+        box.addWidget(self.browser)
+        self.resize(820, 760)
+
+
+def _guide_text() -> str:
+    """The user guide, or where to find it when this install has no copy."""
+    try:
+        return GUIDE.read_text(encoding="utf-8")
+    except OSError:
+        return ("# wrinkle-vis guide\n\nThe guide is `docs/guide.md` in the wrinkle-vis "
+                "source; this installation has no copy. Help > Keyboard shortcuts lists "
+                "every action.")
+
+
+def _field_label(field: str, unit: str) -> str:
+    """A field's name with its unit: ``W (mm)``, ``lambda``."""
+    kind = field_info(field).unit
+    return {"length": f"{field} ({unit})", "deg": f"{field} (deg)"}.get(kind, field)
 
 
 def _error_label() -> QtWidgets.QLabel:
@@ -964,13 +1373,24 @@ def _resolved(muscle, param: str) -> float:
     return getattr(muscle, f"{param}_value")
 
 
-def run(argv=None) -> int:
-    """Start the app on the built-in face; returns the exit code."""
-    from wrinkle_vis.datasets import load_face
+def run(argv=None, layout: str | Path | None = None) -> int:
+    """Start the app on the layout file ``layout`` (default: the built-in face); returns
+    the exit code.
 
-    app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(argv or [])
-    window = MainWindow(Session(load_face()))
+    ``argv`` is Qt's command line (default ``sys.argv[:1]``). A layout that cannot be
+    opened is reported in one line on stderr, exit code 2, before any window opens.
+    """
+    app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(
+        list(argv) if argv else sys.argv[:1])
+    try:
+        session = load_session(layout)
+    except (OSError, LayoutError, ValueError, KeyError) as exc:
+        print(f"wrinkle-vis: cannot open layout {layout}: {exc}", file=sys.stderr)
+        return 2
+    window = MainWindow(session)
     window.show()
+    if layout is not None:
+        window._remember(layout)
     window.offer_recovery()
     return app.exec()
 
