@@ -258,6 +258,20 @@ def test_a_recovery_file_of_a_dead_process_with_our_pid_is_offered_not_overwritt
     assert w.offer_recovery() and w.session.face.muscle("corrugator_L").k0 == 2.5
 
 
+def test_restoring_the_file_of_a_dead_process_with_our_pid_keeps_it_as_ours(
+        make_window, wv_face, tmp_path, answer):
+    folder = tmp_path / "recovery"
+    base = Session(wv_face).layout()
+    ours = orphan(folder, os.getpid(), with_k0(base, "corrugator_L", 2.5), 3600)
+    w = make_window(recovery_=Recovery(folder))
+    answer("Restore")
+    assert w.offer_recovery() and w.session.face.muscle("corrugator_L").k0 == 2.5
+    assert w.recovery.path == ours and ours.exists()  # now ours, holding the restored work
+    saved = Recovery.load(ours)
+    assert next(m for m in saved.layout.muscles if m.name == "corrugator_L").k0 == 2.5
+    assert list(folder.iterdir()) == [ours] and w.recovery.orphans() == []
+
+
 def test_autosave_comes_within_a_bounded_time_however_the_edits_go_on(window, recovery,
                                                                       qtbot):
     """An edit every quarter second: the debounce alone would never fire; the file must

@@ -1228,6 +1228,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.undo_stack.resetClean()  # the restored edits are unsaved
         self.session.dirty = True
         self._update_title()
+        if path == self.recovery.path:  # a dead process's of our pid: out of our file's way
+            path = path.replace(path.with_name(f"{path.stem}-restored.json"))
         self.autosave()  # ours now holds them: the orphan can go
         if self.recovery.path.exists():
             path.unlink(missing_ok=True)
