@@ -318,3 +318,30 @@ def test_undersampled_wrinkles_are_one_warning_line(tmp_path, capsys):
     assert main(["render", "-e", "surprise", "--size", "64", "64", "-o", str(out)]) == 0
     assert capsys.readouterr().err == ""  # the frontalis' wrinkles are resolved
 
+
+
+def test_a_layout_alone_opens_the_app_on_it(tmp_path, monkeypatch, capsys):
+    import wrinkle_vis.app.window as window
+    import wrinkle_vis.plotting.offscreen as offscreen
+
+    layout = tmp_path / "mine.json"
+    wv.save_layout(wv.load_layout(wv.datasets.BUILTIN_LAYOUT), layout)
+    opened = []
+    monkeypatch.setattr(offscreen, "display_available", lambda: True)
+    monkeypatch.setattr(window, "run", lambda argv, layout=None: opened.append(layout) or 0)
+    assert main([str(layout)]) == 0
+    assert opened == [str(layout)]
+    with pytest.raises(SystemExit) as info:
+        main([str(tmp_path / "missing.json")])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no such file" in err and "missing.json" in err
+
+
+def test_a_layout_alone_without_a_display_says_how_to_work_headless(tmp_path):
+    layout = tmp_path / "mine.json"
+    wv.save_layout(wv.load_layout(wv.datasets.BUILTIN_LAYOUT), layout)
+    done = subprocess.run([str(CLI), str(layout)], cwd=tmp_path, env=_env(),
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and done.stderr.count("\n") == 1
+    assert "xvfb-run" in done.stderr

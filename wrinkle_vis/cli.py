@@ -66,7 +66,8 @@ def _parser() -> argparse.ArgumentParser:
         prog="wrinkle-vis",
         description="The muscle-driven facial wrinkle model of Zhang, Sim and Tan on an "
                     "anatomy-based face. With no COMMAND, the app opens (it needs a "
-                    "display; the commands work headless).",
+                    "display; the commands work headless); 'wrinkle-vis LAYOUT.json' opens it "
+                    "on a layout file.",
         epilog="Run 'wrinkle-vis COMMAND --help' for a command's options.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -555,7 +556,7 @@ def _figure(args) -> int:
     return 0
 
 
-def _app(parser) -> int:
+def _app(parser, layout: str | None = None) -> int:
     import os
 
     from wrinkle_vis.plotting.offscreen import display_available
@@ -570,7 +571,7 @@ def _app(parser) -> int:
         return 2
     from wrinkle_vis.app.window import run
 
-    return run(sys.argv[:1])
+    return run(sys.argv[:1], layout=layout)
 
 
 COMMANDS = {"summary": _summary, "render": _render, "export": _export, "animate": _animate,
@@ -580,6 +581,14 @@ COMMANDS = {"summary": _summary, "render": _render, "export": _export, "animate"
 def main(argv=None) -> int:
     """Entry point of the ``wrinkle-vis`` command."""
     parser = _parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if len(argv) == 1 and argv[0] not in COMMANDS and not argv[0].startswith("-"):
+        layout = Path(argv[0])  # ``wrinkle-vis LAYOUT``: the app on a layout file
+        if not layout.is_file():
+            what = "is a folder, not a layout file" if layout.is_dir() else "no such file"
+            parser.error(f"{layout}: {what}; give a layout file (.json) or a command "
+                         f"({', '.join(COMMANDS)})")
+        return _app(parser, str(layout))
     args = parser.parse_args(argv)
     if args.command is None:
         return _app(parser)
