@@ -37,6 +37,7 @@ from ..plotting import (
 )
 from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
+from ..plotting.writers import save_image
 from ..widgets import widget_factory
 
 __all__ = ["VIEWS", "LinkedViews", "add_field_bar"]
@@ -323,13 +324,13 @@ class LinkedViews:
                 if prop.GetVisibility() and not any(prop is h for h in hidden):
                     target.AddViewProp(prop)
             target.ResetCameraClippingRange()
-            path = Path(path)
-            off.screenshot(str(path))
+            image = off.screenshot(return_img=True)
         finally:
             off.renderer.RemoveAllViewProps()  # the actors are the views' own
             off.renderer.RemoveAllLights()
             off.close()
-        return path
+        save_image(image, path)  # atomic: a failed write keeps the old file
+        return Path(path)
 
     # ------------------------------------------------------------------ dragging
     def begin_drag(self) -> None:

@@ -1006,8 +1006,10 @@ class MainWindow(QtWidgets.QMainWindow):
         return self.save_as(path) if path else False
 
     def screenshot(self, path: str | Path) -> Path:
-        """Save the skin view as a PNG."""
-        self.skin_view.screenshot(str(path))
+        """Save the skin view as a PNG (atomically: a failed write keeps the old file)."""
+        from wrinkle_vis.plotting.writers import save_image
+
+        save_image(self.skin_view.screenshot(return_img=True), path)
         return Path(path)
 
     def screenshot_dialog(self) -> None:
