@@ -345,3 +345,12 @@ def test_a_layout_alone_without_a_display_says_how_to_work_headless(tmp_path):
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 2 and done.stderr.count("\n") == 1
     assert "xvfb-run" in done.stderr
+
+
+def test_the_library_renders_headless_without_the_x_server_warning(tmp_path):
+    code = ("import wrinkle_vis as wv; from wrinkle_vis.plotting import render_field; "
+            "render_field(wv.datasets.load_face(), 'frown', size=(64, 64), filename='w.png')")
+    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=_env(),
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stderr == "" and (tmp_path / "w.png").is_file()

@@ -11,6 +11,7 @@ from .notebook import (
     plot_face,
     plot_state,
 )
+from .offscreen import prefer_egl_when_headless
 from .polydata import field_array_name, to_polydata, to_surface_polydata
 from .scenes import (
     BONE,
@@ -40,3 +41,5 @@ __all__ = ["BONE", "CAMERAS", "FIELDS", "LAYERS", "NAN_COLOR", "SKIN", "FaceExpl
            "muscle_mesh", "render_field", "replace_mesh", "set_camera", "testing_theme",
            "to_multiblock", "to_polydata", "to_surface_polydata", "default_backend",
            "has_display", "in_notebook", "notebook_plotter", "plot_face", "plot_state"]
+
+prefer_egl_when_headless()  # importing makes no render window; using it may

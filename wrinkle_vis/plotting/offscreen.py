@@ -18,7 +18,8 @@ import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-__all__ = ["display_available", "headless_rendering", "x_display_reachable"]
+__all__ = ["display_available", "headless_rendering", "prefer_egl_when_headless",
+           "x_display_reachable"]
 
 #: The environment variable VTK (9.4 and later) reads to pick its OpenGL render window.
 VTK_WINDOW_VARIABLE = "VTK_DEFAULT_OPENGL_WINDOW"
@@ -107,3 +108,16 @@ def headless_rendering() -> Iterator[str | None]:
     finally:
         if chosen is not None:
             os.environ.pop(VTK_WINDOW_VARIABLE, None)
+
+
+def prefer_egl_when_headless() -> str | None:
+    """For the whole process: when no X display opens (Linux) and the user chose no render
+    window, ask VTK for EGL, so off-screen rendering from the library (``render_field``,
+    figures, notebooks) prints no "bad X server connection" either. Returns the window
+    chosen, or None when nothing changed. :mod:`wrinkle_vis.plotting` calls it on import.
+    """
+    if (sys.platform.startswith("linux") and not os.environ.get(VTK_WINDOW_VARIABLE)
+            and not x_display_reachable() and _egl_available()):
+        os.environ[VTK_WINDOW_VARIABLE] = "vtkEGLRenderWindow"
+        return "vtkEGLRenderWindow"
+    return None
