@@ -582,7 +582,8 @@ def main(argv=None) -> int:
     """Entry point of the ``wrinkle-vis`` command."""
     parser = _parser()
     argv = sys.argv[1:] if argv is None else list(argv)
-    if len(argv) == 1 and argv[0] not in COMMANDS and not argv[0].startswith("-"):
+    if len(argv) == 1 and argv[0] not in COMMANDS and (
+            argv[0].endswith(".json") or Path(argv[0]).is_file()):
         layout = Path(argv[0])  # ``wrinkle-vis LAYOUT``: the app on a layout file
         if not layout.is_file():
             what = "is a folder, not a layout file" if layout.is_dir() else "no such file"
