@@ -227,6 +227,14 @@ def edge_shrinkage(rest_points, points, edges) -> np.ndarray:
         return np.where(rest > 0.0, (rest - now) / rest, np.nan)
 
 
+def _row_positions(n: int, rows) -> tuple[np.ndarray, np.ndarray]:
+    """``rows`` (default all ``n``) and ``(n,)``: each vertex's row in them, -1 if none."""
+    rows = np.arange(n) if rows is None else np.asarray(rows, dtype=np.intp)
+    position = np.full(n, -1, dtype=np.intp)
+    position[rows] = np.arange(len(rows))
+    return rows, position
+
+
 def compression_operator(rest_points, edges, directions, rows=None) -> sp.csr_matrix:
     r"""Sparse operator :math:`E` with :math:`\varepsilon = E\,\tau` (Eq. 10).
 
@@ -259,10 +267,7 @@ def compression_operator(rest_points, edges, directions, rows=None) -> sp.csr_ma
     rest_points = np.asarray(rest_points, dtype=float)
     edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
     directions = np.asarray(directions, dtype=float)
-    n = len(rest_points)
-    rows = np.arange(n) if rows is None else np.asarray(rows, dtype=np.intp)
-    position = np.full(n, -1, dtype=np.intp)
-    position[rows] = np.arange(len(rows))
+    rows, position = _row_positions(len(rest_points), rows)
 
     vec = rest_points[edges[:, 1]] - rest_points[edges[:, 0]]
     length = np.linalg.norm(vec, axis=1)
@@ -357,10 +362,7 @@ def gradient_compression_operator(rest_points, triangles, directions, rows=None)
     rest_points = np.asarray(rest_points, dtype=float)
     triangles = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
     directions = np.asarray(directions, dtype=float)
-    n = len(rest_points)
-    rows = np.arange(n) if rows is None else np.asarray(rows, dtype=np.intp)
-    position = np.full(n, -1, dtype=np.intp)
-    position[rows] = np.arange(len(rows))
+    rows, position = _row_positions(len(rest_points), rows)
     tri_ids = np.flatnonzero((position[triangles] >= 0).any(axis=1))
     tri = triangles[tri_ids]
 
