@@ -48,6 +48,7 @@ from .mesh import (
 )
 from .muscle import Muscle, check_activation
 from .refine import bent_triangles, refine_triangles
+from .units import face_unit
 
 __all__ = ["FIELD_NAMES", "FaceModel", "FaceState"]
 
@@ -844,7 +845,8 @@ class FaceState:
         active = {m: a for m, a in self.activations.items() if a > 0}
         lines.append("active muscles: " + (", ".join(f"{m}={a:.2f}" for m, a in active.items())
                                            or "none"))
-        lines.append(f"W total: min {self.W.min():+.4f}  max {self.W.max():+.4f}  "
+        unit = face_unit(self.face)
+        lines.append(f"W total ({unit}): min {self.W.min():+.4f}  max {self.W.max():+.4f}  "
                      f"nonzero at {np.count_nonzero(self.W)} vertices")
         for m in active:
             f = self.fields[m]

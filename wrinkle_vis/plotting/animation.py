@@ -14,6 +14,7 @@ import numpy as np
 import pyvista as pv
 
 from ..core.face import FaceModel
+from ..core.units import face_unit
 from .fields import field_info, field_range
 from .scenes import LAYERS, add_muscles, add_skin, add_skull, clear_scene, set_camera
 
@@ -87,7 +88,7 @@ def animation_frames(face: FaceModel, expression, times, *, field: str | None = 
             if "skin" in layers:
                 add_skin(plotter, state, field, muscle, opacity=0.35 if translucent else 1.0)
                 if clim is not None:
-                    plotter.update_scalar_bar_range(clim, name=info.title(muscle))
+                    plotter.update_scalar_bar_range(clim, name=info.title(muscle, face_unit(face)))
             if "muscles" in layers:
                 add_muscles(plotter, face, state.activations, scalar_bar="skin" not in layers)
             if "skull" in layers:

@@ -7,6 +7,7 @@ import pyvista as pv
 
 from ..core.face import FaceModel, FaceState
 from ..core.muscles import LinearMuscle, SheetMuscle
+from ..core.units import face_unit
 from .fields import NAN_COLOR, field_info, field_range
 from .polydata import field_array_name, to_polydata, to_surface_polydata
 from .writers import IMAGE_SUFFIXES, check_target, save_image
@@ -143,9 +144,11 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
         mesh, scalars=array, cmap=info.cmap, clim=field_range(info, values),
         nan_color=NAN_COLOR, smooth_shading=True, opacity=opacity, show_edges=show_edges,
         edge_color=edge_color, show_scalar_bar=scalar_bar, name="skin", render=False,
-        scalar_bar_args=_scalar_bar(info.title(muscle)) if scalar_bar else None)
+        scalar_bar_args=_scalar_bar(info.title(muscle, face_unit(state))) if scalar_bar
+        else None)
     if scalar_bar:
-        plotter.scalar_bars[info.title(muscle)].SetNanAnnotation("undefined")
+        plotter.scalar_bars[info.title(muscle, face_unit(state))].SetNanAnnotation(
+            "undefined")
     return actor
 
 
