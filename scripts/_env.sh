@@ -1,4 +1,4 @@
-# Sourced by run.sh and test.sh: make .venv with the project installed (once per pyproject).
+# Sourced by run.sh, test.sh and docs.sh: make .venv with the project installed (once per pyproject).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 PY=${PYTHON:-python3.11}
@@ -11,6 +11,9 @@ stamp=".venv/.installed-$(cat pyproject.toml tests/plugins/*/pyproject.toml | sh
 if [ ! -f "$stamp" ]; then
   if [ "${1:-run}" = test ]; then
     PYTHONWARNINGS=ignore .venv/bin/python -m pip install --quiet -e ".[test]" \
+      -e tests/plugins/wrinkle_vis_ring
+  elif [ "${1:-run}" = docs ]; then  # the gallery's plug-in example uses the example plug-in
+    PYTHONWARNINGS=ignore .venv/bin/python -m pip install --quiet -e ".[docs,jupyter]" \
       -e tests/plugins/wrinkle_vis_ring
   else
     PYTHONWARNINGS=ignore .venv/bin/python -m pip install --quiet -e .
