@@ -51,10 +51,10 @@ from ..core.files import (
 from .polydata import to_polydata
 from .writers import (
     Written,
-    _check_piece_folder,
     _ply_bytes,
     _write_synced,
     _xml_bytes,
+    check_target,
     replace_folder,
 )
 
@@ -121,18 +121,10 @@ def _frame_pattern(path: Path, count: int) -> re.Pattern:
 
 
 def check_sequence_target(path: str | os.PathLike) -> Path:
-    """Check a sequence's target before any work (:data:`SEQUENCE_SUFFIXES`); for ``.pvd``
-    also that the folder of its frames can be replaced. Returns the real target.
-
-    Raises
-    ------
-    OutputPathError
-        Naming the problem and the way out.
+    """Check a sequence's target before any work (:data:`SEQUENCE_SUFFIXES`; for ``.pvd``
+    also its frames' folder, see :func:`~wrinkle_vis.plotting.writers.check_target`).
     """
-    real = check_output(path, SEQUENCE_SUFFIXES)
-    if real.suffix.lower() == ".pvd":
-        _check_piece_folder(real)
-    return real
+    return check_target(path, SEQUENCE_SUFFIXES)
 
 
 def save_sequence(states: Iterable[FaceState], times: Sequence[float],

@@ -73,7 +73,7 @@ class Written:
 
 def check_target(path: str | os.PathLike, suffixes) -> Path:
     """Check an output path before any work (:func:`~wrinkle_vis.core.files.check_output`);
-    for ``.vtm`` also that the folder of its pieces can be replaced.
+    for ``.vtm`` and ``.pvd`` also that the folder of their pieces can be replaced.
 
     Raises
     ------
@@ -81,7 +81,7 @@ def check_target(path: str | os.PathLike, suffixes) -> Path:
         Naming the problem and the way out.
     """
     real = check_output(path, suffixes)
-    if real.suffix.lower() == ".vtm":
+    if real.suffix.lower() in (".vtm", ".pvd"):
         _check_piece_folder(real)
     return real
 
