@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.editing import mirror_name, mirrored, unique_name
+from ..core.editing import mirror_name, mirrored, snapped, unique_name
 from ..core.face import FIELD_NAMES, FaceModel, FaceState
 from ..core.layout import Layout, load_layout, save_layout
 from ..core.muscle import OPTIONS as MUSCLE_OPTIONS
@@ -287,21 +287,18 @@ class Session:
         """``muscle`` reflected across the face's symmetry plane and snapped onto its
         surfaces, called ``name`` (default its twin's name).
         """
-        from wrinkle_vis.widgets.placement import snapped
-
         point, normal = self.face.symmetry_plane()
         source = self.face.muscle(muscle)
-        return snapped(mirrored(source, point, normal, name=name), self.face, like=source)
+        return snapped(mirrored(source, point, normal, name=name),
+                       {"skin": self.face.skin, "skull": self.face.skull}, like=source)
 
     def added(self, type_name: str, at) -> tuple[FaceModel, str]:
         """The face with a new muscle of type ``type_name``, its insertion on the skin at
-        ``at`` ``(3,)``, made by the type's widget (:meth:`PlacementWidget.create`).
+        ``at`` ``(3,)``, made by the type itself (:meth:`Muscle.create`).
         """
-        from wrinkle_vis.widgets import widget_factory
-
         cls = get_muscle_type(type_name)
         name = unique_name(f"{type_name}_1", self.face.muscle_names)
-        return self.face.with_muscle(widget_factory(cls).create(cls, name, self.face, at)), \
+        return self.face.with_muscle(cls.create(name, at, self.face.skin, self.face.skull)), \
             name
 
     def derived(self, muscle: str) -> dict[str, float]:

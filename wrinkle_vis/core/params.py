@@ -1,0 +1,150 @@
+"""What a muscle parameter is: its label, symbol, unit, range, step and surface, declared once.
+
+A muscle type declares each parameter as a dataclass field made by :func:`parameter`; the
+field's metadata holds a :class:`Parameter`, which validation
+(:meth:`~wrinkle_vis.core.muscle.Muscle._check_common`), the app's parameter panel, layout
+validation, the command line (``wrinkle-vis types``) and the documentation read. Nothing
+else lists a type's parameters.
+
+.. code-block:: python
+
+    @register_muscle_type
+    @dataclass(frozen=True)
+    class RingMuscle(Muscle):
+        type_name = "ring"
+        center: tuple = parameter(label="centre", symbol="c", unit="point", shape=(3,),
+                                  surface="skin", kw_only=False)
+        _: KW_ONLY
+        radius: float = parameter(label="R", symbol="R", unit="length", lo=0.0,
+                                  lo_open=True, step=1.0)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+__all__ = ["PARAMETER_KEY", "SURFACES", "UNITS", "Parameter", "parameter"]
+
+#: The key of a :class:`Parameter` in a dataclass field's metadata.
+PARAMETER_KEY = "wrinkle_vis.parameter"
+#: The kinds of value a parameter holds: lengths in the face's units (they scale with the
+#: face), angles in degrees, dimensionless numbers, integer counts, and points or lines.
+UNITS = ("length", "deg", "1", "count", "point", "vector")
+#: The surfaces a point parameter lies on.
+SURFACES = ("skin", "skull")
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One parameter of a muscle type, as every layer shows and checks it.
+
+    Attributes
+    ----------
+    name : str
+        The dataclass field (filled in by :meth:`Muscle.parameters`).
+    label : str
+        ASCII label for panels and messages, e.g. ``"Phi (deg)"``.
+    symbol : str
+        The paper's symbol, e.g. ``"Φ"``.
+    unit : str
+        One of :data:`UNITS`.
+    doc : str
+        One line: what it is.
+    lo, hi : float
+        The static range (bounds that depend on other parameters are checked by the type).
+    lo_open, hi_open : bool
+        Whether the bounds are excluded.
+    step : float
+        The panel's step.
+    derived : str or None
+        For an optional parameter (default None): the attribute holding the value it
+        takes then (``"fall_start_value"``), which :meth:`Muscle.resolved` reads.
+    surface : str or None
+        For a point parameter: ``"skin"`` or ``"skull"``, where its points lie.
+    shape : tuple of int
+        ``()`` for a number, ``(3,)`` for a point, ``(2, 3)`` for a line.
+    hint : str
+        Added to the error message when the value is out of range.
+    """
+
+    name: str = ""
+    label: str = ""
+    symbol: str = ""
+    unit: str = "1"
+    doc: str = ""
+    lo: float = -math.inf
+    hi: float = math.inf
+    lo_open: bool = False
+    hi_open: bool = False
+    step: float = 0.1
+    derived: str | None = None
+    surface: str | None = None
+    shape: tuple = ()
+    hint: str = ""
+
+    def __post_init__(self):
+        if self.unit not in UNITS:
+            raise ValueError(f"parameter {self.name or self.label!r}: unit {self.unit!r} is "
+                             f"not one of {', '.join(UNITS)}")
+        if self.surface is not None and self.surface not in SURFACES:
+            raise ValueError(f"parameter {self.name or self.label!r}: surface "
+                             f"{self.surface!r} is not one of {', '.join(SURFACES)}")
+        if self.unit == "point" and self.shape not in ((3,), (2, 3)):
+            raise ValueError(f"point parameter {self.name or self.label!r} needs shape (3,) "
+                             f"or (2, 3); got {self.shape}")
+
+    @property
+    def is_point(self) -> bool:
+        """A point or a line, which placement widgets edit and the skin or skull holds."""
+        return self.unit == "point"
+
+    @property
+    def is_number(self) -> bool:
+        """A real number or a count, which the parameter panel edits."""
+        return self.unit in ("length", "deg", "1", "count")
+
+    @property
+    def is_length(self) -> bool:
+        """Scales with the face (:meth:`Muscle.transformed`)."""
+        return self.unit == "length"
+
+    @property
+    def optional(self) -> bool:
+        """None is allowed and means the :attr:`derived` value."""
+        return self.derived is not None
+
+    def range_text(self) -> str:
+        """The static range as ``[0, 1)``, ``(0, inf)``, or ``integer >= 1``."""
+        if self.unit == "count":
+            return f"integer >= {self.lo:g}"
+        left = "(" if self.lo_open or self.lo == -math.inf else "["
+        right = ")" if self.hi_open or self.hi == math.inf else "]"
+        return f"{left}{self.lo:g}, {self.hi:g}{right}"
+
+
+def parameter(default=dataclasses.MISSING, *, kw_only: bool = True, **meta):
+    """A muscle dataclass field carrying its :class:`Parameter` (``meta`` are its attributes).
+
+    Parameters
+    ----------
+    default : optional
+        The default; none makes the parameter required. An optional parameter (one with
+        ``derived``) defaults to None.
+    kw_only : bool, default True
+        Keyword-only in the constructor (the point parameters of the built-in types are
+        positional: ``kw_only=False``).
+    **meta
+        ``label``, ``symbol``, ``unit``, ``doc``, ``lo``, ``hi``, ``lo_open``, ``hi_open``,
+        ``step``, ``derived``, ``surface``, ``shape``, ``hint``.
+
+    Returns
+    -------
+    dataclasses.Field
+    """
+    if default is dataclasses.MISSING and meta.get("derived"):
+        default = None
+    spec = Parameter(**meta)
+    return dataclasses.field(default=default, kw_only=kw_only,
+                             metadata={PARAMETER_KEY: spec})
