@@ -79,9 +79,9 @@ def test_decorator_with_a_name_and_non_muscles(clean_registry):
 
 def test_unknown_type_lists_installed_ones():
     with pytest.raises(wv.UnknownMuscleTypeError, match="installed types: .*linear.*sheet"):
-        wv.get_muscle_type("sphincter")
+        wv.get_muscle_type("spiral")
     with pytest.raises(wv.UnknownMuscleTypeError):
-        wv.muscle_from_dict({"type": "sphincter", "name": "x"})
+        wv.muscle_from_dict({"type": "spiral", "name": "x"})
     with pytest.raises(ValueError, match="has no 'type'"):
         wv.muscle_from_dict({"name": "x"})
 
