@@ -375,7 +375,7 @@ def _orbicularis_oculi() -> SphincterMuscle:
     return SphincterMuscle(
         "orbicularis_oculi_L", _on_skin(32.0, 0.0), _on_skin(60.0, -3.0), _on_skin(32.0, 22.0),
         depth=22.0, sector_deg=50.0, sector_center_deg=0.0, lambda_w=0.4, n_wrinkles=4,
-        k0=2.0, alpha=1.0, fall_start=25.0, strength=3.0, compression="gradient")
+        k0=2.5, alpha=1.0, fall_start=25.0, strength=3.0, compression="gradient")
 
 
 def _orbicularis_oris() -> SphincterMuscle:
