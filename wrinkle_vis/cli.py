@@ -13,7 +13,6 @@ import time
 import warnings
 from pathlib import Path
 
-FIELD_CHOICES = ("lambda", "gamma", "l", "w", "H", "At", "eps", "A", "W", "none")
 CAMERA_CHOICES = ("front", "three_quarter", "side", "forehead", "upper_face")
 FIGURE_CHOICES = ("fig9", "fig11")
 FIG9_EXPRESSIONS = ("surprise", "frown", "fear")
@@ -61,7 +60,17 @@ def _common(p: argparse.ArgumentParser, *, expression_many: bool = False,
     p.add_argument("--layout", type=Path, help="a layout file (default: the built-in face)")
 
 
+def field_choices() -> tuple[str, ...]:
+    """``--field`` choices: the core catalogue's fields
+    (:data:`wrinkle_vis.core.fields.FIELDS`, read when the parser is built) and ``none``.
+    """
+    from wrinkle_vis.core.fields import FIELD_NAMES
+
+    return (*FIELD_NAMES, "none")
+
+
 def _parser() -> argparse.ArgumentParser:
+    field_choices_ = field_choices()
     parser = _Parser(
         prog="wrinkle-vis",
         description="The muscle-driven facial wrinkle model of Zhang, Sim and Tan on an "
@@ -77,7 +86,7 @@ def _parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("render", help="render a field map to a PNG, off screen")
     _common(p)
-    p.add_argument("--field", "-f", default="W", choices=FIELD_CHOICES,
+    p.add_argument("--field", "-f", default="W", choices=field_choices_,
                    help="field to colour the skin by (default W; 'none' for plain skin)")
     p.add_argument("--muscle", "-m", help="whose field (default: the total, W only)")
     p.add_argument("--layers", nargs="+", default=["skin"], choices=LAYER_CHOICES,
@@ -114,7 +123,7 @@ def _parser() -> argparse.ArgumentParser:
                                    "by frame (streamed to the file), with the colour range "
                                    "fixed at the peak's.")
     _common(p)
-    p.add_argument("--field", "-f", default="W", choices=FIELD_CHOICES,
+    p.add_argument("--field", "-f", default="W", choices=field_choices_,
                    help="field to colour the skin by (default W; 'none' for plain skin)")
     p.add_argument("--muscle", "-m", help="whose field (default: the total, W only)")
     p.add_argument("--layers", nargs="+", default=["skin"], choices=LAYER_CHOICES,
@@ -154,7 +163,7 @@ def _parser() -> argparse.ArgumentParser:
     _common(p)
     p.add_argument("--skin", type=Path,
                    help="the skin: an OBJ with UV coordinates (default: the layout's skin)")
-    p.add_argument("--field", "-f", action="append", choices=FIELD_CHOICES[:-1],
+    p.add_argument("--field", "-f", action="append", choices=field_choices_[:-1],
                    help="a field to bake as a colour map (repeatable; default W)")
     p.add_argument("--muscle", "-m", help="whose fields (default: the total, W only)")
     p.add_argument("--size", type=int, nargs=2, default=(1024, 1024), metavar=("W", "H"),
@@ -341,9 +350,19 @@ def _summary(args) -> int:
 
 def _field(args):
     field = None if args.field == "none" else args.field
-    if field not in (None, "W") and args.__dict__.get("muscle") is None:
-        raise CliError(f"--field {field} belongs to one muscle: add --muscle NAME")
+    if field is not None:
+        _check_field(field, args.__dict__.get("muscle"))
     return field
+
+
+def _check_field(field: str, muscle: str | None) -> None:
+    """A field with no total (the catalogue's; all but W) needs ``--muscle``."""
+    from wrinkle_vis.core.fields import check_field
+
+    try:
+        check_field(field, muscle)
+    except ValueError:
+        raise CliError(f"--field {field} belongs to one muscle: add --muscle NAME") from None
 
 
 def _render(args) -> int:
@@ -477,8 +496,7 @@ def _bake(args) -> int:
         raise CliError(f"--skin {args.skin}: {what}; check the path")
     fields = args.field or ["W"]
     for name in fields:
-        if name != "W" and args.muscle is None:
-            raise CliError(f"--field {name} belongs to one muscle: add --muscle NAME")
+        _check_field(name, args.muscle)
     source = args.skin
     if source is None and args.layout is not None:
         from wrinkle_vis.core.layout import load_layout

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..core.editing import mirror_name, mirrored, snapped, unique_name
 from ..core.face import FIELD_NAMES, FaceModel, FaceState
+from ..core.fields import check_field
 from ..core.layout import Layout, load_layout, save_layout
 from ..core.muscle import OPTIONS as MUSCLE_OPTIONS
 from ..core.registry import get_muscle_type
@@ -142,10 +143,7 @@ class Session:
 
     def set_field(self, field: str, muscle: str | None = None) -> None:
         """Show ``field`` of ``muscle`` (None: the total, which only W has)."""
-        if field not in FIELD_NAMES:
-            raise KeyError(f"unknown field {field!r}; fields: {', '.join(FIELD_NAMES)}")
-        if muscle is None and field != "W":
-            raise ValueError(f"field {field!r} belongs to one muscle; choose one")
+        check_field(field, muscle)  # only W has a total
         if muscle is not None:
             self.face.muscle(muscle)
         self.field, self.muscle = field, muscle
@@ -158,7 +156,7 @@ class Session:
     def field_values(self, state: FaceState | None = None) -> np.ndarray:
         """``(n,)``: the field on display in ``state`` (default :meth:`state`)."""
         state = self.state() if state is None else state
-        return state.W if self.muscle is None else state.fields[self.muscle][self.field]
+        return state.field_values(self.field, self.muscle)
 
     def set_fixed_range(self, lo_hi: tuple[float, float] | None) -> None:
         """Fix the colour range to ``(lo, hi)`` with ``lo < hi`` (None: automatic)."""

@@ -593,7 +593,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.plain_skin = field == PLAIN
         if self.plain_skin:  # the session keeps a field for the probe and a switch back
             field = self.session.field if muscle is not None else "W"
-        elif muscle is None and field != "W":
+        elif muscle is None and not field_info(field).total:
             self._updating_controls = True
             self.field_box.setCurrentText("W")
             self._updating_controls = False
@@ -1368,8 +1368,7 @@ def _guide_text() -> str:
 
 def _field_label(field: str, unit: str) -> str:
     """A field's name with its unit: ``W (mm)``, ``lambda``."""
-    kind = field_info(field).unit
-    return {"length": f"{field} ({unit})", "deg": f"{field} (deg)"}.get(kind, field)
+    return field_info(field).label(unit)
 
 
 def _error_label() -> QtWidgets.QLabel:

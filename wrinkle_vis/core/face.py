@@ -38,6 +38,7 @@ from .equations import (
     triangle_stretch,
 )
 from .expressions import Expression, paper_expressions
+from .fields import FIELD_NAMES, check_field, field_spec
 from .mesh import (
     MeshError,
     TriangleSurface,
@@ -59,9 +60,6 @@ SLIDE_SCALE = 0.029
 #: The most bytes the refined skins of one face keep cached (with their per-muscle data and
 #: operators), however long an animation runs; the least recently used go first.
 REFINE_CACHE_BYTES = 160 * 2**20
-
-#: Per-muscle fields of a :class:`FaceState`, by name.
-FIELD_NAMES = ("lambda", "gamma", "l", "w", "H", "At", "eps", "A", "W")
 
 
 @dataclass(frozen=True, eq=False)
@@ -700,6 +698,7 @@ class _MuscleFields(Mapping):
         self._state = state
         self._muscle = muscle
         self._cache: dict[str, np.ndarray] = {}
+        self._dynamic: dict[str, np.ndarray] | None = None
 
     def __iter__(self):
         return iter(FIELD_NAMES)
@@ -708,18 +707,42 @@ class _MuscleFields(Mapping):
         return len(FIELD_NAMES)
 
     def __getitem__(self, key: str) -> np.ndarray:
-        if key not in FIELD_NAMES:
-            raise KeyError(f"unknown field {key!r}; fields: {', '.join(FIELD_NAMES)}")
         if key not in self._cache:
-            arr = self._compute(key)
-            arr.setflags(write=False)
-            self._cache[key] = arr
+            spec = field_spec(key)  # KeyError lists the fields
+            arr = np.asarray(spec.compute(self), dtype=float)
+            ids = self.data.aoi if spec.where == "aoi" else self.data.region
+            if arr.shape != (self._state.n_points,):
+                raise ValueError(f"field {key!r} computed shape {arr.shape}; expected "
+                                 f"({self._state.n_points},), one value per skin vertex")
+            out = np.full(self._state.n_points, np.nan)
+            out[ids] = arr[ids]  # nan outside where the catalogue says it is defined
+            out.setflags(write=False)
+            self._cache[key] = out
         return self._cache[key]
+
+    # ---------------------------------------------------------------- for compute()
+    @property
+    def data(self) -> _MuscleData:
+        """What the muscle defines on the rest skin (compact: AOI and region rows)."""
+        return self._state.face.muscle_data(self._muscle)
+
+    def on(self, where: str, values: np.ndarray) -> np.ndarray:
+        """``(n,)``: compact ``values`` on the muscle's ``"aoi"`` or ``"region"`` rows,
+        ``nan`` elsewhere.
+        """
+        data = self.data
+        return self._full(data.aoi if where == "aoi" else data.region, values)
 
     def _full(self, ids: np.ndarray, values: np.ndarray) -> np.ndarray:
         out = np.full(self._state.n_points, np.nan)
         out[ids] = values
         return out
+
+    def dynamic(self) -> dict[str, np.ndarray]:
+        """Eps and A on the AOI, W on the region (compact), for this muscle in this frame."""
+        if self._dynamic is None:
+            self._dynamic = self._compact_dynamic()
+        return self._dynamic
 
     def _compact_dynamic(self) -> dict[str, np.ndarray]:
         """Eps and A on the AOI, W on the region, for this muscle in this state."""
@@ -736,18 +759,6 @@ class _MuscleFields(Mapping):
         # an inactive muscle: its compression is defined, but it makes no wrinkles
         eps = data.compression(state.face.skin, state.deformed_points)
         return {"eps": eps, "A": anisotropy(eps), "W": np.zeros(len(data.region_pos))}
-
-    def _compute(self, key: str) -> np.ndarray:
-        data = self._state.face.muscle_data(self._muscle)
-        static_aoi = {"lambda": data.lam, "gamma": data.gamma, "l": data.l, "At": data.at}
-        if key in static_aoi:
-            return self._full(data.aoi, static_aoi[key])
-        if key in ("w", "H"):
-            return self._full(data.region, data.w if key == "w" else data.h)
-        dyn = self._compact_dynamic()
-        if key == "W":
-            return self._full(data.region, dyn["W"])
-        return self._full(data.aoi, dyn[key])
 
 
 class _StateFields(Mapping):
@@ -818,6 +829,24 @@ class FaceState:
     def surface(self) -> TriangleSurface:
         """The final skin as a :class:`TriangleSurface`."""
         return TriangleSurface(self.points, self.triangles)
+
+    def field_values(self, key: str, muscle: str | None = None) -> np.ndarray:
+        """``(n,)``: field ``key`` of ``muscle``, or its total over the muscles (None; only
+        the fields the catalogue gives a total, ``W``: :attr:`W`).
+
+        Raises
+        ------
+        KeyError
+            For an unknown field or muscle, listing them.
+        ValueError
+            For a field with no total and no muscle.
+        """
+        check_field(key, muscle)
+        if muscle is None:
+            return self.W
+        if muscle not in self.face.muscle_names:
+            raise KeyError(f"no muscle {muscle!r}; muscles: {', '.join(self.face.muscle_names)}")
+        return self.fields[muscle][key]
 
     def to_polydata(self):
         """The skin as ``pyvista.PolyData`` with every field as a named point array.

@@ -131,13 +131,8 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
                                 show_edges=show_edges, edge_color=edge_color, specular=0.0,
                                 diffuse=1.0, ambient=0.0, name="skin", render=False)
     info = field_info(field)
-    if muscle is None and field != "W":
-        raise ValueError(f"field {field!r} belongs to one muscle; name it (only W has a "
-                         "total)")
-    if muscle is not None and muscle not in state.face.muscle_names:
-        raise KeyError(f"no muscle {muscle!r}; muscles: {', '.join(state.face.muscle_names)}")
+    values = np.asarray(state.field_values(field, muscle))  # checks field and muscle
     array = field_array_name(field, muscle)
-    values = np.asarray(state.W if muscle is None else state.fields[muscle][field])
     mesh.point_data[array] = values  # only the field shown: the others stay in the core
     mesh.set_active_scalars(array)
     actor = plotter.add_mesh(
