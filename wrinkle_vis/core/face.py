@@ -21,7 +21,6 @@ of vectorized steps whatever the number of muscles:
 from __future__ import annotations
 
 import dataclasses
-import importlib
 from collections import OrderedDict
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -593,11 +592,14 @@ class FaceModel:
         ``field`` (see :meth:`FaceState.plot`).
 
         A bridge to :func:`wrinkle_vis.plotting.plot_face` (which documents ``kwargs``);
-        needs PyVista.
+        needs PyVista. The one place the core reaches the plotting layer, imported only
+        when called and declared in the import contract (``pyproject.toml``,
+        ``ignore_imports``).
         """
-        plotting = importlib.import_module("wrinkle_vis.plotting")
-        return plotting.plot_face(self, expression, field, muscle, intensity=intensity,
-                                  refine=refine, **kwargs)
+        from wrinkle_vis.plotting import plot_face
+
+        return plot_face(self, expression, field, muscle, intensity=intensity, refine=refine,
+                         **kwargs)
 
     def _refined(self, marked: np.ndarray) -> FaceModel:
         """The face on this skin refined at ``marked`` triangles, from the root face's
@@ -851,10 +853,12 @@ class FaceState:
     def to_polydata(self):
         """The skin as ``pyvista.PolyData`` with every field as a named point array.
 
-        A bridge to :func:`wrinkle_vis.plotting.to_polydata`; needs PyVista.
+        A bridge to :func:`wrinkle_vis.plotting.to_polydata`; needs PyVista (imported when
+        called; declared in the import contract, see :meth:`FaceModel.plot`).
         """
-        plotting = importlib.import_module("wrinkle_vis.plotting")
-        return plotting.to_polydata(self)
+        from wrinkle_vis.plotting import to_polydata
+
+        return to_polydata(self)
 
     def plot(self, field: str | None = "W", muscle: str | None = None, **kwargs):
         """Show the skin coloured by ``field`` (of ``muscle``, or the total W; None for
@@ -862,10 +866,12 @@ class FaceState:
         as an image; elsewhere in a window, or off screen without a display.
 
         A bridge to :func:`wrinkle_vis.plotting.plot_state` (which documents ``kwargs``);
-        needs PyVista.
+        needs PyVista (imported when called; declared in the import contract, see
+        :meth:`FaceModel.plot`).
         """
-        plotting = importlib.import_module("wrinkle_vis.plotting")
-        return plotting.plot_state(self, field, muscle, **kwargs)
+        from wrinkle_vis.plotting import plot_state
+
+        return plot_state(self, field, muscle, **kwargs)
 
     def summary(self) -> str:
         """A few lines on the frame: activations and the range of each active field."""
