@@ -335,7 +335,9 @@ def builtin_muscles() -> list:
     glabella to the inner end of the brow, so its pull squeezes the skin between the brows
     into vertical furrows (frown); the others move the mouth (zygomaticus major, levator
     labii superioris, depressor anguli oris) and are linear muscles of Waters' kind.
-    Attachments lie on the skull, insertions on the skin.
+    Orbicularis oculi (left and right) and orbicularis oris are sphincters
+    (:func:`_orbicularis_oculi`, :func:`_orbicularis_oris`). Attachments lie on the skull,
+    insertions and the sphincters' points on the skin.
     """
     left = _frontalis()
     left.append(LinearMuscle(
@@ -517,8 +519,10 @@ def load_face(n_triangles: int | None = None, *, skin=None, skull=None, layout=N
     Returns
     -------
     FaceModel
-        For the built-in face: skin, skull, 14 muscles (7 pairs) and the expressions
-        ``neutral``, ``surprise``, ``frown``, ``fear`` (the paper's Section 3) and ``smile``.
+        For the built-in face: skin, skull, 17 muscles (8 pairs and the orbicularis oris)
+        and the expressions ``neutral``, ``surprise``, ``frown``, ``fear`` (the paper's
+        Section 3), ``smile``, ``duchenne_smile``, ``squint``, ``pucker`` and Waters' six
+        (:func:`builtin_expressions`).
         A skin of your own with neither a layout nor landmarks gets no muscles.
 
     Notes
