@@ -121,6 +121,10 @@ class SphincterMuscle(Muscle):
     :math:`R = S / (1 - \lambda_w)` and :math:`l_i = \lambda_w R + s_i`, so
     :math:`u = S / (2 n_w)`, :math:`w_i = s_i \bmod 2u`, and H is constant along every ray
     from the centre. ``At`` is Eq. 12 in :math:`\varphi_i = |\psi_i|`.
+
+    :meth:`region` gives, besides the shared fields, ``rho`` (:math:`\rho_i`), ``angle_deg``
+    (:math:`\psi_i` in degrees) and ``depth`` (:math:`z_i`); ``l`` is :math:`\lambda_w R +
+    s_i`. ``docs/model.md`` ("Sphincter muscles") derives all of it.
     """
 
     type_name = "sphincter"
