@@ -210,3 +210,26 @@ def test_mirror_and_snap_on_the_builtin_face_put_each_point_on_its_surface(wv_fa
             plain = np.asarray(getattr(mirrored(m, point, normal), param)).reshape(-1, 3)
             if not was_on.any():  # off their surface (the frontalis lines): kept
                 assert np.array_equal(new, plain)
+
+
+# ---------------------------------------------------------------------- the CLI reads it
+def test_the_cli_lists_each_type_with_its_declared_parameters(capsys):
+    from wrinkle_vis import cli
+    from wrinkle_vis.core.params import parameter_table
+
+    assert cli.main(["types", "linear", "ring"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("linear (wrinkle_vis.core.muscles.LinearMuscle)")
+    assert "ring (wrinkle_vis_ring.RingMuscle)" in out
+    for cls in (wv.LinearMuscle, wv.get_muscle_type("ring")):
+        for row in parameter_table(cls):
+            assert row[0] in out and row[5] in out
+    line = next(x for x in out.splitlines() if x.split()[:1] == ["max_angle_deg"])
+    assert line.split()[1:6] == ["Φ", "degrees", "(0,", "90]", "required"]
+    line = next(x for x in out.splitlines() if x.split()[:1] == ["fall_start"])
+    assert "derived" in line and "(0, inf)" in line
+    assert cli.main(["types", "--markdown", "sheet"]) == 0
+    md = capsys.readouterr().out
+    assert "| length | L_s | face units | (0, inf) | derived | the AOI's length" in md
+    assert cli.main(["types", "spiral"]) == 2
+    assert "unknown muscle type 'spiral'; installed types:" in capsys.readouterr().err

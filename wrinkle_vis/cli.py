@@ -1,4 +1,4 @@
-"""The ``wrinkle-vis`` command: summary, render, export, animate, figure and bake.
+"""The ``wrinkle-vis`` command: summary, render, export, animate, figure, bake and types.
 
 Every error is one line on stderr that names the problem and the way out, with exit status
 2 and no traceback; outputs are checked (extension, folder) before any work and written
@@ -178,7 +178,40 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--output", "-o", type=Path, required=True,
                    help="the folder for the maps (made, or replaced whole if it holds only "
                         "maps)")
+    p = sub.add_parser(
+        "types", help="list the installed muscle types and their parameters",
+        description="Every registered muscle type (built-in and plug-in) with its "
+                    "parameters as the type declares them: symbol, unit, allowed range, "
+                    "default and meaning.")
+    p.add_argument("type", nargs="*", help="only these types (default: all)")
+    p.add_argument("--markdown", action="store_true", help="print Markdown tables")
     return parser
+
+
+def _types(args) -> int:
+    from wrinkle_vis.core.params import TABLE_COLUMNS, parameter_table
+    from wrinkle_vis.core.registry import UnknownMuscleTypeError, get_muscle_type, muscle_types
+
+    names = args.type or list(muscle_types())
+    try:
+        types = [(n, get_muscle_type(n)) for n in names]
+    except UnknownMuscleTypeError as exc:
+        raise CliError(str(exc)) from None
+    for k, (name, cls) in enumerate(types):
+        rows = parameter_table(cls)
+        title = f"{name} ({cls.__module__}.{cls.__qualname__})"
+        print(("\n" if k else "") + (f"## {title}\n" if args.markdown else title))
+        if args.markdown:
+            print("| " + " | ".join(TABLE_COLUMNS) + " |")
+            print("|" + "---|" * len(TABLE_COLUMNS))
+            for row in rows:
+                print("| " + " | ".join(c.replace("|", "\\|") for c in row) + " |")
+            continue
+        widths = [max(len(r[i]) for r in [TABLE_COLUMNS, *rows]) for i in range(5)]
+        for row in [TABLE_COLUMNS, *rows]:
+            print("  " + "  ".join(c.ljust(w) for c, w in zip(row, widths, strict=False))
+                  + "  " + row[5])
+    return 0
 
 
 def _version() -> str:
@@ -611,6 +644,12 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.command is None:
         return _app(parser)
+    if args.command == "types":
+        try:
+            return _types(args)
+        except CliError as exc:
+            print(f"wrinkle-vis types: {exc}", file=sys.stderr)
+            return 2
     if not (0.0 <= args.intensity <= 1.0):
         parser.error(f"--intensity {args.intensity:g} is outside [0, 1]")
     if getattr(args, "layout", None) is not None and not args.layout.is_file():

@@ -14,22 +14,21 @@ from ..core.face import FIELD_NAMES, FaceModel, FaceState
 from ..core.fields import check_field
 from ..core.layout import Layout, load_layout, save_layout
 from ..core.muscle import OPTIONS as MUSCLE_OPTIONS
+from ..core.params import Parameter
 from ..core.registry import get_muscle_type
 from ..core.units import face_unit
 from ..plotting.fields import field_info, field_range
 
-__all__ = ["EDITABLE", "OPTIONS", "Session", "load_session"]
+__all__ = ["OPTIONS", "Session", "editable", "load_session"]
 
-#: Numeric parameters the parameter panel edits, by muscle type: (name, label, step).
-EDITABLE = {
-    "linear": (("k0", "k0", 0.1), ("alpha", "alpha", 0.1), ("n_wrinkles", "n_w", 1),
-               ("lambda_w", "lambda_w", 0.05), ("radius", "R", 1.0),
-               ("max_angle_deg", "Phi (deg)", 1.0),
-               ("attenuation_start_deg", "phi_c (deg)", 1.0)),
-    "sheet": (("k0", "k0", 0.1), ("alpha", "alpha", 0.1), ("n_wrinkles", "n_w", 1),
-              ("lambda_w", "lambda_w", 0.05), ("length", "L_s", 1.0), ("width", "W_s", 1.0),
-              ("attenuation_start", "h_c", 0.5)),
-}
+def editable(muscle) -> tuple[Parameter, ...]:
+    """The numeric parameters the parameter panel edits for ``muscle`` (a muscle or its
+    type), with their metadata (label, symbol, unit, range, step): every number its type
+    declares (:meth:`~wrinkle_vis.core.muscle.Muscle.parameters`), so a plug-in type gets
+    its controls with no change to the app.
+    """
+    return tuple(p for p in muscle.parameters() if p.is_number)
+
 
 #: The options every muscle type has (:data:`wrinkle_vis.core.muscle.OPTIONS`, off by
 #: default), as the parameter panel shows them: (name, label, choices), with choices None

@@ -31,7 +31,7 @@ from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
 from ..widgets.panels import MuscleListPanel
 from .recovery import Recovery
-from .session import EDITABLE, OPTIONS, Session, load_session
+from .session import OPTIONS, Session, editable, load_session
 from .views import VIEWS, LinkedViews
 
 __all__ = ["MainWindow"]
@@ -420,9 +420,8 @@ class MainWindow(QtWidgets.QMainWindow):
             self._build_parameter_panel()
             return
         for param, widget in self.param_widgets.items():
-            value = getattr(muscle, param)
             widget.blockSignals(True)
-            widget.setValue(value if value is not None else _resolved(muscle, param))
+            widget.setValue(muscle.resolved(param))
             widget.blockSignals(False)
         for param, widget in self.option_widgets.items():
             _show_option(widget, getattr(muscle, param))
@@ -441,22 +440,14 @@ class MainWindow(QtWidgets.QMainWindow):
             self.param_form.addRow(QtWidgets.QLabel("Choose a muscle to edit it."))
             return
         muscle = self.session.face.muscle(name)
-        for param, label, step in EDITABLE.get(muscle.type_name, ()):
-            value = getattr(muscle, param)
-            if param == "n_wrinkles":
-                w = QtWidgets.QSpinBox()
-                w.setRange(0, 99)
-            else:
-                w = QtWidgets.QDoubleSpinBox()
-                w.setDecimals(3)
-                w.setRange(-1e6, 1e6)
-                w.setSingleStep(step)
-            w.setValue(value if value is not None else _resolved(muscle, param))
+        for spec in editable(muscle):  # what the type declares (core.params)
+            w = _parameter_box(spec, self.session.unit)
+            w.setValue(muscle.resolved(spec.name))
             w.setKeyboardTracking(False)
-            w.valueChanged.connect(_weak(self.set_parameter, param, keep=1))
+            w.valueChanged.connect(_weak(self.set_parameter, spec.name, keep=1))
             w.installEventFilter(self._undo_keys)  # Ctrl+Z undoes the edit, not the typing
-            self.param_widgets[param] = w
-            self.param_form.addRow(label, w)
+            self.param_widgets[spec.name] = w
+            self.param_form.addRow(spec.label, w)
         self.option_widgets = {}
         for param, label, choices in OPTIONS:  # every type has them (core.muscle.OPTIONS)
             if choices is None:
@@ -619,8 +610,9 @@ class MainWindow(QtWidgets.QMainWindow):
         """
         name = self.session.muscle
         option = param in self.option_widgets
+        muscle = self.session.face.muscle(name)
         if not option:
-            value = int(value) if param == "n_wrinkles" else float(value)
+            value = int(value) if muscle.parameter(param).unit == "count" else float(value)
         try:
             face = self.session.with_parameter(name, param, value)
         except (MuscleParameterError, ValueError) as exc:
@@ -631,8 +623,7 @@ class MainWindow(QtWidgets.QMainWindow):
                 return False
             widget = self.param_widgets[param]
             widget.blockSignals(True)
-            widget.setValue(old if old is not None else _resolved(
-                self.session.face.muscle(name), param))
+            widget.setValue(muscle.resolved(param))
             widget.blockSignals(False)
             return False
         self.param_error.setText("")
@@ -644,8 +635,8 @@ class MainWindow(QtWidgets.QMainWindow):
     def _labels(self) -> dict[str, str]:
         """The selected muscle's parameters as the panel labels them."""
         name = self.session.muscle
-        kind = self.session.face.muscle(name).type_name if name else None
-        return {p: lbl for p, lbl, _ in (*EDITABLE.get(kind, ()), *OPTIONS)}
+        specs = editable(self.session.face.muscle(name)) if name else ()
+        return {**{p.name: p.label for p in specs}, **{p: lbl for p, lbl, _ in OPTIONS}}
 
     def _labelled(self, message: str) -> str:
         """``message`` with the parameters called by the labels the panel shows them under
@@ -1398,11 +1389,26 @@ def _show_option(widget: QtWidgets.QWidget, value) -> None:
     widget.blockSignals(False)
 
 
-def _resolved(muscle, param: str) -> float:
-    """The value a defaulted (None) parameter actually takes."""
-    if param == "attenuation_start_deg" or param == "attenuation_start":
-        return muscle.attenuation_range[0]
-    return getattr(muscle, f"{param}_value")
+def _parameter_box(spec, unit: str) -> QtWidgets.QAbstractSpinBox:
+    """A spin box for one declared parameter (:class:`~wrinkle_vis.core.params.Parameter`):
+    whole numbers for a count, else three decimals; its step from the metadata, and a
+    tooltip with its symbol, meaning, unit and range. The box takes any value, so that one
+    out of range is refused by the core with its reason, not clipped silently.
+    """
+    if spec.unit == "count":
+        box = QtWidgets.QSpinBox()
+        box.setRange(-999, 999)
+        box.setSingleStep(max(1, int(spec.step)))
+    else:
+        box = QtWidgets.QDoubleSpinBox()
+        box.setDecimals(3)
+        box.setRange(-1e6, 1e6)
+        box.setSingleStep(spec.step)
+    shown = {"length": unit, "deg": "deg", "1": "", "count": ""}[spec.unit]
+    derived = "; left out, derived from the others" if spec.optional else ""
+    box.setToolTip(f"{spec.symbol}: {spec.doc}" + (f" ({shown})" if shown else "")
+                   + f"; allowed {spec.range_text()}{derived}")
+    return box
 
 
 def run(argv=None, layout: str | Path | None = None) -> int:

@@ -25,7 +25,8 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-__all__ = ["PARAMETER_KEY", "SURFACES", "UNITS", "Parameter", "parameter"]
+__all__ = ["PARAMETER_KEY", "SURFACES", "TABLE_COLUMNS", "UNITS", "Parameter", "parameter",
+           "parameter_table"]
 
 #: The key of a :class:`Parameter` in a dataclass field's metadata.
 PARAMETER_KEY = "wrinkle_vis.parameter"
@@ -148,3 +149,45 @@ def parameter(default=dataclasses.MISSING, *, kw_only: bool = True, **meta):
     spec = Parameter(**meta)
     return dataclasses.field(default=default, kw_only=kw_only,
                              metadata={PARAMETER_KEY: spec})
+
+
+#: The columns of :func:`parameter_table`.
+TABLE_COLUMNS = ("parameter", "symbol", "unit", "allowed", "default", "meaning")
+
+
+def parameter_table(muscle_type, length_unit: str = "face units") -> list[tuple[str, ...]]:
+    """A muscle type's parameters as rows of text (:data:`TABLE_COLUMNS`), from their
+    metadata: what ``wrinkle-vis types`` prints and the documentation tabulates.
+
+    Parameters
+    ----------
+    muscle_type : type
+        A :class:`~wrinkle_vis.core.muscle.Muscle` subclass.
+    length_unit : str
+        How to name the unit of lengths.
+
+    Returns
+    -------
+    list of tuple of str
+        One row per parameter, in declaration order: name, symbol, unit (a point's surface),
+        allowed range, default (``required``, a value, or ``derived``), meaning.
+    """
+    defaults = {f.name: f.default for f in dataclasses.fields(muscle_type)}
+    rows = []
+    for p in muscle_type.parameters():
+        default = defaults.get(p.name, dataclasses.MISSING)
+        if p.optional:
+            shown = "derived"
+        elif default is dataclasses.MISSING:
+            shown = "required"
+        else:
+            shown = f"{default:g}" if isinstance(default, float) else str(default)
+        if p.is_point:
+            unit = f"{'line' if p.shape == (2, 3) else 'point'} on the {p.surface or 'skin'}"
+            allowed = ""
+        else:
+            unit = {"length": length_unit, "deg": "degrees", "1": "", "count": "",
+                    "vector": "vector"}[p.unit]
+            allowed = "" if p.unit == "vector" else p.range_text()
+        rows.append((p.name, p.symbol, unit, allowed, shown, p.doc))
+    return rows

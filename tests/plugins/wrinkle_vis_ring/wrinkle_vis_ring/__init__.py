@@ -41,9 +41,12 @@ class RingMuscle(Muscle):
     depth: float = parameter(10.0, label="depth", symbol="t", unit="length", lo=0.0,
                              lo_open=True, step=1.0, doc="half thickness along the axis")
     lambda_w: float = parameter(0.3, label="lambda_w", symbol="λ_w", unit="1", lo=0.0,
-                                hi=1.0, hi_open=True, step=0.05)
-    n_wrinkles: int = parameter(2, label="n_w", symbol="n_w", unit="count", lo=1, step=1)
-    strength: float = parameter(1.0, label="K", symbol="K", unit="length", lo=0.0, step=0.5)
+                                hi=1.0, hi_open=True, step=0.05,
+                                doc="where the rings start, as a fraction of the radius")
+    n_wrinkles: int = parameter(2, label="n_w", symbol="n_w", unit="count", lo=1, step=1,
+                                doc="the number of rings")
+    strength: float = parameter(1.0, label="K", symbol="K", unit="length", lo=0.0, step=0.5,
+                                doc="peak pull towards the centre, below radius / 2")
 
     def __post_init__(self):
         self._check_common()
