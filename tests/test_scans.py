@@ -60,7 +60,7 @@ def test_transfer_puts_insertions_on_the_skin_and_attachments_on_the_skull():
     for m in moved.muscles:
         for p in [p for p in m.point_parameters if np.ndim(getattr(m, p)) == 1]:
             pts = np.asarray(getattr(m, p)).reshape(-1, 3)
-            surf = face.skull if p.startswith("attachment") else skin
+            surf = face.skull if m.point_surfaces()[p] == "skull" else skin
             assert np.abs(closest_points(surf, pts) - pts).max() < 1e-9
     # lengths scale by about mm -> m
     builtin = wv.load_layout(wv.datasets.BUILTIN_LAYOUT)
