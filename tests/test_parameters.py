@@ -233,3 +233,27 @@ def test_the_cli_lists_each_type_with_its_declared_parameters(capsys):
     assert "| length | L_s | face units | (0, inf) | derived | the AOI's length" in md
     assert cli.main(["types", "spiral"]) == 2
     assert "unknown muscle type 'spiral'; installed types:" in capsys.readouterr().err
+
+
+def test_the_options_are_declared_with_their_metadata_too():
+    from wrinkle_vis.app.session import OPTIONS as PANEL_OPTIONS
+    from wrinkle_vis.core.muscle import OPTIONS
+
+    specs = Muscle.options()
+    assert [p.name for p in specs] == list(OPTIONS)
+    for p in specs:
+        assert p.unit == "option" and p.choices == OPTIONS[p.name] and p.doc and p.label
+    assert specs[0].is_flag and not specs[1].is_flag
+    assert specs[1].labelled_choices == {"edges": "edges (Eq. 10)", "gradient": "gradient"}
+    assert PANEL_OPTIONS == (("taper", "taper H", None),
+                             ("compression", "eps from", specs[1].labelled_choices))
+    assert wv.SheetMuscle.parameter("compression") == specs[1]
+    assert "taper" not in [p.name for p in wv.SheetMuscle.parameters()]  # options apart
+    with pytest.raises(MuscleParameterError, match="compression = 'fast' is invalid; allowed: "
+                                                   "'edges' or 'gradient'"):
+        _linear(compression="fast")
+    with pytest.raises(MuscleParameterError, match="taper = 'yes' is invalid; allowed: True "
+                                                   "or False"):
+        _linear(taper="yes")
+    with pytest.raises(ValueError, match="an option \\(and only an option\\) has choices"):
+        Parameter(name="x", unit="option")

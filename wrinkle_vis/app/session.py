@@ -13,7 +13,7 @@ from ..core.editing import mirror_name, mirrored, snapped, unique_name
 from ..core.face import FIELD_NAMES, FaceModel, FaceState
 from ..core.fields import check_field
 from ..core.layout import Layout, load_layout, save_layout
-from ..core.muscle import OPTIONS as MUSCLE_OPTIONS
+from ..core.muscle import Muscle
 from ..core.params import Parameter
 from ..core.registry import get_muscle_type
 from ..core.units import face_unit
@@ -30,14 +30,12 @@ def editable(muscle) -> tuple[Parameter, ...]:
     return tuple(p for p in muscle.parameters() if p.is_number)
 
 
-#: The options every muscle type has (:data:`wrinkle_vis.core.muscle.OPTIONS`, off by
-#: default), as the parameter panel shows them: (name, label, choices), with choices None
-#: for a check box, else ``{value: text}`` for a combo box in the core's order.
-OPTIONS = (
-    ("taper", "taper H", None),
-    ("compression", "eps from", dict(zip(MUSCLE_OPTIONS["compression"],
-                                         ("edges (Eq. 10)", "gradient"), strict=True))),
-)
+#: The options every muscle type has (:meth:`wrinkle_vis.core.muscle.Muscle.options`, off
+#: by default), as the parameter panel shows them: (name, label, choices), with choices None
+#: for a check box, else ``{value: text}`` for a combo box in the core's order; all from
+#: the options' declared metadata.
+OPTIONS = tuple((p.name, p.label, None if p.is_flag else p.labelled_choices)
+                for p in Muscle.options())
 
 
 class Session:

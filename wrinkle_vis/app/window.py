@@ -31,7 +31,7 @@ from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
 from ..widgets.panels import MuscleListPanel
 from .recovery import Recovery
-from .session import OPTIONS, Session, editable, load_session
+from .session import Session, editable, load_session
 from .views import VIEWS, LinkedViews
 
 __all__ = ["MainWindow"]
@@ -449,19 +449,19 @@ class MainWindow(QtWidgets.QMainWindow):
             self.param_widgets[spec.name] = w
             self.param_form.addRow(spec.label, w)
         self.option_widgets = {}
-        for param, label, choices in OPTIONS:  # every type has them (core.muscle.OPTIONS)
-            if choices is None:
+        for spec in muscle.options():  # every type has them, declared in core.muscle
+            if spec.is_flag:
                 w = QtWidgets.QCheckBox()
-                w.toggled.connect(_weak(self._on_option, param, keep=1))
+                w.toggled.connect(_weak(self._on_option, spec.name, keep=1))
             else:
                 w = QtWidgets.QComboBox()
-                for value, text in choices.items():
+                for value, text in spec.labelled_choices.items():
                     w.addItem(text, value)
-                w.currentIndexChanged.connect(_weak(self._on_option, param, keep=1))
-            w.setToolTip(_OPTION_TIPS.get(param, ""))
-            _show_option(w, getattr(muscle, param))
-            self.option_widgets[param] = w
-            self.param_form.addRow(label, w)
+                w.currentIndexChanged.connect(_weak(self._on_option, spec.name, keep=1))
+            w.setToolTip(spec.doc)
+            _show_option(w, getattr(muscle, spec.name))
+            self.option_widgets[spec.name] = w
+            self.param_form.addRow(spec.label, w)
         self.activation_box = QtWidgets.QDoubleSpinBox()
         self.activation_box.setRange(0.0, 1.0)
         self.activation_box.setSingleStep(0.05)
@@ -635,8 +635,9 @@ class MainWindow(QtWidgets.QMainWindow):
     def _labels(self) -> dict[str, str]:
         """The selected muscle's parameters as the panel labels them."""
         name = self.session.muscle
-        specs = editable(self.session.face.muscle(name)) if name else ()
-        return {**{p.name: p.label for p in specs}, **{p: lbl for p, lbl, _ in OPTIONS}}
+        muscle = self.session.face.muscle(name) if name else None
+        specs = (*editable(muscle), *muscle.options()) if muscle is not None else ()
+        return {p.name: p.label for p in specs}
 
     def _labelled(self, message: str) -> str:
         """``message`` with the parameters called by the labels the panel shows them under
@@ -1368,15 +1369,6 @@ def _error_label() -> QtWidgets.QLabel:
     label.setStyleSheet("color: #b00020")
     label.setWordWrap(True)
     return label
-
-
-_OPTION_TIPS = {
-    "taper": "Taper H to 0, C1, over the first and last half period of the wrinkling region "
-             "(off: the paper's Eq. 5, which jumps to the furrow bottom there)",
-    "compression": "How eps is measured: the paper's Eq. 10 over the edges, or the "
-                   "deformation gradient's stretch along the contraction direction (exact "
-                   "for a uniform strain)",
-}
 
 
 def _show_option(widget: QtWidgets.QWidget, value) -> None:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
@@ -311,8 +311,15 @@ class Muscle:
     length_parameters: ClassVar[tuple[str, ...]] = _FromParameters(lambda p: p.is_length)
 
     name: str
-    taper: bool = field(default=False, kw_only=True)
-    compression: str = field(default="edges", kw_only=True)
+    taper: bool = parameter(
+        False, label="taper H", symbol="T", unit="option", choices=OPTIONS["taper"],
+        doc="Taper H to 0, C1, over the first and last half period of the wrinkling region "
+            "(off: the paper's Eq. 5, which jumps to the furrow bottom there)")
+    compression: str = parameter(
+        "edges", label="eps from", symbol="ε", unit="option", choices=OPTIONS["compression"],
+        choice_labels=("edges (Eq. 10)", "gradient"),
+        doc="How eps is measured: the paper's Eq. 10 over the edges, or the deformation "
+            "gradient's stretch along the contraction direction (exact for a uniform strain)")
     lambda_w: float = parameter(
         0.5, label="lambda_w", symbol="λ_w", unit="1", lo=0.0, hi=1.0, hi_open=True,
         step=0.05, doc="where the wrinkling region starts, as a fraction of the length")
@@ -353,9 +360,17 @@ class Muscle:
         return out
 
     @classmethod
+    def options(cls) -> tuple[Parameter, ...]:
+        """The :data:`OPTIONS` every type has, with their metadata (label, choices, doc)."""
+        fields = {f.name: f for f in dataclasses.fields(cls)}
+        return tuple(_metadata(cls, fields[name]) for name in OPTIONS)
+
+    @classmethod
     def parameter(cls, name: str) -> Parameter:
-        """The metadata of parameter ``name``; ``KeyError`` lists the type's parameters."""
-        for p in cls.parameters():
+        """The metadata of parameter (or option) ``name``; ``KeyError`` lists the type's
+        parameters.
+        """
+        for p in (*cls.parameters(), *cls.options()):
             if p.name == name:
                 return p
         raise KeyError(f"{cls.type_name or cls.__name__} muscles have no parameter {name!r}; "
@@ -477,13 +492,14 @@ class Muscle:
 
     def _check_options(self) -> None:
         """Validate :data:`OPTIONS`: ``taper`` a bool, ``compression`` a known measure."""
-        if not isinstance(self.taper, (bool, np.bool_)):
-            self._fail("taper", self.taper, "True or False")
-        object.__setattr__(self, "taper", bool(self.taper))
-        if not isinstance(self.compression, str) or self.compression not in \
-                COMPRESSION_MEASURES:
-            self._fail("compression", self.compression,
-                       " or ".join(map(repr, COMPRESSION_MEASURES)))
+        for spec in self.options():
+            value = getattr(self, spec.name)
+            if spec.is_flag:
+                if not isinstance(value, (bool, np.bool_)):
+                    self._fail(spec.name, value, "True or False")
+                object.__setattr__(self, spec.name, bool(value))
+            elif not isinstance(value, str) or value not in spec.choices:
+                self._fail(spec.name, value, " or ".join(map(repr, spec.choices)))
 
     def _check_strength(self) -> None:
         r"""Validate ``strength`` against Waters' fall start: below :math:`2 R_s / \pi`."""

@@ -32,7 +32,7 @@ __all__ = ["PARAMETER_KEY", "SURFACES", "TABLE_COLUMNS", "UNITS", "Parameter", "
 PARAMETER_KEY = "wrinkle_vis.parameter"
 #: The kinds of value a parameter holds: lengths in the face's units (they scale with the
 #: face), angles in degrees, dimensionless numbers, integer counts, and points or lines.
-UNITS = ("length", "deg", "1", "count", "point", "vector")
+UNITS = ("length", "deg", "1", "count", "point", "vector", "option")
 #: The surfaces a point parameter lies on.
 SURFACES = ("skin", "skull")
 
@@ -68,6 +68,11 @@ class Parameter:
         ``()`` for a number, ``(3,)`` for a point, ``(2, 3)`` for a line.
     hint : str
         Added to the error message when the value is out of range.
+    choices : tuple
+        For an option (``unit="option"``): its values, the default first (``(False, True)``
+        makes a check box).
+    choice_labels : tuple of str
+        How the panel names each choice (default their ``str``).
     """
 
     name: str = ""
@@ -84,6 +89,8 @@ class Parameter:
     surface: str | None = None
     shape: tuple = ()
     hint: str = ""
+    choices: tuple = ()
+    choice_labels: tuple = ()
 
     def __post_init__(self):
         if self.unit not in UNITS:
@@ -92,6 +99,11 @@ class Parameter:
         if self.surface is not None and self.surface not in SURFACES:
             raise ValueError(f"parameter {self.name or self.label!r}: surface "
                              f"{self.surface!r} is not one of {', '.join(SURFACES)}")
+        if (self.unit == "option") != bool(self.choices):
+            raise ValueError(f"parameter {self.name or self.label!r}: an option (and only "
+                             "an option) has choices")
+        if self.choice_labels and len(self.choice_labels) != len(self.choices):
+            raise ValueError(f"option {self.name or self.label!r}: one label per choice")
         if self.unit == "point" and self.shape not in ((3,), (2, 3)):
             raise ValueError(f"point parameter {self.name or self.label!r} needs shape (3,) "
                              f"or (2, 3); got {self.shape}")
@@ -110,6 +122,17 @@ class Parameter:
     def is_length(self) -> bool:
         """Scales with the face (:meth:`Muscle.transformed`)."""
         return self.unit == "length"
+
+    @property
+    def is_flag(self) -> bool:
+        """An option that is on or off (a check box)."""
+        return self.unit == "option" and set(self.choices) == {False, True}
+
+    @property
+    def labelled_choices(self) -> dict:
+        """``{value: label}`` of an option's choices, in order."""
+        labels = self.choice_labels or tuple(map(str, self.choices))
+        return dict(zip(self.choices, labels, strict=True))
 
     @property
     def optional(self) -> bool:
@@ -138,7 +161,8 @@ def parameter(default=dataclasses.MISSING, *, kw_only: bool = True, **meta):
         positional: ``kw_only=False``).
     **meta
         ``label``, ``symbol``, ``unit``, ``doc``, ``lo``, ``hi``, ``lo_open``, ``hi_open``,
-        ``step``, ``derived``, ``surface``, ``shape``, ``hint``.
+        ``step``, ``derived``, ``surface``, ``shape``, ``hint``, ``choices``,
+        ``choice_labels``.
 
     Returns
     -------
