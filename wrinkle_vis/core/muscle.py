@@ -362,8 +362,12 @@ class Muscle:
     @classmethod
     def options(cls) -> tuple[Parameter, ...]:
         """The :data:`OPTIONS` every type has, with their metadata (label, choices, doc)."""
-        fields = {f.name: f for f in dataclasses.fields(cls)}
-        return tuple(_metadata(cls, fields[name]) for name in OPTIONS)
+        cached = cls.__dict__.get("_options_cache")
+        if cached is None:
+            fields = {f.name: f for f in dataclasses.fields(cls)}
+            cached = tuple(_metadata(cls, fields[name]) for name in OPTIONS)
+            type.__setattr__(cls, "_options_cache", cached)
+        return cached
 
     @classmethod
     def parameter(cls, name: str) -> Parameter:
