@@ -389,7 +389,7 @@ def _orbicularis_oris() -> SphincterMuscle:
     return SphincterMuscle(
         "orbicularis_oris", _on_skin(0.0, -59.0), _on_skin(34.0, -59.0), _on_skin(0.0, -37.0),
         depth=22.0, sector_deg=180.0, sector_center_deg=90.0, attenuation_start_deg=180.0,
-        lambda_w=0.3, n_wrinkles=18, k0=2.0, alpha=1.0, fall_start=24.0, strength=3.0,
+        lambda_w=0.3, n_wrinkles=18, k0=2.5, alpha=1.0, fall_start=24.0, strength=3.0,
         compression="gradient")
 
 

@@ -340,3 +340,15 @@ def test_no_refined_triangle_turns_over(refined):
     for name, state in refined.items():
         skin = state.face.skin
         assert not turned_over(skin, skin.points, state.points).any(), name
+
+
+@pytest.mark.slow
+def test_crows_feet_and_lip_lines_on_the_60k_face():
+    """Unrefined at 60,000 triangles (median edge 1.7 mm): the crow's feet as refined, and
+    the lip lines at least 0.3 mm deep in the middle of the upper lip.
+    """
+    face = wv.datasets.load_face(60000)
+    eye = np.concatenate([r["depths"] for r in _crows_feet(face.evaluate("squint"))])
+    assert len(eye) >= 6 and np.median(eye) >= 0.3
+    mouth = np.concatenate([r["depths"] for r in _lip_lines(face.evaluate("pucker"))])
+    assert len(mouth) >= 10 and (mouth >= 0.3).sum() >= 5
