@@ -63,3 +63,19 @@ def test_dragging_the_centre_moves_the_ellipse_on_the_skin(wv_face, views):  # n
     assert np.linalg.norm(p - np.asarray(before.center)) > 1.0
     assert np.linalg.norm(closest_points(wv_face.skin, p[None])[0] - p) < 1e-6
     assert after.end_a == before.end_a and after.end_b == before.end_b
+
+
+@pytest.mark.parametrize("expression", ["squint", "pucker"])
+def test_sphincter_total_w(verify_image_cache, wv_face, wv_plotter, expression):
+    """W on the refined paper-size face, from the front: squint, the fans of crow's feet at
+    the outer corners of the eyes; pucker, the lip lines radiating around the mouth
+    (tests/image_cache, looked at).
+    """
+    from wrinkle_vis.plotting import add_skin, set_camera
+
+    add_skin(wv_plotter, wv_face.evaluate(expression, refine=True), "W")
+    set_camera(wv_plotter, "front", wv_face)
+    wv_plotter.camera.zoom(1.8)
+    wv_plotter.camera.focal_point = (0.0, -25.0, 80.0) if expression == "pucker" else (
+        0.0, 0.0, 80.0)
+    wv_plotter.show()
