@@ -610,8 +610,9 @@ class FaceModel:
             return root
         face, order = self._refined_face(engine, split, tris, present)
         source = _RefinedSource(root, engine, (tuple(active), a), order)
-        return FaceState(face, acts, dyn.deformed[order], dyn.points[order], dyn.W[order],
-                         None, {}, source)
+        deformed = np.ascontiguousarray(dyn.deformed[:, order].T)
+        return FaceState(face, acts, deformed, np.ascontiguousarray(dyn.points[:, order].T),
+                         dyn.W[order], None, {}, source)
 
     def _refined_face(self, engine: RefinedEngine, split, tris, present):
         """The face on the refined skin of a split set (the latest one is kept, so frames

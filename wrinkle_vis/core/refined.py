@@ -30,7 +30,6 @@ from .hierarchy import (
     distinct,
     refined_topology,
 )
-from .mesh import unit_rows
 
 __all__ = ["RefinedEngine", "bent"]
 
@@ -38,19 +37,21 @@ __all__ = ["RefinedEngine", "bent"]
 def bent(triangles: np.ndarray, points: np.ndarray, angle_deg: float,
          candidates: np.ndarray) -> np.ndarray:
     """``(t,) bool``: the ``candidates`` among ``triangles`` ``(t, 3)`` whose vertex normals
-    at ``points`` ``(v, 3)`` (area-weighted over ``triangles``) differ by more than
+    at ``points`` ``(3, v)`` (area-weighted over ``triangles``) differ by more than
     ``angle_deg``.
     """
-    a = points[triangles[:, 0]]
-    fn = np.cross(points[triangles[:, 1]] - a, points[triangles[:, 2]] - a)
-    idx = triangles.ravel()
-    vn = np.stack([np.bincount(idx, np.repeat(fn[:, c], 3), minlength=len(points))
-                   for c in range(3)], axis=1)
-    vn = unit_rows(vn)
+    t0, t1, t2 = triangles.T
+    n = points.shape[1]
+    ax, ay, az = (np.take(p, t0) for p in points)
+    ux, uy, uz = (np.take(p, t1) - a for p, a in zip(points, (ax, ay, az), strict=True))
+    vx, vy, vz = (np.take(p, t2) - a for p, a in zip(points, (ax, ay, az), strict=True))
+    fn = (uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx)
+    vn = np.stack([np.bincount(t0, f, n) + np.bincount(t1, f, n) + np.bincount(t2, f, n)
+                   for f in fn])
+    vn /= np.maximum(np.sqrt((vn * vn).sum(axis=0)), 1e-300)
     c = np.flatnonzero(candidates)
-    n = vn[triangles[c]]  # (k, 3, 3)
-    cos = np.minimum.reduce([np.einsum("ij,ij->i", n[:, i], n[:, (i + 1) % 3])
-                             for i in range(3)])
+    corner = [vn[:, t[c]] for t in (t0, t1, t2)]  # (3, k) each
+    cos = np.minimum.reduce([(corner[i] * corner[(i + 1) % 3]).sum(axis=0) for i in range(3)])
     out = np.zeros(len(triangles), bool)
     out[c] = cos < np.cos(np.radians(angle_deg))
     return out
@@ -109,20 +110,20 @@ class _Dynamic:
     def __init__(self, hier: Hierarchy, asm: _Assembly, root, a: np.ndarray, buffers=None):
         self.hier, self.asm, self.a = hier, asm, a
         n, n0 = hier.n_points, hier.n_root
-        if buffers is None or len(buffers["deformed"]) != n:
-            buffers = {"deformed": hier.rest.copy(), "points": hier.rest.copy(),
-                       "W": np.zeros(n), "evaluated": np.zeros(n, bool),
-                       "computed": np.zeros(n, bool), "moved": np.zeros(0, np.int64),
-                       "touched": np.zeros(0, np.int64)}
+        if buffers is None or buffers["deformed"].shape[1] != n:
+            rest = np.ascontiguousarray(hier.rest.T)
+            buffers = {"deformed": rest.copy(), "points": rest.copy(), "W": np.zeros(n),
+                       "evaluated": np.zeros(n, bool), "computed": np.zeros(n, bool),
+                       "moved": np.zeros(0, np.int64), "touched": np.zeros(0, np.int64)}
         self.buffers = buffers
         d, moved, touched = buffers["deformed"], buffers["moved"], buffers["touched"]
-        d[moved] = hier.rest[moved]  # undo the last frame
+        d[:, moved] = hier.rest[moved].T  # undo the last frame
         buffers["computed"][moved] = False
         buffers["evaluated"][touched] = False
         buffers["W"][touched] = 0.0
-        d[:n0] = root.deformed_points
-        self.deformed, self.points, self.W = d, buffers["points"], buffers["W"]
-        self.points[:n0] = root.points
+        d[:, :n0] = root.deformed_points.T
+        self.deformed, self.points, self.W = d, buffers["points"], buffers["W"]  # (3, n)
+        self.points[:, :n0] = root.points.T
         self.W[:n0] = root.W
         self.evaluated, self.computed = buffers["evaluated"], buffers["computed"]
         self.evaluated[:n0] = True
@@ -153,7 +154,6 @@ class _Dynamic:
         r"""Deformed points of new vertices ``v`` ``(k,)``: the pull
         :math:`D = \sum_m a_m u_m`, bent onto the rest surface (the slide).
         """
-        v = v[~self.computed[v]]
         if not len(v):
             return
         asm, hier = self.asm, self.hier
@@ -162,7 +162,7 @@ class _Dynamic:
         pull = np.stack([np.bincount(owner, asm.unit[rows, c] * scale, minlength=len(v))
                          for c in range(3)], axis=1)
         bend = _bend(pull, hier.shape6[v])
-        self.deformed[v] = hier.rest[v] + pull - bend[:, None] * hier.slide[v]
+        self.deformed[:, v] = (hier.rest[v] + pull - bend[:, None] * hier.slide[v]).T
         self.computed[v] = True
         self._moved.append(v)
 
@@ -171,59 +171,65 @@ class _Dynamic:
         if not len(v):
             return
         hier, asm = self.hier, self.asm
-        dv = self.ring_deltas(v)  # (k, 6, 3)
-        d = self.deformed
-        tau = 1.0 - np.sqrt(np.einsum("kjc,kjc->kj", dv, dv)) / hier.ring_len[v]
-        normal = unit_rows(_ring_normal(dv))
+        dx, dy, dz = self.ring_deltas(v)  # (k, 6) each
+        tau = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / hier.ring_len[v]
+        normal = _ring_normal(dx, dy, dz)
+        normal /= np.maximum(np.sqrt((normal * normal).sum(axis=0)), 1e-300)
         rows, owner = asm.entries(v)
-        eps = np.einsum("kj,kj->k", asm.weights[rows], tau[owner])
+        eps = (asm.weights[rows] * tau[owner]).sum(axis=1)
         if asm.has_grad:
-            dvk = dv[owner]
-            c = asm.coef[rows]
-            g = c[:, :, :1] * dvk + c[:, :, 1:] * np.roll(dvk, -1, axis=1)
-            stretch = np.sqrt(np.einsum("kjc,kjc->kj", g, g))
-            eps += np.einsum("kj,kj->k", asm.area[rows], 1.0 - stretch)
+            eps += _stretch_mean(asm.coef[rows], asm.area[rows], dx[owner], dy[owner],
+                                 dz[owner])
         w = np.bincount(owner, asm.hat[rows] * anisotropy(eps), minlength=len(v))
         self.W[v] = w
-        self.points[v] = d[v] + w[:, None] * normal
+        self.points[:, v] = self.deformed[:, v] + w * normal
         self.evaluated[v] = True
         self._touched.append(v)
 
-    def ring_deltas(self, v: np.ndarray) -> np.ndarray:
-        """``(k, 6, 3)``: deformed ring edges of vertices ``v`` (zero where no neighbour)."""
+    def ring_deltas(self, v: np.ndarray):
+        """``((k, 6),) * 3``: x, y and z of the deformed ring edges of vertices ``v`` (zero
+        where there is no neighbour).
+        """
         ring = self.hier.safe_ring(v)
         need = np.concatenate([v, ring.ravel()])
         need = need[~self.computed[need]]
-        self._deform(distinct(need, self._slot(len(self.deformed))))
+        self._deform(distinct(need, self._slot(len(self.W))))
         d = self.deformed
-        return d[self.hier.safe_ring(v)] - d[v][:, None]
+        return tuple(np.take(d[c], ring) - np.take(d[c], v)[:, None] for c in range(3))
 
     def compression(self, levels: MuscleLevels, rows: np.ndarray) -> np.ndarray:
         r"""``(k,)``: one muscle's :math:`\varepsilon` at its rows ``rows`` (present
         vertices), from this frame's deformed points.
         """
         v = levels.ids[rows]
-        dv = self.ring_deltas(v)
+        dx, dy, dz = self.ring_deltas(v)
         if levels.muscle.compression == "gradient":
-            c = levels.coef[rows]
-            g = c[:, :, :1] * dv + c[:, :, 1:] * np.roll(dv, -1, axis=1)
-            stretch = np.sqrt(np.einsum("kjc,kjc->kj", g, g))
-            return np.einsum("kj,kj->k", levels.area[rows], 1.0 - stretch)
-        tau = 1.0 - np.sqrt(np.einsum("kjc,kjc->kj", dv, dv)) / self.hier.ring_len[v]
-        return np.einsum("kj,kj->k", levels.weights[rows], tau)
+            return _stretch_mean(levels.coef[rows], levels.area[rows], dx, dy, dz)
+        tau = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / self.hier.ring_len[v]
+        return (levels.weights[rows] * tau).sum(axis=1)
 
 
-def _ring_normal(dv: np.ndarray) -> np.ndarray:
-    r"""``(k, 3)``: :math:`\sum_j e_j \times e_{j+1}` over the ring edges ``dv``
-    ``(k, 6, 3)``, cyclically (twice the area-weighted normal of the ring's triangles).
+def _stretch_mean(coef, area, dx, dy, dz) -> np.ndarray:
+    r"""``(k,)``: :math:`\sum_j a_j (1 - |F_j d_j|)` over the ring triangles
+    :math:`(i, r_j, r_{j+1})`, with :math:`F_j d_j = c_0 e_j + c_1 e_{j+1}` (``coef``
+    ``(k, 6, 2)``, ``area`` ``(k, 6)``, ring edges ``(k, 6)`` each).
     """
-    x, y, z = dv[:, :, 0], dv[:, :, 1], dv[:, :, 2]
+    c0, c1 = coef[:, :, 0], coef[:, :, 1]
+    g = [c0 * e + c1 * np.roll(e, -1, axis=1) for e in (dx, dy, dz)]
+    stretch = np.sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
+    return (area * (1.0 - stretch)).sum(axis=1)
+
+
+def _ring_normal(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    r"""``(3, k)``: :math:`\sum_j e_j \times e_{j+1}` over the ring edges (x, y, z each
+    ``(k, 6)``), cyclically: twice the area-weighted normal of the ring's triangles.
+    """
 
     def wedge(a, b):  # sum_j a_j b_{j+1} - b_j a_{j+1}, j cyclic
         return ((a[:, :-1] * b[:, 1:] - b[:, :-1] * a[:, 1:]).sum(axis=1)
                 + a[:, -1] * b[:, 0] - b[:, -1] * a[:, 0])
 
-    return np.stack([wedge(y, z), wedge(z, x), wedge(x, y)], axis=1)
+    return np.stack([wedge(y, z), wedge(z, x), wedge(x, y)])
 
 
 def _bend(pull: np.ndarray, s: np.ndarray) -> np.ndarray:
