@@ -212,10 +212,9 @@ class Hierarchy:
             ids = self.n_points + np.arange(len(pairs))
             mids[new] = ids
             self._add_vertices(pairs, level)
-            keys_all = np.concatenate([self._keys, uniq[new]])
-            order = np.argsort(keys_all, kind="stable")
-            self._keys = keys_all[order]
-            self._mids = np.concatenate([self._mids, ids])[order]
+            at = np.searchsorted(self._keys, uniq[new])  # both sorted: merge, no sort
+            self._keys = np.insert(self._keys, at, uniq[new])
+            self._mids = np.insert(self._mids, at, ids)
         return mids[inverse.ravel()]
 
     def _add_vertices(self, pairs: np.ndarray, level: int) -> None:
@@ -245,9 +244,10 @@ class Hierarchy:
     def _finalize(self, roots: np.ndarray) -> None:
         mask = np.zeros(len(self.root_built), bool)
         mask[roots] = True
-        inside = mask[self.node_root]
-        v = np.unique(self.node_tri[inside])
-        v = v[(v >= self.n_root) & ~self.final[v]]
+        used = np.zeros(self.n_points, bool)
+        used[self.node_tri[mask[self.node_root]].ravel()] = True
+        used[:self.n_root] = False
+        v = np.flatnonzero(used & ~self.final)
         ring = self.ring[v]
         safe = np.where(ring >= 0, ring, v[:, None])
         length = np.linalg.norm(self.rest[safe] - self.rest[v][:, None], axis=2)

@@ -80,8 +80,10 @@ class _Assembly:
                              0.0)
         hat = np.concatenate([m.h * m.at for m in levels])[order]
         self.hat = np.nan_to_num(hat)  # 0 outside the wrinkling region
-        self.moved, self.start = np.unique(self.ids, return_index=True)
-        self.start = np.append(self.start, len(self.ids))
+        first = np.flatnonzero(np.r_[True, self.ids[1:] != self.ids[:-1]]) if len(
+            self.ids) else np.zeros(0, np.int64)
+        self.moved = self.ids[first]  # ids are sorted: each vertex's rows are adjacent
+        self.start = np.append(first, len(self.ids))
         self.slot = np.full(hier.n_points, -1, np.int64)
         self.slot[self.moved] = np.arange(len(self.moved))
         self.influenced = self.slot >= 0
@@ -305,7 +307,10 @@ class RefinedEngine:
         hier = self.hier
         tris = hier.skin.triangles
         influenced = (root.W != 0.0) | (root.deformed_points != root.rest_points).any(axis=1)
-        hier.ensure(np.flatnonzero(influenced[tris].any(axis=1)))  # one batch, usually none
+        cand = np.flatnonzero(influenced[tris].any(axis=1))
+        if not hier.root_final[cand].all():  # build what the frame can reach in one batch:
+            near = hier.root_nbrs[cand].ravel()  # the candidates and a ring around them
+            hier.ensure(np.concatenate([cand, near[near >= 0]]))
         dyn = _Dynamic(hier, self.assembly(muscles), root, a, self.buffers)
         split = np.zeros(len(hier.node_tri), bool)
         nodes = np.arange(len(tris))
