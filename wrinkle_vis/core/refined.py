@@ -31,7 +31,13 @@ from .hierarchy import (
     refined_topology,
 )
 
-__all__ = ["RefinedEngine", "bent"]
+__all__ = ["PREBUILD_ROOTS", "RefinedEngine", "bent"]
+
+#: A frame whose muscles influence at most this many root triangles builds their subtrees
+#: (and a ring around them) in one batch before it starts, so later frames find them built;
+#: beyond it (a fine skin, where few of them bend), subtrees are built as the frame splits
+#: their roots. About 18 kB a root triangle at three levels.
+PREBUILD_ROOTS = 8000
 
 
 def bent(triangles: np.ndarray, points: np.ndarray, angle_deg: float,
@@ -308,8 +314,9 @@ class RefinedEngine:
         tris = hier.skin.triangles
         influenced = (root.W != 0.0) | (root.deformed_points != root.rest_points).any(axis=1)
         cand = np.flatnonzero(influenced[tris].any(axis=1))
-        if not hier.root_final[cand].all():  # build what the frame can reach in one batch:
-            near = hier.root_nbrs[cand].ravel()  # the candidates and a ring around them
+        if len(cand) <= PREBUILD_ROOTS and not hier.root_final[cand].all():
+            # build what the frame can reach in one batch: the candidates and a ring
+            near = hier.root_nbrs[cand].ravel()
             hier.ensure(np.concatenate([cand, near[near >= 0]]))
         dyn = _Dynamic(hier, self.assembly(muscles), root, a, self.buffers)
         split = np.zeros(len(hier.node_tri), bool)
