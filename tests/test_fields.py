@@ -109,3 +109,11 @@ def test_a_registered_field_is_in_the_app_field_menu_and_drawn(hat_field, make_w
     assert "HAt (mm), frontalis_major_L" in window.skin_view.scalar_bars
     window.muscle_box.setCurrentText("total")  # HAt has no total: back to W
     assert window.field_box.currentText() == "W"
+
+
+def test_a_registered_field_works_on_refined_frames_too(hat_field, wv_face):
+    state = wv_face.evaluate("surprise", refine=True)
+    assert state.n_points > wv_face.skin.n_points  # refined
+    f = state.fields["frontalis_major_L"]
+    np.testing.assert_array_equal(f["HAt"], np.asarray(f["H"]) * np.asarray(f["At"]))
+    assert np.isfinite(f["HAt"][wv_face.skin.n_points:]).any()  # on new vertices as well

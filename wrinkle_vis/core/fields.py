@@ -61,7 +61,8 @@ class FieldSpec:
     compute : callable
         ``compute(fields) -> (n,) ndarray``: the field on every skin vertex from
         ``fields``, the muscle's field mapping in a frame (``fields["H"]``, ``fields["At"]``
-        ...: other fields, full length); values outside :attr:`where` become ``nan``.
+        ...: other fields, full length), ``nan`` outside :attr:`where` (as the fields it
+        is made of are).
     """
 
     key: str
@@ -110,33 +111,33 @@ class FieldSpec:
             self.unit, self.key)
 
 
-def _static(attr: str, where: str) -> Callable:
-    """A field the muscle defines on the rest skin (its cached ``_MuscleData``)."""
-    return lambda f: f.on(where, getattr(f.data, attr))
+def _static(key: str, attr: str, where: str) -> Callable:
+    """A field the muscle defines on the rest skin (``attr`` of its cached data)."""
+    return lambda f: f.static(key, attr, where)
 
 
 def _dynamic(key: str, where: str) -> Callable:
     """A field of the frame (compression, anisotropy, W)."""
-    return lambda f: f.on(where, f.dynamic()[key])
+    return lambda f: f.frame_value(key, where)
 
 
 #: The catalogue, by key, in menu order; :func:`register_field` adds to it.
 FIELDS: dict[str, FieldSpec] = {f.key: f for f in (
     FieldSpec("lambda", "λ", "length factor",
               "distance from the attachment along the central fibre, over R or L_s",
-              "Eq. 2, 13", "1", "aoi", limits=(0.0, 1.0), compute=_static("lam", "aoi")),
+              "Eq. 2, 13", "1", "aoi", limits=(0.0, 1.0), compute=_static("lambda", "lam", "aoi")),
     FieldSpec("gamma", "γ", "angular/width factor",
               "angle from the central fibre over Φ (linear) or 2h over W_s (sheet)",
-              "Eq. 2, 13", "1", "aoi", limits=(0.0, 1.0), compute=_static("gamma", "aoi")),
+              "Eq. 2, 13", "1", "aoi", limits=(0.0, 1.0), compute=_static("gamma", "gamma", "aoi")),
     FieldSpec("l", "l", "fibre distance", "distance from the attachment along the fibre",
-              "Eq. 1", "length", "aoi", cmap="cividis", compute=_static("l", "aoi")),
+              "Eq. 1", "length", "aoi", cmap="cividis", compute=_static("l", "l", "aoi")),
     FieldSpec("w", "w", "periodic coordinate", "position within one wrinkle period",
-              "Eq. 7", "length", "region", cmap="twilight", compute=_static("w", "region")),
+              "Eq. 7", "length", "region", cmap="twilight", compute=_static("w", "w", "region")),
     FieldSpec("H", "H", "shape function", "cross-sectional wrinkle shape: furrows and bulges",
-              "Eq. 5", "length", "region", signed=True, compute=_static("h", "region")),
+              "Eq. 5", "length", "region", signed=True, compute=_static("H", "h", "region")),
     FieldSpec("At", "At", "attenuation", "fade of the wrinkles away from the central fibre",
               "Eq. 12, 15", "1", "aoi", limits=(0.0, 1.0), cmap="magma",
-              compute=_static("at", "aoi")),
+              compute=_static("At", "at", "aoi")),
     FieldSpec("eps", "ε", "compression rate",
               "edge shrinkage weighted by alignment with the contraction",
               "Eq. 9, 10", "1", "aoi", signed=True, cmap="PuOr_r",
