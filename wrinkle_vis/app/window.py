@@ -88,6 +88,44 @@ def _weak(method, *args, keep: int = 0):
     return slot
 
 
+class View(QtInteractor):
+    """A view of the window: a ``QtInteractor`` that renders a frame once.
+
+    pyvistaqt's widget renders the scene again in every paint event, also in the one a
+    finished render schedules to show itself, so each frame the app rendered was rendered
+    twice (half the frame time of timeline playback in software). :meth:`render_now`
+    renders the scene at once (a screenshot right after it is of the new frame) and lets
+    the paint event that follows show that render without making another. Any other
+    paint (an expose, a resize, the interactor's own renders) renders as before.
+    """
+
+    _fresh = False  # rendered by render_now, not shown yet
+
+    def render_now(self) -> None:
+        """Render the scene now; the next paint shows this render."""
+        self.render_window.Render()  # its frame event schedules the paint
+        self._fresh = True
+
+    def resizeGL(self, w, h):  # noqa: N802 (Qt's name)
+        self._fresh = False  # the next paint renders at the new size
+        super().resizeGL(w, h)
+
+    def paintGL(self):  # noqa: N802 (Qt's name)
+        fresh, self._fresh = self._fresh, False
+        if not fresh or getattr(self, "_in_paint", None) is not False:
+            super().paintGL()
+            return
+        self._in_paint = True  # pyvistaqt's paintGL: "a render is under way", no render
+        try:
+            super().paintGL()
+        finally:
+            self._in_paint = False
+
+
+def _render_view(view: View) -> None:
+    view.render_now()
+
+
 class MainWindow(QtWidgets.QMainWindow):
     """The wrinkle-vis main window.
 
@@ -152,14 +190,15 @@ class MainWindow(QtWidgets.QMainWindow):
             box = QtWidgets.QVBoxLayout(frame)
             box.setContentsMargins(0, 0, 0, 0)
             box.addWidget(QtWidgets.QLabel(f"<b>{title}</b>"))
-            plotter = QtInteractor(frame, auto_update=False)
+            plotter = View(frame, auto_update=False)
             box.addWidget(plotter.interactor)
             splitter.addWidget(frame)
             self.plotters.append(plotter)
         self.setCentralWidget(splitter)
         self.skin_view, self.muscle_view, self.skull_view = self.plotters
         self.views = LinkedViews(*self.plotters, on_move=_weak(self._on_handle_moved, keep=3),
-                                 on_start=_weak(self._on_handle_start, keep=1))
+                                 on_start=_weak(self._on_handle_start, keep=1),
+                                 render_view=_render_view)
         camera = self.skin_view.renderer.camera
         for p in self.plotters[1:]:
             p.renderer.camera = camera
