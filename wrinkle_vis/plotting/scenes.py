@@ -14,7 +14,7 @@ from .writers import IMAGE_SUFFIXES, check_target, save_image
 
 __all__ = ["BONE", "CAMERAS", "LAYERS", "SKIN", "add_attachments", "add_muscle",
            "add_muscles", "add_raking_light", "add_skin", "add_skin_mesh", "add_skull",
-           "attachment_points", "clear_scene", "muscle_mesh", "render_field",
+           "attachment_points", "clear_scene", "evaluate", "muscle_mesh", "render_field",
            "replace_mesh", "set_camera", "testing_theme", "to_multiblock"]
 
 SKIN = "#f1c9a5"
@@ -114,6 +114,17 @@ def _scalar_bar(title: str, nan: bool = True) -> dict:
     return {"title": title, "nan_annotation": nan, "n_labels": 5, "fmt": "%.3g",
             "vertical": False, "position_x": 0.2, "position_y": 0.07, "width": 0.6,
             "height": 0.06}
+
+
+def evaluate(face: FaceModel, expression, intensity: float = 1.0, *, refine: bool = False,
+             refine_angle_deg: float | None = None,
+             refine_levels: int | None = None) -> FaceState:
+    """``face.evaluate(expression, intensity, refine=refine, ...)`` with only the
+    refinement options given (None: the model's defaults, :meth:`FaceModel.evaluate`).
+    """
+    options = {k: v for k, v in (("refine_angle_deg", refine_angle_deg),
+                                 ("refine_levels", refine_levels)) if v is not None}
+    return face.evaluate(expression, intensity, refine=refine, **options)
 
 
 def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
@@ -335,7 +346,9 @@ def set_camera(plotter: pv.Plotter, name: str, face: FaceModel) -> None:
 def render_field(face: FaceModel, expression="surprise", field: str | None = "W",
                  muscle: str | None = None, *, layers=("skin",), camera: str = "front",
                  size=(800, 800), intensity: float = 1.0, filename=None, title=None,
-                 theme=None, plotter: pv.Plotter | None = None) -> np.ndarray:
+                 theme=None, plotter: pv.Plotter | None = None, refine: bool = False,
+                 refine_angle_deg: float | None = None,
+                 refine_levels: int | None = None) -> np.ndarray:
     """Render a field of an expression off screen, with scalar bar and title, to a PNG.
 
     Parameters
@@ -359,6 +372,10 @@ def render_field(face: FaceModel, expression="surprise", field: str | None = "W"
         (:func:`~wrinkle_vis.plotting.writers.save_image`); checked before any work.
     plotter : pyvista.Plotter, optional
         Draw into this plotter (for image tests) instead of a new one; it is not closed.
+    refine : bool
+        Evaluate with adaptive refinement (:meth:`FaceModel.evaluate`).
+    refine_angle_deg, refine_levels : optional
+        Its bending threshold and most levels (None: the model's defaults).
 
     Returns
     -------
@@ -370,7 +387,8 @@ def render_field(face: FaceModel, expression="surprise", field: str | None = "W"
         raise ValueError(f"unknown layer(s) {unknown}; choose from {', '.join(LAYERS)}")
     if filename is not None:
         check_target(filename, IMAGE_SUFFIXES)
-    state = face.evaluate(expression, intensity)
+    state = evaluate(face, expression, intensity, refine=refine,
+                     refine_angle_deg=refine_angle_deg, refine_levels=refine_levels)
     own = plotter is None
     if own:
         plotter = pv.Plotter(off_screen=True, window_size=list(size), theme=theme)
