@@ -31,7 +31,7 @@ from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
 from ..widgets.panels import MuscleListPanel
 from .recovery import Recovery
-from .session import EDITABLE, OPTIONS, Session, load_session
+from .session import EDITABLE, OPTIONS, TIMELINE_STEPS, Session, load_session, playback_position
 from .views import VIEWS, LinkedViews
 
 __all__ = ["MainWindow"]
@@ -42,6 +42,7 @@ KEEP = object()  # edit(): keep the selection
 MAX_RECENT = 8
 AUTOSAVE_QUIET_MS = 1000  # autosave after this long without an edit...
 AUTOSAVE_MAX_MS = 5000  # ...and at the latest this long after the first unsaved edit
+PLAY_TICK_MS = 16  # Play's timer: at most about 60 frames a second
 GUIDE = Path(__file__).resolve().parents[2] / "docs" / "guide.md"  # in a source checkout
 
 
@@ -176,9 +177,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self._build_views()
         self._build_controls()
         self._build_menus()
-        self.timer = QtCore.QTimer(self)
-        self.timer.setInterval(40)
+        self.timer = QtCore.QTimer(self)  # Play: ticks as fast as 60 a second
+        self.timer.setInterval(PLAY_TICK_MS)
         self.timer.timeout.connect(self._tick)
+        self._play_start = (0, 0.0)  # timeline position and clock when Play was pressed
         self._populate()
         self.refresh(reset_camera=True)
 
@@ -265,7 +267,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.play_button.setCheckable(True)
         self.play_button.toggled.connect(self._on_play)
         self.time_slider = QtWidgets.QSlider(QtCore.Qt.Horizontal)
-        self.time_slider.setRange(0, 300)
+        self.time_slider.setRange(0, TIMELINE_STEPS)
         self.time_slider.valueChanged.connect(self._on_time)
         row.addWidget(self.play_button)
         row.addWidget(self.time_slider)
@@ -556,7 +558,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def _on_time(self, value: int) -> None:
         if not self._updating_controls:
             ex = self.session.face.expressions[self.session.expression]
-            self.session.set_time(value / 300 * ex.duration_s)
+            self.session.set_time(value / TIMELINE_STEPS * ex.duration_s)
             self.refresh()
 
     def _slider_for_time(self, t: float | None) -> int:
@@ -564,7 +566,7 @@ class MainWindow(QtWidgets.QMainWindow):
         ex = self.session.face.expressions[self.session.expression]
         if t is None:
             t = ex.onset_s + 0.5 * ex.hold_s
-        return round(300 * t / ex.duration_s) if ex.duration_s > 0 else 0
+        return round(TIMELINE_STEPS * t / ex.duration_s) if ex.duration_s > 0 else 0
 
     def _on_refine(self, on: bool) -> None:
         self.session.set_refine(on)
@@ -573,6 +575,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def _on_play(self, playing: bool) -> None:
         self.play_button.setText("Pause" if playing else "Play")
         if playing:
+            self._play_start = (self.time_slider.value(), time.perf_counter())
             self.timer.start()
         else:
             self.timer.stop()
@@ -621,7 +624,13 @@ class MainWindow(QtWidgets.QMainWindow):
         return self._ramp[1]
 
     def _tick(self) -> None:
-        self.time_slider.setValue((self.time_slider.value() + 4) % 301)
+        """Play: move the timeline to where the expression is now (a frame is drawn when
+        the position changes; one that took long skips positions).
+        """
+        start, t0 = self._play_start
+        ex = self.session.face.expressions[self.session.expression]
+        self.time_slider.setValue(playback_position(start, time.perf_counter() - t0,
+                                                    ex.duration_s))
 
     def _on_field(self, _=None) -> None:
         if self._updating_controls:
