@@ -16,6 +16,7 @@ Medians over ``--runs`` runs; the targets are 30 frames a second unrefined and 2
 """
 
 import argparse
+import os
 import statistics
 import sys
 import time
@@ -87,16 +88,17 @@ def play(app, window: MainWindow, clock: FrameClock, seconds: float) -> dict:
     clock.reset()
     loop = QtCore.QEventLoop()
     QtCore.QTimer.singleShot(round(1e3 * seconds), loop.quit)
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.process_time()
     window.play_button.setChecked(True)
     loop.exec()
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
     window.play_button.setChecked(False)
     n = max(clock.frames, 1)
     ms = {k: 1e3 * v / n for k, v in clock.sums.items()}
     frame = ms.pop("frame")
     ms["other"] = 1e3 * wall / n - sum(ms.values())  # the rest of refresh and Qt's loop
     return {"fps": clock.frames / wall, "frame": frame, "frames": clock.frames,
+            "cpu": 1e3 * cpu / n,
             "rebuilds": clock.rebuilds, "remeshes": clock.remeshes,
             "renders": sum(clock.renders) / n,
             **{f"render {v}": 1e3 * t / max(r, 1) for v, t, r in
@@ -127,7 +129,8 @@ def main() -> int:
     clock = FrameClock(window)
     sizes = [tuple(p.window_size) for p in window.plotters]
     print(f"{face.skin.n_triangles} triangles, {args.expression}, views {sizes} px, "
-          f"{args.runs} runs of {args.seconds:g} s after a warm-up run")
+          f"{args.runs} runs of {args.seconds:g} s after a warm-up run; load average "
+          f"{os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
     met = True
     for mode in args.modes.split(","):
         refine = mode == "on"
@@ -138,7 +141,8 @@ def main() -> int:
         fps = [f"{r['fps']:.1f}" for r in runs]
         met &= med["fps"] >= TARGETS[refine]
         print(f"refinement {mode:3s}: {med['fps']:5.1f} fps (runs {', '.join(fps)}; target "
-              f"{TARGETS[refine]:g}), {1e3 / med['fps']:.1f} ms a frame: evaluate "
+              f"{TARGETS[refine]:g}), {1e3 / med['fps']:.1f} ms a frame (this process's "
+              f"CPU time {med['cpu']:.1f} ms): evaluate "
               f"{med['evaluate']:.1f}, redraw {med['redraw']:.1f}, render {med['render']:.1f}, "
               f"other {med['other']:.1f} ms; {med['renders']:.1f} view renders a frame "
               f"(one of the skin view {med['render skin']:.1f} ms, the muscles view "

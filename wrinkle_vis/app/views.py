@@ -1,13 +1,15 @@
 """The three linked views' scenes, drawn from a session (no Qt: works on off-screen plotters).
 
 :meth:`LinkedViews.draw` rebuilds a scene only when what it shows changes (the field, the
-selected muscle, the skin's triangles, the set of muscles); otherwise it writes the new frame
-into the drawn meshes' VTK arrays, redraws only the muscles that were edited, and moves the
-selected muscle's placement widget. :meth:`LinkedViews.render` then renders the views that
-changed. The app's window and the drag benchmark both use it. The skin view can show plain
-skin (no field) and be lit by a raking light (:meth:`LinkedViews.set_raking_light`), its
-colour range can be given (else each frame's own), and :meth:`LinkedViews.save_image`
-renders a view at any size without the placement widget.
+selected muscle, the set of muscles); otherwise it writes the new frame into the drawn
+meshes' VTK arrays (points, vertex normals, the field), or, when a refined frame has other
+triangles than the last, gives the same actors new meshes (:func:`redraw_kind` decides),
+redraws only the muscles that were edited, and moves the selected muscle's placement
+widget. :meth:`LinkedViews.render` then renders the views that changed. The app's window
+and the drag benchmark both use it. The skin view can show plain skin (no field) and be lit
+by a raking light (:meth:`LinkedViews.set_raking_light`), its colour range can be given
+(else each frame's own), and :meth:`LinkedViews.save_image` renders a view at any size
+without the placement widget.
 """
 
 from __future__ import annotations
