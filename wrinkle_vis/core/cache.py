@@ -80,6 +80,14 @@ class ByteBudgetCache:
         self.reweigh(key, value)
         return value
 
+    def put(self, key: Hashable, value: Any) -> None:
+        """Store ``value`` under ``key`` (replacing what was there) and weigh it."""
+        old = self._entries.pop(key, None)
+        if old is not None:
+            self._total -= old[1]
+        self._entries[key] = (value, 0)
+        self.reweigh(key, value)
+
     def reweigh(self, key: Hashable, *objects) -> None:
         """Weigh ``key``'s entry again (``objects``: what it holds now, default the entry);
         entries that grew after they were made (lazy caches) are counted as they are.
