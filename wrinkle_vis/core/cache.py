@@ -33,7 +33,10 @@ def nbytes(*objects) -> int:
             continue
         seen.add(id(obj))
         if isinstance(obj, np.ndarray):
-            total += obj.nbytes if obj.base is None else 0  # views share their base
+            if isinstance(obj.base, np.ndarray):  # a view: its base counts, once
+                stack.append(obj.base)
+            elif obj.base is None:
+                total += obj.nbytes
         elif sp.issparse(obj):
             stack += [getattr(obj, k, None) for k in ("data", "indices", "indptr", "row",
                                                       "col")]

@@ -46,7 +46,20 @@ def _six(shape: np.ndarray) -> np.ndarray:
 
 
 def _grow(a: np.ndarray, more: np.ndarray) -> np.ndarray:
-    return np.concatenate([a, more.astype(a.dtype, copy=False)])
+    """``a`` with the rows ``more`` appended, amortized: ``a`` is a prefix of a buffer with
+    spare rows (grown by doubling), so appending copies only ``more``.
+    """
+    n, k = len(a), len(more)
+    base = a.base
+    if (isinstance(base, np.ndarray) and base.shape[1:] == a.shape[1:]
+            and base.dtype == a.dtype and len(base) >= n + k
+            and base.__array_interface__["data"][0] == a.__array_interface__["data"][0]):
+        base[n:n + k] = more
+        return base[:n + k]
+    base = np.empty((max(2 * (n + k), 1024), *a.shape[1:]), a.dtype)
+    base[:n] = a
+    base[n:n + k] = more
+    return base[:n + k]
 
 
 class Hierarchy:
