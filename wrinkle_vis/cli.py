@@ -31,6 +31,9 @@ _SIZES = f"{MIN_PIXELS} to {MAX_PIXELS} a side, 8192 by 8192 in all"
 MAX_FPS = 120
 #: The most texels of padding ``bake`` puts around a UV island.
 MAX_PADDING = 256
+#: The most levels of adaptive refinement ``--refine-levels`` takes (each level can split
+#: every triangle the last one made in four).
+MAX_REFINE_LEVELS = 5
 
 
 class CliError(Exception):
@@ -58,6 +61,17 @@ def _common(p: argparse.ArgumentParser, *, expression_many: bool = False,
                    help="built-in skin resolution in triangles, exactly (500 to 250000; "
                         "default: the layout's, else 4500)")
     p.add_argument("--layout", type=Path, help="a layout file (default: the built-in face)")
+
+
+def _refine_options(p: argparse.ArgumentParser, what: str = "evaluate with adaptive "
+                    "refinement where the skin bends (paper Fig. 11)") -> None:
+    p.add_argument("--refine", action="store_true", help=what)
+    p.add_argument("--refine-angle", type=float, metavar="DEG",
+                   help="with --refine: split the triangles whose vertex normals differ by "
+                        "more than DEG degrees, in (0, 180) (default 3)")
+    p.add_argument("--refine-levels", type=int, metavar="N",
+                   help=f"with --refine: at most N levels of splitting, 0 to "
+                        f"{MAX_REFINE_LEVELS} (default 3)")
 
 
 def field_choices() -> tuple[str, ...]:
@@ -95,6 +109,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--size", type=int, nargs=2, default=(800, 800), metavar=("W", "H"),
                    help=f"image size in pixels ({_SIZES}; "
                         "default 800 800)")
+    _refine_options(p)
     p.add_argument("--output", "-o", type=Path, required=True,
                    help="the PNG to write (must end in .png)")
 
@@ -135,6 +150,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--size", type=int, nargs=2, default=(480, 480), metavar=("W", "H"),
                    help=f"frame size in pixels ({_SIZES}; "
                         "default 480 480)")
+    _refine_options(p, "evaluate every frame with adaptive refinement where the skin bends")
     p.add_argument("--output", "-o", type=Path, required=True, help="a .gif or .mp4 file")
 
     p = sub.add_parser(
@@ -145,8 +161,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("figure", choices=FIGURE_CHOICES, help="which figure")
     _common(p, expression_many=True, expression_default=(
         f"fig9: one row each, {', '.join(FIG9_EXPRESSIONS)}; fig11: one, surprise"))
-    p.add_argument("--refine", action="store_true",
-                   help="fig9: evaluate with adaptive refinement (fig11 always refines)")
+    _refine_options(p, "fig9: evaluate with adaptive refinement (fig11 always refines; "
+                       "--refine-angle and --refine-levels set how for both)")
     p.add_argument("--size", type=int, nargs=2, metavar=("W", "H"),
                    help=f"image size in pixels ({_SIZES}; "
                         "default: 880 by 400 per row for fig9, 800 by 800 for fig11)")
@@ -246,10 +262,32 @@ def _check_common(args) -> None:
             raise CliError(f"--size {w} {h} is too large (at most {MAX_PIXELS} pixels each "
                            f"way and {MAX_AREA:,} in all, e.g. 8192 8192); ask for a "
                            "smaller image")
+    _check_refine(args)
     fps = getattr(args, "fps", None)
     if fps is not None and not 1 <= fps <= MAX_FPS:
         raise CliError(f"--fps {fps} is outside 1..{MAX_FPS}; choose a frame rate in that "
                        "range (default 12)")
+
+
+def _check_refine(args) -> None:
+    """Check ``--refine-angle`` and ``--refine-levels`` (before any work)."""
+    angle = getattr(args, "refine_angle", None)
+    levels = getattr(args, "refine_levels", None)
+    if angle is not None and not 0.0 < angle < 180.0:
+        raise CliError(f"--refine-angle {angle:g} is outside (0, 180) degrees; choose a "
+                       "bending threshold in that range (default 3)")
+    if levels is not None and not 0 <= levels <= MAX_REFINE_LEVELS:
+        raise CliError(f"--refine-levels {levels} is outside 0..{MAX_REFINE_LEVELS}; choose "
+                       "a number of levels in that range (default 3)")
+    refines = getattr(args, "refine", False) or getattr(args, "figure", None) == "fig11"
+    if (angle is not None or levels is not None) and not refines:
+        given = "--refine-angle" if angle is not None else "--refine-levels"
+        raise CliError(f"{given} sets how the skin is refined; add --refine")
+
+
+def _refinement(args) -> dict:
+    """The refinement keywords of the plotting functions, from the arguments."""
+    return {"refine_angle_deg": args.refine_angle, "refine_levels": args.refine_levels}
 
 
 def _output(args, suffixes: tuple[str, ...]) -> Path:
@@ -405,11 +443,12 @@ def _render(args) -> int:
 
     _output(args, (".png",))
     field = _field(args)
-    face = _load(args)
+    face = _load(args, refine=args.refine)
     with headless_rendering():
         image = render_field(face, args.expression, field, args.muscle,
                              layers=tuple(args.layers), camera=args.camera,
-                             size=tuple(args.size), intensity=args.intensity)
+                             size=tuple(args.size), intensity=args.intensity,
+                             refine=args.refine, **_refinement(args))
     written = save_image(image, args.output)
     print(f"wrote {_wrote(args, written)}")
     return 0
@@ -561,7 +600,7 @@ def _animate(args) -> int:
 
     _output(args, ANIMATION_SUFFIXES)
     field = _field(args)
-    face = _load(args)
+    face = _load(args, refine=args.refine)
     expression = face.expressions[args.expression]
     try:
         times = frame_times(expression, args.fps)
@@ -571,7 +610,8 @@ def _animate(args) -> int:
         frames = animation_frames(face, expression, times, field=field, muscle=args.muscle,
                                   layers=tuple(args.layers), camera=args.camera,
                                   size=tuple(args.size), intensity=args.intensity,
-                                  label=args.expression)
+                                  label=args.expression, refine=args.refine,
+                                  **_refinement(args))
         progress = tqdm(frames, total=len(times), desc=f"rendering {args.output.name}",
                         unit="frame")
         try:
@@ -598,10 +638,12 @@ def _figure(args) -> int:
     with headless_rendering():
         if args.figure == "fig9":
             image = figure_expressions(face, args.expression, size=size,
-                                       intensity=args.intensity, refine=args.refine)
+                                       intensity=args.intensity, refine=args.refine,
+                                       **_refinement(args))
         else:
             image = figure_refinement(face, expression=args.expression[0],
-                                      size=size or (800, 800), intensity=args.intensity)
+                                      size=size or (800, 800), intensity=args.intensity,
+                                      **_refinement(args))
     written = save_image(image, args.output)
     print(f"wrote {_wrote(args, written)}")
     return 0

@@ -19,7 +19,11 @@ from ..core.registry import get_muscle_type
 from ..core.units import face_unit
 from ..plotting.fields import field_info, field_range
 
-__all__ = ["OPTIONS", "Session", "editable", "load_session"]
+__all__ = ["OPTIONS", "TIMELINE_STEPS", "Session", "editable", "load_session",
+           "playback_position"]
+
+#: Steps of the app's timeline: positions 0 to this many span the expression's duration.
+TIMELINE_STEPS = 300
 
 def editable(muscle) -> tuple[Parameter, ...]:
     """The numeric parameters the parameter panel edits for ``muscle`` (a muscle or its
@@ -364,6 +368,23 @@ class Session:
         self._layout, self.folder = layout, path.parent
         self.layout_path, self.dirty = path, False
         return path
+
+
+def playback_position(start: int, elapsed_s: float, duration_s: float,
+                      steps: int = TIMELINE_STEPS) -> int:
+    r"""The timeline position ``elapsed_s`` seconds of playback after position ``start``.
+
+    .. math:: p = \left(p_0 + \operatorname{round}\left(s \, t / T\right)\right)
+              \bmod (s + 1)
+
+    for ``steps`` :math:`s` spanning the expression's duration :math:`T`: the expression
+    plays at its own speed, round and round, however long a frame takes to draw (a slow
+    frame skips positions instead of slowing the expression down). A duration of 0 stays
+    at ``start``.
+    """
+    if duration_s <= 0.0:
+        return int(start)
+    return (int(start) + round(steps * elapsed_s / duration_s)) % (steps + 1)
 
 
 def load_session(path: str | Path | None = None, n_triangles: int | None = None) -> Session:

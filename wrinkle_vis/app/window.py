@@ -31,7 +31,7 @@ from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
 from ..widgets.panels import MuscleListPanel
 from .recovery import Recovery
-from .session import Session, editable, load_session
+from .session import TIMELINE_STEPS, Session, editable, load_session, playback_position
 from .views import VIEWS, LinkedViews
 
 __all__ = ["MainWindow"]
@@ -42,6 +42,7 @@ KEEP = object()  # edit(): keep the selection
 MAX_RECENT = 8
 AUTOSAVE_QUIET_MS = 1000  # autosave after this long without an edit...
 AUTOSAVE_MAX_MS = 5000  # ...and at the latest this long after the first unsaved edit
+PLAY_TICK_MS = 16  # Play's timer: at most about 60 frames a second
 GUIDE = Path(__file__).resolve().parents[2] / "docs" / "guide.md"  # in a source checkout
 
 
@@ -86,6 +87,44 @@ def _weak(method, *args, keep: int = 0):
         return None if bound is None else bound(*args, *signal_args[:keep])
 
     return slot
+
+
+class View(QtInteractor):
+    """A view of the window: a ``QtInteractor`` that renders a frame once.
+
+    pyvistaqt's widget renders the scene again in every paint event, also in the one a
+    finished render schedules to show itself, so each frame the app rendered was rendered
+    twice (half the frame time of timeline playback in software). :meth:`render_now`
+    renders the scene at once (a screenshot right after it is of the new frame) and lets
+    the paint event that follows show that render without making another. Any other
+    paint (an expose, a resize, the interactor's own renders) renders as before.
+    """
+
+    _fresh = False  # rendered by render_now, not shown yet
+
+    def render_now(self) -> None:
+        """Render the scene now; the next paint shows this render."""
+        self.render_window.Render()  # its frame event schedules the paint
+        self._fresh = True
+
+    def resizeGL(self, w, h):  # noqa: N802 (Qt's name)
+        self._fresh = False  # the next paint renders at the new size
+        super().resizeGL(w, h)
+
+    def paintGL(self):  # noqa: N802 (Qt's name)
+        fresh, self._fresh = self._fresh, False
+        if not fresh or getattr(self, "_in_paint", None) is not False:
+            super().paintGL()
+            return
+        self._in_paint = True  # pyvistaqt's paintGL: "a render is under way", no render
+        try:
+            super().paintGL()
+        finally:
+            self._in_paint = False
+
+
+def _render_view(view: View) -> None:
+    view.render_now()
 
 
 class MainWindow(QtWidgets.QMainWindow):
@@ -138,9 +177,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self._build_views()
         self._build_controls()
         self._build_menus()
-        self.timer = QtCore.QTimer(self)
-        self.timer.setInterval(40)
+        self.timer = QtCore.QTimer(self)  # Play: ticks as fast as 60 a second
+        self.timer.setInterval(PLAY_TICK_MS)
         self.timer.timeout.connect(self._tick)
+        self._play_start = (0, 0.0)  # timeline position and clock when Play was pressed
         self._populate()
         self.refresh(reset_camera=True)
 
@@ -152,14 +192,15 @@ class MainWindow(QtWidgets.QMainWindow):
             box = QtWidgets.QVBoxLayout(frame)
             box.setContentsMargins(0, 0, 0, 0)
             box.addWidget(QtWidgets.QLabel(f"<b>{title}</b>"))
-            plotter = QtInteractor(frame, auto_update=False)
+            plotter = View(frame, auto_update=False)
             box.addWidget(plotter.interactor)
             splitter.addWidget(frame)
             self.plotters.append(plotter)
         self.setCentralWidget(splitter)
         self.skin_view, self.muscle_view, self.skull_view = self.plotters
         self.views = LinkedViews(*self.plotters, on_move=_weak(self._on_handle_moved, keep=3),
-                                 on_start=_weak(self._on_handle_start, keep=1))
+                                 on_start=_weak(self._on_handle_start, keep=1),
+                                 render_view=_render_view)
         camera = self.skin_view.renderer.camera
         for p in self.plotters[1:]:
             p.renderer.camera = camera
@@ -226,7 +267,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.play_button.setCheckable(True)
         self.play_button.toggled.connect(self._on_play)
         self.time_slider = QtWidgets.QSlider(QtCore.Qt.Horizontal)
-        self.time_slider.setRange(0, 300)
+        self.time_slider.setRange(0, TIMELINE_STEPS)
         self.time_slider.valueChanged.connect(self._on_time)
         row.addWidget(self.play_button)
         row.addWidget(self.time_slider)
@@ -508,7 +549,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def _on_time(self, value: int) -> None:
         if not self._updating_controls:
             ex = self.session.face.expressions[self.session.expression]
-            self.session.set_time(value / 300 * ex.duration_s)
+            self.session.set_time(value / TIMELINE_STEPS * ex.duration_s)
             self.refresh()
 
     def _slider_for_time(self, t: float | None) -> int:
@@ -516,7 +557,7 @@ class MainWindow(QtWidgets.QMainWindow):
         ex = self.session.face.expressions[self.session.expression]
         if t is None:
             t = ex.onset_s + 0.5 * ex.hold_s
-        return round(300 * t / ex.duration_s) if ex.duration_s > 0 else 0
+        return round(TIMELINE_STEPS * t / ex.duration_s) if ex.duration_s > 0 else 0
 
     def _on_refine(self, on: bool) -> None:
         self.session.set_refine(on)
@@ -525,6 +566,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def _on_play(self, playing: bool) -> None:
         self.play_button.setText("Pause" if playing else "Play")
         if playing:
+            self._play_start = (self.time_slider.value(), time.perf_counter())
             self.timer.start()
         else:
             self.timer.stop()
@@ -573,7 +615,13 @@ class MainWindow(QtWidgets.QMainWindow):
         return self._ramp[1]
 
     def _tick(self) -> None:
-        self.time_slider.setValue((self.time_slider.value() + 4) % 301)
+        """Play: move the timeline to where the expression is now (a frame is drawn when
+        the position changes; one that took long skips positions).
+        """
+        start, t0 = self._play_start
+        ex = self.session.face.expressions[self.session.expression]
+        self.time_slider.setValue(playback_position(start, time.perf_counter() - t0,
+                                                    ex.duration_s))
 
     def _on_field(self, _=None) -> None:
         if self._updating_controls:
@@ -904,7 +952,7 @@ class MainWindow(QtWidgets.QMainWindow):
             f"{'' if s.time_s is None else f' at {s.time_s:.2f} s'}  |  W in "
             f"[{state.W.min():.3g}, {state.W.max():.3g}] {s.unit}  |  frame "
             f"{s.frame_ms:.2f} ms, drawn in {total_ms:.1f} ms  |  "
-            f"{s.face.skin.n_triangles} triangles")
+            f"{_triangles(len(state.triangles), s.face.skin.n_triangles)}")
         self._update_title()
 
     def active_array(self) -> str | None:
@@ -1356,6 +1404,13 @@ def _guide_text() -> str:
         return ("# wrinkle-vis guide\n\nThe guide is `docs/guide.md` in the wrinkle-vis "
                 "source; this installation has no copy. Help > Keyboard shortcuts lists "
                 "every action.")
+
+
+def _triangles(drawn: int, skin: int) -> str:
+    """The status bar's triangle count: ``4500 triangles``, ``34162 triangles (refined
+    from 4500)``.
+    """
+    return f"{drawn} triangles" + (f" (refined from {skin})" if drawn != skin else "")
 
 
 def _field_label(field: str, unit: str) -> str:
