@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from wrinkle_vis.core import Layout, MeshError, TriangleSurface
-from wrinkle_vis.core.mesh import closest_points
+from wrinkle_vis.core.editing import snapped
 
 __all__ = ["LANDMARKS", "offset_skull", "orient_outward", "read_surface",
            "similarity_transform", "transfer_layout"]
@@ -213,26 +213,20 @@ def transfer_layout(layout: Layout, target_skin: TriangleSurface, landmarks: dic
     -------
     Layout
         Muscles mapped by the least-squares similarity of the landmarks, lengths scaled by
-        its scale, insertion points projected onto the target skin and attachment points
-        onto the target skull (a sheet's lines are only mapped: they set its frame, which
-        neighbouring sheets share); the expressions unchanged; the target's landmarks.
+        its scale, each point projected onto the surface its parameter declares
+        (:func:`~wrinkle_vis.core.editing.snapped`: insertions onto the target skin,
+        attachments onto the target skull; a sheet's lines are only mapped: they set its
+        frame, which neighbouring sheets share); the expressions unchanged; the target's landmarks.
     """
     names = _shared_landmarks(layout.landmarks, landmarks)
     rot, scale, shift = similarity_transform([layout.landmarks[n] for n in names],
                                              [landmarks[n] for n in names])
     if target_skull is None:
         target_skull = offset_skull(target_skin, regional_depth(target_skin, landmarks))
-    muscles = []
-    for m in layout.muscles:
-        moved = m.transformed(lambda p: scale * p @ rot.T + shift, scale)
-        changes = {}
-        for param in m.point_parameters:
-            arr = np.asarray(getattr(moved, param), float)
-            if arr.ndim > 1:  # a sheet's lines are its frame: moved, not projected
-                continue
-            surface = target_skull if param.startswith("attachment") else target_skin
-            changes[param] = closest_points(surface, arr.reshape(-1, 3)).reshape(arr.shape)
-        muscles.append(moved.replace(**changes))
+    surfaces = {"skin": target_skin, "skull": target_skull}
+    muscles = [snapped(m.transformed(lambda p: scale * p @ rot.T + shift, scale), surfaces,
+                       lines=False)  # a sheet's lines are its frame: moved, not projected
+               for m in layout.muscles]
     return Layout(name=f"{layout.name} on {target_skin.n_points}-vertex skin",
                   muscles=tuple(muscles), expressions=layout.expressions,
                   landmarks={k: tuple(map(float, v)) for k, v in landmarks.items()})

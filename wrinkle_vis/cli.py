@@ -1,4 +1,4 @@
-"""The ``wrinkle-vis`` command: summary, render, export, animate, figure and bake.
+"""The ``wrinkle-vis`` command: summary, render, export, animate, figure, bake and types.
 
 Every error is one line on stderr that names the problem and the way out, with exit status
 2 and no traceback; outputs are checked (extension, folder) before any work and written
@@ -13,7 +13,6 @@ import time
 import warnings
 from pathlib import Path
 
-FIELD_CHOICES = ("lambda", "gamma", "l", "w", "H", "At", "eps", "A", "W", "none")
 CAMERA_CHOICES = ("front", "three_quarter", "side", "forehead", "upper_face")
 FIGURE_CHOICES = ("fig9", "fig11")
 FIG9_EXPRESSIONS = ("surprise", "frown", "fear")
@@ -75,7 +74,17 @@ def _refine_options(p: argparse.ArgumentParser, what: str = "evaluate with adapt
                         f"{MAX_REFINE_LEVELS} (default 3)")
 
 
+def field_choices() -> tuple[str, ...]:
+    """``--field`` choices: the core catalogue's fields
+    (:data:`wrinkle_vis.core.fields.FIELDS`, read when the parser is built) and ``none``.
+    """
+    from wrinkle_vis.core.fields import FIELD_NAMES
+
+    return (*FIELD_NAMES, "none")
+
+
 def _parser() -> argparse.ArgumentParser:
+    field_choices_ = field_choices()
     parser = _Parser(
         prog="wrinkle-vis",
         description="The muscle-driven facial wrinkle model of Zhang, Sim and Tan on an "
@@ -91,7 +100,7 @@ def _parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("render", help="render a field map to a PNG, off screen")
     _common(p)
-    p.add_argument("--field", "-f", default="W", choices=FIELD_CHOICES,
+    p.add_argument("--field", "-f", default="W", choices=field_choices_,
                    help="field to colour the skin by (default W; 'none' for plain skin)")
     p.add_argument("--muscle", "-m", help="whose field (default: the total, W only)")
     p.add_argument("--layers", nargs="+", default=["skin"], choices=LAYER_CHOICES,
@@ -129,7 +138,7 @@ def _parser() -> argparse.ArgumentParser:
                                    "by frame (streamed to the file), with the colour range "
                                    "fixed at the peak's.")
     _common(p)
-    p.add_argument("--field", "-f", default="W", choices=FIELD_CHOICES,
+    p.add_argument("--field", "-f", default="W", choices=field_choices_,
                    help="field to colour the skin by (default W; 'none' for plain skin)")
     p.add_argument("--muscle", "-m", help="whose field (default: the total, W only)")
     p.add_argument("--layers", nargs="+", default=["skin"], choices=LAYER_CHOICES,
@@ -170,7 +179,7 @@ def _parser() -> argparse.ArgumentParser:
     _common(p)
     p.add_argument("--skin", type=Path,
                    help="the skin: an OBJ with UV coordinates (default: the layout's skin)")
-    p.add_argument("--field", "-f", action="append", choices=FIELD_CHOICES[:-1],
+    p.add_argument("--field", "-f", action="append", choices=field_choices_[:-1],
                    help="a field to bake as a colour map (repeatable; default W)")
     p.add_argument("--muscle", "-m", help="whose fields (default: the total, W only)")
     p.add_argument("--size", type=int, nargs=2, default=(1024, 1024), metavar=("W", "H"),
@@ -185,7 +194,40 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--output", "-o", type=Path, required=True,
                    help="the folder for the maps (made, or replaced whole if it holds only "
                         "maps)")
+    p = sub.add_parser(
+        "types", help="list the installed muscle types and their parameters",
+        description="Every registered muscle type (built-in and plug-in) with its "
+                    "parameters as the type declares them: symbol, unit, allowed range, "
+                    "default and meaning.")
+    p.add_argument("type", nargs="*", help="only these types (default: all)")
+    p.add_argument("--markdown", action="store_true", help="print Markdown tables")
     return parser
+
+
+def _types(args) -> int:
+    from wrinkle_vis.core.params import TABLE_COLUMNS, parameter_table
+    from wrinkle_vis.core.registry import UnknownMuscleTypeError, get_muscle_type, muscle_types
+
+    names = args.type or list(muscle_types())
+    try:
+        types = [(n, get_muscle_type(n)) for n in names]
+    except UnknownMuscleTypeError as exc:
+        raise CliError(str(exc)) from None
+    for k, (name, cls) in enumerate(types):
+        rows = parameter_table(cls)
+        title = f"{name} ({cls.__module__}.{cls.__qualname__})"
+        print(("\n" if k else "") + (f"## {title}\n" if args.markdown else title))
+        if args.markdown:
+            print("| " + " | ".join(TABLE_COLUMNS) + " |")
+            print("|" + "---|" * len(TABLE_COLUMNS))
+            for row in rows:
+                print("| " + " | ".join(c.replace("|", "\\|") for c in row) + " |")
+            continue
+        widths = [max(len(r[i]) for r in [TABLE_COLUMNS, *rows]) for i in range(5)]
+        for row in [TABLE_COLUMNS, *rows]:
+            print("  " + "  ".join(c.ljust(w) for c, w in zip(row, widths, strict=False))
+                  + "  " + row[5])
+    return 0
 
 
 def _version() -> str:
@@ -379,9 +421,19 @@ def _summary(args) -> int:
 
 def _field(args):
     field = None if args.field == "none" else args.field
-    if field not in (None, "W") and args.__dict__.get("muscle") is None:
-        raise CliError(f"--field {field} belongs to one muscle: add --muscle NAME")
+    if field is not None:
+        _check_field(field, args.__dict__.get("muscle"))
     return field
+
+
+def _check_field(field: str, muscle: str | None) -> None:
+    """A field with no total (the catalogue's; all but W) needs ``--muscle``."""
+    from wrinkle_vis.core.fields import check_field
+
+    try:
+        check_field(field, muscle)
+    except ValueError:
+        raise CliError(f"--field {field} belongs to one muscle: add --muscle NAME") from None
 
 
 def _render(args) -> int:
@@ -516,8 +568,7 @@ def _bake(args) -> int:
         raise CliError(f"--skin {args.skin}: {what}; check the path")
     fields = args.field or ["W"]
     for name in fields:
-        if name != "W" and args.muscle is None:
-            raise CliError(f"--field {name} belongs to one muscle: add --muscle NAME")
+        _check_field(name, args.muscle)
     source = args.skin
     if source is None and args.layout is not None:
         from wrinkle_vis.core.layout import load_layout
@@ -635,6 +686,12 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.command is None:
         return _app(parser)
+    if args.command == "types":
+        try:
+            return _types(args)
+        except CliError as exc:
+            print(f"wrinkle-vis types: {exc}", file=sys.stderr)
+            return 2
     if not (0.0 <= args.intensity <= 1.0):
         parser.error(f"--intensity {args.intensity:g} is outside [0, 1]")
     if getattr(args, "layout", None) is not None and not args.layout.is_file():

@@ -31,7 +31,7 @@ from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
 from ..widgets.panels import MuscleListPanel
 from .recovery import Recovery
-from .session import EDITABLE, OPTIONS, TIMELINE_STEPS, Session, load_session, playback_position
+from .session import TIMELINE_STEPS, Session, editable, load_session, playback_position
 from .views import VIEWS, LinkedViews
 
 __all__ = ["MainWindow"]
@@ -461,9 +461,8 @@ class MainWindow(QtWidgets.QMainWindow):
             self._build_parameter_panel()
             return
         for param, widget in self.param_widgets.items():
-            value = getattr(muscle, param)
             widget.blockSignals(True)
-            widget.setValue(value if value is not None else _resolved(muscle, param))
+            widget.setValue(muscle.resolved(param))
             widget.blockSignals(False)
         for param, widget in self.option_widgets.items():
             _show_option(widget, getattr(muscle, param))
@@ -482,36 +481,28 @@ class MainWindow(QtWidgets.QMainWindow):
             self.param_form.addRow(QtWidgets.QLabel("Choose a muscle to edit it."))
             return
         muscle = self.session.face.muscle(name)
-        for param, label, step in EDITABLE.get(muscle.type_name, ()):
-            value = getattr(muscle, param)
-            if param == "n_wrinkles":
-                w = QtWidgets.QSpinBox()
-                w.setRange(0, 99)
-            else:
-                w = QtWidgets.QDoubleSpinBox()
-                w.setDecimals(3)
-                w.setRange(-1e6, 1e6)
-                w.setSingleStep(step)
-            w.setValue(value if value is not None else _resolved(muscle, param))
+        for spec in editable(muscle):  # what the type declares (core.params)
+            w = _parameter_box(spec, self.session.unit)
+            w.setValue(muscle.resolved(spec.name))
             w.setKeyboardTracking(False)
-            w.valueChanged.connect(_weak(self.set_parameter, param, keep=1))
+            w.valueChanged.connect(_weak(self.set_parameter, spec.name, keep=1))
             w.installEventFilter(self._undo_keys)  # Ctrl+Z undoes the edit, not the typing
-            self.param_widgets[param] = w
-            self.param_form.addRow(label, w)
+            self.param_widgets[spec.name] = w
+            self.param_form.addRow(spec.label, w)
         self.option_widgets = {}
-        for param, label, choices in OPTIONS:  # every type has them (core.muscle.OPTIONS)
-            if choices is None:
+        for spec in muscle.options():  # every type has them, declared in core.muscle
+            if spec.is_flag:
                 w = QtWidgets.QCheckBox()
-                w.toggled.connect(_weak(self._on_option, param, keep=1))
+                w.toggled.connect(_weak(self._on_option, spec.name, keep=1))
             else:
                 w = QtWidgets.QComboBox()
-                for value, text in choices.items():
+                for value, text in spec.labelled_choices.items():
                     w.addItem(text, value)
-                w.currentIndexChanged.connect(_weak(self._on_option, param, keep=1))
-            w.setToolTip(_OPTION_TIPS.get(param, ""))
-            _show_option(w, getattr(muscle, param))
-            self.option_widgets[param] = w
-            self.param_form.addRow(label, w)
+                w.currentIndexChanged.connect(_weak(self._on_option, spec.name, keep=1))
+            w.setToolTip(spec.doc)
+            _show_option(w, getattr(muscle, spec.name))
+            self.option_widgets[spec.name] = w
+            self.param_form.addRow(spec.label, w)
         self.activation_box = QtWidgets.QDoubleSpinBox()
         self.activation_box.setRange(0.0, 1.0)
         self.activation_box.setSingleStep(0.05)
@@ -641,7 +632,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.plain_skin = field == PLAIN
         if self.plain_skin:  # the session keeps a field for the probe and a switch back
             field = self.session.field if muscle is not None else "W"
-        elif muscle is None and field != "W":
+        elif muscle is None and not field_info(field).total:
             self._updating_controls = True
             self.field_box.setCurrentText("W")
             self._updating_controls = False
@@ -667,8 +658,9 @@ class MainWindow(QtWidgets.QMainWindow):
         """
         name = self.session.muscle
         option = param in self.option_widgets
+        muscle = self.session.face.muscle(name)
         if not option:
-            value = int(value) if param == "n_wrinkles" else float(value)
+            value = int(value) if muscle.parameter(param).unit == "count" else float(value)
         try:
             face = self.session.with_parameter(name, param, value)
         except (MuscleParameterError, ValueError) as exc:
@@ -679,8 +671,7 @@ class MainWindow(QtWidgets.QMainWindow):
                 return False
             widget = self.param_widgets[param]
             widget.blockSignals(True)
-            widget.setValue(old if old is not None else _resolved(
-                self.session.face.muscle(name), param))
+            widget.setValue(muscle.resolved(param))
             widget.blockSignals(False)
             return False
         self.param_error.setText("")
@@ -692,8 +683,9 @@ class MainWindow(QtWidgets.QMainWindow):
     def _labels(self) -> dict[str, str]:
         """The selected muscle's parameters as the panel labels them."""
         name = self.session.muscle
-        kind = self.session.face.muscle(name).type_name if name else None
-        return {p: lbl for p, lbl, _ in (*EDITABLE.get(kind, ()), *OPTIONS)}
+        muscle = self.session.face.muscle(name) if name else None
+        specs = (*editable(muscle), *muscle.options()) if muscle is not None else ()
+        return {p.name: p.label for p in specs}
 
     def _labelled(self, message: str) -> str:
         """``message`` with the parameters called by the labels the panel shows them under
@@ -1423,8 +1415,7 @@ def _triangles(drawn: int, skin: int) -> str:
 
 def _field_label(field: str, unit: str) -> str:
     """A field's name with its unit: ``W (mm)``, ``lambda``."""
-    kind = field_info(field).unit
-    return {"length": f"{field} ({unit})", "deg": f"{field} (deg)"}.get(kind, field)
+    return field_info(field).label(unit)
 
 
 def _error_label() -> QtWidgets.QLabel:
@@ -1433,15 +1424,6 @@ def _error_label() -> QtWidgets.QLabel:
     label.setStyleSheet("color: #b00020")
     label.setWordWrap(True)
     return label
-
-
-_OPTION_TIPS = {
-    "taper": "Taper H to 0, C1, over the first and last half period of the wrinkling region "
-             "(off: the paper's Eq. 5, which jumps to the furrow bottom there)",
-    "compression": "How eps is measured: the paper's Eq. 10 over the edges, or the "
-                   "deformation gradient's stretch along the contraction direction (exact "
-                   "for a uniform strain)",
-}
 
 
 def _show_option(widget: QtWidgets.QWidget, value) -> None:
@@ -1454,11 +1436,26 @@ def _show_option(widget: QtWidgets.QWidget, value) -> None:
     widget.blockSignals(False)
 
 
-def _resolved(muscle, param: str) -> float:
-    """The value a defaulted (None) parameter actually takes."""
-    if param == "attenuation_start_deg" or param == "attenuation_start":
-        return muscle.attenuation_range[0]
-    return getattr(muscle, f"{param}_value")
+def _parameter_box(spec, unit: str) -> QtWidgets.QAbstractSpinBox:
+    """A spin box for one declared parameter (:class:`~wrinkle_vis.core.params.Parameter`):
+    whole numbers for a count, else three decimals; its step from the metadata, and a
+    tooltip with its symbol, meaning, unit and range. The box takes any value, so that one
+    out of range is refused by the core with its reason, not clipped silently.
+    """
+    if spec.unit == "count":
+        box = QtWidgets.QSpinBox()
+        box.setRange(-999, 999)
+        box.setSingleStep(max(1, int(spec.step)))
+    else:
+        box = QtWidgets.QDoubleSpinBox()
+        box.setDecimals(3)
+        box.setRange(-1e6, 1e6)
+        box.setSingleStep(spec.step)
+    shown = {"length": unit, "deg": "deg", "1": "", "count": ""}[spec.unit]
+    derived = "; left out, derived from the others" if spec.optional else ""
+    box.setToolTip(f"{spec.symbol}: {spec.doc}" + (f" ({shown})" if shown else "")
+                   + f"; allowed {spec.range_text()}{derived}")
+    return box
 
 
 def run(argv=None, layout: str | Path | None = None) -> int:

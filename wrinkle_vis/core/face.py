@@ -21,7 +21,6 @@ of vectorized steps whatever the number of muscles:
 from __future__ import annotations
 
 import dataclasses
-import importlib
 from collections import OrderedDict
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -37,6 +36,7 @@ from .equations import (
     triangle_stretch,
 )
 from .expressions import Expression, paper_expressions
+from .fields import FIELD_NAMES, check_field, field_spec
 from .hierarchy import Hierarchy, canonical_order
 from .mesh import (
     MeshError,
@@ -59,9 +59,6 @@ SLIDE_SCALE = 0.029
 #: The most bytes the refined skins of one face keep cached (with their per-muscle data and
 #: operators), however long an animation runs; the least recently used go first.
 REFINE_CACHE_BYTES = 160 * 2**20
-
-#: Per-muscle fields of a :class:`FaceState`, by name.
-FIELD_NAMES = ("lambda", "gamma", "l", "w", "H", "At", "eps", "A", "W")
 
 
 @dataclass(frozen=True, eq=False)
@@ -587,11 +584,14 @@ class FaceModel:
         ``field`` (see :meth:`FaceState.plot`).
 
         A bridge to :func:`wrinkle_vis.plotting.plot_face` (which documents ``kwargs``);
-        needs PyVista.
+        needs PyVista. The one place the core reaches the plotting layer, imported only
+        when called and declared in the import contract (``pyproject.toml``,
+        ``ignore_imports``).
         """
-        plotting = importlib.import_module("wrinkle_vis.plotting")
-        return plotting.plot_face(self, expression, field, muscle, intensity=intensity,
-                                  refine=refine, **kwargs)
+        from wrinkle_vis.plotting import plot_face
+
+        return plot_face(self, expression, field, muscle, intensity=intensity, refine=refine,
+                         **kwargs)
 
     def _refined_frame(self, root: FaceState, acts: dict[str, float], angle_deg: float,
                        levels: int) -> FaceState:
@@ -733,6 +733,7 @@ class _MuscleFields(Mapping):
         self._state = state
         self._muscle = muscle
         self._cache: dict[str, np.ndarray] = {}
+        self._dynamic: dict[str, np.ndarray] | None = None
 
     def __iter__(self):
         return iter(FIELD_NAMES)
@@ -741,18 +742,47 @@ class _MuscleFields(Mapping):
         return len(FIELD_NAMES)
 
     def __getitem__(self, key: str) -> np.ndarray:
-        if key not in FIELD_NAMES:
-            raise KeyError(f"unknown field {key!r}; fields: {', '.join(FIELD_NAMES)}")
         if key not in self._cache:
-            arr = self._compute(key)
+            spec = field_spec(key)  # KeyError lists the fields
+            arr = np.array(spec.compute(self), dtype=float)  # a copy: ours to freeze
+            if arr.shape != (self._state.n_points,):
+                raise ValueError(f"field {key!r} computed shape {arr.shape}; expected "
+                                 f"({self._state.n_points},), one value per skin vertex")
             arr.setflags(write=False)
             self._cache[key] = arr
         return self._cache[key]
+
+    # ---------------------------------------------------------------- for compute()
+    # The catalogue's built-in entries (core/fields.py) compute through these two.
+    def static(self, key: str, attr: str, where: str) -> np.ndarray:
+        """``(n,)``: the muscle's rest-skin quantity ``attr`` of its data (``lam``,
+        ``gamma``, ``l``, ``at``, ``w``, ``h``) on its ``"aoi"`` or ``"region"``, ``nan``
+        elsewhere; on a refined frame, field ``key`` from the refinement engine.
+        """
+        if self._state.source is not None:
+            return self._state.source.static(self._muscle, key, attr)
+        data = self._state.face.muscle_data(self._muscle)
+        return self._full(data.aoi if where == "aoi" else data.region, getattr(data, attr))
+
+    def frame_value(self, key: str, where: str) -> np.ndarray:
+        """``(n,)``: the frame's ``eps`` or ``A`` (on the AOI) or ``W`` (on the region) of
+        the muscle, ``nan`` elsewhere.
+        """
+        if self._state.source is not None:
+            return self._state.source.dynamic(self._muscle, key)
+        data = self._state.face.muscle_data(self._muscle)
+        return self._full(data.aoi if where == "aoi" else data.region, self.dynamic()[key])
 
     def _full(self, ids: np.ndarray, values: np.ndarray) -> np.ndarray:
         out = np.full(self._state.n_points, np.nan)
         out[ids] = values
         return out
+
+    def dynamic(self) -> dict[str, np.ndarray]:
+        """Eps and A on the AOI, W on the region (compact), for this muscle in this frame."""
+        if self._dynamic is None:
+            self._dynamic = self._compact_dynamic()
+        return self._dynamic
 
     def _compact_dynamic(self) -> dict[str, np.ndarray]:
         """Eps and A on the AOI, W on the region, for this muscle in this state."""
@@ -770,20 +800,6 @@ class _MuscleFields(Mapping):
         eps = data.compression(state.face.skin, state.deformed_points)
         return {"eps": eps, "A": anisotropy(eps), "W": np.zeros(len(data.region_pos))}
 
-    def _compute(self, key: str) -> np.ndarray:
-        if self._state.source is not None:
-            return self._state.source.field(self._muscle, key)
-        data = self._state.face.muscle_data(self._muscle)
-        static_aoi = {"lambda": data.lam, "gamma": data.gamma, "l": data.l, "At": data.at}
-        if key in static_aoi:
-            return self._full(data.aoi, static_aoi[key])
-        if key in ("w", "H"):
-            return self._full(data.region, data.w if key == "w" else data.h)
-        dyn = self._compact_dynamic()
-        if key == "W":
-            return self._full(data.region, dyn["W"])
-        return self._full(data.aoi, dyn[key])
-
 
 class _RefinedSource:
     """The fields of a refined frame: the skin's vertices from the unrefined frame, the new
@@ -797,7 +813,10 @@ class _RefinedSource:
     def _dyn(self):
         return self._engine.dynamic(self._root, *self._active)
 
-    def field(self, muscle: Muscle, key: str) -> np.ndarray:
+    def _start(self, muscle: Muscle, key: str):
+        """The field's values on the skin's vertices (from the unrefined frame) and where
+        the muscle's refined data go: ``(out, levels, positions, kept)``.
+        """
         out = np.full(len(self._order), np.nan)
         n0 = self._root.n_points
         out[:n0] = self._root.fields[muscle.name][key]
@@ -805,21 +824,24 @@ class _RefinedSource:
         where = np.full(self._engine.hier.n_points, -1, np.int64)
         where[self._order] = np.arange(len(self._order))
         pos = where[lv.ids] if len(lv.ids) else np.zeros(0, np.int64)
-        keep = pos >= 0
-        static = {"lambda": lv.lam, "gamma": lv.gamma, "l": lv.l, "At": lv.at, "w": lv.w,
-                  "H": lv.h}
-        if key in static:
-            out[pos[keep]] = static[key][keep]
-            return out
+        return out, lv, pos, pos >= 0
+
+    def static(self, muscle: Muscle, key: str, attr: str) -> np.ndarray:
+        """Field ``key``, the refined data's ``attr`` on the new vertices."""
+        out, lv, pos, keep = self._start(muscle, key)
+        out[pos[keep]] = getattr(lv, attr)[keep]
+        return out
+
+    def dynamic(self, muscle: Muscle, key: str) -> np.ndarray:
+        """Field ``eps``, ``A`` or ``W`` of the frame on the new vertices."""
+        out, lv, pos, keep = self._start(muscle, key)
         eps = self._dyn.compression(lv, np.flatnonzero(keep))
-        if key == "eps":
-            out[pos[keep]] = eps
-        elif key == "A":
-            out[pos[keep]] = anisotropy(eps)
-        else:  # W: on the wrinkling region, 0 for a muscle at rest
+        a = anisotropy(eps)
+        if key == "W":  # on the wrinkling region, 0 for a muscle at rest
             active = self._root.activations[muscle.name] > 0.0
-            w = lv.h[keep] * lv.at[keep] * (anisotropy(eps) if active else 0.0)
-            out[pos[keep]] = w
+            out[pos[keep]] = lv.h[keep] * lv.at[keep] * (a if active else 0.0)
+        else:
+            out[pos[keep]] = eps if key == "eps" else a
         return out
 
 
@@ -894,13 +916,33 @@ class FaceState:
         """The final skin as a :class:`TriangleSurface`."""
         return TriangleSurface(self.points, self.triangles)
 
+    def field_values(self, key: str, muscle: str | None = None) -> np.ndarray:
+        """``(n,)``: field ``key`` of ``muscle``, or its total over the muscles (None; only
+        the fields the catalogue gives a total, ``W``: :attr:`W`).
+
+        Raises
+        ------
+        KeyError
+            For an unknown field or muscle, listing them.
+        ValueError
+            For a field with no total and no muscle.
+        """
+        check_field(key, muscle)
+        if muscle is None:
+            return self.W
+        if muscle not in self.face.muscle_names:
+            raise KeyError(f"no muscle {muscle!r}; muscles: {', '.join(self.face.muscle_names)}")
+        return self.fields[muscle][key]
+
     def to_polydata(self):
         """The skin as ``pyvista.PolyData`` with every field as a named point array.
 
-        A bridge to :func:`wrinkle_vis.plotting.to_polydata`; needs PyVista.
+        A bridge to :func:`wrinkle_vis.plotting.to_polydata`; needs PyVista (imported when
+        called; declared in the import contract, see :meth:`FaceModel.plot`).
         """
-        plotting = importlib.import_module("wrinkle_vis.plotting")
-        return plotting.to_polydata(self)
+        from wrinkle_vis.plotting import to_polydata
+
+        return to_polydata(self)
 
     def plot(self, field: str | None = "W", muscle: str | None = None, **kwargs):
         """Show the skin coloured by ``field`` (of ``muscle``, or the total W; None for
@@ -908,10 +950,12 @@ class FaceState:
         as an image; elsewhere in a window, or off screen without a display.
 
         A bridge to :func:`wrinkle_vis.plotting.plot_state` (which documents ``kwargs``);
-        needs PyVista.
+        needs PyVista (imported when called; declared in the import contract, see
+        :meth:`FaceModel.plot`).
         """
-        plotting = importlib.import_module("wrinkle_vis.plotting")
-        return plotting.plot_state(self, field, muscle, **kwargs)
+        from wrinkle_vis.plotting import plot_state
+
+        return plot_state(self, field, muscle, **kwargs)
 
     def summary(self) -> str:
         """A few lines on the frame: activations and the range of each active field."""

@@ -6,9 +6,9 @@ import numpy as np
 import pyvista as pv
 
 from ..core.face import FaceModel, FaceState
-from ..core.muscles import LinearMuscle, SheetMuscle
 from ..core.units import face_unit
 from .fields import NAN_COLOR, field_info, field_range
+from .glyphs import glyph_factory
 from .polydata import field_array_name, to_polydata, to_surface_polydata
 from .writers import IMAGE_SUFFIXES, check_target, save_image
 
@@ -149,13 +149,8 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
         return add_skin_mesh(plotter, mesh, opacity=opacity, show_edges=show_edges,
                              edge_color=edge_color)
     info = field_info(field)
-    if muscle is None and field != "W":
-        raise ValueError(f"field {field!r} belongs to one muscle; name it (only W has a "
-                         "total)")
-    if muscle is not None and muscle not in state.face.muscle_names:
-        raise KeyError(f"no muscle {muscle!r}; muscles: {', '.join(state.face.muscle_names)}")
+    values = np.asarray(state.field_values(field, muscle))  # checks field and muscle
     array = field_array_name(field, muscle)
-    values = np.asarray(state.W if muscle is None else state.fields[muscle][field])
     mesh.point_data[array] = values  # only the field shown: the others stay in the core
     mesh.set_active_scalars(array)
     actor = plotter.add_mesh(
@@ -192,32 +187,13 @@ def _shading(mesh: pv.PolyData) -> dict:
 
 
 def muscle_mesh(muscle, activation: float = 0.0) -> pv.PolyData:
-    """The muscle as geometry: a tapered fibre (linear) or a ribbon of seven fibres from the
-    attachment line to the insertion line (sheet).
+    """The muscle as geometry: its type's glyph (:func:`~wrinkle_vis.plotting.glyph_factory`:
+    a tapered fibre for a linear muscle, a ribbon of seven fibres for a sheet, a fibre
+    through the declared points for a type with no glyph of its own).
 
     Point array ``activation`` holds the activation everywhere, for colouring.
     """
-    if isinstance(muscle, LinearMuscle):
-        a, b = np.asarray(muscle.attachment), np.asarray(muscle.insertion)
-        line = pv.Line(a, b, resolution=16)
-        t = np.linspace(0.0, 1.0, line.n_points)
-        line.point_data["r"] = muscle.length * (0.06 - 0.035 * t)  # thick at the bone
-        mesh = line.tube(scalars="r", absolute=True, n_sides=12, capping=True)
-    elif isinstance(muscle, SheetMuscle):
-        att, ins = np.asarray(muscle.attachment_line), np.asarray(muscle.insertion_line)
-        s = np.linspace(0.0, 1.0, 7)[:, None]
-        starts = att[0] + s * (att[1] - att[0])
-        ends = ins[0] + s * (ins[1] - ins[0])
-        t = np.linspace(0.0, 1.0, 9)[None, :, None]
-        points = (starts[:, None] + t * (ends - starts)[:, None]).reshape(-1, 3)
-        lines = np.hstack([np.full((7, 1), 9), np.arange(63).reshape(7, 9)]).ravel()
-        mesh = pv.PolyData(points, lines=lines).tube(  # seven fibres in one filter run
-            radius=0.012 * muscle.fibre_length, n_sides=8, capping=True)
-    else:  # a plug-in type: a line through its point parameters
-        pts = np.concatenate([np.asarray(getattr(muscle, p), float).reshape(-1, 3)
-                              for p in muscle.point_parameters])
-        mesh = pv.Spline(pts, max(2, 8 * len(pts))).tube(radius=1.0) if len(pts) > 1 \
-            else pv.Sphere(radius=2.0, center=pts[0])
+    mesh = glyph_factory(type(muscle))(muscle)
     mesh.point_data["activation"] = np.full(mesh.n_points, float(activation))
     return mesh
 
@@ -293,11 +269,12 @@ def add_skull(plotter: pv.Plotter, face: FaceModel, *, attachments: bool = True)
 
 
 def attachment_points(face: FaceModel) -> np.ndarray:
-    """``(k, 3)``: every muscle's attachment points (its ``attachment*`` point parameters,
-    the ones on the skull), in muscle order.
+    """``(k, 3)``: every muscle's attachment points (the point parameters its type declares
+    on the skull, :meth:`~wrinkle_vis.core.muscle.Muscle.point_surfaces`), in muscle order.
     """
     pts = [np.asarray(getattr(m, p), float).reshape(-1, 3)
-           for m in face.muscles for p in m.point_parameters if p.startswith("attachment")]
+           for m in face.muscles for p, where in m.point_surfaces().items()
+           if where == "skull"]
     return np.concatenate(pts) if pts else np.zeros((0, 3))
 
 
