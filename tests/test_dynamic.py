@@ -140,3 +140,14 @@ def test_the_hierarchy_is_bounded_by_the_uniform_subdivision(face):
     built = int(hier.root_built.sum())
     assert len(hier.node_tri) == face.skin.n_triangles + built * (4 + 16 + 64)
     assert built < face.skin.n_triangles
+
+
+@pytest.mark.parametrize("levels", [1, 2, 4])
+def test_other_depths_are_conforming_and_as_deep_as_asked(face, levels):
+    state = face.evaluate("frown", refine=True, refine_levels=levels)
+    rep = state.surface().report()
+    assert len(rep.non_manifold_edges) == 0 and rep.consistently_oriented
+    assert len(rep.boundary_edges) == len(face.skin.report().boundary_edges)
+    hier = face._rest.engine(levels).hier
+    used = hier.level[face._rest.engine(levels).last[2]]
+    assert used.max() == levels  # the deepest level is reached, no deeper

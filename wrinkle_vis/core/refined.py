@@ -33,10 +33,11 @@ from .hierarchy import (
 
 __all__ = ["PREBUILD_ROOTS", "RefinedEngine", "bent"]
 
-#: A frame whose muscles influence at most this many root triangles builds their subtrees
-#: (and a ring around them) in one batch before it starts, so later frames find them built;
-#: beyond it (a fine skin, where few of them bend), subtrees are built as the frame splits
-#: their roots. About 18 kB a root triangle at three levels.
+#: A frame whose muscles influence at most this many root triangles (at three levels; a
+#: quarter as many a level deeper) builds their subtrees (and a ring around them) in one
+#: batch before it starts, so later frames find them built; beyond it (a fine skin, where
+#: few of them bend), subtrees are built as the frame splits their roots. About 18 kB a root
+#: triangle at three levels.
 PREBUILD_ROOTS = 8000
 
 
@@ -314,7 +315,8 @@ class RefinedEngine:
         tris = hier.skin.triangles
         influenced = (root.W != 0.0) | (root.deformed_points != root.rest_points).any(axis=1)
         cand = np.flatnonzero(influenced[tris].any(axis=1))
-        if len(cand) <= PREBUILD_ROOTS and not hier.root_final[cand].all():
+        subtree = (4 ** (hier.depth + 1) - 1) // 3  # nodes a root triangle holds
+        if len(cand) * subtree <= PREBUILD_ROOTS * 85 and not hier.root_final[cand].all():
             # build what the frame can reach in one batch: the candidates and a ring
             near = hier.root_nbrs[cand].ravel()
             hier.ensure(np.concatenate([cand, near[near >= 0]]))
