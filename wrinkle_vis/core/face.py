@@ -48,7 +48,7 @@ from .mesh import (
 )
 from .muscle import Muscle, check_activation
 from .refine import bent_triangles, refine_triangles
-from .units import face_unit
+from .units import check_unit, face_unit
 
 __all__ = ["FIELD_NAMES", "FaceModel", "FaceState"]
 
@@ -381,6 +381,10 @@ class FaceModel:
     landmarks : mapping of str to (3,) array_like, optional
         Named points on the skin (see :data:`wrinkle_vis.datasets.scans.LANDMARKS`); left and
         right pairs (``*_L``, ``*_R``) give the face's symmetry plane.
+    unit : str, optional
+        The unit of the face's lengths (a key of :data:`~wrinkle_vis.core.units.LENGTH_UNITS`);
+        None for a face that does not say (labels then read
+        :data:`~wrinkle_vis.core.units.DEFAULT_UNIT`, :func:`~wrinkle_vis.core.units.face_unit`).
 
     Notes
     -----
@@ -390,7 +394,7 @@ class FaceModel:
 
     def __init__(self, skin: TriangleSurface, skull: TriangleSurface | None = None,
                  muscles: Iterable[Muscle] = (), expressions=None, *, name: str = "face",
-                 landmarks=None, _caches=None, _rest_normals=None):
+                 landmarks=None, unit: str | None = None, _caches=None, _rest_normals=None):
         if not isinstance(skin, TriangleSurface):
             raise TypeError(f"skin must be a TriangleSurface; got {type(skin).__name__}")
         if skull is not None and not isinstance(skull, TriangleSurface):
@@ -398,6 +402,7 @@ class FaceModel:
         self.skin = skin
         self.skull = skull
         self.name = name
+        self.unit: str | None = None if unit is None else check_unit(unit)
         self.landmarks: dict[str, tuple] = {
             str(k): tuple(float(x) for x in v) for k, v in dict(landmarks or {}).items()}
         self.muscles: tuple[Muscle, ...] = tuple(muscles)
@@ -489,7 +494,7 @@ class FaceModel:
                 del cache[m]
         return FaceModel(self.skin, self.skull, muscles,
                          self.expressions if expressions is None else expressions,
-                         name=self.name, landmarks=self.landmarks,
+                         name=self.name, landmarks=self.landmarks, unit=self.unit,
                          _caches=(cache, None, self._rest))
 
     def muscle_data(self, muscle: Muscle) -> _MuscleData:
@@ -612,7 +617,7 @@ class FaceModel:
             rest = _RestFrame(ref.surface, ref.normals, self._rest.radius, self._rest,
                               ref.parents)
             face = FaceModel(ref.surface, self.skull, self.muscles, self.expressions,
-                             name=self.name, landmarks=self.landmarks,
+                             name=self.name, landmarks=self.landmarks, unit=self.unit,
                              _caches=({}, None, rest))  # a refined valid skin is valid
             face._refinements, face._refine_key = self._refinements, key
             return face
