@@ -331,7 +331,8 @@ class Session:
         should start (default: where they start now; None: absolute paths).
         """
         base = self._layout
-        extra = {"n_triangles": self.face.skin.n_triangles} if base.skin is None else {}
+        procedural = base.skin is None and base.face in (None, "procedural")
+        extra = {"n_triangles": self.face.skin.n_triangles} if procedural else {}
         layout = dataclasses.replace(base, name=self.face.name, muscles=self.face.muscles,
                                      expressions=self.face.expressions,
                                      landmarks=self.face.landmarks or base.landmarks,

@@ -10,6 +10,7 @@ observers are removed on close, so a closed window is freed with everything it d
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import re
 import sys
 import time
@@ -23,13 +24,14 @@ from vtkmodules.vtkRenderingCore import vtkPropPicker
 
 from ..core.editing import with_point
 from ..core.face import FIELD_NAMES
-from ..core.layout import LayoutError
+from ..core.layout import Layout, LayoutError, load_layout
 from ..core.muscle import MuscleParameterError
 from ..core.registry import muscle_types
 from ..plotting import set_camera
 from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
 from ..widgets.panels import MuscleListPanel
+from .newface_panel import NewFaceFlow
 from .recovery import Recovery
 from .session import EDITABLE, OPTIONS, Session, load_session
 from .views import VIEWS, LinkedViews
@@ -37,6 +39,7 @@ from .views import VIEWS, LinkedViews
 __all__ = ["MainWindow"]
 
 TOTAL = "total"
+_FACE_LABELS = {"procedural": "&Procedural", "lee_perry_smith": "&Lee Perry-Smith"}
 PLAIN = "none"  # the field box's entry for plain skin (no field)
 KEEP = object()  # edit(): keep the selection
 MAX_RECENT = 8
@@ -137,6 +140,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.statusBar().addPermanentWidget(self.status_label)
         self._build_views()
         self._build_controls()
+        self.newface = NewFaceFlow(self)
         self._build_menus()
         self.timer = QtCore.QTimer(self)
         self.timer.setInterval(40)
@@ -337,6 +341,8 @@ class MainWindow(QtWidgets.QMainWindow):
     def _build_menus(self) -> None:
         file_menu = self.menuBar().addMenu("&File")
         self._action(file_menu, "&Open layout...", "Ctrl+O", self.open_dialog)
+        self._action(file_menu, "&New face from mesh...", "Ctrl+N",
+                     _weak(self.newface.new_face_dialog))
         self._action(file_menu, "&Save layout", "Ctrl+S", self.save)
         self._action(file_menu, "Save layout &as...", "Ctrl+Shift+S", self.save_as_dialog)
         self.recent_menu = file_menu.addMenu("Open &recent")
@@ -354,6 +360,7 @@ class MainWindow(QtWidgets.QMainWindow):
         edit_menu.addMenu(self.add_menu)
         edit_menu.addActions([self.edit_actions[k] for k in
                               ("delete", "duplicate", "rename", "mirror", "mirror_pair")])
+        self._build_face_menu()
         view_menu = self.menuBar().addMenu("&View")
         for name, key in (("front", "1"), ("three_quarter", "2"), ("side", "3"),
                           ("forehead", "4")):
@@ -376,6 +383,39 @@ class MainWindow(QtWidgets.QMainWindow):
         self._action(help_menu, "&Guide", "F1", self.show_guide)
         self._action(help_menu, "&Keyboard shortcuts", "Ctrl+/", self.show_shortcuts)
         self._update_recent_menu()
+
+    def _build_face_menu(self) -> None:
+        """Face: the built-in faces, a new face from a mesh, its landmarks picked again."""
+        from wrinkle_vis.datasets import FACES
+
+        menu = self.menuBar().addMenu("F&ace")
+        self.face_actions = {}
+        for name in FACES:
+            action = menu.addAction(_FACE_LABELS.get(name, name.replace("_", " ").title()))
+            action.setToolTip(f"Show the built-in face load_face({name!r})")
+            action.triggered.connect(_weak(self.open_builtin, name))
+            self.face_actions[name] = action
+        menu.addSeparator()
+        self._action(menu, "New face from mesh...", "", _weak(self.newface.new_face_dialog))
+        menu.addAction(self.newface.actions["again"])
+
+    def open_builtin(self, name: str) -> bool:
+        """Show built-in face ``name`` (:data:`wrinkle_vis.datasets.FACES`), after asking
+        about unsaved changes.
+        """
+        from wrinkle_vis.datasets import load_face
+
+        if not self.may_discard_changes(f"opening the {name} face"):
+            return False
+        try:
+            face = load_face(name)
+        except (OSError, ValueError, KeyError) as exc:
+            QtWidgets.QMessageBox.warning(self, "Cannot open the face", str(exc))
+            return False
+        named = None if name == "procedural" else name  # the layout records the face
+        self._show_session(Session(face, layout=Layout(face=named, unit=face.unit)))
+        self.recovery.discard()
+        return True
 
     def _action(self, menu, text, shortcut, slot) -> QtGui.QAction:
         action = menu.addAction(text)
@@ -976,17 +1016,64 @@ class MainWindow(QtWidgets.QMainWindow):
         """
         if not self.may_discard_changes("opening another layout"):
             return False
-        current = self.session
-        n = current.face.skin.n_triangles if current.layout().skin is None else None
+        current = self.session.layout()
+        n = self.session.face.skin.n_triangles if current.skin is None and current.face in (
+            None, "procedural") else None
         try:
             session = load_session(path, n_triangles=n)
+            session.state()  # a face that cannot be evaluated is refused here, not later
         except (OSError, LayoutError, ValueError, KeyError) as exc:
-            QtWidgets.QMessageBox.warning(self, "Cannot open layout", str(exc))
-            return False
+            session = self._session_on_chosen_mesh(Path(path), exc)
+            if session is None:
+                return False
         self._show_session(session)
+        if session.dirty:  # the mesh chosen for it: a change of the layout, unsaved
+            self.undo_stack.resetClean()
+            session.dirty = True
+            self._update_title()
         self.recovery.discard()  # what it held was saved or discarded just now
         self._remember(path)
         return True
+
+    def _session_on_chosen_mesh(self, path: Path, exc: Exception) -> Session | None:
+        """Layout ``path`` could not be opened (``exc``): when it has muscles but names no
+        mesh (made for a scan, ``"skin": null``), offer to choose the mesh it was made for;
+        else report ``exc`` in one line. Returns the session on the chosen mesh, or None.
+        """
+        from wrinkle_vis.datasets import load_face
+
+        from .newface import MESH_FILTER, relative_mesh_path
+
+        try:
+            layout = load_layout(path)
+        except (OSError, LayoutError, ValueError):
+            layout = None
+        if layout is None or layout.skin is not None or not layout.muscles:
+            QtWidgets.QMessageBox.warning(self, "Cannot open layout", str(exc))
+            return None
+        box = QtWidgets.QMessageBox(
+            QtWidgets.QMessageBox.Question, "Which mesh?",
+            f"{exc}\n\nThe layout names no mesh (\"skin\": null), and its muscles do not "
+            "fit the built-in face. Choose the mesh it was made for?", parent=self)
+        choose = box.addButton("Choose mesh...", QtWidgets.QMessageBox.AcceptRole)
+        box.addButton(QtWidgets.QMessageBox.Cancel)
+        box.exec()
+        chosen = box.clickedButton() is choose
+        box.deleteLater()
+        mesh = QtWidgets.QFileDialog.getOpenFileName(
+            self, f"The mesh of {path.name}", str(path.parent), MESH_FILTER)[0] \
+            if chosen else ""
+        if not mesh:
+            return None
+        named = dataclasses.replace(layout, skin=relative_mesh_path(mesh, path.parent))
+        try:
+            session = Session(load_face(layout=layout, skin=mesh), path, layout=named)
+            session.state()
+        except (OSError, LayoutError, ValueError, KeyError) as err:
+            QtWidgets.QMessageBox.warning(self, "Cannot open layout", f"{mesh}: {err}")
+            return None
+        session.dirty = True
+        return session
 
     def open_recent(self, path: str) -> bool:
         """Open a layout of the Open recent menu."""
@@ -1001,6 +1088,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.param_error.setText("")
         self._populate()
         self.refresh(reset_camera=True)
+        self.newface.session_changed(session)
 
     def save(self) -> bool:
         """Save to the open file, or ask for one."""
@@ -1280,6 +1368,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.autosave_timer.stop()
         self.autosave_deadline.stop()
         self.views.close_placement()
+        self.newface.close()
         self.undo_stack.clear()
         self.recovery.discard()  # a clean exit leaves nothing to recover
         # VTK holds observers strongly, out of Python's sight: remove them
