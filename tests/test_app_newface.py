@@ -317,3 +317,55 @@ def test_a_new_face_from_a_scan_by_clicks_wrinkles_and_reopens_bit_for_bit(
     assert again.landmarks == shown.landmarks and again.unit == shown.unit
     assert {k: e.to_dict() for k, e in again.expressions.items()} == \
         {k: e.to_dict() for k, e in shown.expressions.items()}
+
+
+def test_a_gltf_scan_starts_the_flow(make_window, monkeypatch, tmp_path, wv_face):
+    import pyvista as pv
+
+    path = tmp_path / "face.gltf"
+    pl = pv.Plotter(off_screen=True)
+    pl.add_mesh(to_surface_polydata(wv_face.skin))
+    pl.export_gltf(path)
+    pl.close()
+    w = make_window()
+    start_flow(w, monkeypatch, path)
+    assert w.newface.picking and w.newface.picker.mesh_path == path.resolve()
+    assert w.session.face.skin.n_points == wv_face.skin.n_points
+    w.newface.cancel()
+
+
+@pytest.mark.slow
+def test_landmarks_picked_again_move_the_edited_muscles_with_them(make_window, monkeypatch,
+                                                                  ply_skin, wv_face):
+    """Face > Pick landmarks again on a face from a scan: Keep takes a landmark as it was,
+    a click moves one; the layout's edits survive, and Cancel leaves the face as it was.
+    """
+    w = make_window()
+    start_flow(w, monkeypatch, ply_skin)
+    w.newface.panel.unit_box.setCurrentText("mm")
+    w.set_camera("front")
+    for name in LANDMARKS:
+        click(w.skin_view, wv_face.landmarks[name])
+    assert w.newface.picker.done and w.session.face.unit == "mm"
+    w.select_muscle("corrugator_L")
+    w.param_widgets["k0"].setValue(3.5)  # an edit, to survive the new landmarks
+    edited = w.session.face
+    again = w.newface.actions["again"]
+    assert again.isVisible() and again.isEnabled()
+    again.trigger()
+    flow = w.newface
+    assert flow.picking and flow.picker.previous == edited.landmarks
+    assert flow.actions["keep"].isVisible() and "landmarks:before" in w.skin_view.actors
+    flow.actions["cancel"].trigger()  # back to the edited face, untouched
+    assert w.session.face is edited and w.session.dirty
+    again.trigger()
+    for _ in LANDMARKS:
+        flow.actions["keep"].trigger()
+    face = w.session.face
+    assert flow.picker.done and face.landmarks == edited.landmarks
+    assert face.muscle("corrugator_L").k0 == pytest.approx(3.5)  # the edit moved along
+    for a, b in zip(edited.muscles, face.muscles, strict=True):  # the same landmarks: the
+        for p in a.point_parameters:  # muscles stay where they were
+            np.testing.assert_allclose(getattr(b, p), getattr(a, p), atol=1e-6)
+    flow.actions["cancel"].trigger()  # "Close": the new face stays
+    assert w.session.face is face and not flow.dock.isVisible()
