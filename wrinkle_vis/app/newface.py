@@ -44,14 +44,15 @@ DESCRIPTIONS = {
 MESH_FILTER = ("Meshes (*.obj *.ply *.stl *.vtp *.vtk *.gltf *.glb);;All files (*)")
 
 
-def scan_only_face(skin: TriangleSurface, name: str = "scan") -> FaceModel:
-    """A face of ``skin`` alone (no skull, no muscles, the neutral expression): what the
-    views show while the landmarks are picked.
+def scan_only_face(skin: TriangleSurface, name: str = "scan",
+                   unit: str | None = None) -> FaceModel:
+    """A face of ``skin`` alone (no skull, no muscles, the neutral expression, lengths in
+    ``unit``): what the views show while the landmarks are picked.
     """
     from ..core.expressions import paper_expressions
 
     return FaceModel(skin, None, (), {"neutral": paper_expressions()["neutral"]},
-                     name=name)
+                     name=name, unit=unit)
 
 
 @dataclasses.dataclass

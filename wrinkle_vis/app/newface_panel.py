@@ -90,7 +90,7 @@ class NewFacePanel(QtWidgets.QWidget):
         for k in picker.order:
             where = picker.picked.get(k)
             text = f"{k}: " + ("-" if where is None else
-                               ", ".join(f"{x:.4g}" for x in where))
+                               ", ".join(f"{x:.3g}" for x in where))
             item = QtWidgets.QListWidgetItem(("\u2713 " if where else "   ") + text)
             if k == name:
                 font = item.font()
@@ -257,7 +257,8 @@ class NewFaceFlow:
 
         w = self.window
         camera = w.skin_view.camera_position
-        face = scan_only_face(self.picker.skin, name=self.picker.mesh_path.name)
+        face = scan_only_face(self.picker.skin, name=self.picker.mesh_path.name,
+                              unit=self.picker.unit)
         w.plain_skin = True
         self._own = Session(face)
         w._show_session(self._own)
@@ -332,6 +333,8 @@ class NewFaceFlow:
         self.picker.unit = unit
         if self.picker.done:
             self._after_step()
+        else:
+            self._show_scan(reset_camera=False)
 
     def _after_step(self) -> None:
         if not self.picker.done:

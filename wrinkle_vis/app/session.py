@@ -336,7 +336,7 @@ class Session:
         layout = dataclasses.replace(base, name=self.face.name, muscles=self.face.muscles,
                                      expressions=self.face.expressions,
                                      landmarks=self.face.landmarks or base.landmarks,
-                                     **extra)
+                                     unit=self.face.unit or base.unit, **extra)
         return layout if folder is ... else self._relocated(layout, folder)
 
     def _relocated(self, layout: Layout, folder: str | Path | None) -> Layout:

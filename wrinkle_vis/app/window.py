@@ -437,6 +437,8 @@ class MainWindow(QtWidgets.QMainWindow):
             self.muscle_box.addItems([TOTAL, *s.face.muscle_names])
             self.muscle_box.setCurrentText(s.muscle or TOTAL)
             self.field_box.setCurrentText(PLAIN if self.plain_skin else s.field)
+            self.probe_table.setVerticalHeaderLabels(
+                [_field_label(f, s.unit) for f in FIELD_NAMES])
         finally:
             self._updating_controls = False
         self.muscle_panel.set_muscles(s.face.muscle_names, s.muscle)
