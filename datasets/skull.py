@@ -8,8 +8,10 @@ under the face only:
     F(x) = \max\bigl(d_\text{skin}(x) + t(x),\; r(x)\bigr), \qquad
     \text{skull} = \{x : F(x) = 0\},
 
-with :math:`d_\text{skin}` the skin's signed distance (negative inside; VTK's
-``vtkImplicitPolyDataDistance``, signed by the closest point's normal), :math:`t` the
+with :math:`d_\text{skin}` the signed distance to the skin's outer surface (negative
+inside; VTK's ``vtkImplicitPolyDataDistance``, signed by the closest point's normal; the
+triangles of cavities such as a mouth bag or eye sockets, from which no ray escapes, are left
+out, :func:`exterior`), :math:`t` the
 built-in face's regional tissue depth (:func:`~wrinkle_vis.datasets.anatomy.tissue_depth`)
 carried onto the scan by the similarity of the landmarks (and scaled by it), and :math:`r`
 the signed distance to the region under the face, in the built-in frame: in front of the
@@ -29,10 +31,11 @@ import numpy as np
 
 from wrinkle_vis.core import MeshError, TriangleSurface
 
-__all__ = ["EAR_PLANE_Z", "NECK_PLANE_Y", "SPACING_MM", "scan_skull"]
+__all__ = ["EAR_PLANE_Z", "NECK_PLANE_Y", "SPACING_MM", "exterior", "scan_skull",
+           "skull_field"]
 
 #: The grid spacing of the level set, in the built-in face's millimetres (scaled onto a scan).
-SPACING_MM = 2.0
+SPACING_MM = 2.5
 #: The skull stops at this plane in front of the ears (built-in frame, mm; the built-in
 #: eyes' centres lie at z = 68, the ear canals near z = -10).
 EAR_PLANE_Z = 12.0
@@ -58,6 +61,95 @@ def _poly(surface: TriangleSurface):
                        np.c_[np.full(len(tris), 3), tris].ravel())
 
 
+def exterior(skin: TriangleSurface, candidates=None) -> TriangleSurface:
+    """``skin`` without the triangles inside its cavities (a mouth bag, eye sockets,
+    nostrils, ear canals): those from which no ray escapes.
+
+    A triangle is kept when a ray from its centre along its outward normal, or along one
+    of four rays tilted 45 degrees from it, meets no other triangle (VTK's static cell
+    locator). ``candidates`` (``(m,)`` bool) limits the test to some triangles; the others
+    are kept.
+    """
+    import vtk
+
+    from wrinkle_vis.core.mesh import tangent_bases, unit_rows
+
+    tri = np.asarray(skin.triangles)
+    centre = skin.points[tri].mean(axis=1)
+    normal = unit_rows(skin.face_normals())
+    u, v = tangent_bases(normal)
+    size = float(np.linalg.norm(np.ptp(skin.points, axis=0)))
+    locator = vtk.vtkStaticCellLocator()
+    locator.SetDataSet(_poly(skin))
+    locator.BuildLocator()
+    t, x, pc = vtk.mutable(0.0), [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
+    sub, cell = vtk.mutable(0), vtk.mutable(0)
+    shut = np.ones(len(tri), bool) if candidates is None else np.asarray(candidates, bool)
+    shut = shut & np.isfinite(normal).all(axis=1)
+    for d in (normal, *[unit_rows(normal + s * w) for w in (u, v) for s in (1.0, -1.0)]):
+        for i in np.flatnonzero(shut):
+            start = centre[i] + 1e-4 * size * d[i]
+            shut[i] = bool(locator.IntersectWithLine(start, centre[i] + size * d[i], 0.0, t,
+                                                     x, pc, sub, cell))
+    return TriangleSurface(skin.points, tri[~shut]).without_unused()
+
+
+def _evaluator(surface: TriangleSurface):
+    """VTK's signed distance to ``surface`` as a function of ``(n, 3)`` points."""
+    import vtk
+    from vtk.util.numpy_support import numpy_to_vtk, vtk_to_numpy
+
+    function = vtk.vtkImplicitPolyDataDistance()
+    function.SetInput(_poly(surface))
+
+    def evaluate(p):
+        out = vtk.vtkDoubleArray()
+        out.SetNumberOfTuples(len(p))
+        function.FunctionValue(numpy_to_vtk(np.ascontiguousarray(p, float), deep=True), out)
+        return vtk_to_numpy(out).copy()
+
+    return evaluate
+
+
+def _cavities(whole, lo, hi, cell):
+    """``(cavity, corner)``: a voxel grid (``cell`` apart, from ``corner``) marking the
+    voxels enclosed by the skin but outside its tissue (a mouth bag, eye sockets), after a
+    closing by one voxel seals slits narrower than that (parted lips).
+    """
+    from scipy.ndimage import binary_closing, binary_fill_holes
+
+    corner = np.asarray(lo, float) - cell
+    dims = np.ceil((np.asarray(hi) - corner) / cell).astype(int) + 2
+    axes = [corner[i] + cell * np.arange(dims[i]) for i in range(3)]
+    gx, gy, gz = np.meshgrid(*axes, indexing="ij")
+    solid = whole(np.c_[gx.ravel(), gy.ravel(), gz.ravel()]).reshape(gx.shape) < 0
+    sealed = binary_closing(solid, np.ones((3, 3, 3), bool), border_value=0)  # lips' slit
+    return binary_fill_holes(sealed | solid) & ~solid, corner
+
+
+def _outer_distance(skin, candidates, lo, hi, cell):
+    r"""The distance to the skin's outer surface (:func:`exterior`), negative inside: in
+    the tissue (VTK's sign for the outer surface or for the whole skin) or in a cavity
+    (:func:`_cavities` on a grid of ``cell`` over the box ``lo``..``hi``, trusted deeper
+    than a voxel from the outer surface).
+    """
+    whole = _evaluator(skin)
+    outer = _evaluator(exterior(skin, candidates))
+    cavity, corner = _cavities(whole, lo, hi, cell)
+    top = np.array(cavity.shape) - 1
+
+    def distance(p):
+        d = outer(p)
+        idx = np.clip(np.rint((p - corner) / cell).astype(int), 0, top)
+        enclosed = cavity[idx[:, 0], idx[:, 1], idx[:, 2]] & (np.abs(d) > cell)
+        inside = (d < 0) | enclosed
+        rest = ~inside
+        inside[rest] = whole(p[rest]) < 0
+        return np.where(inside, -np.abs(d), np.abs(d))
+
+    return distance
+
+
 def skull_field(skin: TriangleSurface, landmarks=None):
     """The skull's field :math:`F` (module docstring) as a function of ``(n, 3)`` points,
     and the box it lives in, ``(field, lo, hi, spacing)``.
@@ -65,25 +157,13 @@ def skull_field(skin: TriangleSurface, landmarks=None):
     Without landmarks there is no frame: the depth is 2.5 % of the skin's height everywhere
     and the whole inside of the skin counts.
     """
-    import vtk
-
     from . import anatomy
-
-    implicit = vtk.vtkImplicitPolyDataDistance()
-    implicit.SetInput(_poly(skin))
-
-    def distance(p):
-        from vtk.util.numpy_support import numpy_to_vtk, vtk_to_numpy
-
-        out = vtk.vtkDoubleArray()
-        out.SetNumberOfTuples(len(p))
-        implicit.FunctionValue(numpy_to_vtk(np.ascontiguousarray(p, float), deep=True), out)
-        return vtk_to_numpy(out).copy()
 
     lo, hi = skin.bounds()
     if not landmarks:
         depth = 0.025 * float(hi[1] - lo[1])
         spacing = depth / 3.0
+        distance = _outer_distance(skin, None, lo, hi, 2 * spacing)
 
         def field(p):
             return distance(p) + depth
@@ -95,17 +175,20 @@ def skull_field(skin: TriangleSurface, landmarks=None):
     def builtin(p):
         return (np.asarray(p, float) - shift) @ rot / scale
 
+    spacing = SPACING_MM * scale
+    q = builtin(skin.points)
+    inside = skin.points[(q[:, 2] > EAR_PLANE_Z) & (q[:, 1] > NECK_PLANE_Y)]
+    if len(inside) < 4:
+        raise MeshError("no skin in front of the ears and above the neck; check that the "
+                        "landmarks lie on this skin (nasion, eye corners, nose tip, ...)")
+    near = (q[:, 2] > EAR_PLANE_Z - 30.0) & (q[:, 1] > NECK_PLANE_Y - 30.0)
+    distance = _outer_distance(skin, near[skin.triangles].any(axis=1), lo, hi, 4 * spacing)
+
     def field(p):
         q = builtin(p)
         region = scale * np.maximum(EAR_PLANE_Z - q[:, 2], NECK_PLANE_Y - q[:, 1])
         return np.maximum(distance(p) + scale * anatomy.tissue_depth(q), region)
 
-    spacing = SPACING_MM * scale
-    inside = skin.points[(builtin(skin.points)[:, 2] > EAR_PLANE_Z)
-                         & (builtin(skin.points)[:, 1] > NECK_PLANE_Y)]
-    if len(inside) < 4:
-        raise MeshError("no skin in front of the ears and above the neck; check that the "
-                        "landmarks lie on this skin (nasion, eye corners, nose tip, ...)")
     pad = 3 * spacing
     return field, inside.min(axis=0) - pad, inside.max(axis=0) + pad, spacing
 

@@ -369,3 +369,24 @@ def test_landmarks_picked_again_move_the_edited_muscles_with_them(make_window, m
             np.testing.assert_allclose(getattr(b, p), getattr(a, p), atol=1e-6)
     flow.actions["cancel"].trigger()  # "Close": the new face stays
     assert w.session.face is face and not flow.dock.isVisible()
+
+
+def test_a_new_muscle_and_the_parameter_steps_follow_the_face_unit(make_window, wv_face):
+    """On a face in metres a new muscle starts as on the built-in face in millimetres, and
+    the parameter boxes step and show lengths in metres.
+    """
+    from wrinkle_vis.app.session import Session
+    from wrinkle_vis.core.face import FaceModel
+
+    metres = FaceModel(wv_face.skin.with_points(wv_face.skin.points / 1000),
+                       wv_face.skull.with_points(wv_face.skull.points / 1000), (),
+                       {"neutral": wv_face.expressions["neutral"]}, unit="m")
+    w = make_window(Session(metres))
+    w.probed_vertex = int(np.argmax(metres.skin.points[:, 2]))
+    name = w.add_muscle("linear")
+    assert w.session.face.muscle(name).k0 == pytest.approx(0.0008)  # 0.8 mm
+    box = w.param_widgets["k0"]
+    assert box.decimals() == 6 and box.value() == pytest.approx(0.0008)
+    assert box.singleStep() == pytest.approx(1e-4)
+    assert w.param_widgets["alpha"].singleStep() == pytest.approx(0.1)
+    assert "(m)" in w.probe_table.verticalHeaderItem(list(wv.FIELD_NAMES).index("W")).text()

@@ -413,11 +413,14 @@ class LinearWidget(PlacementWidget):
 
     @classmethod
     def create(cls, muscle_type, name, face, at):
-        """A muscle from the skull above ``at`` to ``at``, R = 1.3 x its length, Φ = 25°."""
+        """A muscle from the skull above ``at`` to ``at``, R = 1.3 x its length, Φ = 25°,
+        k0 0.8 mm (in the face's unit, :func:`millimetre`).
+        """
         ins, att = _anchor(face, at)
         length = float(np.linalg.norm(ins - att))
         return muscle_type(name, tuple(att), tuple(ins), radius=1.3 * length,
-                           max_angle_deg=25.0, lambda_w=0.4, n_wrinkles=2, k0=0.8)
+                           max_angle_deg=25.0, lambda_w=0.4, n_wrinkles=2,
+                           k0=0.8 * millimetre(face))
 
     def aoi_meshes(self, muscle) -> dict[str, pv.PolyData]:
         """The cone of half-angle Φ capped at radius R, from the attachment."""
@@ -439,13 +442,16 @@ class SheetWidget(PlacementWidget):
 
     @classmethod
     def create(cls, muscle_type, name, face, at):
-        """A 16 mm wide sheet from the skull above ``at`` to ``at``."""
+        """A sheet 16 mm wide, k0 2 mm (in the face's unit, :func:`millimetre`), from the
+        skull above ``at`` to ``at``.
+        """
         ins, att = _anchor(face, at)
-        across = np.array([8.0, 0.0, 0.0])
+        scale = millimetre(face)
+        across = np.array([8.0 * scale, 0.0, 0.0])
         ins_line = snapped_points(face.skin, [ins - across, ins + across])
         att_line = snapped_points(face.skull or face.skin, [att - across, att + across])
         return muscle_type(name, attachment_line=att_line, insertion_line=ins_line,
-                           lambda_w=0.3, n_wrinkles=3, k0=2.0)
+                           lambda_w=0.3, n_wrinkles=3, k0=2.0 * scale)
 
     def aoi_meshes(self, muscle) -> dict[str, pv.PolyData]:
         """The AOI rectangle and the box of its depth bound."""
@@ -493,6 +499,15 @@ def snapped(muscle: Muscle, face: FaceModel, like: Muscle | None = None) -> Musc
 def snapped_points(surface, points) -> tuple:
     """``((3,), ...)``: the closest points of ``surface`` to ``points``, as tuples."""
     return tuple(map(tuple, closest_points(surface, np.asarray(points, float))))
+
+
+def millimetre(face: FaceModel) -> float:
+    """A millimetre in ``face``'s unit (:func:`~wrinkle_vis.core.units.face_unit`): the
+    lengths a new muscle starts with are given in millimetres, the built-in face's unit.
+    """
+    from wrinkle_vis.core.units import LENGTH_UNITS, face_unit
+
+    return LENGTH_UNITS["mm"] / LENGTH_UNITS[face_unit(face)]
 
 
 def _anchor(face: FaceModel, insertion) -> tuple[np.ndarray, np.ndarray]:

@@ -31,6 +31,7 @@ from ..plotting import set_camera
 from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
 from ..widgets.panels import MuscleListPanel
+from ..widgets.placement import millimetre
 from .newface_panel import NewFaceFlow
 from .recovery import Recovery
 from .session import EDITABLE, OPTIONS, Session, load_session
@@ -39,6 +40,8 @@ from .views import VIEWS, LinkedViews
 __all__ = ["MainWindow"]
 
 TOTAL = "total"
+#: The parameters the panel edits that are lengths (in the face's unit).
+LENGTH_PARAMETERS = {"k0", "radius", "length", "width", "attenuation_start"}
 _FACE_LABELS = {"procedural": "&Procedural", "lee_perry_smith": "&Lee Perry-Smith"}
 PLAIN = "none"  # the field box's entry for plain skin (no field)
 KEEP = object()  # edit(): keep the selection
@@ -483,6 +486,8 @@ class MainWindow(QtWidgets.QMainWindow):
             self.param_form.addRow(QtWidgets.QLabel("Choose a muscle to edit it."))
             return
         muscle = self.session.face.muscle(name)
+        mm = millimetre(self.session.face)  # lengths' steps and digits follow the unit
+        digits = 3 + max(0, round(-np.log10(mm)))
         for param, label, step in EDITABLE.get(muscle.type_name, ()):
             value = getattr(muscle, param)
             if param == "n_wrinkles":
@@ -490,9 +495,9 @@ class MainWindow(QtWidgets.QMainWindow):
                 w.setRange(0, 99)
             else:
                 w = QtWidgets.QDoubleSpinBox()
-                w.setDecimals(3)
+                w.setDecimals(digits if param in LENGTH_PARAMETERS else 3)
                 w.setRange(-1e6, 1e6)
-                w.setSingleStep(step)
+                w.setSingleStep(step * mm if param in LENGTH_PARAMETERS else step)
             w.setValue(value if value is not None else _resolved(muscle, param))
             w.setKeyboardTracking(False)
             w.valueChanged.connect(_weak(self.set_parameter, param, keep=1))
