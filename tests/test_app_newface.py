@@ -4,6 +4,7 @@ under Xvfb, pytest-qt; fixtures in conftest.py). Also the Face menu and a layout
 scan that names no mesh.
 """
 
+import dataclasses
 import json
 import os
 import warnings
@@ -390,3 +391,22 @@ def test_a_new_muscle_and_the_parameter_steps_follow_the_face_unit(make_window, 
     assert box.singleStep() == pytest.approx(1e-4)
     assert w.param_widgets["alpha"].singleStep() == pytest.approx(0.1)
     assert "(m)" in w.probe_table.verticalHeaderItem(list(wv.FIELD_NAMES).index("W")).text()
+
+
+@pytest.mark.slow
+def test_a_layout_whose_mesh_moved_asks_for_it(make_window, answer, monkeypatch, tmp_path,
+                                               ply_skin, wv_face):
+    from wrinkle_vis.app.session import Session
+
+    layout = Session(wv_face).layout()
+    path = tmp_path / "mine.json"
+    wv.save_layout(dataclasses.replace(layout, skin="gone.ply", n_triangles=None), path)
+    w = make_window()
+    monkeypatch.setattr(QtWidgets.QFileDialog, "getOpenFileName",
+                        lambda *a, **k: (str(ply_skin), ""))
+    answer("Choose mesh...")
+    assert w.open_layout(path)
+    assert "gone.ply is not there" in answer.asked[0]
+    assert w.session.face.skin.n_points == wv_face.skin.n_points and w.session.dirty
+    assert w.session.layout().skin == os.path.relpath(ply_skin, tmp_path)
+    assert len(w.session.face.muscles) == len(wv_face.muscles)

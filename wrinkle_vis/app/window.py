@@ -1044,8 +1044,9 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _session_on_chosen_mesh(self, path: Path, exc: Exception) -> Session | None:
         """Layout ``path`` could not be opened (``exc``): when it has muscles but names no
-        mesh (made for a scan, ``"skin": null``), offer to choose the mesh it was made for;
-        else report ``exc`` in one line. Returns the session on the chosen mesh, or None.
+        mesh (made for a scan, ``"skin": null``) or names one that is not there (moved),
+        offer to choose the mesh it was made for; else report ``exc`` in one line. Returns
+        the session on the chosen mesh, or None.
         """
         from wrinkle_vis.datasets import load_face
 
@@ -1055,13 +1056,17 @@ class MainWindow(QtWidgets.QMainWindow):
             layout = load_layout(path)
         except (OSError, LayoutError, ValueError):
             layout = None
-        if layout is None or layout.skin is not None or not layout.muscles:
+        missing = layout is not None and layout.skin is not None and not (
+            layout.resolve("skin", path.parent).is_file())
+        if layout is None or not layout.muscles or (layout.skin is not None and not missing):
             QtWidgets.QMessageBox.warning(self, "Cannot open layout", str(exc))
             return None
+        why = (f"The layout's mesh {layout.skin} is not there (moved or renamed?)." if missing
+               else "The layout names no mesh (\"skin\": null), and its muscles do not fit "
+               "the built-in face.")
         box = QtWidgets.QMessageBox(
             QtWidgets.QMessageBox.Question, "Which mesh?",
-            f"{exc}\n\nThe layout names no mesh (\"skin\": null), and its muscles do not "
-            "fit the built-in face. Choose the mesh it was made for?", parent=self)
+            f"{exc}\n\n{why} Choose the mesh it was made for?", parent=self)
         choose = box.addButton("Choose mesh...", QtWidgets.QMessageBox.AcceptRole)
         box.addButton(QtWidgets.QMessageBox.Cancel)
         box.exec()
