@@ -197,6 +197,7 @@ def test_clicks_place_the_landmarks_and_ctrl_z_takes_one_back(make_window, monke
         assert np.linalg.norm(np.subtract(flow.picker.picked[name], marks[name])) < 2.0
     assert "Landmark 4 of 9: eye_inner_L" in flow.panel.title.text()
     assert "landmarks:placed" in w.skin_view.actors
+    assert not w.add_menu.isEnabled()  # no muscles on a scan without its landmarks
     QTest.keyClick(w.skin_view.interactor, QtCore.Qt.Key_Z, QtCore.Qt.ControlModifier)
     assert list(flow.picker.picked) == list(LANDMARKS[:2])
     assert "Landmark 3 of 9: chin" in flow.panel.title.text()
@@ -210,6 +211,7 @@ def test_clicks_place_the_landmarks_and_ctrl_z_takes_one_back(make_window, monke
     assert flow.picker.step == 2
     flow.actions["cancel"].trigger()
     assert w.session is before and not flow.dock.isVisible() and flow.picker is None
+    assert w.add_menu.isEnabled() and flow.actions["undo"].shortcut().isEmpty()
     assert "landmarks:placed" not in w.skin_view.actors
 
 
@@ -351,6 +353,8 @@ def test_landmarks_picked_again_move_the_edited_muscles_with_them(make_window, m
     w.select_muscle("corrugator_L")
     w.param_widgets["k0"].setValue(3.5)  # an edit, to survive the new landmarks
     edited = w.session.face
+    # Ctrl+Z is Edit > Undo's again (the button still takes a landmark back)
+    assert w.newface.actions["undo"].shortcut().isEmpty() and w.undo_stack.canUndo()
     again = w.newface.actions["again"]
     assert again.isVisible() and again.isEnabled()
     again.trigger()

@@ -157,7 +157,7 @@ class NewFaceFlow:
                  "with them"),
                 ("save", "Save layout as...", "", self.save, "Save the new face's layout")):
             action = QtGui.QAction(text, window)
-            if shortcut:
+            if shortcut and key != "undo":  # set while picking (_update_actions)
                 action.setShortcut(QtGui.QKeySequence(shortcut))
             action.setToolTip(tip)
             action.triggered.connect(_weak(slot))
@@ -381,6 +381,13 @@ class NewFaceFlow:
         active = self.picker is not None
         done = active and self.picker.done
         self.actions["undo"].setEnabled(active and self.picker.step > 0)
+        # Ctrl+Z is the landmarks' only while picking (the face has no edits to undo then);
+        # once done it is Edit > Undo's again, the button still takes a landmark back
+        self.actions["undo"].setShortcut(QtGui.QKeySequence(
+            "Ctrl+Z" if self.picking else ""))
+        w = self.window
+        if w is not None:
+            w.add_menu.setEnabled(not self.picking)  # no muscle on a scan without landmarks
         self.actions["keep"].setEnabled(self.picking
                                         and self.picker.current in self.picker.previous)
         self.actions["keep"].setVisible(active and bool(self.picker.previous))
