@@ -156,12 +156,12 @@ def test_each_landmark_has_a_picture_with_its_ball_where_it_goes():
     pictures = {n: landmark_picture(n) for n in LANDMARKS}
     for name, image in pictures.items():
         assert image.shape == (180, 180, 3) and image.dtype == np.uint8
-        red = (image[:, :, 0] > 180) & (image[:, :, 1] < 60) & (image[:, :, 2] < 60)
+        red = (image[:, :, 0] > 150) & (image[:, :, 1] < 80) & (image[:, :, 2] < 80)
         assert red.sum() > 20, name  # the red ball shows
         assert DESCRIPTIONS[name]
-    rows = {n: np.argwhere((p[:, :, 0] > 180) & (p[:, :, 1] < 60))[:, 0].mean()
+    rows = {n: np.argwhere((p[:, :, 0] > 150) & (p[:, :, 1] < 80))[:, 0].mean()
             for n, p in pictures.items()}
-    cols = {n: np.argwhere((p[:, :, 0] > 180) & (p[:, :, 1] < 60))[:, 1].mean()
+    cols = {n: np.argwhere((p[:, :, 0] > 150) & (p[:, :, 1] < 80))[:, 1].mean()
             for n, p in pictures.items()}
     assert rows["nasion"] < rows["nose_tip"] < rows["mouth_corner_L"] < rows["chin"]
     assert cols["eye_outer_R"] < cols["eye_inner_R"] < cols["eye_inner_L"] < cols["eye_outer_L"]
@@ -414,3 +414,23 @@ def test_a_layout_whose_mesh_moved_asks_for_it(make_window, answer, monkeypatch,
     assert w.session.face.skin.n_points == wv_face.skin.n_points and w.session.dirty
     assert w.session.layout().skin == os.path.relpath(ply_skin, tmp_path)
     assert len(w.session.face.muscles) == len(wv_face.muscles)
+
+
+def test_the_lee_perry_smith_face_from_the_menu_saves_and_reopens_as_itself(make_window,
+                                                                           tmp_path):
+    w = make_window()
+    menu_action(w, "Face", "Lee Perry-Smith").trigger()
+    face = w.session.face
+    assert face.skin.n_points == wv.datasets.load_face("lee_perry_smith").skin.n_points
+    assert len(face.muscles) >= 14 and np.abs(w.session.state().W).max() > 0
+    w.select_muscle("corrugator_L")
+    w.param_widgets["k0"].setValue(2.5)
+    path = tmp_path / "lps.json"
+    assert w.save_as(path)
+    data = json.loads(path.read_text())
+    assert data["face"] == "lee_perry_smith" and data["skin"] is None
+    assert "n_triangles" not in data
+    assert w.open_layout(path)
+    again = w.session.face
+    np.testing.assert_array_equal(again.skin.points, face.skin.points)
+    assert again.muscle("corrugator_L").k0 == 2.5 and again.unit == face.unit

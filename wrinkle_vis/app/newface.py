@@ -202,9 +202,14 @@ def relative_mesh_path(mesh: str | os.PathLike, layout_folder: str | os.PathLike
 
 
 # ---------------------------------------------------------------------- the pictures
+#: The built-in face the landmark pictures are drawn on (its own landmarks).
+PICTURE_FACE = "lee_perry_smith"
+
+
 def landmark_picture(name: str, size: int = 180) -> np.ndarray:
     """``(size, size, 3)`` uint8: where landmark ``name`` goes, drawn once per process on
-    the built-in face (front view, the landmark a red ball, the others small grey ones).
+    the built-in face :data:`PICTURE_FACE` (front view, the landmark a red ball, the others
+    small grey ones).
     """
     return _picture(name, int(size)).copy()
 
@@ -217,23 +222,23 @@ def _picture(name: str, size: int) -> np.ndarray:
 
     from ..plotting.polydata import to_surface_polydata
 
-    face = load_face()
-    marks = face.landmarks
+    face = load_face(PICTURE_FACE)
+    marks = {k: np.asarray(v, float) for k, v in face.landmarks.items()}
     if name not in marks:
         raise KeyError(f"unknown landmark {name!r}; landmarks: {', '.join(marks)}")
-    lo, hi = face.skin.bounds()
-    scale = float(np.max(hi - lo))
+    span = float(np.linalg.norm(marks["eye_outer_L"] - marks["eye_outer_R"]))
     pl = pv.Plotter(off_screen=True, window_size=[size, size])
     try:
         pl.background_color = "white"
         pl.add_mesh(to_surface_polydata(face.skin), color="#e8c4a8", smooth_shading=True)
         others = np.array([v for k, v in marks.items() if k != name])
-        pl.add_mesh(pv.PolyData(others).glyph(geom=pv.Sphere(radius=0.015 * scale),
+        pl.add_mesh(pv.PolyData(others).glyph(geom=pv.Sphere(radius=0.04 * span),
                                               scale=False, orient=False), color="#909090")
-        pl.add_mesh(pv.Sphere(radius=0.028 * scale, center=marks[name]), color="#e00000")
-        centre = np.array([0.0, 0.6 * marks["nasion"][1] + 0.4 * marks["chin"][1], 0.0])
-        centre[2] = float(marks["nose_tip"][2]) - 0.2 * scale
-        pl.camera_position = [tuple(centre + [0.0, 0.1 * scale, 1.5 * scale]),
+        pl.add_mesh(pv.Sphere(radius=0.09 * span, center=marks[name]), color="#e00000")
+        centre = 0.5 * marks["nasion"] + 0.5 * marks["chin"]
+        centre[0] = 0.5 * (marks["eye_outer_L"][0] + marks["eye_outer_R"][0])
+        centre[2] = marks["nose_tip"][2] - 0.5 * span
+        pl.camera_position = [tuple(centre + [0.0, 0.25 * span, 4.4 * span]),
                               tuple(centre), (0.0, 1.0, 0.0)]
         pl.camera.view_angle = 30.0
         pl.reset_camera_clipping_range()
