@@ -347,7 +347,7 @@ def test_a_gltf_scan_starts_the_flow(make_window, monkeypatch, tmp_path, wv_face
 
 @pytest.mark.slow
 def test_landmarks_picked_again_move_the_edited_muscles_with_them(make_window, monkeypatch,
-                                                                  ply_skin, wv_face):
+                                                                  ply_skin, wv_face, answer):
     """Face > Pick landmarks again on a face from a scan: Keep takes a landmark as it was,
     a click moves one; the layout's edits survive, and Cancel leaves the face as it was.
     """
@@ -371,6 +371,11 @@ def test_landmarks_picked_again_move_the_edited_muscles_with_them(make_window, m
     assert flow.actions["keep"].isVisible() and "landmarks:before" in w.skin_view.actors
     flow.actions["cancel"].trigger()  # back to the edited face, untouched
     assert w.session.face is edited and w.session.dirty
+    again.trigger()  # opening another face mid-way asks about the edited one's changes
+    answer("Cancel")
+    assert not w.open_builtin("procedural")
+    assert "unsaved changes" in answer.asked[-1]
+    assert w.session.face is edited and w.session.dirty and w.newface.picker is None
     again.trigger()
     for _ in LANDMARKS:
         flow.actions["keep"].trigger()

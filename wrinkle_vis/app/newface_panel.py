@@ -449,6 +449,13 @@ class NewFaceFlow:
                 w._update_title()
         self._end()
 
+    def back_to_unsaved(self) -> None:
+        """While picking a face's landmarks again, the face left has unsaved changes: go
+        back to it (Cancel), so that the question about them is asked about it.
+        """
+        if self.picking and self._before is not None and self._before[1]:
+            self.cancel()
+
     def _leave_flow(self) -> bool:
         """Before starting anew: a flow under way is cancelled (a finished one kept)."""
         if self.picker is not None:

@@ -1004,8 +1004,10 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def may_discard_changes(self, doing: str = "going on") -> bool:
         """Whether the unsaved changes, if any, may be left behind: asks Save / Discard /
-        Cancel (Save saves them first, and a failed or cancelled save is a Cancel).
+        Cancel (Save saves them first, and a failed or cancelled save is a Cancel). Picking
+        a face's landmarks again while it has unsaved changes goes back to that face first.
         """
+        self.newface.back_to_unsaved()
         if not self.session.dirty:
             return True
         answer = QtWidgets.QMessageBox.question(
