@@ -447,3 +447,12 @@ def test_the_lee_perry_smith_face_from_the_menu_saves_and_reopens_as_itself(make
     again = w.session.face
     np.testing.assert_array_equal(again.skin.points, face.skin.points)
     assert again.muscle("corrugator_L").k0 == 2.5 and again.unit == face.unit
+
+
+def test_the_app_started_on_the_example_explains_in_one_line(qapp, capsys):
+    from wrinkle_vis.app.window import run
+
+    assert run(layout=EXAMPLE) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "lee_perry_smith.json" in err
+    assert "skin" in err  # the way out: name the mesh in the layout's "skin"
