@@ -136,6 +136,27 @@ def test_the_picker_asks_in_order_snaps_onto_the_skin_and_undoes(wv_face, ply_sk
         picker.keep()
 
 
+def test_landmarks_that_cannot_be_a_face_are_refused(wv_face, ply_skin):
+    marks = wv_face.landmarks
+    picker = LandmarkPicker(wv_face.skin, ply_skin, unit="mm")
+    for n in LANDMARKS:
+        picker.add(marks["nasion"] if n == "nose_tip" else marks[n])
+    with pytest.raises(ValueError, match="nasion and nose_tip are at the same place"):
+        picker.face()
+    swapped = {"eye_inner_L": "eye_inner_R", "eye_inner_R": "eye_inner_L",
+               "eye_outer_L": "eye_outer_R", "eye_outer_R": "eye_outer_L",
+               "mouth_corner_L": "mouth_corner_R", "mouth_corner_R": "mouth_corner_L"}
+    picker = LandmarkPicker(wv_face.skin, ply_skin, unit="mm")
+    for n in LANDMARKS:
+        picker.add(marks[swapped.get(n, n)])
+    with pytest.raises(ValueError, match="do not make a face .misfit 0.[2-9].*subject's left"):
+        picker.check()
+    picker = LandmarkPicker(wv_face.skin, ply_skin, unit="mm")
+    for n in LANDMARKS:
+        picker.add(marks[n])
+    picker.check()  # the face's own landmarks fit (snapped onto its mesh)
+
+
 def test_keep_places_a_landmark_where_it_was(wv_face, ply_skin):
     picker = LandmarkPicker(wv_face.skin, ply_skin, previous=wv_face.landmarks)
     name, where = picker.keep()
@@ -456,3 +477,16 @@ def test_the_app_started_on_the_example_explains_in_one_line(qapp, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "lee_perry_smith.json" in err
     assert "skin" in err  # the way out: name the mesh in the layout's "skin"
+
+
+def test_landmarks_that_cannot_be_a_face_are_explained_and_the_last_taken_back(
+        make_window, monkeypatch, ply_skin, wv_face, answer):
+    w = make_window()
+    start_flow(w, monkeypatch, ply_skin)
+    answer("OK")
+    for n in LANDMARKS:
+        w.newface.place(wv_face.landmarks["nasion" if n == "nose_tip" else n])
+    assert "at the same place" in answer.asked[0] and "Place mouth_corner_R again" in \
+        answer.asked[0]
+    assert w.newface.picking and w.newface.picker.current == "mouth_corner_R"
+    assert w.session.face.muscles == ()

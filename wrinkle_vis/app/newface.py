@@ -22,7 +22,7 @@ from ..core.face import FaceModel
 from ..core.layout import Layout
 from ..core.mesh import TriangleSurface, closest_points
 
-__all__ = ["DESCRIPTIONS", "MESH_FILTER", "LandmarkPicker", "landmark_picture",
+__all__ = ["DESCRIPTIONS", "MESH_FILTER", "MISFIT", "LandmarkPicker", "landmark_picture",
            "scan_only_face"]
 
 #: Where each landmark goes, in words for the panel (L: the subject's left, +x).
@@ -39,6 +39,9 @@ DESCRIPTIONS = {
     "mouth_corner_L": "the corner of the mouth on the subject's left (on your right)",
     "mouth_corner_R": "the corner of the mouth on the subject's right (on your left)",
 }
+
+#: The largest misfit of the landmarks that :meth:`LandmarkPicker.check` accepts.
+MISFIT = 0.15
 
 #: The file dialog's filter: every format :func:`~wrinkle_vis.datasets.read_surface` reads.
 MESH_FILTER = ("Meshes (*.obj *.ply *.stl *.vtp *.vtk *.gltf *.glb);;All files (*)")
@@ -172,6 +175,7 @@ class LandmarkPicker:
         if not self.done:
             raise ValueError(f"landmark {self.current!r} is not placed yet "
                              f"({self.step} of {len(self.order)})")
+        self.check()
         built = load_face(skin=self.skin, landmarks=self.picked,
                           unit=self.unit or self.guessed_unit())
         if self.source is None:
@@ -179,6 +183,46 @@ class LandmarkPicker:
         moved = transfer_layout(self.source, self.skin, self.picked, built.skull)
         return FaceModel(self.skin, built.skull, moved.muscles, moved.expressions,
                          name=self.source.name, landmarks=self.picked, unit=built.unit)
+
+    def check(self, tolerance: float = MISFIT) -> None:
+        r"""Refuse landmarks that cannot be the face's: two at one place, or an arrangement
+        that no similarity takes the source's landmarks onto (left and right swapped, one
+        in the wrong place).
+
+        The misfit is the RMS distance between the landmarks and the source's moved by the
+        least-squares similarity, over the span between the outer eye corners:
+        :math:`\sqrt{\tfrac1k \sum_i \lVert s R x_i + t - y_i \rVert^2} / \lVert
+        y_{eo,L} - y_{eo,R} \rVert`; a careful picking on a real scan gives under 0.1.
+
+        Raises
+        ------
+        ValueError
+            Naming the landmarks at fault and the way out.
+        """
+        from wrinkle_vis.datasets import builtin_landmarks
+        from wrinkle_vis.datasets.scans import similarity_transform
+
+        names = list(self.picked)
+        y = np.array([self.picked[n] for n in names])
+        span = float(np.linalg.norm(np.subtract(self.picked.get("eye_outer_L", y[0]),
+                                                self.picked.get("eye_outer_R", y[-1]))))
+        gaps = np.linalg.norm(y[:, None] - y[None], axis=2)
+        np.fill_diagonal(gaps, np.inf)
+        i, j = np.unravel_index(np.argmin(gaps), gaps.shape)
+        if not span > 0 or gaps[i, j] < 0.02 * span:
+            raise ValueError(f"{names[i]} and {names[j]} are at the same place; undo and "
+                             "place them where the pictures show")
+        source = self.source.landmarks if self.source is not None else builtin_landmarks()
+        x = np.array([source[n] for n in names])
+        rot, scale, shift = similarity_transform(x, y)
+        off = np.linalg.norm(scale * x @ rot.T + shift - y, axis=1) / span
+        misfit = float(np.sqrt(np.mean(off**2)))
+        if misfit > tolerance:
+            worst = names[int(np.argmax(off))]
+            raise ValueError(
+                f"the landmarks do not make a face (misfit {misfit:.2f} of the eye span, "
+                f"worst {worst}); _L is the subject's left, on your right as you face them: "
+                "undo and place them where the pictures show")
 
     def layout(self, face: FaceModel) -> Layout:
         """``face`` as a layout that names the mesh file (its name: a path relative to the
