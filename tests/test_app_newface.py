@@ -220,6 +220,7 @@ def test_clicks_place_the_landmarks_and_ctrl_z_takes_one_back(make_window, monke
     assert "Landmark 4 of 9: eye_inner_L" in flow.panel.title.text()
     assert "landmarks:placed" in w.skin_view.actors
     assert not w.add_menu.isEnabled()  # no muscles on a scan without its landmarks
+    assert "landmarks:hint" in w.skull_view.actors  # no skull yet: the view says why
     QTest.keyClick(w.skin_view.interactor, QtCore.Qt.Key_Z, QtCore.Qt.ControlModifier)
     assert list(flow.picker.picked) == list(LANDMARKS[:2])
     assert "Landmark 3 of 9: chin" in flow.panel.title.text()
@@ -234,6 +235,7 @@ def test_clicks_place_the_landmarks_and_ctrl_z_takes_one_back(make_window, monke
     flow.actions["cancel"].trigger()
     assert w.session is before and not flow.dock.isVisible() and flow.picker is None
     assert w.add_menu.isEnabled() and flow.actions["undo"].shortcut().isEmpty()
+    assert "landmarks:hint" not in w.skull_view.actors
     assert "landmarks:placed" not in w.skin_view.actors
 
 

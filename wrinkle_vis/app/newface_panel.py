@@ -419,12 +419,17 @@ class NewFaceFlow:
                                          pickable=False, reset_camera=False, render=False)
             self._markers.append(f"landmarks:{key}")
             del actor
+        w.skull_view.add_text("The skull is built under the face\nonce the nine landmarks "
+                              "are placed", position="upper_left", font_size=10,
+                              color="#555555", name="landmarks:hint", render=False)
         w.skin_view.render()
+        w.skull_view.render()
 
     def _clear_markers(self) -> None:
         w = self.window
         for name in self._markers:
             w.skin_view.remove_actor(name, render=False)
+        w.skull_view.remove_actor("landmarks:hint", render=False)
         self._markers = []
 
     # ------------------------------------------------------------------ leaving
