@@ -2,29 +2,22 @@
 
 A face knows its unit (:attr:`FaceModel.unit <wrinkle_vis.core.face.FaceModel>`): from its
 layout file (``"unit"``), set by the caller, or guessed from its size
-(:func:`guess_unit`, with a :class:`UnitWarning`). Default muscle parameters scale with the
-face (:func:`face_scale`).
+(:func:`guess_unit`, with a :class:`UnitWarning`). Default muscle parameters are given in
+millimetres and converted to the face's unit (:data:`LENGTH_UNITS`).
 """
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
-
-__all__ = ["DEFAULT_UNIT", "LENGTH_UNITS", "REFERENCE_HEIGHT_MM", "UnitWarning", "check_unit",
-           "face_scale", "face_unit", "guess_unit"]
+__all__ = ["DEFAULT_UNIT", "LENGTH_UNITS", "UnitWarning", "check_unit", "face_unit",
+           "guess_unit"]
 
 #: The unit of a face that does not say: the built-in face is in millimetres.
 DEFAULT_UNIT = "mm"
 
 #: Metres in one unit of a face's lengths, by the unit's name.
 LENGTH_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "um": 1e-6, "in": 0.0254, "ft": 0.3048}
-
-#: The height of the built-in face's skin (chin to crown as meshed), mm: the reference size
-#: that default muscle parameters are given for.
-REFERENCE_HEIGHT_MM = 230.0
-
 
 class UnitWarning(UserWarning):
     """A face's unit was guessed from its size; set it to silence this."""
@@ -61,27 +54,6 @@ def guess_unit(height: float) -> str | None:
     if 60.0 <= h <= 1000.0:
         return "mm"
     return None
-
-
-def face_scale(face_or_height, unit: str | None = None) -> float:
-    r"""How many of the face's units the reference face's millimetre is.
-
-    :math:`s = h / h_\text{ref}`, with :math:`h` the skin's height (its ``y`` extent) in its
-    own units and :math:`h_\text{ref}` = :data:`REFERENCE_HEIGHT_MM`; a default length
-    given in millimetres for the built-in face is ``s`` times that on this face.
-    ``face_or_height`` is a face (with ``skin``), a skin (with ``points``) or a height.
-    """
-    obj = face_or_height
-    if hasattr(obj, "skin"):
-        obj = obj.skin
-    if hasattr(obj, "points"):
-        pts = np.asarray(obj.points, float)
-        height = float(np.ptp(pts[:, 1])) if len(pts) else 0.0
-    else:
-        height = float(obj)
-    if not math.isfinite(height) or height <= 0:
-        raise ValueError(f"a face {height} units tall has no scale; give a real skin")
-    return height / REFERENCE_HEIGHT_MM
 
 
 def face_unit(face) -> str:
