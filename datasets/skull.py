@@ -27,6 +27,8 @@ folds (eyes, nostrils, lips, ears).
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from wrinkle_vis.core import MeshError, TriangleSurface
@@ -162,7 +164,7 @@ def skull_field(skin: TriangleSurface, landmarks=None):
     lo, hi = skin.bounds()
     if not landmarks:
         depth = 0.025 * float(hi[1] - lo[1])
-        spacing = depth / 3.0
+        spacing = depth / 2.0
         distance = _outer_distance(skin, None, lo, hi, 2 * spacing)
 
         def field(p):
@@ -210,13 +212,35 @@ def scan_skull(skin: TriangleSurface, landmarks=None) -> TriangleSurface:
     -------
     TriangleSurface
         Closed (no boundary edges), manifold, outward-oriented; deterministic for the same
-        skin and landmarks.
+        skin and landmarks, and cached on disk under a key of both (and of this code), like
+        the procedural face (``$WRINKLE_VIS_CACHE``), so a scan's face reopens in a moment.
 
     Raises
     ------
     MeshError
         If the level set is empty (landmarks off the skin, a skin thinner than the tissue).
     """
+    import hashlib
+
+    from .face import _cached
+
+    digest = hashlib.sha256(Path(__file__).read_bytes())
+    digest.update(Path(__file__).with_name("scans.py").read_bytes())  # the similarity
+    digest.update(np.ascontiguousarray(skin.points, float).tobytes())
+    digest.update(np.ascontiguousarray(skin.triangles, np.int64).tobytes())
+    marks = sorted((str(k), tuple(map(float, v))) for k, v in dict(landmarks or {}).items())
+    digest.update(repr(marks).encode())
+
+    def build():
+        surf = _build_skull(skin, landmarks)
+        return {"points": surf.points, "triangles": surf.triangles}
+
+    arrays = _cached("scan-skull", (digest.hexdigest(),), build)
+    return TriangleSurface(arrays["points"], arrays["triangles"])
+
+
+def _build_skull(skin: TriangleSurface, landmarks) -> TriangleSurface:
+    """:func:`scan_skull` without its cache."""
     import pyvista as pv
 
     from .face import sample_narrow_band

@@ -174,6 +174,7 @@ def test_self_intersections_finds_a_crossing_and_not_a_touch():
     assert len(self_intersections(touching)) == 0
 
 
+@pytest.mark.slow
 def test_the_procedural_skull_of_a_plain_skin_is_closed(wv_face):
     skull = scan_skull(wv_face.skin)  # no landmarks: 2.5 % of the height, all inside
     rep = skull.report()

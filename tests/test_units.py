@@ -33,6 +33,7 @@ def test_a_face_carries_its_unit_through_edits(wv_face):
         wv.FaceModel(wv_face.skin, unit="parsec")
 
 
+@pytest.mark.slow
 def test_a_scan_in_metres_is_labelled_metres(wv_face):
     skin = wv_face.skin.with_points(wv_face.skin.points / 1000.0)
     with pytest.warns(UnitWarning, match="reads as m:"):
