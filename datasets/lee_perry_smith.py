@@ -13,14 +13,13 @@ points and uint32 triangles of the skin and the skull, the UV table and each cor
 index into it) and its layout (``lee_perry_smith.json``), both written by
 ``scripts/write_lee_perry_smith.py`` from ``../shared/realmeshes/lee_perry_smith_head.obj``.
 
-Licence and credit
-------------------
-"Infinite, 3D Head Scan" by Lee Perry-Smith / Infinite Realities, licensed under Creative
-Commons Attribution 3.0 (CC BY 3.0, https://creativecommons.org/licenses/by/3.0/), based on
-a work at triplegangers.com; OBJ packaging by Morgan McGuire and Guedis Cardenas (McGuire
-Graphics Data). Changes: the vertices welded along the UV seams, the quads split into
-triangles, rescaled from metres to millimetres, rotated and moved into the built-in frame,
-and a skull and muscles added. See the package's ``NOTICE`` file.
+Licence and credit: "Infinite, 3D Head Scan" by Lee Perry-Smith / Infinite Realities,
+licensed under Creative Commons Attribution 3.0 (CC BY 3.0,
+https://creativecommons.org/licenses/by/3.0/), based on a work at triplegangers.com; OBJ
+packaging by Morgan McGuire and Guedis Cardenas (McGuire Graphics Data). Changes: the
+vertices welded along the UV seams, the quads split into triangles, rescaled from metres to
+millimetres, rotated and moved into the built-in frame, and a skull and muscles added. See
+the package's ``NOTICE.txt`` file.
 """
 
 from __future__ import annotations
