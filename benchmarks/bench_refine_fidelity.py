@@ -10,8 +10,11 @@ to. Candidates: the adaptive refinement of ``evaluate(refine=True)`` at the pape
 the skin subdivided uniformly n times by VTK and then evaluated the same way, with linear
 midpoints (``PolyData.subdivide(n, "linear")``, which keeps the coarse facets) and with the
 interpolating butterfly scheme (``"butterfly"``, smooth).
-Time: building the model for that mesh plus one frame (``setup+frame``; for VTK the
-subdivision too), and a frame once everything is cached (``frame``); medians of 5.
+Fidelity and time are taken on dynamic frames: the surprise ramp from 0 to 1 in 30 steps,
+every frame a new intensity (so the adaptive refinement splits another set of triangles
+nearly every frame); fidelity is the worst over intensities 0.5, 0.75 and 1. Time: building
+the model for that mesh plus its first frame (``setup+frame``; for VTK the subdivision too),
+and the median frame of the ramp (``frame``).
 
 The last lines compare the adaptive refinement with the uniform subdivision that reaches the
 same fidelity (the first uniform candidate at least as close to the reference, within 5 %):
@@ -29,6 +32,24 @@ from wrinkle_vis.core.refine import refine_triangles
 from wrinkle_vis.plotting import to_surface_polydata
 
 MUSCLE = "frontalis_major_L"
+LEVELS = (0.5, 0.75, 1.0)  # intensities the fidelity is taken at
+
+
+def ramp_ms(frame_at, steps=30, rounds=3):
+    """Median milliseconds of a frame of the ramp 0..1 in ``steps`` steps (median of the
+    rounds' medians)."""
+    import statistics
+    import time
+
+    medians = []
+    for _ in range(rounds):
+        times = []
+        for i in range(steps + 1):
+            t0 = time.perf_counter()
+            frame_at(i / steps)
+            times.append(time.perf_counter() - t0)
+        medians.append(statistics.median(times))
+    return 1e3 * statistics.median(medians)
 
 
 def fibre_band(state, width=0.5):
@@ -77,6 +98,7 @@ def main():
     muscle = base.muscle(MUSCLE)
     ref_face = wv.FaceModel(smooth_uniform(base.skin, 4), base.skull, base.muscles,
                             base.expressions)
+    refs = {t: fibre_band(ref_face.evaluate("surprise", t), width=0.3)[0] for t in LEVELS}
     ref_points, ref_l, ref_h = fibre_band(ref_face.evaluate("surprise"), width=0.3)
     print(f"reference: {ref_face.skin.n_triangles} triangles, {len(ref_points)} points along "
           f"the fibre, {crests(ref_l, ref_h, muscle)} crests (n_w = {muscle.n_wrinkles})")
@@ -86,9 +108,9 @@ def main():
         face = wv.FaceModel(base.skin, base.skull, base.muscles, base.expressions)
         return face.evaluate("surprise", **options)
 
-    setup_ms, state = timed(adaptive_setup)
-    frame_ms, _ = timed(lambda: base.evaluate("surprise", **options), n=20)
-    rows.append(("adaptive", state, setup_ms, frame_ms))
+    setup_ms, _ = timed(adaptive_setup)
+    rows.append(("adaptive", lambda t: base.evaluate("surprise", t, **options), setup_ms,
+                 ramp_ms(lambda t: base.evaluate("surprise", t, **options))))
     for scheme, n in [(s, n) for s in ("linear", "butterfly") for n in (1, 2, 3)]:
         poly = to_surface_polydata(base.skin).subdivide(n, scheme)
         skin = wv.TriangleSurface(poly.points, poly.faces.reshape(-1, 4)[:, 1:])
@@ -101,15 +123,18 @@ def main():
             n, scheme))
         setup_ms, state = timed(uniform_setup, n=3)
         face = state.face
-        frame_ms, _ = timed(lambda face=face: face.evaluate("surprise"), n=20)
-        rows.append((f"VTK {scheme} x{n}", state, subdiv_ms + setup_ms, frame_ms))
+        rows.append((f"VTK {scheme} x{n}", lambda t, face=face: face.evaluate("surprise", t),
+                     subdiv_ms + setup_ms, ramp_ms(lambda t, face=face: face.evaluate(
+                         "surprise", t))))
 
     print(f"{'':16}{'triangles':>11}{'fidelity mm':>13}{'crests':>8}{'setup+frame ms':>16}"
           f"{'frame ms':>10}")
     table = []
-    for name, state, setup, frame in rows:
+    for name, frame_at, setup, frame in rows:
+        states = {t: frame_at(t) for t in LEVELS}
+        state = states[1.0]
         _, l, h = fibre_band(state, width=1.0)
-        fid = fidelity(ref_points, state)
+        fid = max(fidelity(refs[t], states[t]) for t in LEVELS)
         table.append((name, len(state.triangles), fid, setup, frame))
         print(f"{name:16}{len(state.triangles):>11}{fid:>13.3f}"
               f"{crests(l, h, muscle):>8}{setup:>16.1f}{frame:>10.2f}")
@@ -120,7 +145,7 @@ def main():
         return
     print(f"same fidelity as {peer[0]}: triangles x{ours[1] / peer[1]:.3f} (target <= 0.2), "
           f"setup+frame time x{ours[3] / peer[3]:.2f} (target <= 0.5), "
-          f"cached frame x{ours[4] / peer[4]:.2f}")
+          f"dynamic frame x{ours[4] / peer[4]:.2f} (target <= 0.5)")
 
 
 if __name__ == "__main__":

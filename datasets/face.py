@@ -19,6 +19,8 @@ from wrinkle_vis.core import (
     load_layout,
     paper_expressions,
 )
+from wrinkle_vis.core.editing import mirrored, snapped
+from wrinkle_vis.core.sphincter import SphincterMuscle
 
 from . import anatomy, sdf
 
@@ -279,16 +281,6 @@ def _on_skull(x, y):
     return _front_hit(anatomy.skull_sdf, x, y)
 
 
-def _mirror(muscle):
-    """The right-hand twin of a left muscle (mirror x -> -x, swap line ends)."""
-    flip = np.array([-1.0, 1.0, 1.0])
-    changes = {}
-    for param in muscle.point_parameters:
-        arr = np.asarray(getattr(muscle, param)) * flip
-        changes[param] = arr[::-1] if arr.ndim == 2 else arr
-    return muscle.replace(name=muscle.name[:-2] + "_R", **changes)
-
-
 #: The frontalis: (name, centre x, width W_s, h^c) of each left sheet, mm. Neighbours'
 #: falls overlap exactly (one's [h^c, W_s/2] is the other's), so with equal activations the
 #: forehead from x = -44 to 44 rises as one, and the sheets join at the midline.
@@ -343,7 +335,9 @@ def builtin_muscles() -> list:
     glabella to the inner end of the brow, so its pull squeezes the skin between the brows
     into vertical furrows (frown); the others move the mouth (zygomaticus major, levator
     labii superioris, depressor anguli oris) and are linear muscles of Waters' kind.
-    Attachments lie on the skull, insertions on the skin.
+    Orbicularis oculi (left and right) and orbicularis oris are sphincters
+    (:func:`_orbicularis_oculi`, :func:`_orbicularis_oris`). Attachments lie on the skull,
+    insertions and the sphincters' points on the skin.
     """
     left = _frontalis()
     left.append(LinearMuscle(
@@ -358,30 +352,113 @@ def builtin_muscles() -> list:
         left.append(LinearMuscle(
             name + "_L", m_a, m_i, radius=1.3 * float(np.linalg.norm(m_i - m_a)),
             max_angle_deg=phi, lambda_w=0.4, n_wrinkles=2, k0=0.8, alpha=1.0, strength=5.0))
+    left.append(_orbicularis_oculi())
     out = []
     for m in left:
-        out += [m, _mirror(m)]
-    return [_onto_skull_mesh(m) for m in out]
+        out += [m, mirrored(m, name=m.name[:-2] + "_R")]
+    out.append(_orbicularis_oris())
+    # attachments from the skull's level set onto the skull mesh (< 1 mm away); a sheet's
+    # lines keep their frame (see _frontalis)
+    skull = {"skull": build_skull()}
+    return [snapped(m, skull, lines=False) for m in out]
 
 
-def _onto_skull_mesh(muscle):
-    """Attachments moved from the skull's level set onto the skull mesh (< 1 mm away)."""
-    from wrinkle_vis.core.mesh import closest_points
+def _orbicularis_oculi() -> SphincterMuscle:
+    """The left orbicularis oculi: an ellipse around the eye, out to the temple (a = 42 mm
+    in its plane, which leans back with the side of the head) and up to the brow
+    (b = 22 mm), whose squeeze wrinkles a 100 degree fan at the outer corner of the eye
+    (crow's feet, :class:`~wrinkle_vis.core.sphincter.SphincterMuscle`).
 
-    skull = build_skull()
-    changes = {}
-    for param in muscle.point_parameters:
-        if param == "attachment":  # a sheet's line keeps its frame (see _frontalis)
-            arr = np.asarray(getattr(muscle, param))
-            changes[param] = closest_points(skull, arr.reshape(-1, 3)).reshape(arr.shape)
-    return muscle.replace(**changes)
+    The band starts at the outer corner of the eye (rho = 0.4); the squeeze is uniform up to
+    rho_s = 0.8 (kappa = 0.25) and fades out by the ellipse. The n_w = 4 periods of the
+    sector put three crow's feet on the central ray and about 25 degrees above and below
+    it (the furrows at the sector's ends have At = 0).
+    """
+    return SphincterMuscle(
+        "orbicularis_oculi_L", _on_skin(32.0, 0.0), _on_skin(60.0, -3.0), _on_skin(32.0, 22.0),
+        depth=22.0, sector_deg=50.0, sector_center_deg=0.0, lambda_w=0.4, n_wrinkles=4,
+        k0=2.5, alpha=1.0, fall_start=25.0, strength=3.0, compression="gradient")
+
+
+def _orbicularis_oris() -> SphincterMuscle:
+    """The orbicularis oris: an ellipse around the mouth, out past the corners (a = 40 mm in
+    its plane) and up under the nose (b = 26 mm), whose squeeze (kappa = 0.25 up to
+    rho_s = 0.86) wrinkles the band around the lips (rho >= 0.3) into n_w = 18 lines that
+    radiate from the mouth (lip lines), all around (Theta = 180 degrees, At = 1).
+    """
+    return SphincterMuscle(
+        "orbicularis_oris", _on_skin(0.0, -59.0), _on_skin(34.0, -59.0), _on_skin(0.0, -37.0),
+        depth=22.0, sector_deg=180.0, sector_center_deg=90.0, attenuation_start_deg=180.0,
+        lambda_w=0.3, n_wrinkles=18, k0=2.5, alpha=1.0, fall_start=24.0, strength=3.0,
+        compression="gradient")
+
+
+def _pair(prefix: str, value: float) -> dict[str, float]:
+    return {f"{prefix}_L": value, f"{prefix}_R": value}
+
+
+#: Waters' (1987) six universal expressions, by Ekman and Friesen's action units (FACS), on
+#: the built-in muscles: ``(name, {muscle prefix: activation}, description)``. A prefix
+#: without a side names a pair; the action units without a muscle here (the lids, the jaw)
+#: are left out. Levator labii superioris stays at 0.6: at full activation its pull alone
+#: creases the side of the nose past the realism limit (99th percentile 10 degrees refined).
+WATERS_SIX = (
+    ("happiness", {"zygomaticus_major": 1.0, "orbicularis_oculi": 0.6},
+     "AU 6 + 12: the cheeks raised (orbicularis oculi) and the lip corners pulled up "
+     "(zygomaticus major)"),
+    ("anger", {"corrugator": 1.0, "orbicularis_oculi": 0.5, "orbicularis_oris": 0.6},
+     "AU 4 + 7 + 23: the brows lowered and drawn together (corrugator), the lids "
+     "tightened (orbicularis oculi), the lips tightened (orbicularis oris)"),
+    ("surprise", {"frontalis_inner": 1.0, "frontalis_major": 0.8, "frontalis_outer": 1.0},
+     "AU 1 + 2: the inner and outer brows raised (frontalis)"),
+    ("sadness", {"frontalis_inner": 0.8, "corrugator": 0.5, "depressor_anguli_oris": 1.0},
+     "AU 1 + 4 + 15: the inner brows raised (frontalis inner) and drawn together "
+     "(corrugator), the lip corners pulled down (depressor anguli oris)"),
+    ("fear", {"frontalis_inner": 1.0, "frontalis_outer": 0.6, "corrugator": 0.6,
+              "depressor_anguli_oris": 0.5},
+     "AU 1 + 2 + 4 + 20: the brows raised and drawn together (frontalis, corrugator), the "
+     "lips stretched down (depressor anguli oris)"),
+    ("disgust", {"levator_labii_superioris": 0.6, "orbicularis_oculi": 0.4,
+                 "depressor_anguli_oris": 0.4},
+     "AU 9 + 10 + 15: the upper lip raised (levator labii superioris), the cheeks "
+     "raised and the lids narrowed (orbicularis oculi), the lip corners down"),
+)
+
+
+def _activations(spec: dict) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for prefix, value in spec.items():
+        out.update({prefix: value} if prefix == "orbicularis_oris" else _pair(prefix, value))
+    return out
 
 
 def builtin_expressions() -> dict[str, Expression]:
-    """The paper's expressions plus ``smile`` (zygomaticus major)."""
+    """The paper's expressions (Sec. 3: ``surprise``, ``frown``, ``fear``, unchanged), plus
+
+    - ``smile``: zygomaticus major;
+    - ``duchenne_smile``: zygomaticus major with orbicularis oculi, whose squeeze wrinkles
+      the outer corners of the eyes (crow's feet);
+    - ``squint``: orbicularis oculi alone;
+    - ``pucker``: orbicularis oris, whose squeeze wrinkles the lips (lip lines);
+    - Waters' six (``waters_happiness``, ``waters_anger``, ``waters_surprise``,
+      ``waters_sadness``, ``waters_fear``, ``waters_disgust``; :data:`WATERS_SIX`).
+    """
     ex = paper_expressions()
     ex["smile"] = Expression("smile", {"zygomaticus_major_L": 1.0, "zygomaticus_major_R": 1.0},
                              description="zygomaticus major pull the mouth corners up")
+    ex["duchenne_smile"] = Expression(
+        "duchenne_smile", {**_pair("zygomaticus_major", 1.0), **_pair("orbicularis_oculi", 1.0)},
+        description="zygomaticus major pull the mouth corners up, orbicularis oculi squeeze "
+                    "the eyes: crow's feet")
+    ex["squint"] = Expression(
+        "squint", _pair("orbicularis_oculi", 1.0),
+        description="orbicularis oculi squeeze the eyes: crow's feet")
+    ex["pucker"] = Expression(
+        "pucker", {"orbicularis_oris": 1.0},
+        description="orbicularis oris squeeze the lips: lip lines")
+    for name, spec, description in WATERS_SIX:
+        ex[f"waters_{name}"] = Expression(f"waters_{name}", _activations(spec),
+                                          description=f"Waters (1987): {description}")
     return ex
 
 
@@ -469,7 +546,7 @@ def load_face(name: str | int | None = None, n_triangles: int | None = None, *, 
     name : str, optional
         A built-in face (:data:`FACES`): ``"procedural"`` (the default), the anatomy-based
         face made by this package's code, or ``"lee_perry_smith"``, a real head scan with
-        14 muscles placed on its anatomy and a closed skull
+        17 muscles placed on its anatomy and a closed skull
         (:mod:`~wrinkle_vis.datasets.lee_perry_smith`; CC BY 3.0, Lee Perry-Smith /
         Infinite Realities). A number here is ``n_triangles`` (as in earlier versions).
     n_triangles : int, optional
@@ -504,8 +581,11 @@ def load_face(name: str | int | None = None, n_triangles: int | None = None, *, 
     Returns
     -------
     FaceModel
-        For the procedural face: skin, skull, 14 muscles (7 pairs) and the expressions
-        ``neutral``, ``surprise``, ``frown``, ``fear`` (the paper's Section 3) and ``smile``.
+        For the procedural face: skin, skull, 17 muscles (8 pairs and the orbicularis oris)
+        and the expressions ``neutral``, ``surprise``, ``frown``, ``fear`` (the paper's
+        Section 3), ``smile``, ``duchenne_smile``, ``squint``, ``pucker`` and Waters' six
+        (:func:`builtin_expressions`); the Lee Perry-Smith head has the same muscles and
+        expressions.
         A skin of your own with neither a layout nor landmarks gets no muscles.
 
     Raises

@@ -189,10 +189,11 @@ def transfer_layout(layout: Layout, target_skin: TriangleSurface, landmarks: dic
     -------
     Layout
         Muscles mapped by the least-squares similarity of the landmarks, lengths scaled by
-        its scale, insertion points projected onto the target skin and attachment points
-        onto the target skull (a linear muscle's radius keeps its ratio to the muscle's
-        length) (a sheet's lines are only mapped: they set its frame, which
-        neighbouring sheets share); the expressions unchanged; the target's landmarks.
+        its scale, each point projected onto the surface its parameter declares
+        (:meth:`~wrinkle_vis.core.muscle.Muscle.point_surfaces`: insertions onto the target
+        skin, attachments onto the target skull; a sheet's lines are only mapped: they set
+        its frame, which neighbouring sheets share; a linear muscle's radius keeps its ratio
+        to the muscle's length); the expressions unchanged; the target's landmarks.
     """
     names = _shared_landmarks(layout.landmarks, landmarks)
     rot, scale, shift = similarity_transform([layout.landmarks[n] for n in names],
@@ -201,16 +202,17 @@ def transfer_layout(layout: Layout, target_skin: TriangleSurface, landmarks: dic
         from .skull import scan_skull
 
         target_skull = scan_skull(target_skin, landmarks)
+    surfaces = {"skin": target_skin, "skull": target_skull}
     muscles = []
     for m in layout.muscles:
         moved = m.transformed(lambda p: scale * p @ rot.T + shift, scale)
         changes = {}
-        for param in m.point_parameters:
+        for param, where in moved.point_surfaces().items():
             arr = np.asarray(getattr(moved, param), float)
             if arr.ndim > 1:  # a sheet's lines are its frame: moved, not projected
                 continue
-            surface = target_skull if param.startswith("attachment") else target_skin
-            changes[param] = closest_points(surface, arr.reshape(-1, 3)).reshape(arr.shape)
+            changes[param] = closest_points(surfaces[where], arr.reshape(-1, 3)).reshape(
+                arr.shape)
         if {"attachment", "insertion"} <= set(changes) and hasattr(moved, "radius"):
             # keep the area of influence's reach beyond the insertion: radius / |m_I - m_A|
             before = np.linalg.norm(np.subtract(moved.insertion, moved.attachment))

@@ -61,6 +61,33 @@ numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False
 numpydoc_validation_checks = set()
 
+
+
+def _write_parameter_tables() -> None:
+    """``api/parameters.md``: every installed muscle type's parameters, made from their
+    declared metadata (:func:`wrinkle_vis.core.params.parameter_table`) at each build.
+    """
+    from wrinkle_vis.core.params import TABLE_COLUMNS, parameter_table
+
+    lines = ["# Muscle parameters", "",
+             "Made at build time from each installed type's declared parameters "
+             "(`wrinkle-vis types --markdown` prints the same). Lengths are in the face's "
+             "units (mm on the built-in face); *derived* parameters may be left out (null), "
+             "and then take the value the others give them.", ""]
+    for name, cls in wrinkle_vis.muscle_types().items():
+        lines += [f"## {name}", "", f"`{cls.__module__}.{cls.__qualname__}`", "",
+                  "| " + " | ".join(TABLE_COLUMNS) + " |", "|" + "---|" * len(TABLE_COLUMNS)]
+        lines += ["| " + " | ".join(c.replace("|", "\\|") for c in row) + " |"
+                  for row in parameter_table(cls)]
+        lines.append("")
+    text = "\n".join(lines)
+    target = DOCS / "api" / "parameters.md"
+    if not target.is_file() or target.read_text(encoding="utf-8") != text:
+        target.write_text(text, encoding="utf-8")
+
+
+_write_parameter_tables()
+
 # ---------------------------------------------------------------------- math
 # sphinx-mathjax-offline sets mathjax_path to its copy; said here too so that it is plain
 mathjax_path = "mathjax/tex-chtml.js"

@@ -107,6 +107,7 @@ def make_window(qtbot, wv_face, settings, recovery):
     from wrinkle_vis.app.window import MainWindow
 
     made = []
+    stray = StrayDialogs()
 
     def make(session=None, recovery_=None, show=True, **kwargs):
         w = MainWindow(session or Session(wv_face), settings, recovery_ or recovery, **kwargs)
@@ -117,12 +118,43 @@ def make_window(qtbot, wv_face, settings, recovery):
         return w
 
     yield make
+    stray.timer.stop()
     for ref in made:
         w = ref()
         if w is not None and not all(p._closed for p in w.plotters):
             _discard_changes(w)
             w.close()
         del w
+    assert not stray.closed, f"unexpected modal dialogs (closed so the test could end): " \
+        f"{stray.closed}"
+
+
+class StrayDialogs:
+    """Closes a modal dialog nobody answers (no :func:`answer` queued for it) after about
+    three seconds and keeps its text, so a test that meets one fails instead of hanging.
+    """
+
+    def __init__(self):
+        self.closed: list[str] = []
+        self._seen = None
+        self._ticks = 0
+        self.timer = QtCore.QTimer()
+        self.timer.setInterval(1000)
+        self.timer.timeout.connect(self._poll)
+        self.timer.start()
+
+    def _poll(self) -> None:
+        dialog = QtWidgets.QApplication.activeModalWidget()
+        if dialog is None or not dialog.isVisible():
+            self._seen, self._ticks = None, 0
+            return
+        self._ticks = self._ticks + 1 if dialog is self._seen else 1
+        self._seen = dialog
+        if self._ticks >= 3:
+            self.closed.append(dialog.text() if isinstance(dialog, QtWidgets.QMessageBox)
+                               else dialog.windowTitle())
+            dialog.reject()
+            self._seen, self._ticks = None, 0
 
 
 @pytest.fixture

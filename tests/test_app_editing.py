@@ -317,7 +317,7 @@ def test_a_drag_with_real_qt_mouse_events(window, qtbot):
     window.expression_box.setCurrentText("smile")
     window.select_muscle("zygomaticus_major_L")
     widget = window.placement
-    handle = widget.handles(widget.muscle)[0]
+    handle = next(h for h in widget.handles(widget.muscle) if h.param == "insertion")
     x, y = display_point(window.skin_view, widget.position(handle))
     view = window.skin_view.interactor
     ratio = view.devicePixelRatioF()

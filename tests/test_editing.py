@@ -205,21 +205,34 @@ def test_added_muscles_start_valid_on_their_surfaces(wv_face, type_name):
     face.evaluate({name: 1.0})
 
 
-def test_generic_types_cannot_be_added_and_say_why(wv_face):
+def test_types_without_create_cannot_be_added_and_say_why(wv_face):
     from dataclasses import dataclass
 
     from wrinkle_vis.core.registry import _REGISTRY
 
     @dataclass(frozen=True)
-    class Bare(wv.LinearMuscle):
+    class Bare(wv.Muscle):  # no create(): creating is the type's, in core
+        pass
+
+    @dataclass(frozen=True)
+    class Sub(wv.LinearMuscle):  # inherits the linear type's create(), whatever its widget
         widget = "wrinkle_vis.widgets.placement:GenericWidget"
 
     wv.register_muscle_type(Bare, name="bare_for_test")
+    wv.register_muscle_type(Sub, name="sub_for_test")
     try:
-        with pytest.raises(NotImplementedError, match="cannot create a new muscle"):
+        with pytest.raises(NotImplementedError, match="cannot create a new muscle; load one"):
             Session(wv_face).added("bare_for_test", (0, 0, 100))
+        face, name = Session(wv_face).added("sub_for_test", (20.0, -40.0, 100.0))
+        made = face.muscle(name)
+        assert type(made) is Sub and name == "sub_for_test_1"
+        # the attachment on the skull, the insertion on the skin, as the type declares
+        for param, surface in (("attachment", wv_face.skull), ("insertion", wv_face.skin)):
+            p = np.asarray(getattr(made, param))
+            assert np.linalg.norm(closest_points(surface, p[None])[0] - p) < 1e-9
     finally:
         _REGISTRY.pop("bare_for_test")
+        _REGISTRY.pop("sub_for_test")
 
 
 def test_many_edits_keep_the_per_muscle_cache_bounded(wv_face):

@@ -120,10 +120,15 @@ def _bad(**changes):
         (_bad(version=2), "$.version", "1 (this wrinkle-vis reads version 1)"),
         (_bad(colour="red"), "$.colour", "one of"),
         (_bad(muscles={"a": 1}), "$.muscles", "a list of muscles"),
-        (_bad(**{"muscles/0/type": "sphincter"}), "$.muscles[0].type", "installed types"),
-        (_bad(**{"muscles/0/radius": -3}), "$.muscles[0].radius", "valid muscle parameters"),
+        (_bad(**{"muscles/0/type": "spiral"}), "$.muscles[0].type", "installed types"),
+        (_bad(**{"muscles/0/radius": -3}), "$.muscles[0].radius",
+         "radius (R, the maximal radius of influence) in (0, inf)"),  # the type's metadata
         (_bad(**{"muscles/0/insertion": [0, 0, 0]}), "$.muscles[0].insertion",
-         "valid muscle parameters"),
+         "insertion (the end in the skin, within the radius of the attachment): [x, y, z] on "
+         "the skin"),
+        (_bad(**{"muscles/0/fall_start": -1}), "$.muscles[0].fall_start",
+         "fall_start (R_s, Waters' fall start, where the displacement peaks) in (0, inf) or "
+         "null (derived)"),
         (_bad(**{"muscles/0/colour": 1}), "$.muscles[0]", "valid muscle parameters"),
         (_bad(**{"expressions/e/activations": {"nope": 1}}), "$.expressions.e.activations.nope",
          "the name of a muscle"),
@@ -144,7 +149,7 @@ def test_malformed_layouts_name_file_path_expected_and_found(tmp_path, data, jso
 
 
 def test_unknown_muscle_type_names_the_installed_types(tmp_path):
-    path = _write(tmp_path, _bad(**{"muscles/0/type": "sphincter"}))
+    path = _write(tmp_path, _bad(**{"muscles/0/type": "spiral"}))
     with pytest.raises(wv.LayoutError, match="linear.*ring.*sheet"):
         wv.load_layout(path)
 

@@ -22,6 +22,14 @@ def sheet(**kw):
     return wv.SheetMuscle("sh", ((0, -10, 0), (0, 10, 0)), ((20, -10, 0), (20, 10, 0)), **args)
 
 
+def sphincter(**kw):
+    from wrinkle_vis.core.sphincter import SphincterMuscle
+
+    args = dict(lambda_w=0.4, n_wrinkles=4, k0=1.0, alpha=1.0, sector_deg=60.0, depth=8.0)
+    args.update(kw)
+    return SphincterMuscle("sp", (8, 8, 0), (28, 8, 0), (8, 22, 0), **args)
+
+
 def test_linear_hand_computed_points():
     m = linear()
     pts = np.array([[10, 10, 0], [5, 0, 0], [-5, 1, 0], [10, 10 * np.tan(np.radians(30)), 0],
@@ -105,10 +113,10 @@ def test_builtin_falloffs_are_c1_at_every_knot():
     np.testing.assert_allclose(smooth_fall(t) + smooth_fall(1 - t), 1.0, atol=1e-15)
 
 
-@pytest.mark.parametrize("kind", ["linear", "sheet"])
+@pytest.mark.parametrize("kind", ["linear", "sheet", "sphincter"])
 def test_muscle_displacement_is_c1_across_the_aoi_boundary(kind):
     """Along lines through the muscle, the displacement's slope does not jump anywhere."""
-    m = sheet() if kind == "sheet" else linear()
+    m = {"linear": linear, "sheet": sheet, "sphincter": sphincter}[kind]()
     rng = np.random.default_rng(3)
     for _ in range(6):
         a, b = rng.uniform(-25, 25, 3), rng.uniform(-25, 25, 3)
@@ -239,7 +247,7 @@ def _moved(m, rot, shift, scale=1.0):
     return m.replace(**changes)
 
 
-@pytest.mark.parametrize("make", [linear, sheet])
+@pytest.mark.parametrize("make", [linear, sheet, sphincter])
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_region_is_invariant_under_rigid_motion_and_lambda_gamma_under_scaling(make, seed):
     m = make()

@@ -22,6 +22,24 @@ def test_builtin_types_are_declared_as_entry_points_too():
     assert names["sheet"] == "wrinkle_vis.core.muscles:SheetMuscle"
 
 
+def test_pyproject_declares_every_builtin_type_as_an_entry_point():
+    """The source of the installed metadata (checked above once installed): each built-in
+    type, in its own module, is registered by its entry point, not by a list in the core.
+    """
+    import importlib
+    import tomllib
+    from pathlib import Path
+
+    config = tomllib.loads((Path(wv.__file__).parents[1] / "pyproject.toml").read_text())
+    declared = config["project"]["entry-points"]["wrinkle_vis.muscles"]
+    for name, value in declared.items():
+        module, _, attr = value.partition(":")
+        cls = getattr(importlib.import_module(module), attr)
+        assert cls.type_name == name and wv.get_muscle_type(name) is cls
+    builtin = {n for n, c in wv.muscle_types().items() if c.__module__.startswith("wrinkle_vis.")}
+    assert builtin <= set(declared) and {"linear", "sheet", "sphincter"} <= set(declared)
+
+
 def test_example_plugin_is_discovered_through_its_entry_point_and_works_end_to_end():
     ring_cls = wv.muscle_types()["ring"]
     assert ring_cls.__module__ == "wrinkle_vis_ring"
@@ -79,9 +97,9 @@ def test_decorator_with_a_name_and_non_muscles(clean_registry):
 
 def test_unknown_type_lists_installed_ones():
     with pytest.raises(wv.UnknownMuscleTypeError, match="installed types: .*linear.*sheet"):
-        wv.get_muscle_type("sphincter")
+        wv.get_muscle_type("spiral")
     with pytest.raises(wv.UnknownMuscleTypeError):
-        wv.muscle_from_dict({"type": "sphincter", "name": "x"})
+        wv.muscle_from_dict({"type": "spiral", "name": "x"})
     with pytest.raises(ValueError, match="has no 'type'"):
         wv.muscle_from_dict({"name": "x"})
 

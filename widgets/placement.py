@@ -21,6 +21,7 @@ import numpy as np
 import pyvista as pv
 import vtk
 
+from wrinkle_vis.core import editing
 from wrinkle_vis.core.face import FaceModel, FaceState
 from wrinkle_vis.core.mesh import (
     TriangleSurface,
@@ -62,20 +63,22 @@ class Handle:
         return arr if self.index is None else arr[self.index]
 
 
-def layer_of(param: str) -> str:
-    """The surface a point parameter lies on by convention: ``attachment*`` on the skull,
-    everything else on the skin.
+def layer_of(muscle: Muscle | type, param: str) -> str:
+    """The surface point parameter ``param`` of ``muscle`` (a muscle or its type) is declared
+    on (:meth:`Muscle.point_surfaces`): ``"skin"`` or ``"skull"``.
     """
-    return "skull" if param.startswith("attachment") else "skin"
+    return muscle.point_surfaces()[param]
 
 
 def handles_for(muscle: Muscle) -> tuple[Handle, ...]:
-    """A handle per point of each point parameter (two for a line), on :func:`layer_of`."""
+    """A handle per point of each point parameter (two for a line), on its declared
+    surface (:meth:`Muscle.point_surfaces`).
+    """
     out = []
-    for param in muscle.point_parameters:
+    for param, layer in muscle.point_surfaces().items():
         arr = np.asarray(getattr(muscle, param), dtype=float)
         rows = [None] if arr.ndim == 1 else range(len(arr))
-        out += [Handle(param, i, layer_of(param)) for i in rows]
+        out += [Handle(param, i, layer) for i in rows]
     return tuple(out)
 
 
@@ -239,18 +242,15 @@ class PlacementWidget:
     @classmethod
     def create(cls, muscle_type: type, name: str, face: FaceModel, at) -> Muscle:
         """A new muscle of ``muscle_type`` called ``name`` with its insertion at ``at``
-        ``(3,)`` on the skin, ready to be dragged into place.
+        ``(3,)`` on the skin: the type's own :meth:`Muscle.create` (the core's), in the
+        face's unit (:func:`created`).
 
         Raises
         ------
         NotImplementedError
-            When the widget does not know how to make one (the generic widget); the message
-            says what to do instead.
+            When the type does not know how to make one; the message says what to do.
         """
-        raise NotImplementedError(
-            f"the {muscle_type.type_name!r} muscle type's widget ({cls.__name__}) cannot "
-            "create a new muscle; load one from a layout file, or give the type a widget "
-            "with a create() method")
+        return created(muscle_type, name, face, at)
 
     # -------------------------------------------------------------- handles
     def _add_handle(self, handle: Handle) -> None:
@@ -396,8 +396,8 @@ class PlacementWidget:
 
 class GenericWidget(PlacementWidget):
     """For a muscle type that declares no widget: a handle per point parameter (both ends
-    of a line), ``attachment*`` on the skull and the rest on the skin, and the AOI and
-    wrinkling region outlined on the skin.
+    of a line) on the surface the parameter declares, and the AOI and wrinkling region
+    outlined on the skin.
     """
 
 
@@ -405,22 +405,6 @@ class LinearWidget(PlacementWidget):
     """Linear muscle: insertion on the skin, attachment on the skull, and the AOI, the
     cone of angle Φ and radius R around the fibre, drawn in the muscles view.
     """
-
-    @classmethod
-    def handles(cls, muscle) -> tuple[Handle, ...]:
-        """The insertion on the skin and the attachment on the skull."""
-        return (Handle("insertion", None, "skin"), Handle("attachment", None, "skull"))
-
-    @classmethod
-    def create(cls, muscle_type, name, face, at):
-        """A muscle from the skull above ``at`` to ``at``, R = 1.3 x its length, Φ = 25°,
-        k0 0.8 mm (in the face's unit, :func:`millimetre`).
-        """
-        ins, att = _anchor(face, at)
-        length = float(np.linalg.norm(ins - att))
-        return muscle_type(name, tuple(att), tuple(ins), radius=1.3 * length,
-                           max_angle_deg=25.0, lambda_w=0.4, n_wrinkles=2,
-                           k0=0.8 * millimetre(face))
 
     def aoi_meshes(self, muscle) -> dict[str, pv.PolyData]:
         """The cone of half-angle Φ capped at radius R, from the attachment."""
@@ -433,25 +417,6 @@ class SheetWidget(PlacementWidget):
     line on the skull, and the AOI, the rectangle of length L_s and width W_s from the
     attachment line's centre, swept to its depth bound on both sides, in the muscles view.
     """
-
-    @classmethod
-    def handles(cls, muscle) -> tuple[Handle, ...]:
-        """Both ends of the insertion line (skin) and of the attachment line (skull)."""
-        return (Handle("insertion_line", 0, "skin"), Handle("insertion_line", 1, "skin"),
-                Handle("attachment_line", 0, "skull"), Handle("attachment_line", 1, "skull"))
-
-    @classmethod
-    def create(cls, muscle_type, name, face, at):
-        """A sheet 16 mm wide, k0 2 mm (in the face's unit, :func:`millimetre`), from the
-        skull above ``at`` to ``at``.
-        """
-        ins, att = _anchor(face, at)
-        scale = millimetre(face)
-        across = np.array([8.0 * scale, 0.0, 0.0])
-        ins_line = snapped_points(face.skin, [ins - across, ins + across])
-        att_line = snapped_points(face.skull or face.skin, [att - across, att + across])
-        return muscle_type(name, attachment_line=att_line, insertion_line=ins_line,
-                           lambda_w=0.3, n_wrinkles=3, k0=2.0 * scale)
 
     def aoi_meshes(self, muscle) -> dict[str, pv.PolyData]:
         """The AOI rectangle and the box of its depth bound."""
@@ -471,34 +436,32 @@ class SheetWidget(PlacementWidget):
 
 # ---------------------------------------------------------------------- placing muscles
 def snapped(muscle: Muscle, face: FaceModel, like: Muscle | None = None) -> Muscle:
-    """The muscle with each handle's point moved onto its layer (skin at rest, or skull):
-    after a mirror, say, whose reflected points lie near but not on an asymmetric mesh.
-
-    With ``like`` (the muscle it was made from, e.g. before the mirror), only the points
-    that lay on their layer in ``like`` are snapped; the others keep their place, such as
-    the lines of the built-in frontalis, which lie off the skull to share one frame.
+    """The muscle with its points moved onto the face's skin (at rest) and skull as its
+    type declares them: :func:`wrinkle_vis.core.editing.snapped` on ``face``'s surfaces
+    (see there for ``like``).
     """
-    surfaces = {"skin": face.skin, "skull": face.skull or face.skin}
-    lo, hi = face.skin.bounds()
-    tol = 1e-3 * float(np.linalg.norm(hi - lo))
-    changes: dict[str, np.ndarray] = {}
-    for handle in widget_factory(type(muscle)).handles(muscle):
-        surface = surfaces[handle.layer]
-        if like is not None:
-            old = np.asarray(getattr(like, handle.param), dtype=float)
-            old = old if handle.index is None else old[handle.index]
-            if np.linalg.norm(closest_points(surface, old[None])[0] - old) > tol:
-                continue
-        arr = changes.setdefault(handle.param,
-                                 np.array(getattr(muscle, handle.param), dtype=float))
-        row = arr if handle.index is None else arr[handle.index]
-        row[...] = closest_points(surface, row[None])[0]
-    return muscle.replace(**changes)
+    return editing.snapped(muscle, {"skin": face.skin, "skull": face.skull}, like=like)
 
 
 def snapped_points(surface, points) -> tuple:
     """``((3,), ...)``: the closest points of ``surface`` to ``points``, as tuples."""
     return tuple(map(tuple, closest_points(surface, np.asarray(points, float))))
+
+
+def created(muscle_type: type, name: str, face: FaceModel, at) -> Muscle:
+    """A new muscle of ``muscle_type`` called ``name`` with its insertion at ``at`` ``(3,)``
+    on ``face``'s skin: the type's own :meth:`Muscle.create`, whose starting lengths are in
+    millimetres, made on the face scaled to millimetres and scaled back when the face is in
+    another unit (:func:`millimetre`), so that a new muscle on a scan in metres is not 1000
+    times too big.
+    """
+    mm = millimetre(face)
+    if mm == 1.0:
+        return muscle_type.create(name, at, face.skin, face.skull)
+    skull = None if face.skull is None else face.skull.with_points(face.skull.points / mm)
+    made = muscle_type.create(name, np.asarray(at, float) / mm,
+                              face.skin.with_points(face.skin.points / mm), skull)
+    return made.transformed(lambda p: np.asarray(p) * mm, mm)
 
 
 def millimetre(face: FaceModel) -> float:
@@ -508,14 +471,3 @@ def millimetre(face: FaceModel) -> float:
     from wrinkle_vis.core.units import LENGTH_UNITS, face_unit
 
     return LENGTH_UNITS["mm"] / LENGTH_UNITS[face_unit(face)]
-
-
-def _anchor(face: FaceModel, insertion) -> tuple[np.ndarray, np.ndarray]:
-    """A point on the skin at ``insertion`` and its attachment on the skull, 30 % of the
-    skin's height above, for a new muscle to start from.
-    """
-    ins = closest_points(face.skin, np.asarray(insertion, float)[None])[0]
-    lo, hi = face.skin.bounds()
-    above = ins + np.array([0.0, 0.15 * (hi[1] - lo[1]), 0.0])
-    skull = face.skull or face.skin
-    return ins, closest_points(skull, above[None])[0]

@@ -1,4 +1,4 @@
-"""The ``wrinkle-vis`` command: summary, render, export, animate, figure and bake.
+"""The ``wrinkle-vis`` command: summary, render, export, animate, figure, bake and types.
 
 Every error is one line on stderr that names the problem and the way out, with exit status
 2 and no traceback; outputs are checked (extension, folder) before any work and written
@@ -13,7 +13,6 @@ import time
 import warnings
 from pathlib import Path
 
-FIELD_CHOICES = ("lambda", "gamma", "l", "w", "H", "At", "eps", "A", "W", "none")
 CAMERA_CHOICES = ("front", "three_quarter", "side", "forehead", "upper_face")
 FIGURE_CHOICES = ("fig9", "fig11")
 FIG9_EXPRESSIONS = ("surprise", "frown", "fear")
@@ -35,6 +34,9 @@ _SIZES = f"{MIN_PIXELS} to {MAX_PIXELS} a side, 8192 by 8192 in all"
 MAX_FPS = 120
 #: The most texels of padding ``bake`` puts around a UV island.
 MAX_PADDING = 256
+#: The most levels of adaptive refinement ``--refine-levels`` takes (each level can split
+#: every triangle the last one made in four).
+MAX_REFINE_LEVELS = 5
 
 
 class CliError(Exception):
@@ -77,7 +79,28 @@ def _common(p: argparse.ArgumentParser, *, expression_many: bool = False,
                         "built-in faces; guessed from a scan's size, with a note)")
 
 
+def _refine_options(p: argparse.ArgumentParser, what: str = "evaluate with adaptive "
+                    "refinement where the skin bends (paper Fig. 11)") -> None:
+    p.add_argument("--refine", action="store_true", help=what)
+    p.add_argument("--refine-angle", type=float, metavar="DEG",
+                   help="with --refine: split the triangles whose vertex normals differ by "
+                        "more than DEG degrees, in (0, 180) (default 3)")
+    p.add_argument("--refine-levels", type=int, metavar="N",
+                   help=f"with --refine: at most N levels of splitting, 0 to "
+                        f"{MAX_REFINE_LEVELS} (default 3)")
+
+
+def field_choices() -> tuple[str, ...]:
+    """``--field`` choices: the core catalogue's fields
+    (:data:`wrinkle_vis.core.fields.FIELDS`, read when the parser is built) and ``none``.
+    """
+    from wrinkle_vis.core.fields import FIELD_NAMES
+
+    return (*FIELD_NAMES, "none")
+
+
 def _parser() -> argparse.ArgumentParser:
+    field_choices_ = field_choices()
     parser = _Parser(
         prog="wrinkle-vis",
         description="The muscle-driven facial wrinkle model of Zhang, Sim and Tan on an "
@@ -93,7 +116,7 @@ def _parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("render", help="render a field map to a PNG, off screen")
     _common(p)
-    p.add_argument("--field", "-f", default="W", choices=FIELD_CHOICES,
+    p.add_argument("--field", "-f", default="W", choices=field_choices_,
                    help="field to colour the skin by (default W; 'none' for plain skin)")
     p.add_argument("--muscle", "-m", help="whose field (default: the total, W only)")
     p.add_argument("--layers", nargs="+", default=["skin"], choices=LAYER_CHOICES,
@@ -102,6 +125,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--size", type=int, nargs=2, default=(800, 800), metavar=("W", "H"),
                    help=f"image size in pixels ({_SIZES}; "
                         "default 800 800)")
+    _refine_options(p)
     p.add_argument("--output", "-o", type=Path, required=True,
                    help="the PNG to write (must end in .png)")
 
@@ -127,7 +151,7 @@ def _parser() -> argparse.ArgumentParser:
                                    "by frame (streamed to the file), with the colour range "
                                    "fixed at the peak's.")
     _common(p)
-    p.add_argument("--field", "-f", default="W", choices=FIELD_CHOICES,
+    p.add_argument("--field", "-f", default="W", choices=field_choices_,
                    help="field to colour the skin by (default W; 'none' for plain skin)")
     p.add_argument("--muscle", "-m", help="whose field (default: the total, W only)")
     p.add_argument("--layers", nargs="+", default=["skin"], choices=LAYER_CHOICES,
@@ -139,6 +163,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--size", type=int, nargs=2, default=(480, 480), metavar=("W", "H"),
                    help=f"frame size in pixels ({_SIZES}; "
                         "default 480 480)")
+    _refine_options(p, "evaluate every frame with adaptive refinement where the skin bends")
     p.add_argument("--output", "-o", type=Path, required=True, help="a .gif or .mp4 file")
 
     p = sub.add_parser(
@@ -149,8 +174,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("figure", choices=FIGURE_CHOICES, help="which figure")
     _common(p, expression_many=True, expression_default=(
         f"fig9: one row each, {', '.join(FIG9_EXPRESSIONS)}; fig11: one, surprise"))
-    p.add_argument("--refine", action="store_true",
-                   help="fig9: evaluate with adaptive refinement (fig11 always refines)")
+    _refine_options(p, "fig9: evaluate with adaptive refinement (fig11 always refines; "
+                       "--refine-angle and --refine-levels set how for both)")
     p.add_argument("--size", type=int, nargs=2, metavar=("W", "H"),
                    help=f"image size in pixels ({_SIZES}; "
                         "default: 880 by 400 per row for fig9, 800 by 800 for fig11)")
@@ -165,7 +190,7 @@ def _parser() -> argparse.ArgumentParser:
                     "wrinkles, and each --field as a colour map, padded across UV seams. "
                     "W sampled back at the texel centres is reported.")
     _common(p)
-    p.add_argument("--field", "-f", action="append", choices=FIELD_CHOICES[:-1],
+    p.add_argument("--field", "-f", action="append", choices=field_choices_[:-1],
                    help="a field to bake as a colour map (repeatable; default W)")
     p.add_argument("--muscle", "-m", help="whose fields (default: the total, W only)")
     p.add_argument("--size", type=int, nargs=2, default=(1024, 1024), metavar=("W", "H"),
@@ -176,7 +201,40 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--output", "-o", type=Path, required=True,
                    help="the folder for the maps (made, or replaced whole if it holds only "
                         "maps)")
+    p = sub.add_parser(
+        "types", help="list the installed muscle types and their parameters",
+        description="Every registered muscle type (built-in and plug-in) with its "
+                    "parameters as the type declares them: symbol, unit, allowed range, "
+                    "default and meaning.")
+    p.add_argument("type", nargs="*", help="only these types (default: all)")
+    p.add_argument("--markdown", action="store_true", help="print Markdown tables")
     return parser
+
+
+def _types(args) -> int:
+    from wrinkle_vis.core.params import TABLE_COLUMNS, parameter_table
+    from wrinkle_vis.core.registry import UnknownMuscleTypeError, get_muscle_type, muscle_types
+
+    names = args.type or list(muscle_types())
+    try:
+        types = [(n, get_muscle_type(n)) for n in names]
+    except UnknownMuscleTypeError as exc:
+        raise CliError(str(exc)) from None
+    for k, (name, cls) in enumerate(types):
+        rows = parameter_table(cls)
+        title = f"{name} ({cls.__module__}.{cls.__qualname__})"
+        print(("\n" if k else "") + (f"## {title}\n" if args.markdown else title))
+        if args.markdown:
+            print("| " + " | ".join(TABLE_COLUMNS) + " |")
+            print("|" + "---|" * len(TABLE_COLUMNS))
+            for row in rows:
+                print("| " + " | ".join(c.replace("|", "\\|") for c in row) + " |")
+            continue
+        widths = [max(len(r[i]) for r in [TABLE_COLUMNS, *rows]) for i in range(5)]
+        for row in [TABLE_COLUMNS, *rows]:
+            print("  " + "  ".join(c.ljust(w) for c, w in zip(row, widths, strict=False))
+                  + "  " + row[5])
+    return 0
 
 
 def _version() -> str:
@@ -211,10 +269,32 @@ def _check_common(args) -> None:
             raise CliError(f"--size {w} {h} is too large (at most {MAX_PIXELS} pixels each "
                            f"way and {MAX_AREA:,} in all, e.g. 8192 8192); ask for a "
                            "smaller image")
+    _check_refine(args)
     fps = getattr(args, "fps", None)
     if fps is not None and not 1 <= fps <= MAX_FPS:
         raise CliError(f"--fps {fps} is outside 1..{MAX_FPS}; choose a frame rate in that "
                        "range (default 12)")
+
+
+def _check_refine(args) -> None:
+    """Check ``--refine-angle`` and ``--refine-levels`` (before any work)."""
+    angle = getattr(args, "refine_angle", None)
+    levels = getattr(args, "refine_levels", None)
+    if angle is not None and not 0.0 < angle < 180.0:
+        raise CliError(f"--refine-angle {angle:g} is outside (0, 180) degrees; choose a "
+                       "bending threshold in that range (default 3)")
+    if levels is not None and not 0 <= levels <= MAX_REFINE_LEVELS:
+        raise CliError(f"--refine-levels {levels} is outside 0..{MAX_REFINE_LEVELS}; choose "
+                       "a number of levels in that range (default 3)")
+    refines = getattr(args, "refine", False) or getattr(args, "figure", None) == "fig11"
+    if (angle is not None or levels is not None) and not refines:
+        given = "--refine-angle" if angle is not None else "--refine-levels"
+        raise CliError(f"{given} sets how the skin is refined; add --refine")
+
+
+def _refinement(args) -> dict:
+    """The refinement keywords of the plotting functions, from the arguments."""
+    return {"refine_angle_deg": args.refine_angle, "refine_levels": args.refine_levels}
 
 
 def _output(args, suffixes: tuple[str, ...]) -> Path:
@@ -392,9 +472,19 @@ def _summary(args) -> int:
 
 def _field(args):
     field = None if args.field == "none" else args.field
-    if field not in (None, "W") and args.__dict__.get("muscle") is None:
-        raise CliError(f"--field {field} belongs to one muscle: add --muscle NAME")
+    if field is not None:
+        _check_field(field, args.__dict__.get("muscle"))
     return field
+
+
+def _check_field(field: str, muscle: str | None) -> None:
+    """A field with no total (the catalogue's; all but W) needs ``--muscle``."""
+    from wrinkle_vis.core.fields import check_field
+
+    try:
+        check_field(field, muscle)
+    except ValueError:
+        raise CliError(f"--field {field} belongs to one muscle: add --muscle NAME") from None
 
 
 def _render(args) -> int:
@@ -404,11 +494,12 @@ def _render(args) -> int:
 
     _output(args, (".png",))
     field = _field(args)
-    face = _load(args)
+    face = _load(args, refine=args.refine)
     with headless_rendering():
         image = render_field(face, args.expression, field, args.muscle,
                              layers=tuple(args.layers), camera=args.camera,
-                             size=tuple(args.size), intensity=args.intensity)
+                             size=tuple(args.size), intensity=args.intensity,
+                             refine=args.refine, **_refinement(args))
     written = save_image(image, args.output)
     print(f"wrote {_wrote(args, written)}")
     return 0
@@ -521,8 +612,7 @@ def _bake(args) -> int:
                        "number of texels in that range (default 8)")
     fields = args.field or ["W"]
     for name in fields:
-        if name != "W" and args.muscle is None:
-            raise CliError(f"--field {name} belongs to one muscle: add --muscle NAME")
+        _check_field(name, args.muscle)
     source = _uv_source(args)  # no UVs: said before any work
     face = _load(args)
     uvs = _uvs(source, face)
@@ -585,7 +675,7 @@ def _animate(args) -> int:
 
     _output(args, ANIMATION_SUFFIXES)
     field = _field(args)
-    face = _load(args)
+    face = _load(args, refine=args.refine)
     expression = face.expressions[args.expression]
     try:
         times = frame_times(expression, args.fps)
@@ -595,7 +685,8 @@ def _animate(args) -> int:
         frames = animation_frames(face, expression, times, field=field, muscle=args.muscle,
                                   layers=tuple(args.layers), camera=args.camera,
                                   size=tuple(args.size), intensity=args.intensity,
-                                  label=args.expression)
+                                  label=args.expression, refine=args.refine,
+                                  **_refinement(args))
         progress = tqdm(frames, total=len(times), desc=f"rendering {args.output.name}",
                         unit="frame")
         try:
@@ -622,10 +713,12 @@ def _figure(args) -> int:
     with headless_rendering():
         if args.figure == "fig9":
             image = figure_expressions(face, args.expression, size=size,
-                                       intensity=args.intensity, refine=args.refine)
+                                       intensity=args.intensity, refine=args.refine,
+                                       **_refinement(args))
         else:
             image = figure_refinement(face, expression=args.expression[0],
-                                      size=size or (800, 800), intensity=args.intensity)
+                                      size=size or (800, 800), intensity=args.intensity,
+                                      **_refinement(args))
     written = save_image(image, args.output)
     print(f"wrote {_wrote(args, written)}")
     return 0
@@ -668,6 +761,12 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.command is None:
         return _app(parser)
+    if args.command == "types":
+        try:
+            return _types(args)
+        except CliError as exc:
+            print(f"wrinkle-vis types: {exc}", file=sys.stderr)
+            return 2
     if not (0.0 <= args.intensity <= 1.0):
         parser.error(f"--intensity {args.intensity:g} is outside [0, 1]")
     if getattr(args, "layout", None) is not None and not args.layout.is_file():

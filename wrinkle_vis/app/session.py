@@ -9,35 +9,37 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.editing import mirror_name, mirrored, unique_name
+from ..core.editing import mirror_name, mirrored, snapped, unique_name
 from ..core.face import FIELD_NAMES, FaceModel, FaceState
+from ..core.fields import check_field
 from ..core.layout import Layout, load_layout, save_layout
-from ..core.muscle import OPTIONS as MUSCLE_OPTIONS
+from ..core.muscle import Muscle
+from ..core.params import Parameter
 from ..core.registry import get_muscle_type
 from ..core.units import face_unit
 from ..plotting.fields import field_info, field_range
 
-__all__ = ["EDITABLE", "OPTIONS", "Session", "load_session"]
+__all__ = ["OPTIONS", "TIMELINE_STEPS", "Session", "editable", "load_session",
+           "playback_position"]
 
-#: Numeric parameters the parameter panel edits, by muscle type: (name, label, step).
-EDITABLE = {
-    "linear": (("k0", "k0", 0.1), ("alpha", "alpha", 0.1), ("n_wrinkles", "n_w", 1),
-               ("lambda_w", "lambda_w", 0.05), ("radius", "R", 1.0),
-               ("max_angle_deg", "Phi (deg)", 1.0),
-               ("attenuation_start_deg", "phi_c (deg)", 1.0)),
-    "sheet": (("k0", "k0", 0.1), ("alpha", "alpha", 0.1), ("n_wrinkles", "n_w", 1),
-              ("lambda_w", "lambda_w", 0.05), ("length", "L_s", 1.0), ("width", "W_s", 1.0),
-              ("attenuation_start", "h_c", 0.5)),
-}
+#: Steps of the app's timeline: positions 0 to this many span the expression's duration.
+TIMELINE_STEPS = 300
 
-#: The options every muscle type has (:data:`wrinkle_vis.core.muscle.OPTIONS`, off by
-#: default), as the parameter panel shows them: (name, label, choices), with choices None
-#: for a check box, else ``{value: text}`` for a combo box in the core's order.
-OPTIONS = (
-    ("taper", "taper H", None),
-    ("compression", "eps from", dict(zip(MUSCLE_OPTIONS["compression"],
-                                         ("edges (Eq. 10)", "gradient"), strict=True))),
-)
+def editable(muscle) -> tuple[Parameter, ...]:
+    """The numeric parameters the parameter panel edits for ``muscle`` (a muscle or its
+    type), with their metadata (label, symbol, unit, range, step): every number its type
+    declares (:meth:`~wrinkle_vis.core.muscle.Muscle.parameters`), so a plug-in type gets
+    its controls with no change to the app.
+    """
+    return tuple(p for p in muscle.parameters() if p.is_number)
+
+
+#: The options every muscle type has (:meth:`wrinkle_vis.core.muscle.Muscle.options`, off
+#: by default), as the parameter panel shows them: (name, label, choices), with choices None
+#: for a check box, else ``{value: text}`` for a combo box in the core's order; all from
+#: the options' declared metadata.
+OPTIONS = tuple((p.name, p.label, None if p.is_flag else p.labelled_choices)
+                for p in Muscle.options())
 
 
 class Session:
@@ -142,10 +144,7 @@ class Session:
 
     def set_field(self, field: str, muscle: str | None = None) -> None:
         """Show ``field`` of ``muscle`` (None: the total, which only W has)."""
-        if field not in FIELD_NAMES:
-            raise KeyError(f"unknown field {field!r}; fields: {', '.join(FIELD_NAMES)}")
-        if muscle is None and field != "W":
-            raise ValueError(f"field {field!r} belongs to one muscle; choose one")
+        check_field(field, muscle)  # only W has a total
         if muscle is not None:
             self.face.muscle(muscle)
         self.field, self.muscle = field, muscle
@@ -158,7 +157,7 @@ class Session:
     def field_values(self, state: FaceState | None = None) -> np.ndarray:
         """``(n,)``: the field on display in ``state`` (default :meth:`state`)."""
         state = self.state() if state is None else state
-        return state.W if self.muscle is None else state.fields[self.muscle][self.field]
+        return state.field_values(self.field, self.muscle)
 
     def set_fixed_range(self, lo_hi: tuple[float, float] | None) -> None:
         """Fix the colour range to ``(lo, hi)`` with ``lo < hi`` (None: automatic)."""
@@ -287,21 +286,18 @@ class Session:
         """``muscle`` reflected across the face's symmetry plane and snapped onto its
         surfaces, called ``name`` (default its twin's name).
         """
-        from wrinkle_vis.widgets.placement import snapped
-
         point, normal = self.face.symmetry_plane()
         source = self.face.muscle(muscle)
-        return snapped(mirrored(source, point, normal, name=name), self.face, like=source)
+        return snapped(mirrored(source, point, normal, name=name),
+                       {"skin": self.face.skin, "skull": self.face.skull}, like=source)
 
     def added(self, type_name: str, at) -> tuple[FaceModel, str]:
         """The face with a new muscle of type ``type_name``, its insertion on the skin at
-        ``at`` ``(3,)``, made by the type's widget (:meth:`PlacementWidget.create`).
+        ``at`` ``(3,)``, made by the type itself (:meth:`Muscle.create`).
         """
-        from wrinkle_vis.widgets import widget_factory
-
         cls = get_muscle_type(type_name)
         name = unique_name(f"{type_name}_1", self.face.muscle_names)
-        return self.face.with_muscle(widget_factory(cls).create(cls, name, self.face, at)), \
+        return self.face.with_muscle(cls.create(name, at, self.face.skin, self.face.skull)), \
             name
 
     def derived(self, muscle: str) -> dict[str, float]:
@@ -373,6 +369,23 @@ class Session:
         self._layout, self.folder = layout, path.parent
         self.layout_path, self.dirty = path, False
         return path
+
+
+def playback_position(start: int, elapsed_s: float, duration_s: float,
+                      steps: int = TIMELINE_STEPS) -> int:
+    r"""The timeline position ``elapsed_s`` seconds of playback after position ``start``.
+
+    .. math:: p = \left(p_0 + \operatorname{round}\left(s \, t / T\right)\right)
+              \bmod (s + 1)
+
+    for ``steps`` :math:`s` spanning the expression's duration :math:`T`: the expression
+    plays at its own speed, round and round, however long a frame takes to draw (a slow
+    frame skips positions instead of slowing the expression down). A duration of 0 stays
+    at ``start``.
+    """
+    if duration_s <= 0.0:
+        return int(start)
+    return (int(start) + round(steps * elapsed_s / duration_s)) % (steps + 1)
 
 
 def load_session(path: str | Path | None = None, n_triangles: int | None = None) -> Session:

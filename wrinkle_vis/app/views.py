@@ -1,13 +1,15 @@
 """The three linked views' scenes, drawn from a session (no Qt: works on off-screen plotters).
 
 :meth:`LinkedViews.draw` rebuilds a scene only when what it shows changes (the field, the
-selected muscle, the skin's triangles, the set of muscles); otherwise it writes the new frame
-into the drawn meshes' VTK arrays, redraws only the muscles that were edited, and moves the
-selected muscle's placement widget. :meth:`LinkedViews.render` then renders the views that
-changed. The app's window and the drag benchmark both use it. The skin view can show plain
-skin (no field) and be lit by a raking light (:meth:`LinkedViews.set_raking_light`), its
-colour range can be given (else each frame's own), and :meth:`LinkedViews.save_image`
-renders a view at any size without the placement widget.
+selected muscle, the set of muscles); otherwise it writes the new frame into the drawn
+meshes' VTK arrays (points, vertex normals, the field), or, when a refined frame has other
+triangles than the last, gives the same actors new meshes (:func:`redraw_kind` decides),
+redraws only the muscles that were edited, and moves the selected muscle's placement
+widget. :meth:`LinkedViews.render` then renders the views that changed. The app's window
+and the drag benchmark both use it. The skin view can show plain skin (no field) and be lit
+by a raking light (:meth:`LinkedViews.set_raking_light`), its colour range can be given
+(else each frame's own), and :meth:`LinkedViews.save_image` renders a view at any size
+without the placement widget.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from ..plotting import (
     add_muscles,
     add_raking_light,
     add_skin,
+    add_skin_mesh,
     add_skull,
     attachment_points,
     clear_scene,
@@ -40,7 +43,7 @@ from ..plotting.polydata import field_array_name
 from ..plotting.writers import save_image
 from ..widgets import widget_factory
 
-__all__ = ["VIEWS", "LinkedViews", "add_field_bar"]
+__all__ = ["VIEWS", "LinkedViews", "add_field_bar", "ghost_skin", "redraw_kind"]
 
 #: The views, in order.
 VIEWS = ("skin", "muscles", "skull")
@@ -126,15 +129,23 @@ class LinkedViews:
         The three views (``QtInteractor`` in the app, off-screen plotters elsewhere).
     on_move, on_start : callable, optional
         Passed to each placement widget (see :class:`~wrinkle_vis.widgets.PlacementWidget`).
+    render_view : callable, optional
+        ``render_view(plotter)`` renders one view for :meth:`render` (default
+        ``plotter.render_window.Render()``; the app's views render once a frame where a
+        plain Qt OpenGL widget would render twice).
     """
 
     def __init__(self, skin: pv.Plotter, muscles: pv.Plotter, skull: pv.Plotter,
-                 on_move=None, on_start=None):
+                 on_move=None, on_start=None, render_view=None):
         self.skin_view, self.muscle_view, self.skull_view = skin, muscles, skull
         self.on_move, self.on_start = on_move, on_start
         self.placement = None
         self.raking_light = False
         self._key = None
+        self._topology = None  # (number of points, triangles) of the drawn skin
+        self._ghost_topology = None  # the same of the muscles view's skin
+        self.last_redraw: str | None = None  # what the last draw did (see redraw_kind)
+        self._render_view = render_view or _render_now
         self._skin_mesh = self._ghost_mesh = None
         self._muscle_meshes: dict[str, pv.PolyData] = {}
         self._drawn_muscles: dict = {}
@@ -169,16 +180,23 @@ class LinkedViews:
         were rebuilt. ``plain`` draws the skin view's skin without its field; ``clim`` is
         its colour range (default: the frame's own, :func:`field_range`); ``unit`` the
         unit of lengths on its scalar bar.
+
+        How, :func:`redraw_kind` decides (kept in :attr:`last_redraw`): the scenes anew,
+        new skin meshes under the same actors (other triangles: a refinement that split
+        other triangles), or the frame written into the drawn meshes in place.
         """
         face = session.face
-        key = (id(face.skin), id(state.face.skin), face.muscle_names, session.field,
-               session.muscle, wireframe, plain, unit)
-        if key != self._key:
+        key = (id(face.skin), face.muscle_names, session.field, session.muscle, wireframe,
+               plain, unit)
+        topology = (state.n_points, state.triangles)
+        self.last_redraw = redraw_kind(self._key, self._topology, key, topology)
+        if self.last_redraw == "scene":
             self._rebuild(session, state, wireframe, plain, clim, unit)
             self._key = key
-            return True
-        self._update_in_place(session, state, plain, clim)
-        return False
+        else:
+            self._update(session, state, plain, clim, self.last_redraw == "mesh")
+        self._topology = topology
+        return self.last_redraw == "scene"
 
     @property
     def skin_mesh(self) -> pv.PolyData | None:
@@ -218,7 +236,7 @@ class LinkedViews:
             self._light_skin()
         actor = add_skin(self.skin_view, state, None if plain else session.field,
                          None if plain else session.muscle, show_edges=wireframe,
-                         scalar_bar=False)
+                         scalar_bar=False, normals=state.normals)
         if not plain:
             if clim is not None:
                 actor.mapper.scalar_range = clim
@@ -227,7 +245,10 @@ class LinkedViews:
                                                                       units=unit))
         self._skin_mesh = actor.mapper.dataset
         clear_scene(self.muscle_view)
-        self._ghost_mesh = add_skin(self.muscle_view, state, None, opacity=0.25).mapper.dataset
+        points, triangles, normals = ghost_skin(state, face.skin)
+        self._ghost_mesh = _skin_polydata(points, triangles, normals)
+        self._ghost_topology = (len(points), triangles)
+        add_skin_mesh(self.muscle_view, self._ghost_mesh, opacity=0.25)
         self._muscle_meshes = add_muscles(self.muscle_view, face, state.activations)
         self._drawn_activation = dict(state.activations)
         self._drawn_muscles = {m.name: m for m in face.muscles}
@@ -242,22 +263,39 @@ class LinkedViews:
             self._make_placement(session, state)
         self._changed = {"skin", "muscles", "skull"}
 
-    def _update_in_place(self, session, state: FaceState, plain: bool = False,
-                         clim=None) -> None:
-        """Write the frame into the drawn meshes (``add_mesh`` renders a shallow copy that
-        shares their VTK arrays) and redraw only the muscles that were edited.
+    def _update(self, session, state: FaceState, plain: bool, clim, remesh: bool) -> None:
+        """Draw a frame in the scenes as they are: write it into the drawn skin meshes
+        (points, vertex normals, the field shown: the mappers draw these very meshes), or,
+        with ``remesh`` (other triangles), give the skin view's actor a new mesh of it
+        (mapper, lookup table, scalar bar and properties kept); the same for the muscles
+        view's skin (:func:`ghost_skin`); then the muscles, the attachments and the
+        placement widget.
         """
-        face = session.face
-        if plain:
-            _write(self._skin_mesh, state.points)
+        array, values = _shown(session, state, plain)
+        if remesh:
+            self._skin_mesh = _skin_polydata(state.points, state.triangles, state.normals,
+                                             array, values)
+            replace_mesh(self.skin_view, "skin", self._skin_mesh)
         else:
-            array = field_array_name(session.field, session.muscle)
-            values = state.W if session.muscle is None else \
-                state.fields[session.muscle][session.field]
-            _write(self._skin_mesh, state.points, array, values)
+            _write(self._skin_mesh, state.points, array, values, state.normals)
+        if not plain:
             self.skin_view.actors["skin"].mapper.scalar_range = clim or field_range(
                 field_info(session.field), values)
-        _write(self._ghost_mesh, state.points)
+        points, triangles, normals = ghost_skin(state, session.face.skin)
+        topology = (len(points), triangles)
+        if redraw_kind(0, self._ghost_topology, 0, topology) == "points":
+            _write(self._ghost_mesh, points, normals=normals)
+        else:
+            self._ghost_mesh = _skin_polydata(points, triangles, normals)
+            replace_mesh(self.muscle_view, "skin", self._ghost_mesh)
+        self._ghost_topology = topology
+        self._update_muscles(session, state)
+
+    def _update_muscles(self, session, state: FaceState) -> None:
+        """Redraw the muscles that were edited, recolour those whose activation changed,
+        move the attachments and the placement widget.
+        """
+        face = session.face
         for m in face.muscles:
             if self._drawn_muscles.get(m.name) is not m:  # edited: draw it again
                 mesh = muscle_mesh(m, state.activations[m.name])
@@ -268,7 +306,7 @@ class LinkedViews:
             elif self._drawn_activation.get(m.name) != state.activations[m.name]:
                 _write(self._muscle_meshes[m.name], None, "activation",
                        state.activations[m.name])  # only when it changed: each write
-                # re-runs the actor's scalars pipeline at the next render
+                # sends the mesh to the renderer again
         self._drawn_activation = dict(state.activations)
         self._changed = {"skin", "muscles"}
         attachments = attachment_points(face)
@@ -281,14 +319,16 @@ class LinkedViews:
             self.placement.update(face.muscle(self.placement.muscle.name), state)
 
     def render(self, only_changed: bool = False, skip=()) -> None:
-        """Render the views: all, or only those the last :meth:`draw` changed, less the
-        plotters in ``skip`` (the view of a handle being dragged: its widget renders it).
+        """Render the views (with ``render_view``): all, or only those the last
+        :meth:`draw` changed, less the plotters in ``skip`` (the view of a handle being
+        dragged: its widget renders it).
         """
+        render_view = self._render_view
         views = dict(zip(("skin", "muscles", "skull"), self.plotters, strict=True))
         for name, p in views.items():
             if not getattr(p, "_closed", False) and not any(p is q for q in skip) and (
                     not only_changed or name in self._changed):
-                p.render_window.Render()
+                render_view(p)
 
     def save_image(self, view: str, path: str | Path, size: tuple[int, int]) -> Path:
         """Render view ``view`` (one of :data:`VIEWS`) off screen at ``size`` ``(width,
@@ -367,12 +407,87 @@ class LinkedViews:
             self.placement = None
 
 
-def _write(mesh, points=None, array: str | None = None, values=None) -> None:
-    """Write into a mesh's existing VTK buffers (shared with PyVista's shallow copies)."""
+def redraw_kind(drawn_key, drawn_topology, key, topology) -> str:
+    """How to draw a frame over the one drawn.
+
+    Parameters
+    ----------
+    drawn_key, key : hashable
+        What the scenes show (face, muscles, field, muscle, style), drawn and wanted;
+        ``drawn_key`` None: nothing is drawn.
+    drawn_topology, topology : (int, (m, 3) int) or None
+        The number of skin points and the skin's triangles, drawn and of the frame (a
+        refined frame has its own).
+
+    Returns
+    -------
+    str
+        ``"scene"``: build the scenes anew (what they show changed); ``"mesh"``: same
+        scenes, other triangles, so new skin meshes under the same actors; ``"points"``:
+        same triangles, so the frame is written into the drawn meshes in place.
+    """
+    if drawn_key is None or key != drawn_key or drawn_topology is None:
+        return "scene"
+    (n_drawn, drawn), (n, triangles) = drawn_topology, topology
+    same = n == n_drawn and (triangles is drawn or (
+        triangles.shape == drawn.shape and np.array_equal(triangles, drawn)))
+    return "points" if same else "mesh"
+
+
+def _shown(session, state: FaceState, plain: bool) -> tuple[str | None, np.ndarray | None]:
+    """The point array the skin view colours by and its values in ``state`` (None, None
+    for plain skin).
+    """
+    if plain:
+        return None, None
+    return field_array_name(session.field, session.muscle), session.field_values(state)
+
+
+def _render_now(plotter) -> None:
+    plotter.render_window.Render()
+
+
+def ghost_skin(state: FaceState, skin) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The muscles view's translucent skin of ``state``: ``(n, 3)`` points, ``(m, 3)``
+    triangles and ``(n, 3)`` vertex normals.
+
+    A refined frame whose first vertices are the unrefined ``skin``'s (a refinement adds
+    its vertices after them) gives ``skin``'s triangles on those vertices, at their
+    refined positions: the view shows the skin at a quarter opacity as the muscles'
+    context, where a refinement adds no visible detail, only triangles to blend (the most
+    costly part of that view's render in software). Any other frame: its own skin.
+    """
+    n = skin.n_points
+    rest = state.rest_points
+    if state.n_points > n and (rest[:n] is skin.points or np.array_equal(rest[:n],
+                                                                          skin.points)):
+        return state.points[:n], skin.triangles, state.normals[:n]
+    return state.points, state.triangles, state.normals
+
+
+def _skin_polydata(points, triangles, normals, array: str | None = None,
+                   values=None) -> pv.PolyData:
+    """A skin mesh with its vertex normals (active) and, if named, the field ``values``
+    as point array ``array`` (active scalars).
+    """
+    mesh = pv.PolyData.from_regular_faces(np.array(points, dtype=float), triangles)
+    mesh.point_data["Normals"] = np.asarray(normals, dtype=float)
+    mesh.GetPointData().SetActiveNormals("Normals")
+    if array is not None:
+        mesh.point_data[array] = np.asarray(values, dtype=float)
+        mesh.set_active_scalars(array)
+    return mesh
+
+
+def _write(mesh, points=None, array: str | None = None, values=None, normals=None) -> None:
+    """Write into a mesh's existing VTK buffers and mark them modified."""
     if points is not None:
         mesh.points[:] = points
         mesh.GetPoints().Modified()
     if array is not None:
         mesh.point_data[array][:] = values
         mesh.GetPointData().GetArray(array).Modified()
+    if normals is not None:
+        mesh.point_data["Normals"][:] = normals
+        mesh.GetPointData().GetArray("Normals").Modified()
     mesh.Modified()

@@ -27,27 +27,26 @@ from ..core.face import FIELD_NAMES
 from ..core.layout import Layout, LayoutError, load_layout
 from ..core.muscle import MuscleParameterError
 from ..core.registry import muscle_types
+from ..core.units import LENGTH_UNITS
 from ..plotting import set_camera
 from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
 from ..widgets.panels import MuscleListPanel
-from ..widgets.placement import millimetre
 from .newface_panel import NewFaceFlow
 from .recovery import Recovery
-from .session import EDITABLE, OPTIONS, Session, load_session
+from .session import TIMELINE_STEPS, Session, editable, load_session, playback_position
 from .views import VIEWS, LinkedViews
 
 __all__ = ["MainWindow"]
 
 TOTAL = "total"
-#: The parameters the panel edits that are lengths (in the face's unit).
-LENGTH_PARAMETERS = {"k0", "radius", "length", "width", "attenuation_start"}
 _FACE_LABELS = {"procedural": "&Procedural", "lee_perry_smith": "&Lee Perry-Smith"}
 PLAIN = "none"  # the field box's entry for plain skin (no field)
 KEEP = object()  # edit(): keep the selection
 MAX_RECENT = 8
 AUTOSAVE_QUIET_MS = 1000  # autosave after this long without an edit...
 AUTOSAVE_MAX_MS = 5000  # ...and at the latest this long after the first unsaved edit
+PLAY_TICK_MS = 16  # Play's timer: at most about 60 frames a second
 GUIDE = Path(__file__).resolve().parents[2] / "docs" / "guide.md"  # in a source checkout
 
 
@@ -92,6 +91,44 @@ def _weak(method, *args, keep: int = 0):
         return None if bound is None else bound(*args, *signal_args[:keep])
 
     return slot
+
+
+class View(QtInteractor):
+    """A view of the window: a ``QtInteractor`` that renders a frame once.
+
+    pyvistaqt's widget renders the scene again in every paint event, also in the one a
+    finished render schedules to show itself, so each frame the app rendered was rendered
+    twice (half the frame time of timeline playback in software). :meth:`render_now`
+    renders the scene at once (a screenshot right after it is of the new frame) and lets
+    the paint event that follows show that render without making another. Any other
+    paint (an expose, a resize, the interactor's own renders) renders as before.
+    """
+
+    _fresh = False  # rendered by render_now, not shown yet
+
+    def render_now(self) -> None:
+        """Render the scene now; the next paint shows this render."""
+        self.render_window.Render()  # its frame event schedules the paint
+        self._fresh = True
+
+    def resizeGL(self, w, h):  # noqa: N802 (Qt's name)
+        self._fresh = False  # the next paint renders at the new size
+        super().resizeGL(w, h)
+
+    def paintGL(self):  # noqa: N802 (Qt's name)
+        fresh, self._fresh = self._fresh, False
+        if not fresh or getattr(self, "_in_paint", None) is not False:
+            super().paintGL()
+            return
+        self._in_paint = True  # pyvistaqt's paintGL: "a render is under way", no render
+        try:
+            super().paintGL()
+        finally:
+            self._in_paint = False
+
+
+def _render_view(view: View) -> None:
+    view.render_now()
 
 
 class MainWindow(QtWidgets.QMainWindow):
@@ -145,9 +182,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self._build_controls()
         self.newface = NewFaceFlow(self)
         self._build_menus()
-        self.timer = QtCore.QTimer(self)
-        self.timer.setInterval(40)
+        self.timer = QtCore.QTimer(self)  # Play: ticks as fast as 60 a second
+        self.timer.setInterval(PLAY_TICK_MS)
         self.timer.timeout.connect(self._tick)
+        self._play_start = (0, 0.0)  # timeline position and clock when Play was pressed
         self._populate()
         self.refresh(reset_camera=True)
 
@@ -159,14 +197,15 @@ class MainWindow(QtWidgets.QMainWindow):
             box = QtWidgets.QVBoxLayout(frame)
             box.setContentsMargins(0, 0, 0, 0)
             box.addWidget(QtWidgets.QLabel(f"<b>{title}</b>"))
-            plotter = QtInteractor(frame, auto_update=False)
+            plotter = View(frame, auto_update=False)
             box.addWidget(plotter.interactor)
             splitter.addWidget(frame)
             self.plotters.append(plotter)
         self.setCentralWidget(splitter)
         self.skin_view, self.muscle_view, self.skull_view = self.plotters
         self.views = LinkedViews(*self.plotters, on_move=_weak(self._on_handle_moved, keep=3),
-                                 on_start=_weak(self._on_handle_start, keep=1))
+                                 on_start=_weak(self._on_handle_start, keep=1),
+                                 render_view=_render_view)
         camera = self.skin_view.renderer.camera
         for p in self.plotters[1:]:
             p.renderer.camera = camera
@@ -233,7 +272,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.play_button.setCheckable(True)
         self.play_button.toggled.connect(self._on_play)
         self.time_slider = QtWidgets.QSlider(QtCore.Qt.Horizontal)
-        self.time_slider.setRange(0, 300)
+        self.time_slider.setRange(0, TIMELINE_STEPS)
         self.time_slider.valueChanged.connect(self._on_time)
         row.addWidget(self.play_button)
         row.addWidget(self.time_slider)
@@ -465,9 +504,8 @@ class MainWindow(QtWidgets.QMainWindow):
             self._build_parameter_panel()
             return
         for param, widget in self.param_widgets.items():
-            value = getattr(muscle, param)
             widget.blockSignals(True)
-            widget.setValue(value if value is not None else _resolved(muscle, param))
+            widget.setValue(muscle.resolved(param))
             widget.blockSignals(False)
         for param, widget in self.option_widgets.items():
             _show_option(widget, getattr(muscle, param))
@@ -486,38 +524,28 @@ class MainWindow(QtWidgets.QMainWindow):
             self.param_form.addRow(QtWidgets.QLabel("Choose a muscle to edit it."))
             return
         muscle = self.session.face.muscle(name)
-        mm = millimetre(self.session.face)  # lengths' steps and digits follow the unit
-        digits = 3 + max(0, round(-np.log10(mm)))
-        for param, label, step in EDITABLE.get(muscle.type_name, ()):
-            value = getattr(muscle, param)
-            if param == "n_wrinkles":
-                w = QtWidgets.QSpinBox()
-                w.setRange(0, 99)
-            else:
-                w = QtWidgets.QDoubleSpinBox()
-                w.setDecimals(digits if param in LENGTH_PARAMETERS else 3)
-                w.setRange(-1e6, 1e6)
-                w.setSingleStep(step * mm if param in LENGTH_PARAMETERS else step)
-            w.setValue(value if value is not None else _resolved(muscle, param))
+        for spec in editable(muscle):  # what the type declares (core.params)
+            w = _parameter_box(spec, self.session.unit)
+            w.setValue(muscle.resolved(spec.name))
             w.setKeyboardTracking(False)
-            w.valueChanged.connect(_weak(self.set_parameter, param, keep=1))
+            w.valueChanged.connect(_weak(self.set_parameter, spec.name, keep=1))
             w.installEventFilter(self._undo_keys)  # Ctrl+Z undoes the edit, not the typing
-            self.param_widgets[param] = w
-            self.param_form.addRow(label, w)
+            self.param_widgets[spec.name] = w
+            self.param_form.addRow(spec.label, w)
         self.option_widgets = {}
-        for param, label, choices in OPTIONS:  # every type has them (core.muscle.OPTIONS)
-            if choices is None:
+        for spec in muscle.options():  # every type has them, declared in core.muscle
+            if spec.is_flag:
                 w = QtWidgets.QCheckBox()
-                w.toggled.connect(_weak(self._on_option, param, keep=1))
+                w.toggled.connect(_weak(self._on_option, spec.name, keep=1))
             else:
                 w = QtWidgets.QComboBox()
-                for value, text in choices.items():
+                for value, text in spec.labelled_choices.items():
                     w.addItem(text, value)
-                w.currentIndexChanged.connect(_weak(self._on_option, param, keep=1))
-            w.setToolTip(_OPTION_TIPS.get(param, ""))
-            _show_option(w, getattr(muscle, param))
-            self.option_widgets[param] = w
-            self.param_form.addRow(label, w)
+                w.currentIndexChanged.connect(_weak(self._on_option, spec.name, keep=1))
+            w.setToolTip(spec.doc)
+            _show_option(w, getattr(muscle, spec.name))
+            self.option_widgets[spec.name] = w
+            self.param_form.addRow(spec.label, w)
         self.activation_box = QtWidgets.QDoubleSpinBox()
         self.activation_box.setRange(0.0, 1.0)
         self.activation_box.setSingleStep(0.05)
@@ -564,7 +592,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def _on_time(self, value: int) -> None:
         if not self._updating_controls:
             ex = self.session.face.expressions[self.session.expression]
-            self.session.set_time(value / 300 * ex.duration_s)
+            self.session.set_time(value / TIMELINE_STEPS * ex.duration_s)
             self.refresh()
 
     def _slider_for_time(self, t: float | None) -> int:
@@ -572,7 +600,7 @@ class MainWindow(QtWidgets.QMainWindow):
         ex = self.session.face.expressions[self.session.expression]
         if t is None:
             t = ex.onset_s + 0.5 * ex.hold_s
-        return round(300 * t / ex.duration_s) if ex.duration_s > 0 else 0
+        return round(TIMELINE_STEPS * t / ex.duration_s) if ex.duration_s > 0 else 0
 
     def _on_refine(self, on: bool) -> None:
         self.session.set_refine(on)
@@ -581,6 +609,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def _on_play(self, playing: bool) -> None:
         self.play_button.setText("Pause" if playing else "Play")
         if playing:
+            self._play_start = (self.time_slider.value(), time.perf_counter())
             self.timer.start()
         else:
             self.timer.stop()
@@ -629,7 +658,13 @@ class MainWindow(QtWidgets.QMainWindow):
         return self._ramp[1]
 
     def _tick(self) -> None:
-        self.time_slider.setValue((self.time_slider.value() + 4) % 301)
+        """Play: move the timeline to where the expression is now (a frame is drawn when
+        the position changes; one that took long skips positions).
+        """
+        start, t0 = self._play_start
+        ex = self.session.face.expressions[self.session.expression]
+        self.time_slider.setValue(playback_position(start, time.perf_counter() - t0,
+                                                    ex.duration_s))
 
     def _on_field(self, _=None) -> None:
         if self._updating_controls:
@@ -640,7 +675,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.plain_skin = field == PLAIN
         if self.plain_skin:  # the session keeps a field for the probe and a switch back
             field = self.session.field if muscle is not None else "W"
-        elif muscle is None and field != "W":
+        elif muscle is None and not field_info(field).total:
             self._updating_controls = True
             self.field_box.setCurrentText("W")
             self._updating_controls = False
@@ -666,8 +701,9 @@ class MainWindow(QtWidgets.QMainWindow):
         """
         name = self.session.muscle
         option = param in self.option_widgets
+        muscle = self.session.face.muscle(name)
         if not option:
-            value = int(value) if param == "n_wrinkles" else float(value)
+            value = int(value) if muscle.parameter(param).unit == "count" else float(value)
         try:
             face = self.session.with_parameter(name, param, value)
         except (MuscleParameterError, ValueError) as exc:
@@ -678,8 +714,7 @@ class MainWindow(QtWidgets.QMainWindow):
                 return False
             widget = self.param_widgets[param]
             widget.blockSignals(True)
-            widget.setValue(old if old is not None else _resolved(
-                self.session.face.muscle(name), param))
+            widget.setValue(muscle.resolved(param))
             widget.blockSignals(False)
             return False
         self.param_error.setText("")
@@ -691,8 +726,9 @@ class MainWindow(QtWidgets.QMainWindow):
     def _labels(self) -> dict[str, str]:
         """The selected muscle's parameters as the panel labels them."""
         name = self.session.muscle
-        kind = self.session.face.muscle(name).type_name if name else None
-        return {p: lbl for p, lbl, _ in (*EDITABLE.get(kind, ()), *OPTIONS)}
+        muscle = self.session.face.muscle(name) if name else None
+        specs = (*editable(muscle), *muscle.options()) if muscle is not None else ()
+        return {p.name: p.label for p in specs}
 
     def _labelled(self, message: str) -> str:
         """``message`` with the parameters called by the labels the panel shows them under
@@ -959,7 +995,7 @@ class MainWindow(QtWidgets.QMainWindow):
             f"{'' if s.time_s is None else f' at {s.time_s:.2f} s'}  |  W in "
             f"[{state.W.min():.3g}, {state.W.max():.3g}] {s.unit}  |  frame "
             f"{s.frame_ms:.2f} ms, drawn in {total_ms:.1f} ms  |  "
-            f"{s.face.skin.n_triangles} triangles")
+            f"{_triangles(len(state.triangles), s.face.skin.n_triangles)}")
         self._update_title()
 
     def active_array(self) -> str | None:
@@ -1469,10 +1505,16 @@ def _guide_text() -> str:
                 "every action.")
 
 
+def _triangles(drawn: int, skin: int) -> str:
+    """The status bar's triangle count: ``4500 triangles``, ``34162 triangles (refined
+    from 4500)``.
+    """
+    return f"{drawn} triangles" + (f" (refined from {skin})" if drawn != skin else "")
+
+
 def _field_label(field: str, unit: str) -> str:
     """A field's name with its unit: ``W (mm)``, ``lambda``."""
-    kind = field_info(field).unit
-    return {"length": f"{field} ({unit})", "deg": f"{field} (deg)"}.get(kind, field)
+    return field_info(field).label(unit)
 
 
 def _error_label() -> QtWidgets.QLabel:
@@ -1481,15 +1523,6 @@ def _error_label() -> QtWidgets.QLabel:
     label.setStyleSheet("color: #b00020")
     label.setWordWrap(True)
     return label
-
-
-_OPTION_TIPS = {
-    "taper": "Taper H to 0, C1, over the first and last half period of the wrinkling region "
-             "(off: the paper's Eq. 5, which jumps to the furrow bottom there)",
-    "compression": "How eps is measured: the paper's Eq. 10 over the edges, or the "
-                   "deformation gradient's stretch along the contraction direction (exact "
-                   "for a uniform strain)",
-}
 
 
 def _show_option(widget: QtWidgets.QWidget, value) -> None:
@@ -1502,11 +1535,32 @@ def _show_option(widget: QtWidgets.QWidget, value) -> None:
     widget.blockSignals(False)
 
 
-def _resolved(muscle, param: str) -> float:
-    """The value a defaulted (None) parameter actually takes."""
-    if param == "attenuation_start_deg" or param == "attenuation_start":
-        return muscle.attenuation_range[0]
-    return getattr(muscle, f"{param}_value")
+def _parameter_box(spec, unit: str) -> QtWidgets.QAbstractSpinBox:
+    """A spin box for one declared parameter (:class:`~wrinkle_vis.core.params.Parameter`):
+    whole numbers for a count, else three decimals; its step from the metadata, and a
+    tooltip with its symbol, meaning, unit and range. The box takes any value, so that one
+    out of range is refused by the core with its reason, not clipped silently.
+    """
+    if spec.unit == "count":
+        box = QtWidgets.QSpinBox()
+        box.setRange(-999, 999)
+        box.setSingleStep(max(1, int(spec.step)))
+    elif spec.unit == "length":  # the step is in mm: steps and digits follow the unit
+        mm = LENGTH_UNITS["mm"] / LENGTH_UNITS.get(unit, LENGTH_UNITS["mm"])
+        box = QtWidgets.QDoubleSpinBox()
+        box.setDecimals(3 + max(0, round(-np.log10(mm))))
+        box.setRange(-1e6, 1e6)
+        box.setSingleStep(spec.step * mm)
+    else:
+        box = QtWidgets.QDoubleSpinBox()
+        box.setDecimals(3)
+        box.setRange(-1e6, 1e6)
+        box.setSingleStep(spec.step)
+    shown = {"length": unit, "deg": "deg", "1": "", "count": ""}[spec.unit]
+    derived = "; left out, derived from the others" if spec.optional else ""
+    box.setToolTip(f"{spec.symbol}: {spec.doc}" + (f" ({shown})" if shown else "")
+                   + f"; allowed {spec.range_text()}{derived}")
+    return box
 
 
 def run(argv=None, layout: str | Path | None = None) -> int:

@@ -13,11 +13,13 @@ from .equations import (
 )
 from .expressions import Expression, paper_expressions
 from .face import FIELD_NAMES, FaceModel, FaceState
+from .fields import FIELDS, FieldSpec, register_field
 from .files import OutputPathError, WriteError
 from .layout import Layout, LayoutError, load_layout, save_layout
 from .mesh import MeshError, MeshReport, TriangleSurface, subdivide
 from .muscle import Muscle, MuscleParameterError, MuscleRegion, waters_radial
 from .muscles import LinearMuscle, SheetMuscle
+from .params import Parameter, parameter
 from .registry import (
     MusclePluginWarning,
     UnknownMuscleTypeError,
@@ -29,10 +31,12 @@ from .registry import (
 from .sampling import UndersampledWrinklesWarning, undersampled_muscles, warn_undersampled
 
 __all__ = [
+    "FIELDS",
     "FIELD_NAMES",
     "Expression",
     "FaceModel",
     "FaceState",
+    "FieldSpec",
     "Layout",
     "LayoutError",
     "LinearMuscle",
@@ -43,6 +47,7 @@ __all__ = [
     "MusclePluginWarning",
     "MuscleRegion",
     "OutputPathError",
+    "Parameter",
     "SheetMuscle",
     "TriangleSurface",
     "UndersampledWrinklesWarning",
@@ -60,7 +65,9 @@ __all__ = [
     "muscle_from_dict",
     "muscle_types",
     "paper_expressions",
+    "parameter",
     "periodic_coordinate",
+    "register_field",
     "register_muscle_type",
     "save_layout",
     "shape_function",

@@ -33,7 +33,10 @@ def nbytes(*objects) -> int:
             continue
         seen.add(id(obj))
         if isinstance(obj, np.ndarray):
-            total += obj.nbytes if obj.base is None else 0  # views share their base
+            if isinstance(obj.base, np.ndarray):  # a view: its base counts, once
+                stack.append(obj.base)
+            elif obj.base is None:
+                total += obj.nbytes
         elif sp.issparse(obj):
             stack += [getattr(obj, k, None) for k in ("data", "indices", "indptr", "row",
                                                       "col")]
@@ -79,6 +82,14 @@ class ByteBudgetCache:
         self._entries[key] = (value, 0)
         self.reweigh(key, value)
         return value
+
+    def put(self, key: Hashable, value: Any) -> None:
+        """Store ``value`` under ``key`` (replacing what was there) and weigh it."""
+        old = self._entries.pop(key, None)
+        if old is not None:
+            self._total -= old[1]
+        self._entries[key] = (value, 0)
+        self.reweigh(key, value)
 
     def reweigh(self, key: Hashable, *objects) -> None:
         """Weigh ``key``'s entry again (``objects``: what it holds now, default the entry);

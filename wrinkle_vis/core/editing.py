@@ -1,4 +1,5 @@
-"""Editing muscles: mirror across the face's symmetry plane, fresh names, moved points.
+"""Editing muscles: mirror across the face's symmetry plane, snap onto the surfaces their
+points are declared on, fresh names, moved points.
 
 Pure functions on immutable muscles (numpy only); the app wraps each in an undoable command.
 """
@@ -10,9 +11,10 @@ from collections.abc import Iterable, Mapping
 
 import numpy as np
 
+from .mesh import closest_points
 from .muscle import Muscle
 
-__all__ = ["mirror_name", "mirrored", "reflect", "symmetry_plane", "unique_name",
+__all__ = ["mirror_name", "mirrored", "reflect", "snapped", "symmetry_plane", "unique_name",
            "with_point"]
 
 _SIDES = (("_L", "_R"), ("_l", "_r"), ("left", "right"), ("Left", "Right"))
@@ -111,3 +113,58 @@ def with_point(muscle: Muscle, param: str, index: int | None, xyz) -> Muscle:
     arr = np.array(getattr(muscle, param), dtype=float)
     arr[index] = xyz
     return muscle.replace(**{param: arr})
+
+
+def snapped(muscle: Muscle, surfaces: Mapping, *, like: Muscle | None = None,
+            lines: bool = True, tol: float | None = None) -> Muscle:
+    """The muscle with each point of its point parameters moved onto the surface the
+    parameter is declared on (:meth:`Muscle.point_surfaces`: attachments on the skull,
+    insertions on the skin).
+
+    Parameters
+    ----------
+    muscle : Muscle
+        The muscle.
+    surfaces : mapping of str to TriangleSurface
+        ``{"skin": ..., "skull": ...}``. A surface that is missing is skipped; a ``"skull"``
+        given as None means the skin (a face without a skull).
+    like : Muscle, optional
+        The muscle it was made from (before a mirror, say): only the points that lay on
+        their surface in ``like`` (within ``tol``) are snapped, the others keep their place,
+        such as the built-in frontalis lines, which lie off the skull to share one frame.
+    lines : bool, default True
+        Snap the ends of line parameters (``(2, 3)``) too; False leaves them, when they set
+        a frame that neighbouring muscles share.
+    tol : float, optional
+        How near ``like``'s points count as on their surface; default 1e-3 of the skin's
+        (else the first surface's) bounding-box diagonal.
+
+    Returns
+    -------
+    Muscle
+        The snapped copy (the same muscle when nothing moved).
+    """
+    surfaces = dict(surfaces)
+    if surfaces.get("skull", ...) is None:
+        surfaces["skull"] = surfaces.get("skin")
+    if tol is None and like is not None:
+        ref = surfaces.get("skin")
+        ref = ref if ref is not None else next(s for s in surfaces.values() if s is not None)
+        lo, hi = ref.bounds()
+        tol = 1e-3 * float(np.linalg.norm(hi - lo))
+    changes = {}
+    for param, where in muscle.point_surfaces().items():
+        surface = surfaces.get(where)
+        arr = np.array(getattr(muscle, param), dtype=float)
+        if surface is None or (arr.ndim == 2 and not lines):
+            continue
+        rows = arr.reshape(-1, 3)
+        keep = np.zeros(len(rows), dtype=bool)
+        if like is not None:
+            old = np.asarray(getattr(like, param), dtype=float).reshape(-1, 3)
+            keep = np.linalg.norm(closest_points(surface, old) - old, axis=1) > tol
+        if keep.all():
+            continue
+        rows[~keep] = closest_points(surface, rows[~keep])
+        changes[param] = rows.reshape(arr.shape)
+    return muscle.replace(**changes) if changes else muscle

@@ -25,6 +25,7 @@ __all__ = [
     "half_period",
     "periodic_coordinate",
     "shape_function",
+    "stretch_coefficients",
     "triangle_stretch",
 ]
 
@@ -370,27 +371,9 @@ def gradient_compression_operator(rest_points, triangles, directions, rows=None)
     ok = np.isfinite(dnorm) & (dnorm > 0)
     unit_dir = np.zeros_like(directions)
     unit_dir[ok] = directions[ok] / dnorm[ok, None]
-    d = unit_dir[tri].sum(axis=1)
-    e1 = rest_points[tri[:, 1]] - rest_points[tri[:, 0]]
-    e2 = rest_points[tri[:, 2]] - rest_points[tri[:, 0]]
-    normal = np.cross(e1, e2)
-    double_area = np.linalg.norm(normal, axis=1)
-    flat = double_area > 0
-    normal[flat] /= double_area[flat, None]
-    d -= np.einsum("ij,ij->i", d, normal)[:, None] * normal
-    dlen = np.linalg.norm(d, axis=1)
-    valid = flat & (dlen > 1e-9)
-    d[valid] /= dlen[valid, None]
-    g11 = np.einsum("ij,ij->i", e1, e1)
-    g12 = np.einsum("ij,ij->i", e1, e2)
-    g22 = np.einsum("ij,ij->i", e2, e2)
-    r1 = np.einsum("ij,ij->i", e1, d)
-    r2 = np.einsum("ij,ij->i", e2, d)
-    det = np.where(valid, g11 * g22 - g12 * g12, 1.0)
-    coefficients = np.where(valid[:, None],
-                            np.c_[g22 * r1 - g12 * r2, g11 * r2 - g12 * r1] / det[:, None], 0.0)
-
-    weight = np.where(valid, 0.5 * double_area, 0.0)
+    coefficients, weight = stretch_coefficients(
+        rest_points[tri[:, 0]], rest_points[tri[:, 1]], rest_points[tri[:, 2]],
+        unit_dir[tri].sum(axis=1))
     pos = position[tri]
     keep = pos >= 0
     r_idx = pos[keep]
@@ -403,6 +386,39 @@ def gradient_compression_operator(rest_points, triangles, directions, rows=None)
     op.eliminate_zeros()
     return tri_ids, coefficients, op
 
+
+
+def stretch_coefficients(a, b, c, direction):
+    r"""The rest-triangle data of :math:`F_t d_t` for triangles with corners ``a``, ``b``,
+    ``c`` ``(t, 3)`` and a summed contraction direction ``direction`` ``(t, 3)``.
+
+    Returns
+    -------
+    coefficients : (t, 2) float
+        :math:`(c_0, c_1)` with :math:`F_t d_t = c_0 (x_b - x_a) + c_1 (x_c - x_a)`: the
+        rest edges' least-squares coordinates of :math:`d_t`, ``direction`` projected into
+        the rest triangle's plane and made unit; 0 where it or the triangle is degenerate.
+    area : (t,) float
+        The rest areas, 0 where the coefficients are.
+    """
+    e1, e2 = b - a, c - a
+    normal = np.cross(e1, e2)
+    double_area = np.linalg.norm(normal, axis=1)
+    flat = double_area > 0
+    normal[flat] /= double_area[flat, None]
+    d = direction - np.einsum("ij,ij->i", direction, normal)[:, None] * normal
+    dlen = np.linalg.norm(d, axis=1)
+    valid = flat & (dlen > 1e-9)
+    d[valid] /= dlen[valid, None]
+    g11 = np.einsum("ij,ij->i", e1, e1)
+    g12 = np.einsum("ij,ij->i", e1, e2)
+    g22 = np.einsum("ij,ij->i", e2, e2)
+    r1 = np.einsum("ij,ij->i", e1, d)
+    r2 = np.einsum("ij,ij->i", e2, d)
+    det = np.where(valid, g11 * g22 - g12 * g12, 1.0)
+    coefficients = np.where(valid[:, None],
+                            np.c_[g22 * r1 - g12 * r2, g11 * r2 - g12 * r1] / det[:, None], 0.0)
+    return coefficients, np.where(valid, 0.5 * double_area, 0.0)
 
 def triangle_stretch(points, triangles, coefficients) -> np.ndarray:
     r"""``(t,)``: :math:`|F_t d_t|`, the stretch of each triangle along its contraction

@@ -21,7 +21,6 @@ of vectorized steps whatever the number of muscles:
 from __future__ import annotations
 
 import dataclasses
-import importlib
 from collections import OrderedDict
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -30,7 +29,6 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from .cache import ByteBudgetCache
 from .equations import (
     anisotropy,
     compression_operator,
@@ -38,6 +36,8 @@ from .equations import (
     triangle_stretch,
 )
 from .expressions import Expression, paper_expressions
+from .fields import FIELD_NAMES, check_field, field_spec
+from .hierarchy import Hierarchy, canonical_order
 from .mesh import (
     MeshError,
     TriangleSurface,
@@ -47,7 +47,7 @@ from .mesh import (
     unit_rows,
 )
 from .muscle import Muscle, check_activation
-from .refine import bent_triangles, refine_triangles
+from .refined import RefinedEngine
 from .units import check_unit, face_unit
 
 __all__ = ["FIELD_NAMES", "FaceModel", "FaceState"]
@@ -59,9 +59,6 @@ SLIDE_SCALE = 0.029
 #: The most bytes the refined skins of one face keep cached (with their per-muscle data and
 #: operators), however long an animation runs; the least recently used go first.
 REFINE_CACHE_BYTES = 160 * 2**20
-
-#: Per-muscle fields of a :class:`FaceState`, by name.
-FIELD_NAMES = ("lambda", "gamma", "l", "w", "H", "At", "eps", "A", "W")
 
 
 @dataclass(frozen=True, eq=False)
@@ -329,17 +326,24 @@ class _RestFrame:
     resolution.
     """
 
-    def __init__(self, skin: TriangleSurface, normals=None, radius: float | None = None,
-                 parent: _RestFrame | None = None, parents=None):
+    def __init__(self, skin: TriangleSurface, normals=None, radius: float | None = None):
         self._skin = skin
         if normals is not None:
             self.normals = np.asarray(normals, dtype=float)
-        if parent is not None:  # a refined skin: new vertices inherit from their edge's ends
-            self.slide_normals = np.vstack([
-                parent.slide_normals, unit_rows(parent.slide_normals[parents].sum(axis=1))])
-            self.shape = np.concatenate([parent.shape, parent.shape[parents].mean(axis=1)])
-        size = float(np.sqrt(skin.triangle_areas().sum()))  # invariant under rigid motions
-        self.radius = SLIDE_SCALE * size if radius is None else radius
+        if radius is None:  # invariant under rigid motions
+            radius = SLIDE_SCALE * float(np.sqrt(skin.triangle_areas().sum()))
+        self.radius = radius
+        self._engines: dict[int, RefinedEngine] = {}
+
+    def engine(self, depth: int) -> RefinedEngine:
+        """The refinement engine of this skin ``depth`` levels deep (built on first use)."""
+        engine = self._engines.get(depth)
+        if engine is None:
+            self._engines.clear()  # one depth at a time: the hierarchy is the big part
+            hier = Hierarchy(self._skin, self.normals, self.slide_normals, self.shape, depth)
+            engine = self._engines[depth] = RefinedEngine(hier, REFINE_CACHE_BYTES,
+                                                          tangential)
+        return engine
 
     @cached_property
     def normals(self) -> np.ndarray:
@@ -423,9 +427,6 @@ class FaceModel:
         self._muscle_data: dict[Muscle, _MuscleData] = _caches[0]
         self._assemblies: OrderedDict = _caches[1] if _caches[1] is not None else OrderedDict()
         self._rest: _RestFrame = _caches[2]
-        self._refinements = ByteBudgetCache(REFINE_CACHE_BYTES)  # shared by refined faces
-        self._refine_key: tuple = ()
-        self._weighed = False
 
     # ------------------------------------------------------------------ access
     @property
@@ -580,19 +581,7 @@ class FaceModel:
             raise ValueError(f"refine_angle_deg = {refine_angle_deg:g} is outside (0, 180)")
         if int(refine_levels) < 0:
             raise ValueError(f"refine_levels = {refine_levels} must be >= 0")
-        face = self
-        for _ in range(int(refine_levels)):
-            influenced = (state.W != 0.0) | (state.deformed_points != state.rest_points).any(1)
-            candidates = influenced[face.skin.triangles].any(axis=1)
-            marked = bent_triangles(face.skin, state.points, refine_angle_deg, candidates)
-            if not marked.any():
-                break
-            face = face._refined(marked)
-            state = face._frame(acts)
-            if not face._weighed:  # its lazy caches are full after its first frame
-                self._refinements.reweigh(face._refine_key, face._own_caches())
-                face._weighed = True
-        return state
+        return self._refined_frame(state, acts, refine_angle_deg, int(refine_levels))
 
     def plot(self, expression="surprise", field: str | None = "W", muscle: str | None = None,
              *, intensity: float = 1.0, refine: bool = False, **kwargs):
@@ -600,33 +589,56 @@ class FaceModel:
         ``field`` (see :meth:`FaceState.plot`).
 
         A bridge to :func:`wrinkle_vis.plotting.plot_face` (which documents ``kwargs``);
-        needs PyVista.
+        needs PyVista. The one place the core reaches the plotting layer, imported only
+        when called and declared in the import contract (``pyproject.toml``,
+        ``ignore_imports``).
         """
-        plotting = importlib.import_module("wrinkle_vis.plotting")
-        return plotting.plot_face(self, expression, field, muscle, intensity=intensity,
-                                  refine=refine, **kwargs)
+        from wrinkle_vis.plotting import plot_face
 
-    def _refined(self, marked: np.ndarray) -> FaceModel:
-        """The face on this skin refined at ``marked`` triangles, from the root face's
-        byte-budgeted cache (:data:`REFINE_CACHE_BYTES`), keyed by every level's marks.
+        return plot_face(self, expression, field, muscle, intensity=intensity, refine=refine,
+                         **kwargs)
+
+    def _refined_frame(self, root: FaceState, acts: dict[str, float], angle_deg: float,
+                       levels: int) -> FaceState:
+        """Refine the unrefined frame ``root`` with this skin's refinement engine
+        (:mod:`wrinkle_vis.core.refined`): the subdivision hierarchy and the muscles' data
+        on it are built once and shared by every frame; a frame splits, closes and evaluates
+        only the vertices it selected.
         """
-        key = self._refine_key + (np.packbits(marked).tobytes(),)
+        active = [m for m in self.muscles if acts[m.name] > 0.0]
+        if not active or levels == 0:
+            return root
+        engine = self._rest.engine(levels)
+        a = np.array([acts[m.name] for m in active])
+        dyn, tris, present, split = engine.frame(root, tuple(active), a, angle_deg, levels)
+        if not split.any():
+            return root
+        face, order = self._refined_face(engine, split, tris, present)
+        source = _RefinedSource(root, engine, (tuple(active), a), order)
+        deformed = np.ascontiguousarray(dyn.deformed[:, order].T)
+        return FaceState(face, acts, deformed, np.ascontiguousarray(dyn.points[:, order].T),
+                         dyn.W[order], None, {}, source)
 
-        def build():
-            ref = refine_triangles(self.skin, marked, self._rest.normals)
-            rest = _RestFrame(ref.surface, ref.normals, self._rest.radius, self._rest,
-                              ref.parents)
-            face = FaceModel(ref.surface, self.skull, self.muscles, self.expressions,
-                             name=self.name, landmarks=self.landmarks, unit=self.unit,
-                             _caches=({}, None, rest))  # a refined valid skin is valid
-            face._refinements, face._refine_key = self._refinements, key
-            return face
-
-        return self._refinements.get(key, build)
-
-    def _own_caches(self) -> tuple:
-        """What this face alone holds (its skin, rest frame and caches), for weighing."""
-        return (self.skin, self._rest, self._muscle_data, self._assemblies)
+    def _refined_face(self, engine: RefinedEngine, split, tris, present):
+        """The face on the refined skin of a split set (the latest one is kept, so frames
+        with the same split set share their face, triangles and rest skin).
+        """
+        key = (self.muscles, np.packbits(split).tobytes())
+        last = engine.last
+        if last is not None and last[0] == key:
+            return last[1], last[2]
+        hier = engine.hier
+        order = canonical_order(hier, present)
+        remap = np.full(hier.n_points, -1, np.int64)
+        remap[order] = np.arange(len(order))
+        surface = TriangleSurface(hier.rest[order], _canonical_triangles(remap[tris]))
+        rest = _RestFrame(surface, hier.normal[order], self._rest.radius)
+        rest.slide_normals = hier.slide[order]
+        rest.shape = _from_six(hier.shape6[order])
+        face = FaceModel(surface, self.skull, self.muscles, self.expressions, name=self.name,
+                         landmarks=self.landmarks, unit=self.unit, _caches=({}, None, rest))
+        engine.last = (key, face, order)
+        return face, order
 
     def _frame(self, acts: dict[str, float]) -> FaceState:
         """The unrefined frame for resolved activations."""
@@ -639,6 +651,26 @@ class FaceModel:
         asm = self._assembly(active)
         deformed, points, total, compact = asm.frame(rest, np.array([acts[m] for m in active]))
         return FaceState(self, acts, deformed, points, total, asm, compact)
+
+
+def _canonical_triangles(tri: np.ndarray) -> np.ndarray:
+    """``(t, 3)``: the triangles in the order of their rows turned to start at their smallest
+    vertex: the same mesh whatever order it was assembled in (rows as given).
+    """
+    k = np.argmin(tri, axis=1)
+    rows = np.arange(len(tri))[:, None]
+    turned = tri[rows, (k[:, None] + np.arange(3)) % 3]
+    n = np.int64(tri.max() + 1) if len(tri) else np.int64(1)
+    if n < 2_000_000:  # one int64 key per triangle sorts as the rows do
+        return tri[np.argsort((turned[:, 0] * n + turned[:, 1]) * n + turned[:, 2])]
+    return tri[np.lexsort((turned[:, 2], turned[:, 1], turned[:, 0]))]
+
+
+def _from_six(six: np.ndarray) -> np.ndarray:
+    """``(n, 3, 3)`` symmetric matrices from their xx, yy, zz, xy, xz, yz entries."""
+    xx, yy, zz, xy, xz, yz = six.T
+    return np.stack([np.stack([xx, xy, xz], 1), np.stack([xy, yy, yz], 1),
+                     np.stack([xz, yz, zz], 1)], axis=1)
 
 
 def _renamed(expression: Expression, old: str, new: str | None) -> Expression:
@@ -692,6 +724,7 @@ class _Frame:
     deformed_points: np.ndarray
     assembly: _Assembly | None
     compact: dict
+    source: _RefinedSource | None = None
 
     @property
     def n_points(self) -> int:
@@ -705,6 +738,7 @@ class _MuscleFields(Mapping):
         self._state = state
         self._muscle = muscle
         self._cache: dict[str, np.ndarray] = {}
+        self._dynamic: dict[str, np.ndarray] | None = None
 
     def __iter__(self):
         return iter(FIELD_NAMES)
@@ -713,18 +747,47 @@ class _MuscleFields(Mapping):
         return len(FIELD_NAMES)
 
     def __getitem__(self, key: str) -> np.ndarray:
-        if key not in FIELD_NAMES:
-            raise KeyError(f"unknown field {key!r}; fields: {', '.join(FIELD_NAMES)}")
         if key not in self._cache:
-            arr = self._compute(key)
+            spec = field_spec(key)  # KeyError lists the fields
+            arr = np.array(spec.compute(self), dtype=float)  # a copy: ours to freeze
+            if arr.shape != (self._state.n_points,):
+                raise ValueError(f"field {key!r} computed shape {arr.shape}; expected "
+                                 f"({self._state.n_points},), one value per skin vertex")
             arr.setflags(write=False)
             self._cache[key] = arr
         return self._cache[key]
+
+    # ---------------------------------------------------------------- for compute()
+    # The catalogue's built-in entries (core/fields.py) compute through these two.
+    def static(self, key: str, attr: str, where: str) -> np.ndarray:
+        """``(n,)``: the muscle's rest-skin quantity ``attr`` of its data (``lam``,
+        ``gamma``, ``l``, ``at``, ``w``, ``h``) on its ``"aoi"`` or ``"region"``, ``nan``
+        elsewhere; on a refined frame, field ``key`` from the refinement engine.
+        """
+        if self._state.source is not None:
+            return self._state.source.static(self._muscle, key, attr)
+        data = self._state.face.muscle_data(self._muscle)
+        return self._full(data.aoi if where == "aoi" else data.region, getattr(data, attr))
+
+    def frame_value(self, key: str, where: str) -> np.ndarray:
+        """``(n,)``: the frame's ``eps`` or ``A`` (on the AOI) or ``W`` (on the region) of
+        the muscle, ``nan`` elsewhere.
+        """
+        if self._state.source is not None:
+            return self._state.source.dynamic(self._muscle, key)
+        data = self._state.face.muscle_data(self._muscle)
+        return self._full(data.aoi if where == "aoi" else data.region, self.dynamic()[key])
 
     def _full(self, ids: np.ndarray, values: np.ndarray) -> np.ndarray:
         out = np.full(self._state.n_points, np.nan)
         out[ids] = values
         return out
+
+    def dynamic(self) -> dict[str, np.ndarray]:
+        """Eps and A on the AOI, W on the region (compact), for this muscle in this frame."""
+        if self._dynamic is None:
+            self._dynamic = self._compact_dynamic()
+        return self._dynamic
 
     def _compact_dynamic(self) -> dict[str, np.ndarray]:
         """Eps and A on the AOI, W on the region, for this muscle in this state."""
@@ -742,17 +805,49 @@ class _MuscleFields(Mapping):
         eps = data.compression(state.face.skin, state.deformed_points)
         return {"eps": eps, "A": anisotropy(eps), "W": np.zeros(len(data.region_pos))}
 
-    def _compute(self, key: str) -> np.ndarray:
-        data = self._state.face.muscle_data(self._muscle)
-        static_aoi = {"lambda": data.lam, "gamma": data.gamma, "l": data.l, "At": data.at}
-        if key in static_aoi:
-            return self._full(data.aoi, static_aoi[key])
-        if key in ("w", "H"):
-            return self._full(data.region, data.w if key == "w" else data.h)
-        dyn = self._compact_dynamic()
-        if key == "W":
-            return self._full(data.region, dyn["W"])
-        return self._full(data.aoi, dyn[key])
+
+class _RefinedSource:
+    """The fields of a refined frame: the skin's vertices from the unrefined frame, the new
+    ones from the refinement engine's per-muscle data and the frame's values.
+    """
+
+    def __init__(self, root: FaceState, engine: RefinedEngine, active, order: np.ndarray):
+        self._root, self._engine, self._active, self._order = root, engine, active, order
+
+    @cached_property
+    def _dyn(self):
+        return self._engine.dynamic(self._root, *self._active)
+
+    def _start(self, muscle: Muscle, key: str):
+        """The field's values on the skin's vertices (from the unrefined frame) and where
+        the muscle's refined data go: ``(out, levels, positions, kept)``.
+        """
+        out = np.full(len(self._order), np.nan)
+        n0 = self._root.n_points
+        out[:n0] = self._root.fields[muscle.name][key]
+        lv = self._engine.levels(muscle)
+        where = np.full(self._engine.hier.n_points, -1, np.int64)
+        where[self._order] = np.arange(len(self._order))
+        pos = where[lv.ids] if len(lv.ids) else np.zeros(0, np.int64)
+        return out, lv, pos, pos >= 0
+
+    def static(self, muscle: Muscle, key: str, attr: str) -> np.ndarray:
+        """Field ``key``, the refined data's ``attr`` on the new vertices."""
+        out, lv, pos, keep = self._start(muscle, key)
+        out[pos[keep]] = getattr(lv, attr)[keep]
+        return out
+
+    def dynamic(self, muscle: Muscle, key: str) -> np.ndarray:
+        """Field ``eps``, ``A`` or ``W`` of the frame on the new vertices."""
+        out, lv, pos, keep = self._start(muscle, key)
+        eps = self._dyn.compression(lv, np.flatnonzero(keep))
+        a = anisotropy(eps)
+        if key == "W":  # on the wrinkling region, 0 for a muscle at rest
+            active = self._root.activations[muscle.name] > 0.0
+            out[pos[keep]] = lv.h[keep] * lv.at[keep] * (a if active else 0.0)
+        else:
+            out[pos[keep]] = eps if key == "eps" else a
+        return out
 
 
 class _StateFields(Mapping):
@@ -800,7 +895,8 @@ class FaceState:
         its region) although its compression ``eps`` is still reported. Built on access.
     """
 
-    def __init__(self, face, activations, deformed, points, total, assembly, compact):
+    def __init__(self, face, activations, deformed, points, total, assembly, compact,
+                 source=None):
         self.face = face
         self.activations = dict(activations)
         self.rest_points = face.skin.points
@@ -808,7 +904,8 @@ class FaceState:
         self.deformed_points = _readonly(deformed)
         self.points = _readonly(points)
         self.W = _readonly(total)
-        self.fields = _StateFields(_Frame(face, self.deformed_points, assembly, compact))
+        self.fields = _StateFields(_Frame(face, self.deformed_points, assembly, compact,
+                                          source))
 
     @property
     def n_points(self) -> int:
@@ -824,13 +921,33 @@ class FaceState:
         """The final skin as a :class:`TriangleSurface`."""
         return TriangleSurface(self.points, self.triangles)
 
+    def field_values(self, key: str, muscle: str | None = None) -> np.ndarray:
+        """``(n,)``: field ``key`` of ``muscle``, or its total over the muscles (None; only
+        the fields the catalogue gives a total, ``W``: :attr:`W`).
+
+        Raises
+        ------
+        KeyError
+            For an unknown field or muscle, listing them.
+        ValueError
+            For a field with no total and no muscle.
+        """
+        check_field(key, muscle)
+        if muscle is None:
+            return self.W
+        if muscle not in self.face.muscle_names:
+            raise KeyError(f"no muscle {muscle!r}; muscles: {', '.join(self.face.muscle_names)}")
+        return self.fields[muscle][key]
+
     def to_polydata(self):
         """The skin as ``pyvista.PolyData`` with every field as a named point array.
 
-        A bridge to :func:`wrinkle_vis.plotting.to_polydata`; needs PyVista.
+        A bridge to :func:`wrinkle_vis.plotting.to_polydata`; needs PyVista (imported when
+        called; declared in the import contract, see :meth:`FaceModel.plot`).
         """
-        plotting = importlib.import_module("wrinkle_vis.plotting")
-        return plotting.to_polydata(self)
+        from wrinkle_vis.plotting import to_polydata
+
+        return to_polydata(self)
 
     def plot(self, field: str | None = "W", muscle: str | None = None, **kwargs):
         """Show the skin coloured by ``field`` (of ``muscle``, or the total W; None for
@@ -838,10 +955,12 @@ class FaceState:
         as an image; elsewhere in a window, or off screen without a display.
 
         A bridge to :func:`wrinkle_vis.plotting.plot_state` (which documents ``kwargs``);
-        needs PyVista.
+        needs PyVista (imported when called; declared in the import contract, see
+        :meth:`FaceModel.plot`).
         """
-        plotting = importlib.import_module("wrinkle_vis.plotting")
-        return plotting.plot_state(self, field, muscle, **kwargs)
+        from wrinkle_vis.plotting import plot_state
+
+        return plot_state(self, field, muscle, **kwargs)
 
     def summary(self) -> str:
         """A few lines on the frame: activations and the range of each active field."""

@@ -206,7 +206,7 @@ def _muscles(items: Any, source: str) -> tuple[Muscle, ...]:
             muscle = cls.from_dict(item)
         except MuscleParameterError as exc:
             where = f"{path}.{exc.param}" if exc.param else path
-            raise LayoutError(source, where, "valid muscle parameters", str(exc)) from None
+            raise LayoutError(source, where, _expected(cls, exc.param), str(exc)) from None
         except (TypeError, ValueError) as exc:
             raise LayoutError(source, path, "valid muscle parameters", str(exc)) from None
         _expect(muscle.name not in names, source, f"{path}.name", "a name no other muscle has",
@@ -214,6 +214,21 @@ def _muscles(items: Any, source: str) -> tuple[Muscle, ...]:
         names.add(muscle.name)
         out.append(muscle)
     return tuple(out)
+
+
+def _expected(cls: type, param: str | None) -> str:
+    """What a layout's muscle parameter should be, from the type's declared metadata."""
+    try:
+        spec = cls.parameter(param) if param else None
+    except KeyError:
+        spec = None
+    if spec is None or not spec.label:
+        return "valid muscle parameters"
+    if spec.is_point:
+        what = "[x, y, z]" if spec.shape == (3,) else "[[x, y, z], [x, y, z]]"
+        return f"{spec.name} ({spec.doc}): {what} on the {spec.surface or 'skin'}"
+    return f"{spec.name} ({spec.symbol}, {spec.doc}) in {spec.range_text()}" + (
+        " or null (derived)" if spec.optional else "")
 
 
 def _expressions(items: Any, source: str, muscles: set[str]) -> dict[str, Expression]:

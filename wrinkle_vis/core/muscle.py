@@ -12,15 +12,17 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
 
 from .equations import attenuation, bulge_height, half_period, periodic_coordinate, shape_function
+from .params import PARAMETER_KEY, Parameter, parameter
 
 __all__ = ["COMPRESSION_MEASURES", "OPTIONS", "Geometry", "Muscle", "MuscleParameterError",
-           "MuscleRegion", "plateau_fall", "ramp_fall", "smooth_fall", "waters_radial"]
+           "MuscleRegion", "Parameter", "parameter", "plateau_fall", "ramp_fall",
+           "smooth_fall", "waters_radial"]
 
 #: The values of a muscle's ``compression`` option: ``"edges"`` is the paper's Eq. 10 (the
 #: default), ``"gradient"`` the deformation gradient's stretch along the contraction
@@ -228,26 +230,67 @@ def _fmt(value) -> str:
     return repr(value)
 
 
+class _FromParameters:
+    """A class attribute computed from the declared parameters (:meth:`Muscle.parameters`):
+    ``point_parameters`` and ``length_parameters``. A subclass may still set a tuple by hand
+    (a plug-in written before parameters carried metadata).
+    """
+
+    def __init__(self, pick):
+        self._pick = pick
+
+    def __set_name__(self, owner, name):
+        self._name = name
+
+    def __get__(self, obj, cls=None):
+        cls = type(obj) if cls is None else cls
+        if not dataclasses.is_dataclass(cls):  # while @dataclass reads the class
+            return self
+        return tuple(p.name for p in cls.parameters() if self._pick(p))
+
+
 @dataclass(frozen=True)
 class Muscle:
     r"""Base class of every muscle type (linear, sheet, and plug-ins).
 
-    Subclasses are frozen dataclasses whose first field is ``name``. They set the class
-    attributes ``type_name`` (the registry key) and ``point_parameters`` (the names of
-    parameters that are 3D points or pairs of points, which placement widgets edit), and
-    implement ``_geometry``, ``_falloff``, ``wrinkle_length`` and ``attenuation_range``.
+    Subclasses are frozen dataclasses whose first field is ``name``. Each parameter is a
+    field made by :func:`~wrinkle_vis.core.params.parameter`, which carries its metadata
+    (:class:`~wrinkle_vis.core.params.Parameter`: label, symbol, unit, range, step, whether
+    it is derived when left out, and for a point the surface it lies on); validation, the
+    app's parameter panel, layout files, the command line and the documentation read that
+    metadata (:meth:`parameters`). Subclasses set the class attribute ``type_name`` (the
+    registry key) and implement ``_geometry``, ``_falloff``, ``wrinkle_length`` and
+    ``attenuation_range``, and may implement :meth:`create` (a new muscle placed at a point
+    of the skin).
 
-    A type may declare its placement widget as ``widget = "package.module:Factory"`` (a
-    string, so the core never imports VTK); :func:`wrinkle_vis.widgets.widget_factory` looks
-    it up along the class hierarchy, and a type with none gets a generic widget with a handle
-    per point parameter.
+    A type may declare its placement widget as ``widget = "package.module:Factory"`` and its
+    glyph as ``glyph = "package.module:function"`` (strings, so the core never imports VTK);
+    :func:`wrinkle_vis.widgets.widget_factory` and :func:`wrinkle_vis.plotting.glyph_factory`
+    look them up along the class hierarchy, and a type with none gets a generic widget with a
+    handle per point parameter and a generic glyph through its points.
 
-    Every type inherits two keyword-only options (:data:`OPTIONS`), off by default so that
-    the paper's model is what a muscle computes unless asked otherwise, and validated by
-    :meth:`_check_common`:
+    The base class declares the wrinkle parameters every type shares, keyword-only:
 
     Parameters
     ----------
+    lambda_w : float, default 0.5
+        :math:`\lambda_w \in [0, 1)`; the wrinkling region is
+        :math:`\lambda_w \le \lambda \le 1`.
+    n_wrinkles : int, default 3
+        :math:`n_w \ge 1`, the number of wrinkles along the central fibre (Eq. 6).
+    k0 : float, default 0.5
+        Furrow depth factor :math:`k_0 \ge 0` (face units).
+    alpha : float, default 1.0
+        Shape modulation :math:`\alpha \in [-1, 10]`; :math:`\alpha > 0` gives a sharp
+        furrow and a round bulge.
+    strength : float, optional
+        Peak displacement :math:`K` at activation 1 (face units); default
+        :attr:`strength_value`. Types bounded by Waters' fall start :math:`R_s` check
+        :math:`K < 2 R_s / \pi` (:meth:`_check_strength`).
+
+    and two options (:data:`OPTIONS`), off by default so that the paper's model is what a
+    muscle computes unless asked otherwise:
+
     taper : bool, default False
         Multiply :math:`H` by a C1 taper over the first and the last half period of the
         wrinkling region (:meth:`taper_profile`), so that it rises from 0 where the region
@@ -260,13 +303,120 @@ class Muscle:
     """
 
     type_name: ClassVar[str] = ""
-    point_parameters: ClassVar[tuple[str, ...]] = ()
     widget: ClassVar[str | None] = None
-    length_parameters: ClassVar[tuple[str, ...]] = ("k0",)
+    glyph: ClassVar[str | None] = None
+    #: Names of the point (and line) parameters, from the metadata.
+    point_parameters: ClassVar[tuple[str, ...]] = _FromParameters(lambda p: p.is_point)
+    #: Names of the parameters that are lengths (they scale with the face).
+    length_parameters: ClassVar[tuple[str, ...]] = _FromParameters(lambda p: p.is_length)
 
     name: str
-    taper: bool = field(default=False, kw_only=True)
-    compression: str = field(default="edges", kw_only=True)
+    taper: bool = parameter(
+        False, label="taper H", symbol="T", unit="option", choices=OPTIONS["taper"],
+        doc="Taper H to 0, C1, over the first and last half period of the wrinkling region "
+            "(off: the paper's Eq. 5, which jumps to the furrow bottom there)")
+    compression: str = parameter(
+        "edges", label="eps from", symbol="ε", unit="option", choices=OPTIONS["compression"],
+        choice_labels=("edges (Eq. 10)", "gradient"),
+        doc="How eps is measured: the paper's Eq. 10 over the edges, or the deformation "
+            "gradient's stretch along the contraction direction (exact for a uniform strain)")
+    lambda_w: float = parameter(
+        0.5, label="lambda_w", symbol="λ_w", unit="1", lo=0.0, hi=1.0, hi_open=True,
+        step=0.05, doc="where the wrinkling region starts, as a fraction of the length")
+    n_wrinkles: int = parameter(
+        3, label="n_w", symbol="n_w", unit="count", lo=1, step=1,
+        doc="the number of wrinkles along the central fibre (Eq. 6)")
+    k0: float = parameter(
+        0.5, label="k0", symbol="k_0", unit="length", lo=0.0, step=0.1,
+        doc="furrow depth factor (Eq. 5, 8)")
+    alpha: float = parameter(
+        1.0, label="alpha", symbol="α", unit="1", lo=-1.0, hi=10.0, step=0.1,
+        hint="alpha < -1 turns the furrow into a crest",
+        doc="shape modulation: > 0 gives a sharp furrow and a round bulge (Eq. 5)")
+    strength: float | None = parameter(
+        label="K", symbol="K", unit="length", lo=0.0, step=0.5, derived="strength_value",
+        doc="peak skin displacement at activation 1")
+
+    # ------------------------------------------------------------ the declared parameters
+    @classmethod
+    def parameters(cls) -> tuple[Parameter, ...]:
+        """Every parameter but ``name`` and the options, in declaration order (the type's
+        own first, then the shared wrinkle parameters), with its metadata.
+
+        A field declared without :func:`~wrinkle_vis.core.params.parameter` gets plain
+        metadata: its name as label and symbol, a point if the class lists it in
+        ``point_parameters`` by hand, a length if in ``length_parameters``.
+        """
+        cached = cls.__dict__.get("_parameters_cache")
+        if cached is not None:
+            return cached
+        base = {f.name for f in dataclasses.fields(Muscle)}
+        fields = [f for f in dataclasses.fields(cls) if f.name != "name" and
+                  f.name not in OPTIONS]
+        ordered = [f for f in fields if f.name not in base] + [f for f in fields
+                                                               if f.name in base]
+        out = tuple(_metadata(cls, f) for f in ordered)
+        type.__setattr__(cls, "_parameters_cache", out)
+        return out
+
+    @classmethod
+    def options(cls) -> tuple[Parameter, ...]:
+        """The :data:`OPTIONS` every type has, with their metadata (label, choices, doc)."""
+        cached = cls.__dict__.get("_options_cache")
+        if cached is None:
+            fields = {f.name: f for f in dataclasses.fields(cls)}
+            cached = tuple(_metadata(cls, fields[name]) for name in OPTIONS)
+            type.__setattr__(cls, "_options_cache", cached)
+        return cached
+
+    @classmethod
+    def parameter(cls, name: str) -> Parameter:
+        """The metadata of parameter (or option) ``name``; ``KeyError`` lists the type's
+        parameters.
+        """
+        for p in (*cls.parameters(), *cls.options()):
+            if p.name == name:
+                return p
+        raise KeyError(f"{cls.type_name or cls.__name__} muscles have no parameter {name!r}; "
+                       f"they have: {', '.join(p.name for p in cls.parameters())}")
+
+    @classmethod
+    def point_surfaces(cls) -> dict[str, str]:
+        """``{point parameter: "skin" or "skull"}`` (a point with no surface: the skin)."""
+        return {p.name: p.surface or "skin" for p in cls.parameters() if p.is_point}
+
+    def resolved(self, name: str):
+        """The value parameter ``name`` takes: its own, or for an optional parameter left
+        out (None), the value derived from the others (:attr:`Parameter.derived`).
+        """
+        spec = self.parameter(name)
+        value = getattr(self, name)
+        if value is None and spec.derived:
+            return getattr(self, spec.derived)
+        return value
+
+    @classmethod
+    def create(cls, name: str, at, skin, skull=None) -> Muscle:
+        """A new muscle called ``name`` with its insertion on ``skin`` at ``at`` ``(3,)``,
+        ready to be dragged into place (the app's Add muscle).
+
+        Parameters
+        ----------
+        name : str
+            Its name.
+        at : (3,) array_like
+            A point at or near the skin.
+        skin, skull : TriangleSurface
+            The surfaces its points go on (``skull`` None: the skin).
+
+        Raises
+        ------
+        NotImplementedError
+            When the type does not know how to make one; the message says what to do.
+        """
+        raise NotImplementedError(
+            f"the {cls.type_name!r} muscle type cannot create a new muscle; load one from a "
+            "layout file, or give the type a create() class method")
 
     # ------------------------------------------------------------ validation helpers
     def _fail(self, param: str, value, allowed: str, hint: str = "") -> None:
@@ -320,38 +470,51 @@ class Muscle:
         return arr
 
     def _check_common(self) -> None:
-        """Validate the name, the wrinkle parameters and the options every type shares."""
+        """Validate the name, the options and every declared parameter against its
+        metadata (:meth:`parameters`); checks that involve several parameters are the
+        type's own, in its ``__post_init__``.
+        """
         if not isinstance(self.name, str) or not self.name.strip():
             raise MuscleParameterError(
                 f"{self.type_name} muscle: name must be a non-empty string; got {self.name!r}"
             )
-        self._check("lambda_w", 0.0, 1.0, hi_open=True)
-        self._check_int("n_wrinkles", 1)
-        self._check("k0", 0.0)
-        self._check("alpha", -1.0, 10.0, hint="alpha < -1 turns the furrow into a crest")
         self._check_options()
+        for spec in self.parameters():
+            self._check_declared(spec)
+
+    def _check_declared(self, spec: Parameter) -> None:
+        """Check one parameter against its metadata: shape, integer, static range."""
+        if not spec.label or (spec.optional and getattr(self, spec.name) is None):
+            return  # undeclared (no metadata), or left to its derived value
+        if spec.unit in ("point", "vector"):
+            self._check_point(spec.name, spec.shape or (3,))
+        elif spec.unit == "count":
+            self._check_int(spec.name, int(spec.lo))
+        elif spec.is_number:
+            self._check(spec.name, spec.lo, spec.hi, lo_open=spec.lo_open,
+                        hi_open=spec.hi_open, hint=spec.hint)
 
     def _check_options(self) -> None:
         """Validate :data:`OPTIONS`: ``taper`` a bool, ``compression`` a known measure."""
-        if not isinstance(self.taper, (bool, np.bool_)):
-            self._fail("taper", self.taper, "True or False")
-        object.__setattr__(self, "taper", bool(self.taper))
-        if not isinstance(self.compression, str) or self.compression not in \
-                COMPRESSION_MEASURES:
-            self._fail("compression", self.compression,
-                       " or ".join(map(repr, COMPRESSION_MEASURES)))
+        for spec in self.options():
+            value = getattr(self, spec.name)
+            if spec.is_flag:
+                if not isinstance(value, (bool, np.bool_)):
+                    self._fail(spec.name, value, "True or False")
+                object.__setattr__(self, spec.name, bool(value))
+            elif not isinstance(value, str) or value not in spec.choices:
+                self._fail(spec.name, value, " or ".join(map(repr, spec.choices)))
 
     def _check_strength(self) -> None:
         r"""Validate ``strength`` against Waters' fall start: below :math:`2 R_s / \pi`."""
-        if getattr(self, "strength", None) is not None:
+        if self.strength is not None:
             self._check("strength", 0.0, 2.0 * self.fall_start_value / math.pi, hi_open=True,
                         hint="a stronger pull would drag skin past the attachment")
 
     @property
     def strength_value(self) -> float:
         """:math:`K` actually used: ``strength``, by default :math:`0.2 R_s`."""
-        strength = getattr(self, "strength", None)
-        return 0.2 * self.fall_start_value if strength is None else strength
+        return 0.2 * self.fall_start_value if self.strength is None else self.strength
 
     # ------------------------------------------------------------ to be implemented
     @property
@@ -425,14 +588,14 @@ class Muscle:
         -------
         MuscleRegion
             ``lam``, ``gamma``, ``l`` and type-specific geometry everywhere; ``in_aoi`` and
-            ``in_region`` (Eq. 3 or 14: :math:`\lambda_w \le \lambda \le 1`,
-            :math:`0 \le \gamma \le 1`); ``At`` and ``direction`` on the AOI; ``w`` (Eq. 7)
+            ``in_region`` (Eq. 3 or 14: the AOI where :math:`\lambda_w \le \lambda` and
+            :math:`\gamma \le 1`); ``At`` and ``direction`` on the AOI; ``w`` (Eq. 7)
             and ``H`` (Eq. 5; times :meth:`taper_profile` with the ``taper`` option) on the
             wrinkling region, ``nan`` elsewhere.
         """
         p = _points(rest_points)
         g = self._geometry(p)
-        in_region = g.in_aoi & (g.lam >= self.lambda_w - 1e-9)
+        in_region = g.in_aoi & (g.lam >= self.lambda_w - 1e-9) & (g.gamma <= 1.0 + 1e-6)
         start, end = self.attenuation_range
         at = np.where(g.in_aoi, attenuation(g.coordinate, start, end), np.nan)
         w = np.where(
@@ -475,8 +638,7 @@ class Muscle:
         options...}`` (the :data:`OPTIONS` last; a dict without them gets their defaults).
         """
         out: dict[str, Any] = {"type": self.type_name}
-        names = [f.name for f in dataclasses.fields(self) if f.name not in OPTIONS]
-        for name in [*names, *OPTIONS]:
+        for name in ["name", *(p.name for p in self.parameters()), *OPTIONS]:
             out[name] = _plain(getattr(self, name))
         return out
 
@@ -525,6 +687,26 @@ class Muscle:
     def replace(self, **changes) -> Muscle:
         """A copy with some parameters changed (validated again)."""
         return dataclasses.replace(self, **changes)
+
+
+def _metadata(cls, f) -> Parameter:
+    """The :class:`Parameter` of field ``f`` of ``cls``, with its name filled in."""
+    spec = f.metadata.get(PARAMETER_KEY)
+    if spec is not None:
+        return dataclasses.replace(spec, name=f.name)
+    if f.name in _by_hand(cls, "point_parameters"):
+        return Parameter(name=f.name, unit="point", shape=(3,))
+    unit = "length" if f.name in _by_hand(cls, "length_parameters") else "1"
+    return Parameter(name=f.name, unit=unit)
+
+
+def _by_hand(cls, attribute: str) -> tuple[str, ...]:
+    """``point_parameters`` or ``length_parameters`` as a class sets them by hand."""
+    for c in cls.__mro__:
+        value = c.__dict__.get(attribute)
+        if value is not None and not isinstance(value, _FromParameters):
+            return tuple(value)
+    return ()
 
 
 def check_activation(name: str, activation) -> float:

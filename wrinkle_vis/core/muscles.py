@@ -9,7 +9,9 @@ from functools import cached_property
 
 import numpy as np
 
+from .mesh import closest_points
 from .muscle import Geometry, Muscle, plateau_fall, ramp_fall, smooth_fall, waters_radial
+from .params import parameter
 from .registry import register_muscle_type
 
 __all__ = ["LinearMuscle", "SheetMuscle"]
@@ -21,6 +23,16 @@ _TOL = 1e-9
 
 def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v)
+
+
+def anchor(skin, skull, at) -> tuple[np.ndarray, np.ndarray]:
+    """``((3,), (3,))``: the point of ``skin`` nearest ``at``, and an attachment on
+    ``skull`` (None: the skin) 30 % of the skin's height above it, for a new muscle.
+    """
+    ins = closest_points(skin, np.asarray(at, float).reshape(1, 3))[0]
+    lo, hi = skin.bounds()
+    above = ins + np.array([0.0, 0.15 * (hi[1] - lo[1]), 0.0])
+    return ins, closest_points(skull or skin, above[None])[0]
 
 
 @register_muscle_type
@@ -86,41 +98,56 @@ class LinearMuscle(Muscle):
     """
 
     type_name = "linear"
-    point_parameters = ("attachment", "insertion")
     widget = "wrinkle_vis.widgets.placement:LinearWidget"
-    length_parameters = ("radius", "k0", "fall_start", "strength")
+    glyph = "wrinkle_vis.plotting.glyphs:linear_glyph"
 
-    attachment: tuple
-    insertion: tuple
+    attachment: tuple = parameter(
+        kw_only=False, label="m_A", symbol="m_A", unit="point", shape=(3,), surface="skull",
+        doc="the end fixed to the skull")
+    insertion: tuple = parameter(
+        kw_only=False, label="m_I", symbol="m_I", unit="point", shape=(3,), surface="skin",
+        doc="the end in the skin, within the radius of the attachment")
     _: KW_ONLY
-    radius: float
-    max_angle_deg: float
-    lambda_w: float = 0.5
-    n_wrinkles: int = 3
-    k0: float = 0.5
-    alpha: float = 1.0
-    attenuation_start_deg: float | None = None
-    fall_start: float | None = None
-    strength: float | None = None
+    radius: float = parameter(
+        label="R", symbol="R", unit="length", lo=0.0, lo_open=True, step=1.0,
+        doc="the maximal radius of influence")
+    max_angle_deg: float = parameter(
+        label="Phi (deg)", symbol="Φ", unit="deg", lo=0.0, hi=90.0, lo_open=True, step=1.0,
+        doc="the half-angle of the area of influence")
+    attenuation_start_deg: float | None = parameter(
+        label="phi_c (deg)", symbol="φ_c", unit="deg", lo=0.0, step=1.0,
+        derived="attenuation_start_value", doc="where the attenuation starts (Eq. 12)")
+    fall_start: float | None = parameter(
+        label="R_s", symbol="R_s", unit="length", lo=0.0, lo_open=True, step=1.0,
+        derived="fall_start_value", doc="Waters' fall start, where the displacement peaks")
 
     def __post_init__(self):
         self._check_common()
-        m_a = self._check_point("attachment")
-        m_i = self._check_point("insertion")
+        m_a, m_i = np.asarray(self.attachment), np.asarray(self.insertion)
         length = float(np.linalg.norm(m_i - m_a))
         if length == 0.0:
             self._fail("insertion", self.insertion, "a point other than the attachment",
                        "A zero-length muscle has no direction; move the insertion")
-        radius = self._check("radius", 0.0, lo_open=True)
+        radius = self.radius
         if length >= radius:
             self._fail("radius", radius, f"(|m_I - m_A| = {length:g}, inf)",
                        "The insertion must lie inside the area of influence")
-        phi = self._check("max_angle_deg", 0.0, 90.0, lo_open=True)
+        phi = self.max_angle_deg
         if self.attenuation_start_deg is not None:
             self._check("attenuation_start_deg", 0.0, phi)
         if self.fall_start is not None:
             self._check("fall_start", 0.0, radius, lo_open=True, hi_open=True)
         self._check_strength()
+
+    @classmethod
+    def create(cls, name, at, skin, skull=None) -> LinearMuscle:
+        """A muscle from the skull above ``at`` to ``at`` on the skin, R = 1.3 x its length,
+        Φ = 25° (:meth:`Muscle.create`).
+        """
+        ins, att = anchor(skin, skull, at)
+        length = float(np.linalg.norm(ins - att))
+        return cls(name, tuple(att), tuple(ins), radius=1.3 * length, max_angle_deg=25.0,
+                   lambda_w=0.4, n_wrinkles=2, k0=0.8)
 
     @property
     def length(self) -> float:
@@ -143,10 +170,15 @@ class LinearMuscle(Muscle):
         return self.radius
 
     @property
+    def attenuation_start_value(self) -> float:
+        r""":math:`\varphi^c` actually used (default :math:`\phi / 2`)."""
+        start = self.attenuation_start_deg
+        return 0.5 * self.max_angle_deg if start is None else start
+
+    @property
     def attenuation_range(self) -> tuple[float, float]:
         """``(phi_c, phi)`` in degrees (Eq. 12)."""
-        start = self.attenuation_start_deg
-        return (0.5 * self.max_angle_deg if start is None else start, self.max_angle_deg)
+        return (self.attenuation_start_value, self.max_angle_deg)
 
     def _geometry(self, points: np.ndarray) -> Geometry:
         m_a = np.asarray(self.attachment)
@@ -232,29 +264,35 @@ class SheetMuscle(Muscle):
     """
 
     type_name = "sheet"
-    point_parameters = ("attachment_line", "insertion_line")
     widget = "wrinkle_vis.widgets.placement:SheetWidget"
-    length_parameters = ("length", "width", "depth", "k0", "attenuation_start", "fall_start",
-                         "strength")
+    glyph = "wrinkle_vis.plotting.glyphs:sheet_glyph"
 
-    attachment_line: tuple
-    insertion_line: tuple
+    attachment_line: tuple = parameter(
+        kw_only=False, label="m_A1, m_A2", symbol="m_A", unit="point", shape=(2, 3),
+        surface="skull", doc="the attachment line on the skull")
+    insertion_line: tuple = parameter(
+        kw_only=False, label="m_I1, m_I2", symbol="m_I", unit="point", shape=(2, 3),
+        surface="skin", doc="the insertion line in the skin")
     _: KW_ONLY
-    length: float | None = None
-    width: float | None = None
-    depth: float | None = None
-    lambda_w: float = 0.5
-    n_wrinkles: int = 3
-    k0: float = 0.5
-    alpha: float = 1.0
-    attenuation_start: float | None = None
-    fall_start: float | None = None
-    strength: float | None = None
+    length: float | None = parameter(
+        label="L_s", symbol="L_s", unit="length", lo=0.0, lo_open=True, step=1.0,
+        derived="length_value", doc="the AOI's length along the central fibre")
+    width: float | None = parameter(
+        label="W_s", symbol="W_s", unit="length", lo=0.0, lo_open=True, step=1.0,
+        derived="width_value", doc="the AOI's width")
+    depth: float | None = parameter(
+        label="depth", symbol="D", unit="length", lo=0.0, lo_open=True, step=1.0,
+        derived="depth_value", doc="half thickness of the AOI normal to the sheet")
+    attenuation_start: float | None = parameter(
+        label="h_c", symbol="h^c", unit="length", lo=0.0, step=0.5,
+        derived="attenuation_start_value", doc="where the attenuation starts (Eq. 15)")
+    fall_start: float | None = parameter(
+        label="R_s", symbol="R_s", unit="length", lo=0.0, lo_open=True, step=1.0,
+        derived="fall_start_value", doc="where the displacement peaks along the fibre")
 
     def __post_init__(self):
         self._check_common()
-        a = self._check_point("attachment_line", (2, 3))
-        i = self._check_point("insertion_line", (2, 3))
+        a, i = np.asarray(self.attachment_line), np.asarray(self.insertion_line)
         if np.array_equal(a[0], a[1]):
             self._fail("attachment_line", self.attachment_line, "two distinct points",
                        "A zero-length attachment line has no direction")
@@ -271,12 +309,6 @@ class SheetMuscle(Muscle):
         if np.linalg.norm(across) <= 1e-9 * np.linalg.norm(a[1] - a[0]):
             self._fail("attachment_line", self.attachment_line,
                        "a line not parallel to the central fibre")
-        if self.length is not None:
-            self._check("length", 0.0, lo_open=True)
-        if self.width is not None:
-            self._check("width", 0.0, lo_open=True)
-        if self.depth is not None:
-            self._check("depth", 0.0, lo_open=True)
         if self.attenuation_start is not None:
             self._check("attenuation_start", 0.0, 0.5 * self.width_value)
         if self.fall_start is not None:
@@ -286,6 +318,18 @@ class SheetMuscle(Muscle):
                        f"(|m_Ic - m_Ac| = {self.fall_start_value:g}, inf)",
                        "The insertion line must lie inside the AOI, or give fall_start")
         self._check_strength()
+
+    @classmethod
+    def create(cls, name, at, skin, skull=None) -> SheetMuscle:
+        """A 16 mm wide sheet from the skull above ``at`` to ``at`` on the skin
+        (:meth:`Muscle.create`).
+        """
+        ins, att = anchor(skin, skull, at)
+        across = np.array([8.0, 0.0, 0.0])
+        ins_line = closest_points(skin, np.array([ins - across, ins + across]))
+        att_line = closest_points(skull or skin, np.array([att - across, att + across]))
+        return cls(name, attachment_line=att_line, insertion_line=ins_line, lambda_w=0.3,
+                   n_wrinkles=3, k0=2.0)
 
     @property
     def attachment_center(self) -> np.ndarray:
@@ -345,11 +389,15 @@ class SheetMuscle(Muscle):
         return self.length_value
 
     @property
+    def attenuation_start_value(self) -> float:
+        """:math:`h^c` actually used (default :math:`W_s / 4`)."""
+        start = self.attenuation_start
+        return 0.25 * self.width_value if start is None else start
+
+    @property
     def attenuation_range(self) -> tuple[float, float]:
         """``(h_c, W_s / 2)`` (Eq. 15)."""
-        half = 0.5 * self.width_value
-        start = self.attenuation_start
-        return (0.5 * half if start is None else start, half)
+        return (self.attenuation_start_value, 0.5 * self.width_value)
 
     def _geometry(self, points: np.ndarray) -> Geometry:
         f, s, n = self.frame

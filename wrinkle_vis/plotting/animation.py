@@ -16,7 +16,7 @@ import pyvista as pv
 from ..core.face import FaceModel
 from ..core.units import face_unit
 from .fields import field_info, field_range
-from .scenes import LAYERS, add_muscles, add_skin, add_skull, clear_scene, set_camera
+from .scenes import LAYERS, add_muscles, add_skin, add_skull, clear_scene, evaluate, set_camera
 
 __all__ = ["MAX_FRAMES", "TooManyFramesError", "animation_frames", "frame_times"]
 
@@ -61,29 +61,34 @@ def frame_times(expression, fps: float, max_frames: int = MAX_FRAMES) -> np.ndar
 def animation_frames(face: FaceModel, expression, times, *, field: str | None = "W",
                      muscle: str | None = None, layers=("skin",), camera: str = "front",
                      size=(480, 480), intensity: float = 1.0, label: str | None = None,
-                     theme=None) -> Iterator[np.ndarray]:
+                     theme=None, refine: bool = False, refine_angle_deg: float | None = None,
+                     refine_levels: int | None = None) -> Iterator[np.ndarray]:
     """Render ``expression`` (an :class:`~wrinkle_vis.core.expressions.Expression`) at each
     of ``times``, one ``(h, w, 3) uint8`` frame at a time.
 
     The layers are drawn as :func:`~wrinkle_vis.plotting.render_field` draws them; the colour
     range of ``field`` is fixed over the whole ramp (the range at the peak), so the ramp is
     visible. One off-screen plotter is used and closed when the generator ends or is closed.
+    ``refine`` evaluates every frame with adaptive refinement, with the bending threshold
+    and most levels given (None: the model's defaults, :meth:`FaceModel.evaluate`).
     """
     unknown = [layer for layer in layers if layer not in LAYERS]
     if unknown or not layers:
         raise ValueError(f"unknown layer(s) {unknown}; choose from {', '.join(LAYERS)}")
     label = label or expression.name
     info = field_info(field) if field else None
+    options = {"refine": refine, "refine_angle_deg": refine_angle_deg,
+               "refine_levels": refine_levels}
     clim = None
     if info is not None and "skin" in layers:
-        peak = face.evaluate(expression, intensity)
+        peak = evaluate(face, expression, intensity, **options)
         clim = field_range(info, peak.W if muscle is None else peak.fields[muscle][field])
     translucent = "muscles" in layers or "skull" in layers
     plotter = pv.Plotter(off_screen=True, window_size=[int(size[0]), int(size[1])],
                          theme=theme)
     try:
         for t in times:
-            state = face.evaluate(expression.at(float(t), intensity))
+            state = evaluate(face, expression.at(float(t), intensity), **options)
             clear_scene(plotter)
             if "skin" in layers:
                 add_skin(plotter, state, field, muscle, opacity=0.35 if translucent else 1.0)

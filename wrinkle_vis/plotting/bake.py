@@ -495,8 +495,7 @@ def bake_maps(state: FaceState, corner_uvs: np.ndarray, size: tuple[int, int] = 
 
     def colour(fname: str, muscle: str | None):
         r = holder["r"]
-        values = np.asarray(state.W if muscle is None and fname == "W"
-                            else state.fields[muscle][fname], float)
+        values = np.asarray(state.field_values(fname, muscle), float)
         fi = field_info(fname)
         clim = field_range(fi, values)
         name = field_array_name(fname, muscle)

@@ -12,7 +12,7 @@ import numpy as np
 import pyvista as pv
 
 from ..core.face import FaceModel
-from .scenes import add_raking_light, add_skin, set_camera
+from .scenes import add_raking_light, add_skin, evaluate, set_camera
 from .writers import IMAGE_SUFFIXES, check_target, save_image
 
 __all__ = ["EDGE_COLOR", "PANEL_SIZE", "figure_expressions", "figure_refinement"]
@@ -41,7 +41,8 @@ def figure_expressions(face: FaceModel, expressions=("surprise", "frown", "fear"
                        filename=None, *, size=None, intensity: float = 1.0,
                        refine: bool = False, camera: str = "upper_face",
                        elevation_deg: float = 20.0, azimuth_deg: float = 35.0,
-                       theme=None) -> np.ndarray:
+                       theme=None, refine_angle_deg: float | None = None,
+                       refine_levels: int | None = None) -> np.ndarray:
     """The paper's Fig. 9: each expression without and with wrinkles, side by side.
 
     One row per expression. The left panel is the skin the muscles moved
@@ -66,6 +67,9 @@ def figure_expressions(face: FaceModel, expressions=("surprise", "frown", "fear"
         Evaluate with adaptive refinement (both panels show the refined mesh).
     camera : str
         One of :data:`~wrinkle_vis.plotting.CAMERAS`; the default frames forehead to nose.
+    refine_angle_deg, refine_levels : optional
+        The refinement's bending threshold and most levels (None: the model's defaults,
+        :meth:`FaceModel.evaluate`).
     elevation_deg, azimuth_deg : float
         The raking light (see :func:`add_raking_light`).
     theme : pyvista theme, optional
@@ -81,7 +85,8 @@ def figure_expressions(face: FaceModel, expressions=("surprise", "frown", "fear"
         raise ValueError("name at least one expression")
     if filename is not None:
         check_target(filename, IMAGE_SUFFIXES)
-    states = [face.evaluate(e, intensity, refine=refine) for e in expressions]
+    states = [evaluate(face, e, intensity, refine=refine, refine_angle_deg=refine_angle_deg,
+                       refine_levels=refine_levels) for e in expressions]
     width, height = size or (2 * PANEL_SIZE[0], len(expressions) * PANEL_SIZE[1])
     plotter = pv.Plotter(off_screen=True, shape=(len(expressions), 2), border=False,
                          window_size=[int(width), int(height)], theme=theme)
@@ -106,7 +111,8 @@ def figure_expressions(face: FaceModel, expressions=("surprise", "frown", "fear"
 def figure_refinement(face: FaceModel, filename=None, *, expression="surprise",
                       size=(800, 800), intensity: float = 1.0, camera: str = "forehead",
                       elevation_deg: float = 20.0, azimuth_deg: float = 35.0,
-                      theme=None) -> np.ndarray:
+                      theme=None, refine_angle_deg: float | None = None,
+                      refine_levels: int | None = None) -> np.ndarray:
     """The paper's Fig. 11: the adaptively refined mesh over the shaded forehead.
 
     ``expression`` is evaluated with ``refine=True``; the refined skin (``state.face.skin``
@@ -131,6 +137,9 @@ def figure_refinement(face: FaceModel, filename=None, *, expression="surprise",
         The raking light (see :func:`add_raking_light`).
     theme : pyvista theme, optional
         For image tests.
+    refine_angle_deg, refine_levels : optional
+        The refinement's bending threshold and most levels (None: the model's defaults,
+        :meth:`FaceModel.evaluate`).
 
     Returns
     -------
@@ -139,7 +148,8 @@ def figure_refinement(face: FaceModel, filename=None, *, expression="surprise",
     """
     if filename is not None:
         check_target(filename, IMAGE_SUFFIXES)
-    state = face.evaluate(expression, intensity, refine=True)
+    state = evaluate(face, expression, intensity, refine=True,
+                     refine_angle_deg=refine_angle_deg, refine_levels=refine_levels)
     width, height = size
     plotter = pv.Plotter(off_screen=True, window_size=[int(width), int(height)], theme=theme)
     try:

@@ -374,7 +374,7 @@ class FaceExplorer:
     def _fix_muscle(self) -> None:
         """A per-muscle field needs a muscle: take the first the expression contracts."""
         v = self.values
-        if v["field"] not in (None, "W") and v["muscle"] is None:
+        if v["field"] is not None and not field_info(v["field"]).total and v["muscle"] is None:
             acts = self.face.activations_for(v["expression"])
             active = [m for m, a in acts.items() if a > 0] or list(self.face.muscle_names)
             self.controls["muscle"].value = active[0]

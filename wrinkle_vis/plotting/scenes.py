@@ -6,16 +6,16 @@ import numpy as np
 import pyvista as pv
 
 from ..core.face import FaceModel, FaceState
-from ..core.muscles import LinearMuscle, SheetMuscle
 from ..core.units import face_unit
 from .fields import NAN_COLOR, field_info, field_range
+from .glyphs import glyph_factory
 from .polydata import field_array_name, to_polydata, to_surface_polydata
 from .writers import IMAGE_SUFFIXES, check_target, save_image
 
 __all__ = ["BONE", "CAMERAS", "LAYERS", "SKIN", "add_attachments", "add_muscle",
-           "add_muscles", "add_raking_light", "add_skin", "add_skull", "attachment_points",
-           "clear_scene", "muscle_mesh", "render_field", "replace_mesh", "set_camera",
-           "testing_theme", "to_multiblock"]
+           "add_muscles", "add_raking_light", "add_skin", "add_skin_mesh", "add_skull",
+           "attachment_points", "clear_scene", "evaluate", "muscle_mesh", "render_field",
+           "replace_mesh", "set_camera", "testing_theme", "to_multiblock"]
 
 SKIN = "#f1c9a5"
 BONE = "#e3dac9"
@@ -116,34 +116,48 @@ def _scalar_bar(title: str, nan: bool = True) -> dict:
             "height": 0.06}
 
 
+def evaluate(face: FaceModel, expression, intensity: float = 1.0, *, refine: bool = False,
+             refine_angle_deg: float | None = None,
+             refine_levels: int | None = None) -> FaceState:
+    """``face.evaluate(expression, intensity, refine=refine, ...)`` with only the
+    refinement options given (None: the model's defaults, :meth:`FaceModel.evaluate`).
+    """
+    options = {k: v for k, v in (("refine_angle_deg", refine_angle_deg),
+                                 ("refine_levels", refine_levels)) if v is not None}
+    return face.evaluate(expression, intensity, refine=refine, **options)
+
+
 def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
              muscle: str | None = None, *, opacity: float = 1.0, scalar_bar: bool = True,
-             show_edges: bool = False, points=None, edge_color=None):
+             show_edges: bool = False, points=None, edge_color=None, normals=None):
     """Add the final skin of ``state``, coloured by ``field`` (of ``muscle``, or total W).
 
     ``field=None`` draws plain, matte skin. Undefined values (NaN) take :data:`NAN_COLOR` and
     the scalar bar labels them. ``points`` (``(n, 3)``) draws the skin elsewhere, e.g. at
-    ``state.deformed_points`` (moved by the muscles, without wrinkles). Returns the actor.
+    ``state.deformed_points`` (moved by the muscles, without wrinkles). ``normals``
+    (``(n, 3)``, e.g. ``state.normals``) shades the skin smoothly with these vertex normals
+    (point array ``Normals``) and draws the mesh itself, with no normals filter between it
+    and the mapper, so that a caller can write a new frame into it in place (the app's
+    views); by default PyVista's smooth shading computes them. Returns the actor.
     """
     mesh = to_surface_polydata(state.face.skin, state.points if points is None else points)
+    if normals is not None:
+        mesh.point_data["Normals"] = np.asarray(normals, dtype=float)
+        mesh.GetPointData().SetActiveNormals("Normals")
+    shading = _shading(mesh)
     if field is None:
-        return plotter.add_mesh(mesh, color=SKIN, smooth_shading=True, opacity=opacity,
-                                show_edges=show_edges, edge_color=edge_color, specular=0.0,
-                                diffuse=1.0, ambient=0.0, name="skin", render=False)
+        return add_skin_mesh(plotter, mesh, opacity=opacity, show_edges=show_edges,
+                             edge_color=edge_color)
     info = field_info(field)
-    if muscle is None and field != "W":
-        raise ValueError(f"field {field!r} belongs to one muscle; name it (only W has a "
-                         "total)")
-    if muscle is not None and muscle not in state.face.muscle_names:
-        raise KeyError(f"no muscle {muscle!r}; muscles: {', '.join(state.face.muscle_names)}")
+    values = np.asarray(state.field_values(field, muscle))  # checks field and muscle
     array = field_array_name(field, muscle)
-    values = np.asarray(state.W if muscle is None else state.fields[muscle][field])
     mesh.point_data[array] = values  # only the field shown: the others stay in the core
     mesh.set_active_scalars(array)
     actor = plotter.add_mesh(
         mesh, scalars=array, cmap=info.cmap, clim=field_range(info, values),
-        nan_color=NAN_COLOR, smooth_shading=True, opacity=opacity, show_edges=show_edges,
+        nan_color=NAN_COLOR, opacity=opacity, show_edges=show_edges,
         edge_color=edge_color, show_scalar_bar=scalar_bar, name="skin", render=False,
+        **shading,
         scalar_bar_args=_scalar_bar(info.title(muscle, face_unit(state))) if scalar_bar
         else None)
     if scalar_bar:
@@ -152,33 +166,34 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
     return actor
 
 
+def add_skin_mesh(plotter: pv.Plotter, mesh: pv.PolyData, *, opacity: float = 1.0,
+                  show_edges: bool = False, edge_color=None):
+    """Add ``mesh`` as plain, matte skin (actor ``skin``), shaded smoothly with its own
+    vertex normals if it has them (else PyVista computes them). Returns the actor.
+    """
+    return plotter.add_mesh(mesh, color=SKIN, opacity=opacity, show_edges=show_edges,
+                            edge_color=edge_color, specular=0.0, diffuse=1.0, ambient=0.0,
+                            name="skin", render=False, **_shading(mesh))
+
+
+def _shading(mesh: pv.PolyData) -> dict:
+    """``add_mesh`` arguments for smooth shading: with the mesh's own vertex normals, the
+    mesh itself is drawn (no normals filter between it and the mapper: a write into it
+    shows at the next render and runs no pipeline); else PyVista's smooth shading.
+    """
+    if mesh.GetPointData().GetNormals() is not None:
+        return {"smooth_shading": False, "interpolation": "phong"}
+    return {"smooth_shading": True}
+
+
 def muscle_mesh(muscle, activation: float = 0.0) -> pv.PolyData:
-    """The muscle as geometry: a tapered fibre (linear) or a ribbon of seven fibres from the
-    attachment line to the insertion line (sheet).
+    """The muscle as geometry: its type's glyph (:func:`~wrinkle_vis.plotting.glyph_factory`:
+    a tapered fibre for a linear muscle, a ribbon of seven fibres for a sheet, a fibre
+    through the declared points for a type with no glyph of its own).
 
     Point array ``activation`` holds the activation everywhere, for colouring.
     """
-    if isinstance(muscle, LinearMuscle):
-        a, b = np.asarray(muscle.attachment), np.asarray(muscle.insertion)
-        line = pv.Line(a, b, resolution=16)
-        t = np.linspace(0.0, 1.0, line.n_points)
-        line.point_data["r"] = muscle.length * (0.06 - 0.035 * t)  # thick at the bone
-        mesh = line.tube(scalars="r", absolute=True, n_sides=12, capping=True)
-    elif isinstance(muscle, SheetMuscle):
-        att, ins = np.asarray(muscle.attachment_line), np.asarray(muscle.insertion_line)
-        s = np.linspace(0.0, 1.0, 7)[:, None]
-        starts = att[0] + s * (att[1] - att[0])
-        ends = ins[0] + s * (ins[1] - ins[0])
-        t = np.linspace(0.0, 1.0, 9)[None, :, None]
-        points = (starts[:, None] + t * (ends - starts)[:, None]).reshape(-1, 3)
-        lines = np.hstack([np.full((7, 1), 9), np.arange(63).reshape(7, 9)]).ravel()
-        mesh = pv.PolyData(points, lines=lines).tube(  # seven fibres in one filter run
-            radius=0.012 * muscle.fibre_length, n_sides=8, capping=True)
-    else:  # a plug-in type: a line through its point parameters
-        pts = np.concatenate([np.asarray(getattr(muscle, p), float).reshape(-1, 3)
-                              for p in muscle.point_parameters])
-        mesh = pv.Spline(pts, max(2, 8 * len(pts))).tube(radius=1.0) if len(pts) > 1 \
-            else pv.Sphere(radius=2.0, center=pts[0])
+    mesh = glyph_factory(type(muscle))(muscle)
     mesh.point_data["activation"] = np.full(mesh.n_points, float(activation))
     return mesh
 
@@ -221,8 +236,8 @@ def add_muscle(plotter: pv.Plotter, muscle, activation: float = 0.0, *,
     mesh (see :func:`add_muscles`).
     """
     mesh = muscle_mesh(muscle, activation)
-    plotter.add_mesh(
-        mesh, scalars="activation", cmap="Reds", clim=(0.0, 1.0), smooth_shading=True,
+    plotter.add_mesh(  # a tube has its own normals: a write of the activation is cheap
+        mesh, scalars="activation", cmap="Reds", clim=(0.0, 1.0), **_shading(mesh),
         name=f"muscle:{muscle.name}", render=False, show_scalar_bar=scalar_bar,
         reset_camera=False,
         scalar_bar_args=_scalar_bar("activation", nan=False) if scalar_bar else None)
@@ -254,11 +269,12 @@ def add_skull(plotter: pv.Plotter, face: FaceModel, *, attachments: bool = True)
 
 
 def attachment_points(face: FaceModel) -> np.ndarray:
-    """``(k, 3)``: every muscle's attachment points (its ``attachment*`` point parameters,
-    the ones on the skull), in muscle order.
+    """``(k, 3)``: every muscle's attachment points (the point parameters its type declares
+    on the skull, :meth:`~wrinkle_vis.core.muscle.Muscle.point_surfaces`), in muscle order.
     """
     pts = [np.asarray(getattr(m, p), float).reshape(-1, 3)
-           for m in face.muscles for p in m.point_parameters if p.startswith("attachment")]
+           for m in face.muscles for p, where in m.point_surfaces().items()
+           if where == "skull"]
     return np.concatenate(pts) if pts else np.zeros((0, 3))
 
 
@@ -307,7 +323,9 @@ def set_camera(plotter: pv.Plotter, name: str, face: FaceModel) -> None:
 def render_field(face: FaceModel, expression="surprise", field: str | None = "W",
                  muscle: str | None = None, *, layers=("skin",), camera: str = "front",
                  size=(800, 800), intensity: float = 1.0, filename=None, title=None,
-                 theme=None, plotter: pv.Plotter | None = None) -> np.ndarray:
+                 theme=None, plotter: pv.Plotter | None = None, refine: bool = False,
+                 refine_angle_deg: float | None = None,
+                 refine_levels: int | None = None) -> np.ndarray:
     """Render a field of an expression off screen, with scalar bar and title, to a PNG.
 
     Parameters
@@ -331,6 +349,10 @@ def render_field(face: FaceModel, expression="surprise", field: str | None = "W"
         (:func:`~wrinkle_vis.plotting.writers.save_image`); checked before any work.
     plotter : pyvista.Plotter, optional
         Draw into this plotter (for image tests) instead of a new one; it is not closed.
+    refine : bool
+        Evaluate with adaptive refinement (:meth:`FaceModel.evaluate`).
+    refine_angle_deg, refine_levels : optional
+        Its bending threshold and most levels (None: the model's defaults).
 
     Returns
     -------
@@ -342,7 +364,8 @@ def render_field(face: FaceModel, expression="surprise", field: str | None = "W"
         raise ValueError(f"unknown layer(s) {unknown}; choose from {', '.join(LAYERS)}")
     if filename is not None:
         check_target(filename, IMAGE_SUFFIXES)
-    state = face.evaluate(expression, intensity)
+    state = evaluate(face, expression, intensity, refine=refine,
+                     refine_angle_deg=refine_angle_deg, refine_levels=refine_levels)
     own = plotter is None
     if own:
         plotter = pv.Plotter(off_screen=True, window_size=list(size), theme=theme)

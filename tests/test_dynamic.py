@@ -1,0 +1,153 @@
+"""The refinement engine for animation (core/hierarchy.py, core/refined.py): a hierarchy
+built once, frames whose values do not depend on which triangles they split."""
+
+import numpy as np
+import pytest
+from meshes import sphere as make_sphere
+
+import wrinkle_vis as wv
+from wrinkle_vis.core import mesh
+from wrinkle_vis.core.hierarchy import Hierarchy, conforming_triangles, refined_topology
+
+
+@pytest.fixture(scope="module")
+def face():
+    return wv.datasets.load_face()
+
+
+def _hierarchy(surface, roots, depth=3):
+    hier = Hierarchy(surface, surface.vertex_normals(), surface.vertex_normals(),
+                     np.zeros((surface.n_points, 3, 3)), depth)
+    hier.ensure(np.asarray(roots))
+    return hier
+
+
+def test_neighbour_tables_and_rings_match_the_uniform_subdivision():
+    sphere = make_sphere(2)
+    hier = _hierarchy(sphere, np.arange(sphere.n_triangles))  # everything, 3 levels
+    n_root = sphere.n_triangles
+    for level in (1, 2, 3):
+        nodes = np.flatnonzero(hier.node_level == level)
+        tri = hier.node_tri[nodes]
+        uniform = mesh.TriangleSurface(hier.rest, tri)  # the level's uniform mesh
+        assert uniform.report().consistently_oriented
+        assert len(uniform.report().boundary_edges) == 0
+        # the node across each edge shares that edge, traversed the other way
+        nbr = hier.node_nbr[nodes]
+        assert (nbr >= n_root).all()
+        for j in range(3):
+            a, b = tri[:, j], tri[:, (j + 1) % 3]
+            other = hier.node_tri[nbr[:, j]]
+            has = ((other == a[:, None]) | (other == b[:, None])).sum(axis=1)
+            assert (has == 2).all()
+        # a new vertex's ring is its one-ring in the uniform mesh of its level, in order
+        new = np.flatnonzero(hier.level == level)
+        adjacency = uniform.adjacency.tolil()
+        for v in new[:50]:
+            ring = hier.ring[v]
+            assert set(ring.tolist()) == set(adjacency.rows[v])
+            for j in range(6):  # consecutive ring vertices span a triangle of the level
+                t = {v, ring[j], ring[(j + 1) % 6]}
+                assert any(set(row) == t for row in tri[(tri == v).any(axis=1)].tolist())
+
+
+def test_the_closure_is_conforming_for_any_split_set():
+    rng = np.random.default_rng(4)
+    sphere = make_sphere(1)
+    hier = _hierarchy(sphere, np.arange(sphere.n_triangles))
+    for _ in range(20):
+        split = np.zeros(len(hier.node_tri), bool)
+        alive = np.arange(sphere.n_triangles)
+        for _level in range(3):  # split random leaves, level after level
+            pick = alive[rng.random(len(alive)) < 0.3]
+            pick = pick[~split[pick] & (hier.node_child[pick] >= 0)]
+            split[pick] = True
+            refined_topology(hier, split, pick)
+            tris, nodes, present = conforming_triangles(hier, split)
+            alive = nodes
+        rep = mesh.TriangleSurface(hier.rest, tris).report()
+        assert len(rep.boundary_edges) == 0 and len(rep.non_manifold_edges) == 0
+        assert rep.consistently_oriented
+        assert np.isclose(mesh.TriangleSurface(hier.rest, tris).triangle_areas().sum(),
+                          mesh.TriangleSurface(hier.rest, hier.node_tri[hier.node_level == 3])
+                          .triangle_areas().sum(), rtol=0.05)
+
+
+def test_skin_vertices_keep_the_unrefined_values_exactly(face):
+    for name in ("surprise", "frown", "fear"):
+        base = face.evaluate(name, 0.7)
+        state = face.evaluate(name, 0.7, refine=True)
+        n = face.skin.n_points
+        assert len(state.points) > n
+        np.testing.assert_array_equal(state.points[:n], base.points)
+        np.testing.assert_array_equal(state.W[:n], base.W)
+
+
+def test_a_vertex_has_the_same_values_whatever_the_frame_splits(face):
+    """The frame's values at a vertex do not depend on the topology: two refinements of
+    one frame (thresholds 2 and 5 degrees) agree wherever they share a vertex."""
+    fine = face.evaluate("surprise", 0.8, refine=True, refine_angle_deg=2.0)
+    coarse = face.evaluate("surprise", 0.8, refine=True, refine_angle_deg=5.0)
+    assert len(fine.points) > len(coarse.points)
+    key = {p.tobytes(): i for i, p in enumerate(fine.rest_points)}
+    shared = [(key[p.tobytes()], j) for j, p in enumerate(coarse.rest_points)
+              if p.tobytes() in key]
+    i, j = np.array(shared).T
+    assert len(i) > 0.9 * len(coarse.points)
+    assert (j >= face.skin.n_points).sum() > 5000  # new vertices in both
+    np.testing.assert_allclose(fine.points[i], coarse.points[j], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(fine.W[i], coarse.W[j], rtol=0, atol=1e-12)
+
+
+def test_the_same_frame_gives_the_same_arrays_whatever_came_before(face):
+    fresh = wv.datasets.load_face(n_triangles=face.skin.n_triangles)
+    for name in ("fear", "frown", "surprise"):
+        face.evaluate(name, 0.9, refine=True)
+    a = face.evaluate("frown", 0.6, refine=True)
+    b = fresh.evaluate("frown", 0.6, refine=True)
+    np.testing.assert_array_equal(a.triangles, b.triangles)
+    np.testing.assert_array_equal(a.points, b.points)
+
+
+def test_fields_at_new_vertices_add_up_to_the_frame(face):
+    state = face.evaluate("fear", 0.9, refine=True)
+    total = np.zeros(len(state.points))
+    for m in face.muscle_names:
+        w = state.fields[m]["W"]
+        total += np.nan_to_num(w)
+    np.testing.assert_allclose(total, state.W, atol=1e-12)
+    eps = state.fields["frontalis_major_L"]["eps"]
+    assert np.isfinite(eps[face.skin.n_points:]).any()
+
+
+def test_the_gradient_option_refines_too(face):
+    import dataclasses
+
+    m = face.muscle("frontalis_major_L")
+    g = face.with_muscle(dataclasses.replace(m, compression="gradient"))
+    state = g.evaluate("surprise", 0.8, refine=True)
+    assert len(state.points) > face.skin.n_points
+    assert np.isfinite(state.points).all()
+    eps = state.fields["frontalis_major_L"]["eps"][face.skin.n_points:]
+    assert np.nanmax(eps) > 0.0
+
+
+def test_the_hierarchy_is_bounded_by_the_uniform_subdivision(face):
+    for name in ("surprise", "frown", "fear"):
+        for t in np.linspace(0.1, 1.0, 4):
+            face.evaluate(name, t, refine=True)
+    hier = face._rest.engine(3).hier
+    built = int(hier.root_built.sum())
+    assert len(hier.node_tri) == face.skin.n_triangles + built * (4 + 16 + 64)
+    assert built < face.skin.n_triangles
+
+
+@pytest.mark.parametrize("levels", [1, 2, 4])
+def test_other_depths_are_conforming_and_as_deep_as_asked(face, levels):
+    state = face.evaluate("frown", refine=True, refine_levels=levels)
+    rep = state.surface().report()
+    assert len(rep.non_manifold_edges) == 0 and rep.consistently_oriented
+    assert len(rep.boundary_edges) == len(face.skin.report().boundary_edges)
+    hier = face._rest.engine(levels).hier
+    used = hier.level[face._rest.engine(levels).last[2]]
+    assert used.max() == levels  # the deepest level is reached, no deeper

@@ -1,0 +1,503 @@
+r"""Adaptive refinement for animation: a subdivision hierarchy built once, frames that look up.
+
+New vertices have fixed rest positions, so everything that depends on the rest skin alone is
+built once per skin (and per muscle) and shared by every frame:
+
+* :class:`Hierarchy`: the uniform 1-to-4 subdivision of the skin's triangles down to the
+  deepest level, built root triangle by root triangle when a frame first splits one (and its
+  edge neighbours, whose children border it). New vertices sit on the Phong midpoints of
+  their edges (:func:`~wrinkle_vis.core.mesh.phong_midpoints`), as
+  :func:`~wrinkle_vis.core.refine.refine_triangles` puts them. Each new vertex also keeps its
+  *ring*: its six neighbours in the uniform mesh of the level it was made at.
+* :class:`MuscleLevels`: one muscle's rest data on the hierarchy's vertices (:math:`\lambda`,
+  :math:`\gamma`, :math:`l`, :math:`w`, :math:`H`, :math:`At`, the unit pull) and the Eq. 10
+  weights of its ring edges.
+
+Every quantity of a frame at a vertex is then a function of that vertex alone, whichever
+triangles the frame splits ("topology-free"): the displacement from the vertex's rest data,
+:math:`\tau` (Eq. 9) on its ring edges, :math:`\varepsilon` (Eq. 10) over them, :math:`W`
+(Eq. 4) and the normal it is moved along (the area-weighted normal of its deformed ring). A
+vertex of the skin keeps the values of the unrefined frame exactly; a frame only decides
+which triangles split (:func:`refined_topology`: the red-green closure as table look-ups)
+and evaluates the vertices it selected. So the refined surface does not pop when the set of
+split triangles changes: a vertex that stays keeps its position, and one that appears sits
+where the surface through its ring puts it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .equations import stretch_coefficients
+from .mesh import TriangleSurface, phong_midpoints, unit_rows
+from .muscle import Muscle
+
+__all__ = ["Hierarchy", "MuscleLevels", "refined_topology"]
+
+_KEY = np.int64(1 << 31)
+
+
+def _six(shape: np.ndarray) -> np.ndarray:
+    """``(n, 6)``: the xx, yy, zz, xy, xz, yz entries of symmetric ``(n, 3, 3)``."""
+    return np.stack([shape[:, 0, 0], shape[:, 1, 1], shape[:, 2, 2], shape[:, 0, 1],
+                     shape[:, 0, 2], shape[:, 1, 2]], axis=1)
+
+
+def _grow(a: np.ndarray, more: np.ndarray) -> np.ndarray:
+    """``a`` with the rows ``more`` appended, amortized: ``a`` is a prefix of a buffer with
+    spare rows (grown by doubling), so appending copies only ``more``.
+    """
+    n, k = len(a), len(more)
+    base = a.base
+    if (isinstance(base, np.ndarray) and base.shape[1:] == a.shape[1:]
+            and base.dtype == a.dtype and len(base) >= n + k
+            and base.__array_interface__["data"][0] == a.__array_interface__["data"][0]):
+        base[n:n + k] = more
+        return base[:n + k]
+    base = np.empty((max(2 * (n + k), 1024), *a.shape[1:]), a.dtype)
+    base[:n] = a
+    base[n:n + k] = more
+    return base[:n + k]
+
+
+class Hierarchy:
+    """The uniform subdivision hierarchy of a skin, ``depth`` levels deep, built on demand.
+
+    Parameters
+    ----------
+    skin : TriangleSurface
+        The root skin (its triangles are the root nodes, its vertices the root vertices).
+    normals, slide_normals : (n, 3) float
+        Unit rest normals (for the Phong midpoints) and the normals the skin slides along.
+    shape : (n, 3, 3) float
+        Shape operators of ``slide_normals``.
+    depth : int
+        Levels below the root.
+
+    Attributes
+    ----------
+    rest, normal, slide : (v, 3) float
+        Every built vertex's rest position, Phong normal and slide normal (root ones first).
+    shape6 : (v, 6) float
+        Their shape operators (xx, yy, zz, xy, xz, yz).
+    level : (v,) int8
+        The level a vertex was made at (0 for the skin's).
+    ring : (v, 6) int
+        A new vertex's neighbours in the uniform mesh of its level, counter-clockwise seen
+        from outside, ``-1`` where a side lies beyond the skin's boundary.
+    node_tri : (N, 3) int
+        Corners of every node (root triangles first, then children in fours).
+    node_child : (N,) int
+        Each node's first child, ``-1`` while unbuilt or at the deepest level.
+    node_mid : (N, 3) int
+        The midpoints of a node's edges 01, 12, 20 (``-1`` likewise).
+    node_level, node_root : (N,) int
+        A node's level and root triangle.
+    """
+
+    def __init__(self, skin: TriangleSurface, normals, slide_normals, shape, depth: int):
+        n0, t0 = skin.n_points, skin.n_triangles
+        self.skin, self.depth, self.n_root = skin, int(depth), n0
+        self.rest = np.array(skin.points, dtype=float)
+        self.normal = np.array(normals, dtype=float)
+        self.slide = np.array(slide_normals, dtype=float)
+        self.shape6 = _six(np.asarray(shape, dtype=float))
+        self.level = np.zeros(n0, np.int8)
+        self.ring = np.full((n0, 6), -1, np.int64)
+        self.ring_len = np.ones((n0, 6))
+        self.final = np.zeros(n0, bool)  # new vertices whose ring data is complete
+        self.node_tri = np.asarray(skin.triangles, dtype=np.int64).copy()
+        self.node_child = np.full(t0, -1, np.int64)
+        self.node_mid = np.full((t0, 3), -1, np.int64)
+        self.node_level = np.zeros(t0, np.int8)
+        self.node_root = np.arange(t0, dtype=np.int64)
+        self.node_parent = np.full(t0, -1, np.int64)
+        self._keys = np.zeros(0, np.int64)  # sorted edge keys (lo * 2**31 + hi)
+        self._mids = np.zeros(0, np.int64)  # their midpoints
+        self.root_built = np.zeros(t0, bool)
+        self.root_final = np.zeros(t0, bool)
+        self.root_nbrs = _edge_neighbours(skin)
+        self.node_nbr = self.root_nbrs.copy()  # the same-level node across each edge
+        self.version = 0  # bumped whenever vertices or ring data are added
+
+    @property
+    def n_points(self) -> int:
+        """Vertices built so far."""
+        return len(self.rest)
+
+    def scratch(self) -> np.ndarray:
+        """``(N,) int``, all -1: working space for :func:`distinct` over node ids."""
+        if len(getattr(self, "_scratch", ())) != len(self.node_tri):
+            self._scratch = np.full(len(self.node_tri), -1, np.int64)
+        return self._scratch
+
+    def ensure(self, roots: np.ndarray) -> bool:
+        """Build the subtrees of root triangles ``roots`` ``(k,)`` and of their edge
+        neighbours, and complete the rings of the vertices inside ``roots``.
+
+        Returns whether anything was added.
+        """
+        roots = np.asarray(roots, dtype=np.int64)
+        need = roots[~self.root_final[roots]]
+        if not len(need):
+            return False
+        need = np.unique(need)
+        nbrs = self.root_nbrs[need].ravel()
+        grow = np.unique(np.concatenate([need, nbrs[nbrs >= 0]]))
+        grow = grow[~self.root_built[grow]]
+        if len(grow):
+            self._build(grow)
+        self._finalize(need)
+        self.version += 1
+        return True
+
+    def edge_midpoints(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """``(k,)``: the built midpoint of each edge ``(a, b)``, ``-1`` where there is none."""
+        keys = np.minimum(a, b) * _KEY + np.maximum(a, b)
+        pos = np.minimum(np.searchsorted(self._keys, keys), max(len(self._keys) - 1, 0))
+        if not len(self._keys):
+            return np.full(len(keys), -1, np.int64)
+        return np.where(self._keys[pos] == keys, self._mids[pos], -1)
+
+    # ------------------------------------------------------------------ building
+    def _build(self, roots: np.ndarray) -> None:
+        nodes = roots
+        for k in range(self.depth):
+            a, b, c = self.node_tri[nodes].T
+            m01, m12, m20 = self._midpoints(np.concatenate([a, b, c]),
+                                            np.concatenate([b, c, a]), k + 1).reshape(3, -1)
+            first = len(self.node_tri) + 4 * np.arange(len(nodes))
+            kids = np.stack([np.c_[a, m01, m20], np.c_[m01, b, m12], np.c_[m20, m12, c],
+                             np.c_[m01, m12, m20]], axis=1).reshape(-1, 3)
+            self.node_child[nodes] = first
+            self.node_mid[nodes] = np.c_[m01, m12, m20]
+            self._half_rings(a, b, c, m01, m12, m20)
+            self._link(nodes, first)
+            self.node_tri = _grow(self.node_tri, kids)
+            self.node_child = _grow(self.node_child, np.full(len(kids), -1))
+            self.node_mid = _grow(self.node_mid, np.full((len(kids), 3), -1))
+            self.node_level = _grow(self.node_level, np.full(len(kids), k + 1))
+            self.node_root = _grow(self.node_root, np.repeat(self.node_root[nodes], 4))
+            self.node_parent = _grow(self.node_parent, np.repeat(nodes, 4))
+            nodes = first[:, None] + np.arange(4)
+            nodes = nodes.ravel()
+        self.root_built[roots] = True
+
+    def _link(self, parents: np.ndarray, first: np.ndarray) -> None:
+        """Set the neighbours of the children ``first + 0..3`` of ``parents`` (and of the
+        built children across their edges) from the parents' neighbours: a parent's edge
+        ``j`` is halved by its children ``j`` and ``j + 1`` (their edge ``j``); across it,
+        the neighbour's edge ``j'`` is traversed the other way.
+        """
+        kids = first[:, None] + np.arange(4)
+        nbr = self.node_nbr
+        nbr = _grow(nbr, np.full((4 * len(parents), 3), -1))
+        c0, c1, c2, c3 = kids.T
+        nbr[c3, 0], nbr[c1, 2] = c1, c3
+        nbr[c3, 1], nbr[c2, 0] = c2, c3
+        nbr[c3, 2], nbr[c0, 1] = c0, c3
+        for j in range(3):
+            other = nbr[parents, j]
+            ok = other >= 0
+            ok[ok] = self.node_child[other[ok]] >= 0
+            p, q = parents[ok], other[ok]
+            jj = np.argmax(nbr[q] == p[:, None], axis=1)  # q's edge back to p
+            mine_a, mine_b = kids[ok, j], kids[ok, (j + 1) % 3]
+            qk = self.node_child[q]
+            theirs_a, theirs_b = qk + (jj + 1) % 3, qk + jj
+            nbr[mine_a, j], nbr[theirs_a, jj] = theirs_a, mine_a
+            nbr[mine_b, j], nbr[theirs_b, jj] = theirs_b, mine_b
+        self.node_nbr = nbr
+
+    def _midpoints(self, a: np.ndarray, b: np.ndarray, level: int) -> np.ndarray:
+        """The midpoint vertex of each edge ``(a, b)``, made (on the Phong surface) where
+        it is new.
+        """
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        keys = lo * _KEY + hi
+        uniq, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+        mids = self.edge_midpoints(lo[first], hi[first])
+        new = mids < 0
+        if new.any():
+            pairs = np.c_[lo[first][new], hi[first][new]]
+            ids = self.n_points + np.arange(len(pairs))
+            mids[new] = ids
+            self._add_vertices(pairs, level)
+            at = np.searchsorted(self._keys, uniq[new])  # both sorted: merge, no sort
+            self._keys = np.insert(self._keys, at, uniq[new])
+            self._mids = np.insert(self._mids, at, ids)
+        return mids[inverse.ravel()]
+
+    def _add_vertices(self, pairs: np.ndarray, level: int) -> None:
+        mid, mid_normals = phong_midpoints(self.rest, self.normal, pairs)
+        self.rest = _grow(self.rest, mid)
+        self.normal = _grow(self.normal, mid_normals)
+        self.slide = _grow(self.slide, unit_rows(self.slide[pairs].sum(axis=1)))
+        self.shape6 = _grow(self.shape6, self.shape6[pairs].mean(axis=1))
+        self.level = _grow(self.level, np.full(len(pairs), level))
+        ring = np.full((len(pairs), 6), -1, np.int64)
+        ring[:, 0], ring[:, 3] = pairs[:, 1], pairs[:, 0]  # hi, lo
+        self.ring = _grow(self.ring, ring)
+        self.ring_len = _grow(self.ring_len, np.ones((len(pairs), 6)))
+        self.final = _grow(self.final, np.zeros(len(pairs), bool))
+
+    def _half_rings(self, a, b, c, m01, m12, m20) -> None:
+        """Fill the ring sides that the nodes ``(a, b, c)`` give their edges' midpoints:
+        the midpoint of directed edge ``x -> y`` (opposite ``z``) sees ``y, m_yz, m_zx, x``
+        counter-clockwise; the side of the edge it fills is 0 where ``x < y``, else 1.
+        """
+        for x, y, mxy, myz, mzx in ((a, b, m01, m12, m20), (b, c, m12, m20, m01),
+                                    (c, a, m20, m01, m12)):
+            low = x < y
+            self.ring[mxy[low], 1], self.ring[mxy[low], 2] = myz[low], mzx[low]
+            self.ring[mxy[~low], 4], self.ring[mxy[~low], 5] = myz[~low], mzx[~low]
+
+    def _finalize(self, roots: np.ndarray) -> None:
+        mask = np.zeros(len(self.root_built), bool)
+        mask[roots] = True
+        used = np.zeros(self.n_points, bool)
+        used[self.node_tri[mask[self.node_root]].ravel()] = True
+        used[:self.n_root] = False
+        v = np.flatnonzero(used & ~self.final)
+        ring = self.ring[v]
+        safe = np.where(ring >= 0, ring, v[:, None])
+        length = np.linalg.norm(self.rest[safe] - self.rest[v][:, None], axis=2)
+        self.ring_len[v] = np.where(ring >= 0, length, 1.0)
+        self.final[v] = True
+        self.root_final[roots] = True
+
+    def safe_ring(self, v: np.ndarray) -> np.ndarray:
+        """``(k, 6)``: the rings of vertices ``v``, the vertex itself where none."""
+        ring = self.ring[v]
+        return np.where(ring >= 0, ring, v[:, None])
+
+
+def _edge_neighbours(skin: TriangleSurface) -> np.ndarray:
+    """``(m, 3)``: the triangle across each triangle's edges 01, 12, 20, ``-1`` at a boundary
+    (and at non-manifold edges).
+    """
+    te = skin.triangle_edges.ravel()
+    owner = np.repeat(np.arange(skin.n_triangles), 3)
+    order = np.argsort(te, kind="stable")
+    counts = np.bincount(te, minlength=len(skin.edges))
+    out = np.full(len(te), -1, np.int64)
+    pair = counts[te[order]] == 2
+    s = order[pair].reshape(-1, 2)  # the two slots of each interior edge, adjacent
+    out[s[:, 0]], out[s[:, 1]] = owner[s[:, 1]], owner[s[:, 0]]
+    return out.reshape(-1, 3)
+
+
+@dataclass
+class MuscleLevels:
+    """One muscle's rest data on a :class:`Hierarchy`'s new vertices (rows: its AOI).
+
+    Built for the vertices the hierarchy has when :meth:`update` runs; the Eq. 10 weights
+    (and the ``"gradient"`` option's triangle coefficients) once a vertex's ring is complete.
+    """
+
+    muscle: Muscle
+    ids: np.ndarray  # (k,) vertex ids
+    lam: np.ndarray
+    gamma: np.ndarray
+    l: np.ndarray
+    at: np.ndarray
+    w: np.ndarray  # nan outside the wrinkling region
+    h: np.ndarray
+    unit: np.ndarray  # (k, 3) tangent unit pull
+    direction: np.ndarray  # (k, 3) unit contraction direction (0 where undefined)
+    weights: np.ndarray  # (k, 6) Eq. 10 weights of the ring edges
+    coef: np.ndarray  # (k, 6, 2) "gradient" option: ring triangles' coefficients
+    area: np.ndarray  # (k, 6) and their normalized rest areas
+    done: int = 0  # vertices looked at (ids below this)
+    final_version: int = -1
+    root_dir: np.ndarray | None = None
+
+    @classmethod
+    def empty(cls, muscle: Muscle) -> MuscleLevels:
+        """No rows yet (:meth:`update` adds them)."""
+        z = np.zeros(0)
+        return cls(muscle, np.zeros(0, np.int64), z, z, z, z, z, z, np.zeros((0, 3)),
+                   np.zeros((0, 3)), np.zeros((0, 6)), np.zeros((0, 6, 2)), np.zeros((0, 6)))
+
+    def update(self, hier: Hierarchy, tangential) -> bool:
+        """Add the vertices built since the last call; fill ring data that became complete.
+        Returns whether anything changed.
+        """
+        changed = False
+        if hier.n_points > max(self.done, hier.n_root):
+            self._add(hier, np.arange(max(self.done, hier.n_root), hier.n_points), tangential)
+            self.done = hier.n_points
+            changed = True
+        if self.final_version != hier.version:
+            todo = np.flatnonzero(hier.final[self.ids] & ~np.isfinite(self.weights[:, 0]))
+            if len(todo):
+                self._ring_data(hier, todo)
+                changed = True
+            self.final_version = hier.version
+        return changed
+
+    def _add(self, hier: Hierarchy, v: np.ndarray, tangential) -> None:
+        reg = self.muscle.region(hier.rest[v])
+        keep = reg["in_aoi"]
+        v = v[keep]
+        d = np.nan_to_num(reg["direction"][keep], nan=0.0)
+        unit = tangential(self.muscle.unit_displacement(hier.rest[v]), hier.slide[v])
+        k = len(v)
+        self.ids = _grow(self.ids, v)
+        for name, key in (("lam", "lam"), ("gamma", "gamma"), ("l", "l"), ("at", "At"),
+                          ("w", "w"), ("h", "H")):
+            setattr(self, name, _grow(getattr(self, name), reg[key][keep]))
+        self.unit = _grow(self.unit, unit)
+        self.direction = _grow(self.direction, unit_rows(d))
+        self.weights = _grow(self.weights, np.full((k, 6), np.nan))
+        self.coef = _grow(self.coef, np.zeros((k, 6, 2)))
+        self.area = _grow(self.area, np.zeros((k, 6)))
+
+    def _ring_data(self, hier: Hierarchy, rows: np.ndarray) -> None:
+        v = self.ids[rows]
+        ring = hier.safe_ring(v)
+        edge = hier.rest[ring] - hier.rest[v][:, None]
+        length = np.linalg.norm(edge, axis=2)
+        cos = np.abs(np.einsum("kjc,kc->kj", edge, self.direction[rows]))
+        cos = np.where(length > 0, cos / np.where(length > 0, length, 1.0), 0.0)
+        total = cos.sum(axis=1, keepdims=True)
+        self.weights[rows] = np.where(total > 0, cos / np.where(total > 0, total, 1.0), 0.0)
+        if self.muscle.compression == "gradient":
+            self._gradient_data(hier, rows, v, ring)
+
+    def _gradient_data(self, hier, rows, v, ring) -> None:
+        """Coefficients of the ring triangles ``(v, r_i, r_{i+1})`` as
+        :func:`~wrinkle_vis.core.equations.gradient_compression_operator` makes them.
+        """
+        if self.root_dir is None:
+            reg = self.muscle.region(hier.skin.points)
+            self.root_dir = unit_rows(np.nan_to_num(reg["direction"], nan=0.0))
+        dirs = np.zeros((hier.n_points, 3))
+        dirs[:hier.n_root] = self.root_dir
+        dirs[self.ids] = self.direction
+        nxt = np.roll(ring, -1, axis=1)
+        a = np.repeat(v, 6)
+        b, c = ring.ravel(), nxt.ravel()
+        coef, area = stretch_coefficients(hier.rest[a], hier.rest[b], hier.rest[c],
+                                          dirs[a] + dirs[b] + dirs[c])
+        area = area.reshape(-1, 6)
+        total = area.sum(axis=1, keepdims=True)
+        self.coef[rows] = coef.reshape(-1, 6, 2)
+        self.area[rows] = np.where(total > 0, area / np.where(total > 0, total, 1.0), 0.0)
+
+
+#: The edges of its parent (01, 12, 20) that each child (corner a, b, c, centre) lies on.
+_CHILD_EDGES = np.array([[0, 2], [0, 1], [1, 2], [-1, -1]])
+
+
+def refined_topology(hier: Hierarchy, split: np.ndarray, new: np.ndarray) -> np.ndarray:
+    """Close a set of split nodes conformingly, in place, from the nodes ``new`` ``(k,)``
+    just split: a leaf with two or three split neighbours is split too (a green bisection
+    closes one hanging vertex only), and so is the neighbour of a split node's parent across
+    an edge the node lies on (neighbours differ by one level at most). Returns the nodes
+    split in all.
+
+    Only the neighbourhood of what changed is looked at: each round takes the nodes split in
+    the round before.
+    """
+    done = [new]
+    frontier = new
+    mark = hier.scratch()  # dedupes without sorting
+    while len(frontier):
+        parent = hier.node_parent[frontier]
+        deep = parent >= 0
+        p, f = parent[deep], frontier[deep]
+        edges = _CHILD_EDGES[f - hier.node_child[p]]
+        across = np.where(edges >= 0, hier.node_nbr[p[:, None], np.maximum(edges, 0)], -1)
+        kids = hier.node_child[frontier]
+        kids = (kids[kids >= 0][:, None] + np.arange(4)).ravel()
+        near = np.concatenate([hier.node_nbr[frontier].ravel(), kids])
+        near = distinct(near[near >= 0], mark)
+        near = near[~split[near]]
+        nb = hier.node_nbr[near]
+        crowded = ((nb >= 0) & split[np.maximum(nb, 0)]).sum(axis=1) >= 2
+        cand = np.concatenate([across.ravel(), near[crowded]])
+        cand = distinct(cand[cand >= 0], mark)
+        cand = cand[~split[cand] & (hier.node_child[cand] >= 0)]
+        split[cand] = True
+        done.append(cand)
+        frontier = cand
+    return np.concatenate(done)
+
+
+def distinct(ids: np.ndarray, slot: np.ndarray) -> np.ndarray:
+    """``ids`` without repeats, in linear time; ``slot`` ``(N,) int`` is all -1 before and
+    after.
+    """
+    at = np.arange(len(ids))
+    slot[ids] = at  # the last occurrence of each id wins
+    out = ids[slot[ids] == at]
+    slot[ids] = -1
+    return out
+
+
+def canonical_order(hier: Hierarchy, present: np.ndarray) -> np.ndarray:
+    """``(v,)``: the ``present`` vertices in an order that does not depend on the order the
+    hierarchy was built in: the skin's vertices, then level by level the new ones sorted by
+    their edge's ends (in this order).
+    """
+    rank = np.full(hier.n_points, -1, np.int64)
+    ids = np.flatnonzero(present)
+    roots = ids[ids < hier.n_root]
+    rank[roots] = np.arange(len(roots))
+    out = [roots]
+    for level in range(1, hier.depth + 1):
+        v = ids[hier.level[ids] == level]
+        if not len(v):
+            break
+        lo, hi = rank[hier.ring[v, 3]], rank[hier.ring[v, 0]]
+        v = v[np.argsort(np.minimum(lo, hi) * _KEY + np.maximum(lo, hi))]
+        rank[v] = len(ids) + np.arange(len(v)) + sum(len(o) for o in out)
+        out.append(v)
+    return np.concatenate(out)
+
+
+def _present(hier: Hierarchy, split_ids: np.ndarray) -> np.ndarray:
+    present = np.zeros(hier.n_points, bool)
+    present[:hier.n_root] = True
+    present[hier.node_mid[split_ids].ravel()] = True
+    return present
+
+
+def _leaves(hier: Hierarchy, split: np.ndarray, split_ids: np.ndarray) -> np.ndarray:
+    """Nodes in the current mesh: not split, and a root or a split node's child."""
+    n_root = len(hier.root_built)
+    roots = np.flatnonzero(~split[:n_root])
+    kids = (hier.node_child[split_ids][:, None] + np.arange(4)).ravel()
+    return np.concatenate([roots, kids[~split[kids]]])
+
+
+def conforming_triangles(hier: Hierarchy, split: np.ndarray):
+    """The mesh of a closed split set: every leaf, bisected where one edge has a midpoint.
+
+    Returns
+    -------
+    triangles : (t, 3) int
+        Hierarchy vertex ids, counter-clockwise.
+    nodes : (t,) int
+        The node each triangle lies in.
+    present : (v,) bool
+        The vertices the mesh uses.
+    """
+    split_ids = np.flatnonzero(split)
+    present = _present(hier, split_ids)
+    leaf = _leaves(hier, split, split_ids)
+    tri = hier.node_tri[leaf]
+    mids = hier.node_mid[leaf]
+    has = (mids >= 0) & present[np.maximum(mids, 0)]
+    count = has.sum(axis=1)
+    whole = count == 0
+    g = np.flatnonzero(count == 1)
+    k = np.argmax(has[g], axis=1)
+    vk, vk1, vk2 = tri[g, k], tri[g, (k + 1) % 3], tri[g, (k + 2) % 3]
+    m = mids[g, k]
+    triangles = np.concatenate([tri[whole], np.c_[vk, m, vk2], np.c_[m, vk1, vk2]])
+    nodes = np.concatenate([leaf[whole], leaf[g], leaf[g]])
+    return triangles, nodes, present

@@ -1,0 +1,366 @@
+r"""Refined frames from a :class:`~wrinkle_vis.core.hierarchy.Hierarchy`: per frame, only
+what the frame changes.
+
+A frame (:meth:`RefinedEngine.frame`) starts from the unrefined frame of the skin, then level
+after level marks the triangles that an active muscle influences and whose vertex normals
+differ by more than the threshold, splits them (the closure as look-ups in the hierarchy's
+tables, :func:`~wrinkle_vis.core.hierarchy.refined_topology`) and evaluates the vertices
+that appeared. Every vertex's values depend on the vertex alone:
+
+* deformed point :math:`x = X + \sum_m a_m u_m(X)`, bent onto the rest surface (the slide);
+* :math:`\tau_{ij} = 1 - |x_j - x_i| / |X_j - X_i|` (Eq. 9) on the vertex's ring edges and
+  :math:`\varepsilon_i = \sum_j |\cos\theta_{ij}|\,\tau_{ij} / \sum_j |\cos\theta_{ij}|`
+  (Eq. 10) over them, per muscle;
+* :math:`W_i = \sum_m H\,A(\varepsilon_i)\,At` (Eq. 4, 11), and the final point
+  :math:`x + W_i\, n_i` with :math:`n_i` the area-weighted normal of the deformed ring.
+
+The skin's own vertices keep the unrefined frame's values exactly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .cache import ByteBudgetCache, nbytes
+from .equations import anisotropy
+from .hierarchy import (
+    Hierarchy,
+    MuscleLevels,
+    conforming_triangles,
+    distinct,
+    refined_topology,
+)
+
+__all__ = ["PREBUILD_ROOTS", "RefinedEngine", "bent"]
+
+#: A frame whose muscles influence at most this many root triangles (at three levels; a
+#: quarter as many a level deeper) builds their subtrees (and a ring around them) in one
+#: batch before it starts, so later frames find them built; beyond it (a fine skin, where
+#: few of them bend), subtrees are built as the frame splits their roots. About 18 kB a root
+#: triangle at three levels.
+PREBUILD_ROOTS = 8000
+
+
+def bent(triangles: np.ndarray, points: np.ndarray, angle_deg: float,
+         candidates: np.ndarray) -> np.ndarray:
+    """``(t,) bool``: the ``candidates`` among ``triangles`` ``(t, 3)`` whose vertex normals
+    at ``points`` ``(3, v)`` (area-weighted over ``triangles``) differ by more than
+    ``angle_deg``.
+    """
+    t0, t1, t2 = triangles.T
+    n = points.shape[1]
+    ax, ay, az = (np.take(p, t0) for p in points)
+    ux, uy, uz = (np.take(p, t1) - a for p, a in zip(points, (ax, ay, az), strict=True))
+    vx, vy, vz = (np.take(p, t2) - a for p, a in zip(points, (ax, ay, az), strict=True))
+    fn = (uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx)
+    vn = np.stack([np.bincount(t0, f, n) + np.bincount(t1, f, n) + np.bincount(t2, f, n)
+                   for f in fn])
+    vn /= np.maximum(np.sqrt((vn * vn).sum(axis=0)), 1e-300)
+    c = np.flatnonzero(candidates)
+    corner = [vn[:, t[c]] for t in (t0, t1, t2)]  # (3, k) each
+    cos = np.minimum.reduce([(corner[i] * corner[(i + 1) % 3]).sum(axis=0) for i in range(3)])
+    out = np.zeros(len(triangles), bool)
+    out[c] = cos < np.cos(np.radians(angle_deg))
+    return out
+
+
+class _Assembly:
+    """The active muscles' rows on the hierarchy's new vertices, stacked vertex by vertex
+    (built once per active set and hierarchy version).
+    """
+
+    def __init__(self, hier: Hierarchy, levels: list[MuscleLevels]):
+        self.version = hier.version, hier.n_points
+        counts = np.array([len(m.ids) for m in levels])
+        ids = np.concatenate([m.ids for m in levels])
+        order = np.argsort(ids, kind="stable")
+        self.muscle = np.repeat(np.arange(len(levels)), counts)[order]
+        self.ids = ids[order]
+        self.unit = np.concatenate([m.unit for m in levels])[order]
+        grad = np.repeat([m.muscle.compression == "gradient" for m in levels], counts)[order]
+        w = np.concatenate([m.weights for m in levels])[order]
+        self.weights = np.where(grad[:, None], 0.0, np.nan_to_num(w))
+        self.has_grad = bool(grad.any())
+        self.coef = np.where(grad[:, None, None],
+                             np.concatenate([m.coef for m in levels])[order], 0.0)
+        self.area = np.where(grad[:, None], np.concatenate([m.area for m in levels])[order],
+                             0.0)
+        hat = np.concatenate([m.h * m.at for m in levels])[order]
+        self.hat = np.nan_to_num(hat)  # 0 outside the wrinkling region
+        first = np.flatnonzero(np.r_[True, self.ids[1:] != self.ids[:-1]]) if len(
+            self.ids) else np.zeros(0, np.int64)
+        self.moved = self.ids[first]  # ids are sorted: each vertex's rows are adjacent
+        self.start = np.append(first, len(self.ids))
+        self.slot = np.full(hier.n_points, -1, np.int64)
+        self.slot[self.moved] = np.arange(len(self.moved))
+        self.influenced = self.slot >= 0
+
+    def entries(self, v: np.ndarray):
+        """The stacked rows of vertices ``v`` ``(k,)``: ``(rows, owner)``, ``owner`` the
+        position in ``v`` of each row's vertex.
+        """
+        p = self.slot[v]
+        has = np.flatnonzero(p >= 0)
+        p = p[has]
+        first, count = self.start[p], self.start[p + 1] - self.start[p]
+        total = int(count.sum())
+        owner = np.repeat(has, count)
+        rows = np.arange(total) + np.repeat(first - np.cumsum(count) + count, count)
+        return rows, owner
+
+
+class _Dynamic:
+    """One frame's values on the hierarchy's vertices, computed where asked.
+
+    ``buffers`` (the engine's, reused frame after frame: only what the last frame changed
+    is reset) or fresh arrays.
+    """
+
+    def __init__(self, hier: Hierarchy, asm: _Assembly, root, a: np.ndarray, buffers=None):
+        self.hier, self.asm, self.a = hier, asm, a
+        n, n0 = hier.n_points, hier.n_root
+        if buffers is None or buffers["deformed"].shape[1] != n:
+            rest = np.ascontiguousarray(hier.rest.T)
+            buffers = {"deformed": rest.copy(), "points": rest.copy(), "W": np.zeros(n),
+                       "evaluated": np.zeros(n, bool), "computed": np.zeros(n, bool),
+                       "moved": np.zeros(0, np.int64), "touched": np.zeros(0, np.int64)}
+        self.buffers = buffers
+        d, moved, touched = buffers["deformed"], buffers["moved"], buffers["touched"]
+        d[:, moved] = hier.rest[moved].T  # undo the last frame
+        buffers["computed"][moved] = False
+        buffers["evaluated"][touched] = False
+        buffers["W"][touched] = 0.0
+        d[:, :n0] = root.deformed_points.T
+        self.deformed, self.points, self.W = d, buffers["points"], buffers["W"]  # (3, n)
+        self.points[:, :n0] = root.points.T
+        self.W[:n0] = root.W
+        self.evaluated, self.computed = buffers["evaluated"], buffers["computed"]
+        self.evaluated[:n0] = True
+        self.computed[:n0] = True
+        self._touched, self._moved = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+        root_moved = (root.W != 0.0) | (root.deformed_points != root.rest_points).any(axis=1)
+        self._influenced = asm.influenced.copy()
+        self._influenced[:n0] = root_moved
+
+    def _slot(self, n: int) -> np.ndarray:
+        slot = self.buffers.get("slot")
+        if slot is None or len(slot) != n:
+            slot = self.buffers["slot"] = np.full(n, -1, np.int64)
+        return slot
+
+    def influenced(self) -> np.ndarray:
+        """``(v,) bool``: the skin's vertices the unrefined frame moved or wrinkled and the
+        new vertices in an active muscle's AOI.
+        """
+        return self._influenced
+
+    def finish(self) -> None:
+        """Record what this frame changed, for the next one to undo."""
+        self.buffers["touched"] = np.concatenate(self._touched)
+        self.buffers["moved"] = np.concatenate(self._moved)
+
+    def _deform(self, v: np.ndarray) -> None:
+        r"""Deformed points of new vertices ``v`` ``(k,)``: the pull
+        :math:`D = \sum_m a_m u_m`, bent onto the rest surface (the slide).
+        """
+        if not len(v):
+            return
+        asm, hier = self.asm, self.hier
+        rows, owner = asm.entries(v)
+        scale = self.a[asm.muscle[rows]]
+        pull = np.stack([np.bincount(owner, asm.unit[rows, c] * scale, minlength=len(v))
+                         for c in range(3)], axis=1)
+        bend = _bend(pull, hier.shape6[v])
+        self.deformed[:, v] = (hier.rest[v] + pull - bend[:, None] * hier.slide[v]).T
+        self.computed[v] = True
+        self._moved.append(v)
+
+    def evaluate(self, v: np.ndarray) -> None:
+        """Evaluate the new vertices ``v`` ``(k,)`` (rings complete)."""
+        if not len(v):
+            return
+        hier, asm = self.hier, self.asm
+        dx, dy, dz = self.ring_deltas(v)  # (k, 6) each
+        tau = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / hier.ring_len[v]
+        normal = _ring_normal(dx, dy, dz)
+        normal /= np.maximum(np.sqrt((normal * normal).sum(axis=0)), 1e-300)
+        rows, owner = asm.entries(v)
+        eps = (asm.weights[rows] * tau[owner]).sum(axis=1)
+        if asm.has_grad:
+            eps += _stretch_mean(asm.coef[rows], asm.area[rows], dx[owner], dy[owner],
+                                 dz[owner])
+        w = np.bincount(owner, asm.hat[rows] * anisotropy(eps), minlength=len(v))
+        self.W[v] = w
+        self.points[:, v] = self.deformed[:, v] + w * normal
+        self.evaluated[v] = True
+        self._touched.append(v)
+
+    def ring_deltas(self, v: np.ndarray):
+        """``((k, 6),) * 3``: x, y and z of the deformed ring edges of vertices ``v`` (zero
+        where there is no neighbour).
+        """
+        ring = self.hier.safe_ring(v)
+        need = np.concatenate([v, ring.ravel()])
+        need = need[~self.computed[need]]
+        self._deform(distinct(need, self._slot(len(self.W))))
+        d = self.deformed
+        return tuple(np.take(d[c], ring) - np.take(d[c], v)[:, None] for c in range(3))
+
+    def compression(self, levels: MuscleLevels, rows: np.ndarray) -> np.ndarray:
+        r"""``(k,)``: one muscle's :math:`\varepsilon` at its rows ``rows`` (present
+        vertices), from this frame's deformed points.
+        """
+        v = levels.ids[rows]
+        dx, dy, dz = self.ring_deltas(v)
+        if levels.muscle.compression == "gradient":
+            return _stretch_mean(levels.coef[rows], levels.area[rows], dx, dy, dz)
+        tau = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / self.hier.ring_len[v]
+        return (levels.weights[rows] * tau).sum(axis=1)
+
+
+def _stretch_mean(coef, area, dx, dy, dz) -> np.ndarray:
+    r"""``(k,)``: :math:`\sum_j a_j (1 - |F_j d_j|)` over the ring triangles
+    :math:`(i, r_j, r_{j+1})`, with :math:`F_j d_j = c_0 e_j + c_1 e_{j+1}` (``coef``
+    ``(k, 6, 2)``, ``area`` ``(k, 6)``, ring edges ``(k, 6)`` each).
+    """
+    c0, c1 = coef[:, :, 0], coef[:, :, 1]
+    g = [c0 * e + c1 * np.roll(e, -1, axis=1) for e in (dx, dy, dz)]
+    stretch = np.sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
+    return (area * (1.0 - stretch)).sum(axis=1)
+
+
+def _ring_normal(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    r"""``(3, k)``: :math:`\sum_j e_j \times e_{j+1}` over the ring edges (x, y, z each
+    ``(k, 6)``), cyclically: twice the area-weighted normal of the ring's triangles.
+    """
+
+    def wedge(a, b):  # sum_j a_j b_{j+1} - b_j a_{j+1}, j cyclic
+        return ((a[:, :-1] * b[:, 1:] - b[:, :-1] * a[:, 1:]).sum(axis=1)
+                + a[:, -1] * b[:, 0] - b[:, -1] * a[:, 0])
+
+    return np.stack([wedge(y, z), wedge(z, x), wedge(x, y)])
+
+
+def _bend(pull: np.ndarray, s: np.ndarray) -> np.ndarray:
+    r"""The slide's bend :math:`b = \beta / \sqrt{1 + (\beta / 0.3|D|)^2}`,
+    :math:`\beta = \tfrac12 D^T S D` (as the unrefined frame).
+    """
+    x, y, z = pull.T
+    q = (s[:, 0] * x * x + s[:, 1] * y * y + s[:, 2] * z * z
+         + 2.0 * (s[:, 3] * x * y + s[:, 4] * x * z + s[:, 5] * y * z))
+    reach = 0.3 * np.sqrt(x * x + y * y + z * z)
+    return 0.5 * q / np.sqrt(1.0 + (0.5 * q / np.maximum(reach, 1e-300)) ** 2)
+
+
+class RefinedEngine:
+    """Refined frames of one skin at one depth: its hierarchy, the muscles' data on it and
+    the stacked rows of each active set, in a byte budget.
+
+    Parameters
+    ----------
+    hier : Hierarchy
+    budget : int
+        Bytes the muscles' data and stacked rows may hold together (least recently used
+        first out); the hierarchy itself is bounded by the skin: at most the uniform
+        subdivision of the triangles the muscles can influence.
+    tangential : callable
+        ``tangential(vectors, normals)``, the face's tangent projection of pulls.
+    """
+
+    def __init__(self, hier: Hierarchy, budget: int, tangential):
+        self.hier = hier
+        self.cache = ByteBudgetCache(budget)
+        self._tangential = tangential
+        self.last = None  # (key, face, order) of the latest split set
+        self.buffers = None  # the frame arrays, reused
+
+    def nbytes(self) -> int:
+        """Bytes held: the hierarchy and the cache."""
+        return nbytes(vars(self.hier)) + self.cache.total
+
+    def levels(self, muscle) -> MuscleLevels:
+        """``muscle``'s data on the hierarchy, brought up to date."""
+        key = ("muscle", muscle)
+        lv = self.cache.get(key, lambda: MuscleLevels.empty(muscle))
+        if lv.update(self.hier, self._tangential):
+            self.cache.reweigh(key)
+        return lv
+
+    def assembly(self, muscles) -> _Assembly:
+        """The stacked rows of the active ``muscles``, for the hierarchy as it is now."""
+        levels = [self.levels(m) for m in muscles]
+        key = ("assembly", tuple(muscles))
+        asm = self.cache.get(key, lambda: _Assembly(self.hier, levels))
+        if asm.version != (self.hier.version, self.hier.n_points):
+            asm = _Assembly(self.hier, levels)
+            self.cache.put(key, asm)
+        return asm
+
+    def frame(self, root, muscles, a: np.ndarray, angle_deg: float, n_levels: int):
+        """Refine the unrefined frame ``root`` (a FaceState) of active ``muscles`` with
+        activations ``a`` ``(M,)``.
+
+        Returns
+        -------
+        dyn : _Dynamic
+            The frame's values on the hierarchy.
+        triangles : (t, 3) int
+            The refined mesh, in hierarchy vertex ids.
+        present : (v,) bool
+            The vertices it uses.
+        split : (N,) bool
+            The split nodes.
+        """
+        hier = self.hier
+        tris = hier.skin.triangles
+        influenced = (root.W != 0.0) | (root.deformed_points != root.rest_points).any(axis=1)
+        cand = np.flatnonzero(influenced[tris].any(axis=1))
+        subtree = (4 ** (hier.depth + 1) - 1) // 3  # nodes a root triangle holds
+        if len(cand) * subtree <= PREBUILD_ROOTS * 85 and not hier.root_final[cand].all():
+            # build what the frame can reach in one batch: the candidates and a ring
+            near = hier.root_nbrs[cand].ravel()
+            hier.ensure(np.concatenate([cand, near[near >= 0]]))
+        dyn = _Dynamic(hier, self.assembly(muscles), root, a, self.buffers)
+        split = np.zeros(len(hier.node_tri), bool)
+        nodes = np.arange(len(tris))
+        present = dyn.evaluated.copy()
+        for _ in range(n_levels):
+            cand = (dyn.influenced()[tris].any(axis=1)
+                    & (hier.node_level[nodes] < hier.depth))
+            marked = bent(tris, dyn.points, angle_deg, cand)
+            if not marked.any():
+                break
+            split = self._close(split, distinct(nodes[marked], hier.scratch()))
+            if len(dyn.W) != hier.n_points or dyn.asm is not self.assembly(muscles):
+                old = np.flatnonzero(dyn.evaluated[hier.n_root:]) + hier.n_root
+                dyn = _Dynamic(hier, self.assembly(muscles), root, a)
+                dyn.evaluate(old)
+            tris, nodes, present = conforming_triangles(hier, split)
+            dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))
+        dyn.finish()
+        self.buffers = dyn.buffers
+        return dyn, tris, present, split
+
+    def dynamic(self, root, muscles, a: np.ndarray) -> _Dynamic:
+        """A frame's values in arrays of their own, computed where asked (for a state's
+        fields, which must not change when the engine moves on to the next frame).
+        """
+        return _Dynamic(self.hier, self.assembly(muscles), root, a)
+
+    def _close(self, split: np.ndarray, new: np.ndarray) -> np.ndarray:
+        """Split the nodes ``new`` and close ``split`` conformingly
+        (:func:`~wrinkle_vis.core.hierarchy.refined_topology`), building the hierarchy where
+        the closure reaches (and running it again over what the new part borders).
+        """
+        hier = self.hier
+        frontier = new
+        while True:
+            if hier.ensure(hier.node_root[frontier]):
+                split = np.concatenate([split, np.zeros(len(hier.node_tri) - len(split), bool)])
+                frontier = np.concatenate([np.flatnonzero(split), new[~split[new]]])
+            split[frontier] = True
+            added = refined_topology(hier, split, frontier)
+            new = np.zeros(0, np.int64)
+            if hier.root_final[hier.node_root[added]].all():
+                return split
+            frontier = added
