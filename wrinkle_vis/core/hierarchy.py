@@ -308,8 +308,8 @@ class MuscleLevels:
     unit: np.ndarray  # (k, 3) tangent unit pull
     direction: np.ndarray  # (k, 3) unit contraction direction (0 where undefined)
     weights: np.ndarray  # (k, 6) Eq. 10 weights of the ring edges
-    coef: np.ndarray  # (k, 6, 2) "gradient" option: ring triangles' coefficients
-    area: np.ndarray  # (k, 6) and their normalized rest areas
+    coef: np.ndarray  # (k, 6, 2) "gradient" option only: ring triangles' coefficients
+    area: np.ndarray  # (k, 6) and their normalized rest areas (empty for the others)
     done: int = 0  # vertices looked at (ids below this)
     final_version: int = -1
     root_dir: np.ndarray | None = None
@@ -352,8 +352,9 @@ class MuscleLevels:
         self.unit = _grow(self.unit, unit)
         self.direction = _grow(self.direction, unit_rows(d))
         self.weights = _grow(self.weights, np.full((k, 6), np.nan))
-        self.coef = _grow(self.coef, np.zeros((k, 6, 2)))
-        self.area = _grow(self.area, np.zeros((k, 6)))
+        if self.muscle.compression == "gradient":  # the others need no triangle data
+            self.coef = _grow(self.coef, np.zeros((k, 6, 2)))
+            self.area = _grow(self.area, np.zeros((k, 6)))
 
     def _ring_data(self, hier: Hierarchy, rows: np.ndarray) -> None:
         v = self.ids[rows]

@@ -81,10 +81,13 @@ class _Assembly:
         w = np.concatenate([m.weights for m in levels])[order]
         self.weights = np.where(grad[:, None], 0.0, np.nan_to_num(w))
         self.has_grad = bool(grad.any())
-        self.coef = np.where(grad[:, None, None],
-                             np.concatenate([m.coef for m in levels])[order], 0.0)
-        self.area = np.where(grad[:, None], np.concatenate([m.area for m in levels])[order],
-                             0.0)
+        if self.has_grad:  # zero rows for the muscles without the option
+            coef = [m.coef if len(m.coef) == len(m.ids) else np.zeros((len(m.ids), 6, 2))
+                    for m in levels]
+            area = [m.area if len(m.area) == len(m.ids) else np.zeros((len(m.ids), 6))
+                    for m in levels]
+            self.coef = np.concatenate(coef)[order]
+            self.area = np.concatenate(area)[order]
         hat = np.concatenate([m.h * m.at for m in levels])[order]
         self.hat = np.nan_to_num(hat)  # 0 outside the wrinkling region
         first = np.flatnonzero(np.r_[True, self.ids[1:] != self.ids[:-1]]) if len(
@@ -273,6 +276,7 @@ class RefinedEngine:
         self._tangential = tangential
         self.last = None  # (key, face, order) of the latest split set
         self.buffers = None  # the frame arrays, reused
+        self._current: dict = {}  # the latest active set's data, whatever the budget
 
     def nbytes(self) -> int:
         """Bytes held: the hierarchy and the cache."""
@@ -281,19 +285,26 @@ class RefinedEngine:
     def levels(self, muscle) -> MuscleLevels:
         """``muscle``'s data on the hierarchy, brought up to date."""
         key = ("muscle", muscle)
-        lv = self.cache.get(key, lambda: MuscleLevels.empty(muscle))
+        lv = self.cache.get(key, lambda: self._current.get(key) or MuscleLevels.empty(muscle))
         if lv.update(self.hier, self._tangential):
             self.cache.reweigh(key)
         return lv
 
     def assembly(self, muscles) -> _Assembly:
-        """The stacked rows of the active ``muscles``, for the hierarchy as it is now."""
+        """The stacked rows of the active ``muscles``, for the hierarchy as it is now.
+
+        The latest active set's data is also held outside the cache, so a working set
+        larger than the budget is not rebuilt every frame (the budget then holds the rest).
+        """
         levels = [self.levels(m) for m in muscles]
         key = ("assembly", tuple(muscles))
-        asm = self.cache.get(key, lambda: _Assembly(self.hier, levels))
+        asm = self.cache.get(key, lambda: self._current.get(key) or _Assembly(self.hier,
+                                                                              levels))
         if asm.version != (self.hier.version, self.hier.n_points):
             asm = _Assembly(self.hier, levels)
             self.cache.put(key, asm)
+        self._current = {key: asm, **{("muscle", m): lv for m, lv in zip(muscles, levels,
+                                                                         strict=True)}}
         return asm
 
     def frame(self, root, muscles, a: np.ndarray, angle_deg: float, n_levels: int):
