@@ -2,6 +2,7 @@
 
 from .face import (
     BUILTIN_LAYOUT,
+    FACES,
     build_skin,
     build_skull,
     builtin_expressions,
@@ -10,8 +11,10 @@ from .face import (
     builtin_muscles,
     load_face,
 )
-from .scans import LANDMARKS, offset_skull, read_surface, transfer_layout
+from .scans import LANDMARKS, read_landmarks, read_surface, scan_layout, transfer_layout
+from .skull import scan_skull
 
-__all__ = ["BUILTIN_LAYOUT", "LANDMARKS", "build_skin", "build_skull", "builtin_expressions",
-           "builtin_landmarks", "builtin_layout", "builtin_muscles", "load_face",
-           "offset_skull", "read_surface", "transfer_layout"]
+__all__ = ["BUILTIN_LAYOUT", "FACES", "LANDMARKS", "build_skin", "build_skull",
+           "builtin_expressions", "builtin_landmarks", "builtin_layout", "builtin_muscles",
+           "load_face", "read_landmarks", "read_surface", "scan_layout", "scan_skull",
+           "transfer_layout"]

@@ -24,7 +24,7 @@ from wrinkle_vis.core.sphincter import SphincterMuscle
 
 from . import anatomy, sdf
 
-__all__ = ["BUILTIN_LAYOUT", "build_skin", "build_skull", "builtin_expressions",
+__all__ = ["BUILTIN_LAYOUT", "FACES", "build_skin", "build_skull", "builtin_expressions",
            "builtin_landmarks", "builtin_layout", "builtin_muscles", "load_face"]
 
 _SOURCES = (Path(anatomy.__file__), Path(sdf.__file__), Path(__file__))
@@ -480,79 +480,176 @@ def builtin_layout() -> Layout:
 BUILTIN_LAYOUT = Path(__file__).with_name("builtin_layout.json")
 
 
-def _as_layout(layout) -> tuple[Layout, Path | None]:
+#: The built-in faces :func:`load_face` knows by name.
+FACES = ("procedural", "lee_perry_smith")
+
+
+def _as_layout(layout) -> tuple[Layout | None, Path | None]:
     if layout is None:
-        return load_layout(BUILTIN_LAYOUT), None
+        return None, None
     if isinstance(layout, Layout):
         return layout, None
     path = Path(layout)
     return load_layout(path), path.parent
 
 
-def load_face(n_triangles: int | None = None, *, skin=None, skull=None, layout=None,
-              landmarks=None) -> FaceModel:
-    """The built-in anatomy-based face, ready to evaluate.
+def face_unit_of(skin: TriangleSurface, unit: str | None = None) -> str:
+    """``unit`` checked, or the unit guessed from the skin's height (with a
+    :class:`~wrinkle_vis.core.units.UnitWarning`; ``"mm"`` when nothing fits).
+    """
+    from wrinkle_vis.core.units import UnitWarning, check_unit, guess_unit
+
+    if unit is not None:
+        return check_unit(unit)
+    lo, hi = skin.bounds()
+    height = float(hi[1] - lo[1])
+    guess = guess_unit(height)
+    warnings.warn(f"the skin's unit is not given; a face {height:.4g} units tall reads as "
+                  f"{guess or 'mm'}: pass unit=... (or \"unit\" in its layout) to say",
+                  UnitWarning, stacklevel=3)
+    return guess or "mm"
+
+
+def _check_fits(lay: Layout, skin: TriangleSurface, what: str) -> None:
+    """A clear error when ``lay``'s muscles lie far outside ``skin`` (a layout made for
+    another face, or in another unit).
+    """
+    pts = [np.asarray(m.insertion, float).reshape(-1, 3) for m in lay.muscles
+           if "insertion" in m.point_parameters]
+    if not pts:
+        return
+    lo, hi = skin.bounds()
+    margin = 0.25 * float(np.linalg.norm(hi - lo))
+    pts = np.vstack(pts)
+    outside = np.any((pts < lo - margin) | (pts > hi + margin), axis=1)
+    spread = float(np.linalg.norm(np.ptp(pts, axis=0))) if len(pts) > 1 else 0.0
+    if len(pts) > 1 and spread < 0.02 * float(np.linalg.norm(hi - lo)):
+        raise ValueError(
+            f"{what}: its muscles span {spread:.3g} units on a skin "
+            f"{float(np.linalg.norm(hi - lo)):.4g} units across; the layout was made for a "
+            "face in another unit: name its skin file in the layout's \"skin\", or give "
+            "the skin it was made for")
+    if outside.any():
+        raise ValueError(
+            f"{what}: its muscles lie outside the skin ({int(outside.sum())} of "
+            f"{len(pts)} insertions, skin {lo.round(3).tolist()} to {hi.round(3).tolist()}); "
+            "the layout was made for another face or unit: name its skin file in the "
+            "layout's \"skin\", or give the skin it was made for")
+
+
+def load_face(name: str | int | None = None, n_triangles: int | None = None, *, skin=None,
+              skull=None, layout=None, landmarks=None, unit: str | None = None) -> FaceModel:
+    """A face ready to evaluate: a built-in one (by name), or a scan of your own.
 
     Parameters
     ----------
+    name : str, optional
+        A built-in face (:data:`FACES`): ``"procedural"`` (the default), the anatomy-based
+        face made by this package's code, or ``"lee_perry_smith"``, a real head scan with
+        17 muscles placed on its anatomy and a closed skull
+        (:mod:`~wrinkle_vis.datasets.lee_perry_smith`; CC BY 3.0, Lee Perry-Smith /
+        Infinite Realities). A number here is ``n_triangles`` (as in earlier versions).
     n_triangles : int, optional
-        How many skin triangles the built-in skin has, exactly (the paper's model has about
-        4,500), in 500..250,000; the same number always gives the same mesh. Default: the
-        number a ``layout`` records (:attr:`Layout.n_triangles`), else 4,500. Finer
-        versions have the same shape and the same muscles. Ignored for a ``skin`` of your
-        own.
-
+        How many skin triangles the procedural skin has, exactly (the paper's model has
+        about 4,500), in 500..250,000; the same number always gives the same mesh. Default:
+        the number a ``layout`` records (:attr:`Layout.n_triangles`), else 4,500. Finer
+        versions have the same shape and the same muscles. Only for the procedural face.
     skin : path or TriangleSurface, optional
         A face of your own (OBJ, PLY, STL, VTP, VTK, or what meshio reads); it is
         triangulated, welded and oriented outward
         (:func:`~wrinkle_vis.datasets.scans.read_surface`,
         :func:`~wrinkle_vis.datasets.scans.orient_outward`).
     skull : path or TriangleSurface, optional
-        Its skull; by default one is offset inwards from the skin by the regional tissue
-        depth (with ``landmarks``) or by 2.5 % of the skin's height (without).
+        Its skull; by default a closed skull is built under the skin
+        (:func:`~wrinkle_vis.datasets.skull.scan_skull`: the level set at the regional
+        tissue depth under the face with ``landmarks``, at 2.5 % of the skin's height
+        without).
     layout : path or Layout, optional
         Muscles and expressions; by default the built-in layout, which is moved onto a
         ``skin`` of your own from ``landmarks`` (:func:`transfer_layout`). A layout's own
-        ``skin`` and ``skull`` paths are read relative to its file.
+        ``skin`` and ``skull`` paths are read relative to its file, its ``face`` names a
+        built-in face and its ``unit`` the unit; a layout naming its skin file and its
+        landmarks (:func:`~wrinkle_vis.datasets.scans.scan_layout`) reopens the same face,
+        bit for bit.
     landmarks : dict of str to (3,) array_like, optional
         Named points on ``skin`` (:data:`~wrinkle_vis.datasets.scans.LANDMARKS`).
+    unit : str, optional
+        The unit of the skin's lengths (``"mm"``, ``"cm"``, ``"m"``, ...); default the
+        layout's, else ``"mm"`` for the built-in faces and, for a scan, a guess from its
+        height (with a :class:`~wrinkle_vis.core.units.UnitWarning`).
 
     Returns
     -------
     FaceModel
-        For the built-in face: skin, skull, 17 muscles (8 pairs and the orbicularis oris)
+        For the procedural face: skin, skull, 17 muscles (8 pairs and the orbicularis oris)
         and the expressions ``neutral``, ``surprise``, ``frown``, ``fear`` (the paper's
         Section 3), ``smile``, ``duchenne_smile``, ``squint``, ``pucker`` and Waters' six
-        (:func:`builtin_expressions`).
+        (:func:`builtin_expressions`); the Lee Perry-Smith head has the same muscles and
+        expressions.
         A skin of your own with neither a layout nor landmarks gets no muscles.
+
+    Raises
+    ------
+    ValueError
+        For an unknown name (listing :data:`FACES`), a resolution out of range, or a layout
+        whose muscles lie outside the skin (a layout made for another face).
 
     Notes
     -----
-    Procedural and deterministic, made by this package's own code (no scan, no download):
-    signed distance fields of the skin and skull
+    The procedural face is deterministic, made by this package's own code (no scan, no
+    download): signed distance fields of the skin and skull
     (:mod:`wrinkle_vis.datasets.anatomy`, with the forensic tissue-depth source cited
     there), VTK's flying edges through PyVista, and pyacvd remeshing. Units are millimetres;
     y is up, the face looks towards +z, x points to the subject's left, and the origin lies
     between the eyes. Results are cached on disk (``$WRINKLE_VIS_CACHE`` or
     ``~/.cache/wrinkle-vis``) under a key that changes with the code.
-    Licence: the same as wrinkle-vis.
+    Licence: the procedural face, the same as wrinkle-vis; the Lee Perry-Smith head,
+    CC BY 3.0 (see :mod:`~wrinkle_vis.datasets.lee_perry_smith`).
     """
+    if isinstance(name, (int, np.integer)) and not isinstance(name, bool):
+        if n_triangles is not None:
+            raise ValueError("give the resolution once: load_face(n_triangles=...)")
+        name, n_triangles = None, int(name)
     lay, base = _as_layout(layout)
-    if n_triangles is None:
-        n_triangles = lay.n_triangles if lay.n_triangles is not None else DEFAULT_TRIANGLES
-    n = int(n_triangles)
-    if not (MIN_TRIANGLES <= n <= MAX_TRIANGLES):
-        raise ValueError(f"n_triangles = {n} is outside the supported "
-                         f"{MIN_TRIANGLES}..{MAX_TRIANGLES}; choose a number in that range")
-    if skin is None and lay.skin is not None:
-        skin = (base or Path.cwd()) / lay.skin
-    if skull is None and lay.skull is not None:
-        skull = (base or Path.cwd()) / lay.skull
+    if name is None and lay is not None and skin is None and lay.skin is None:
+        name = lay.face
+    if name is not None and (not isinstance(name, str) or name not in FACES):
+        raise ValueError(f"no built-in face {name!r}; the built-in faces are: "
+                         f"{', '.join(FACES)}")
+    if name == "lee_perry_smith":
+        if skin is not None:
+            raise ValueError("the lee_perry_smith face has its own skin; drop skin=... or "
+                             "the name")
+        from .lee_perry_smith import load_lee_perry_smith
+
+        return load_lee_perry_smith(layout=lay, skull=_surface(skull))
+    if lay is None:
+        lay_used = load_layout(BUILTIN_LAYOUT)
+    else:
+        lay_used = lay
+    if skin is None and lay_used.skin is not None:
+        skin = (base or Path.cwd()) / lay_used.skin
+    if skull is None and lay_used.skull is not None:
+        skull = (base or Path.cwd()) / lay_used.skull
     if skin is None:
-        return FaceModel(build_skin(n), _surface(skull) or build_skull(), lay.muscles,
-                         lay.expressions, name=lay.name,
-                         landmarks=lay.landmarks if landmarks is None else landmarks)
-    return _scan_face(_surface(skin), _surface(skull), lay, layout is None, landmarks)
+        if n_triangles is None:
+            n_triangles = (lay_used.n_triangles if lay_used.n_triangles is not None
+                           else DEFAULT_TRIANGLES)
+        n = int(n_triangles)
+        if not (MIN_TRIANGLES <= n <= MAX_TRIANGLES):
+            raise ValueError(f"n_triangles = {n} is outside the supported "
+                             f"{MIN_TRIANGLES}..{MAX_TRIANGLES}; choose a number in that "
+                             "range")
+        skin_mesh = build_skin(n)
+        if lay is not None:
+            _check_fits(lay_used, skin_mesh, f"layout {lay_used.name!r} on the built-in face")
+        return FaceModel(skin_mesh, _surface(skull) or build_skull(), lay_used.muscles,
+                         lay_used.expressions, name=lay_used.name,
+                         landmarks=lay_used.landmarks if landmarks is None else landmarks,
+                         unit=unit or lay_used.unit or "mm")
+    skin_mesh = _surface(skin)
+    unit = face_unit_of(skin_mesh, unit or lay_used.unit)
+    return _scan_face(skin_mesh, _surface(skull), lay_used, lay is None, landmarks, unit)
 
 
 def _surface(value):
@@ -566,23 +663,20 @@ def _surface(value):
     return read_surface(value)
 
 
-def _scan_face(skin, skull, lay, builtin_layout_used, landmarks):
-    from .scans import offset_skull, regional_depth, transfer_layout
+def _scan_face(skin, skull, lay, builtin_layout_used, landmarks, unit):
+    from .scans import transfer_layout
+    from .skull import scan_skull
 
     landmarks = dict(landmarks) if landmarks is not None else (
         None if builtin_layout_used else dict(lay.landmarks) or None)
     if skull is None:
-        if landmarks:
-            depth = regional_depth(skin, landmarks)
-        else:  # no landmarks, no units: 2.5 % of the height, about 6 mm on a 240 mm head
-            lo, hi = skin.bounds()
-            depth = 0.025 * float(hi[1] - lo[1])
-        skull = offset_skull(skin, depth)
+        skull = scan_skull(skin, landmarks)
     if builtin_layout_used:
         if not landmarks:
             return FaceModel(skin, skull, (), {"neutral": paper_expressions()["neutral"]},
-                             name="scan without muscles")
+                             name="scan without muscles", unit=unit)
         lay = transfer_layout(lay, skin, landmarks, skull)
+    else:
+        _check_fits(lay, skin, f"layout {lay.name!r}")
     return FaceModel(skin, skull, lay.muscles, lay.expressions, name=lay.name,
-                     landmarks=landmarks or lay.landmarks)
-
+                     landmarks=landmarks or lay.landmarks, unit=unit)

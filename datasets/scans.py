@@ -7,10 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
-from wrinkle_vis.core import Layout, MeshError, TriangleSurface
-from wrinkle_vis.core.editing import snapped
+from wrinkle_vis.core import Layout, MeshError, TriangleSurface, load_layout
+from wrinkle_vis.core.mesh import closest_points
 
-__all__ = ["LANDMARKS", "offset_skull", "orient_outward", "read_surface",
+__all__ = ["LANDMARKS", "orient_outward", "read_landmarks", "read_surface", "scan_layout",
            "similarity_transform", "transfer_layout"]
 
 #: The landmarks ``transfer_layout`` understands (L is the subject's left, +x).
@@ -169,30 +169,6 @@ def _shared_landmarks(source: dict, target: dict) -> list[str]:
     return names
 
 
-def offset_skull(skin: TriangleSurface, depth) -> TriangleSurface:
-    """A skull under ``skin``: its vertices moved inwards along the normals by ``depth``
-    (a number, or ``(n,)`` per vertex, in the skin's units).
-    """
-    depth = np.broadcast_to(np.asarray(depth, float), (skin.n_points,))
-    return TriangleSurface(skin.points - depth[:, None] * skin.vertex_normals(),
-                           skin.triangles)
-
-
-def regional_depth(skin: TriangleSurface, landmarks: dict) -> np.ndarray:
-    """``(n,)``: the built-in face's regional tissue depth, mapped onto ``skin`` through
-    the similarity that takes the built-in landmarks onto ``landmarks``.
-    """
-    from . import anatomy
-    from .face import builtin_landmarks
-
-    source = builtin_landmarks()
-    names = _shared_landmarks(source, landmarks)
-    rot, scale, shift = similarity_transform([source[n] for n in names],
-                                             [landmarks[n] for n in names])
-    in_builtin = (skin.points - shift) @ rot / scale
-    return scale * anatomy.tissue_depth(in_builtin)
-
-
 def transfer_layout(layout: Layout, target_skin: TriangleSurface, landmarks: dict,
                     target_skull: TriangleSurface | None = None) -> Layout:
     """Move a muscle layout onto another face from a handful of named landmarks.
@@ -206,27 +182,130 @@ def transfer_layout(layout: Layout, target_skin: TriangleSurface, landmarks: dic
     landmarks : dict of str to (3,) array_like
         The same landmarks on the target (at least 4 shared names, see :data:`LANDMARKS`).
     target_skull : TriangleSurface, optional
-        Where attachments go; default a skull offset from the target skin by the regional
-        tissue depth (:func:`regional_depth`).
+        Where attachments go; default the level-set skull under the target skin
+        (:func:`~wrinkle_vis.datasets.skull.scan_skull`).
 
     Returns
     -------
     Layout
         Muscles mapped by the least-squares similarity of the landmarks, lengths scaled by
         its scale, each point projected onto the surface its parameter declares
-        (:func:`~wrinkle_vis.core.editing.snapped`: insertions onto the target skin,
-        attachments onto the target skull; a sheet's lines are only mapped: they set its
-        frame, which neighbouring sheets share); the expressions unchanged; the target's landmarks.
+        (:meth:`~wrinkle_vis.core.muscle.Muscle.point_surfaces`: insertions onto the target
+        skin, attachments onto the target skull; a sheet's lines are only mapped: they set
+        its frame, which neighbouring sheets share; a linear muscle's radius keeps its ratio
+        to the muscle's length); the expressions unchanged; the target's landmarks.
     """
     names = _shared_landmarks(layout.landmarks, landmarks)
     rot, scale, shift = similarity_transform([layout.landmarks[n] for n in names],
                                              [landmarks[n] for n in names])
     if target_skull is None:
-        target_skull = offset_skull(target_skin, regional_depth(target_skin, landmarks))
+        from .skull import scan_skull
+
+        target_skull = scan_skull(target_skin, landmarks)
     surfaces = {"skin": target_skin, "skull": target_skull}
-    muscles = [snapped(m.transformed(lambda p: scale * p @ rot.T + shift, scale), surfaces,
-                       lines=False)  # a sheet's lines are its frame: moved, not projected
-               for m in layout.muscles]
+    muscles = []
+    for m in layout.muscles:
+        moved = m.transformed(lambda p: scale * p @ rot.T + shift, scale)
+        changes = {}
+        for param, where in moved.point_surfaces().items():
+            arr = np.asarray(getattr(moved, param), float)
+            if arr.ndim > 1:  # a sheet's lines are its frame: moved, not projected
+                continue
+            changes[param] = closest_points(surfaces[where], arr.reshape(-1, 3)).reshape(
+                arr.shape)
+        if {"attachment", "insertion"} <= set(changes) and hasattr(moved, "radius"):
+            # keep the area of influence's reach beyond the insertion: radius / |m_I - m_A|
+            before = np.linalg.norm(np.subtract(moved.insertion, moved.attachment))
+            after = np.linalg.norm(changes["insertion"] - changes["attachment"])
+            changes["radius"] = float(moved.radius) * float(after / before)
+        muscles.append(moved.replace(**changes))
     return Layout(name=f"{layout.name} on {target_skin.n_points}-vertex skin",
                   muscles=tuple(muscles), expressions=layout.expressions,
                   landmarks={k: tuple(map(float, v)) for k, v in landmarks.items()})
+
+
+def read_landmarks(path: str | os.PathLike) -> dict[str, tuple]:
+    """Named landmarks from a JSON file: ``{"nasion": [x, y, z], ...}``, or a layout file
+    (or any JSON object) with such an object under ``"landmarks"``.
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no such file.
+    ValueError
+        One line naming the file and what is wrong (not JSON, no landmarks, a bad point,
+        fewer than 4 of :data:`LANDMARKS`).
+    """
+    import json
+    import math
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no landmarks file at {path}; check the path")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{path}: not a JSON file of landmarks ({exc})") from None
+    if isinstance(data, dict) and isinstance(data.get("landmarks"), dict):
+        data = data["landmarks"]
+    if not isinstance(data, dict) or not data:
+        raise ValueError(f'{path}: expected {{"nasion": [x, y, z], ...}} (or a layout with '
+                         '"landmarks"); found no landmarks')
+    out = {}
+    for name, value in data.items():
+        ok = isinstance(value, list) and len(value) == 3 and all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+            for x in value)
+        if not ok:
+            raise ValueError(f"{path}: landmark {name!r}: expected [x, y, z] of finite "
+                             f"numbers; found {json.dumps(value)[:60]}")
+        out[str(name)] = tuple(float(x) for x in value)
+    known = [n for n in out if n in LANDMARKS]
+    if len(known) < 4:
+        raise ValueError(f"{path}: needs at least 4 of the landmarks {', '.join(LANDMARKS)}; "
+                         f"found {', '.join(out)}")
+    return out
+
+
+def scan_layout(skin: str | os.PathLike, landmarks: dict, *,
+                layout_path: str | os.PathLike | None = None, unit: str | None = None,
+                name: str | None = None, layout: Layout | None = None) -> Layout:
+    """The layout of a scan: ``layout`` (default the built-in one) moved onto the skin
+    file ``skin`` from ``landmarks``, naming the file and the landmarks.
+
+    Saved with :func:`~wrinkle_vis.core.layout.save_layout` at ``layout_path``, it is a
+    whole face: ``load_face(layout=layout_path)`` reads the skin, rebuilds the same skull
+    (:func:`~wrinkle_vis.datasets.skull.scan_skull`) and gives the same face, bit for bit.
+
+    Parameters
+    ----------
+    skin : path
+        The scan (any format :func:`read_surface` reads).
+    landmarks : dict of str to (3,) array_like
+        Named points on it (at least 4 of :data:`LANDMARKS`).
+    layout_path : path, optional
+        Where the layout will be saved: ``skin`` is recorded relative to its folder (with
+        ``..`` where needed); without it, as an absolute path.
+    unit : str, optional
+        The scan's length unit; default guessed from its size
+        (:func:`~wrinkle_vis.core.units.guess_unit`, with a warning).
+    name : str, optional
+        The layout's name; default the file's stem.
+    layout : Layout, optional
+        The muscles to move; default the built-in face's.
+    """
+    from .face import BUILTIN_LAYOUT, face_unit_of
+    from .skull import scan_skull
+
+    skin_path = Path(skin).resolve()
+    surface = read_surface(skin_path)
+    marks = {k: tuple(float(x) for x in v) for k, v in dict(landmarks).items()}
+    unit = face_unit_of(surface, unit)
+    source = layout if layout is not None else load_layout(BUILTIN_LAYOUT)
+    moved = transfer_layout(source, surface, marks, scan_skull(surface, marks))
+    where = str(skin_path)
+    if layout_path is not None:
+        where = os.path.relpath(skin_path, Path(layout_path).resolve().parent)
+    return Layout(name=name or skin_path.stem, muscles=moved.muscles,
+                  expressions=moved.expressions, skin=Path(where).as_posix(), skull=None,
+                  landmarks=marks, unit=unit)

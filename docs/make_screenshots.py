@@ -1,8 +1,13 @@
 """Regenerate the screenshots of the user guide and README (needs a display, or Xvfb).
 
-Usage:  xvfb-run -a .venv/bin/python docs/make_screenshots.py
+Usage:  xvfb-run -a .venv/bin/python docs/make_screenshots.py [--newface]
+
+``--newface``: only the New-face flow's landmark step (on the Lee Perry-Smith head scan in
+``../shared/realmeshes`` beside the checkout).
 """
 
+import sys
+import warnings
 from pathlib import Path
 
 from qtpy import QtCore, QtWidgets
@@ -23,10 +28,46 @@ def settle(app, n=20):
         app.processEvents()
 
 
+SCAN = Path(__file__).resolve().parents[2] / "shared" / "realmeshes" / "lee_perry_smith_head.obj"
+#: The head scan's landmarks (metres, its own frame), as tests/test_app_newface.py clicks them.
+SCAN_MARKS = {"nasion": (-0.000569, 0.006743, 0.029338),
+              "nose_tip": (0.000836, -0.036339, 0.053476),
+              "chin": (-0.002425, -0.10469, 0.036819),
+              "eye_inner_L": (0.019274, -0.004529, 0.015423)}
+
+
+def newface_screenshot(app, settings):
+    """File > New face from mesh... on the head scan, four landmarks placed, the fifth
+    asked for: ``app_newface.png``.
+    """
+    if not SCAN.exists():
+        print(f"no {SCAN}: app_newface.png not made")
+        return
+    window = MainWindow(Session(wv.datasets.load_face()), settings, Recovery(OUT / ".recovery"))
+    window.resize(1600, 820)
+    window.show()
+    settle(app)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        window.newface.start(SCAN)
+    window.skin_view.camera.zoom(1.8)  # closer to the face, as one picks
+    for point in SCAN_MARKS.values():
+        window.newface.place(point)
+    settle(app)
+    window.grab().save(str(OUT / "app_newface.png"))
+    window.newface.cancel()
+    window.session.dirty = False
+    window.close()
+
+
 def main():
     """Write the app and field-map screenshots."""
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
     settings = QtCore.QSettings(str(OUT / ".screenshots.ini"), QtCore.QSettings.IniFormat)
+    newface_screenshot(app, settings)
+    if "--newface" in sys.argv:
+        (OUT / ".screenshots.ini").unlink(missing_ok=True)
+        return
     face = wv.datasets.load_face(20000)
     window = MainWindow(Session(face), settings, Recovery(OUT / ".recovery"))
     window.resize(1600, 820)

@@ -93,7 +93,6 @@ def test_sequences_are_bounded_like_animations(tmp_path, capsys):
     (["export", "--sequence", "-o", "x.vtp"], "--output must end in .pvd, .obj or .ply"),
     (["export", "--fps", "3", "-o", "x.vtp"], "--fps is the frame rate of --sequence"),
     (["export", "--sequence", "--fps", "500", "-o", "x.pvd"], "--fps 500 is outside 1..120"),
-    (["export", "--unit", "m", "-o", "x.vtp"], "--unit is for .glb output"),
     (["export", "--intensity", "0.5", "-o", "x.glb"], "a .glb holds each expression at full "
                                                       "intensity"),
     (["export", "-e", "yawn", "-o", "x.glb"], "unknown expression 'yawn'"),

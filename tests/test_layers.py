@@ -16,7 +16,7 @@ def _imported(modules: str) -> list[str]:
 
 def test_placement_widgets_and_the_app_model_import_no_qt():
     assert _imported("wrinkle_vis.widgets, wrinkle_vis.app.session, wrinkle_vis.app.views, "
-                     "wrinkle_vis.app.recovery") == []
+                     "wrinkle_vis.app.recovery, wrinkle_vis.app.newface") == []
 
 
 def test_the_qt_panels_do_use_qt():  # the check above can fail

@@ -54,7 +54,7 @@ def test_transfer_puts_insertions_on_the_skin_and_attachments_on_the_skull():
     layout = wv.load_layout(EXAMPLE)
     skin = read_surface(HEAD)
     landmarks = layout.landmarks
-    face = wv.datasets.load_face(skin=skin, landmarks=landmarks)  # built-in layout moved
+    face = wv.datasets.load_face(skin=skin, landmarks=landmarks, unit="m")  # layout moved
     moved = transfer_layout(wv.load_layout(wv.datasets.BUILTIN_LAYOUT), skin, landmarks,
                             face.skull)
     for m in moved.muscles:
@@ -62,10 +62,15 @@ def test_transfer_puts_insertions_on_the_skin_and_attachments_on_the_skull():
             pts = np.asarray(getattr(m, p)).reshape(-1, 3)
             surf = face.skull if m.point_surfaces()[p] == "skull" else skin
             assert np.abs(closest_points(surf, pts) - pts).max() < 1e-9
-    # lengths scale by about mm -> m
+    # lengths scale by about mm -> m (a radius also with its muscle's new length)
     builtin = wv.load_layout(wv.datasets.BUILTIN_LAYOUT)
-    ratio = moved.muscles[6].radius / builtin.muscles[6].radius
+    ratio = moved.muscles[0].width / builtin.muscles[0].width
     assert 0.0008 < ratio < 0.0012
+    for m, b in zip(moved.muscles, builtin.muscles, strict=True):
+        if m.type_name == "linear":
+            ratio = (m.radius / np.linalg.norm(np.subtract(m.insertion, m.attachment))
+                     / (b.radius / np.linalg.norm(np.subtract(b.insertion, b.attachment))))
+            assert ratio == pytest.approx(1.0)
     # the skull lies under the skin by the regional depth (about 4-25 mm here)
     gap = np.linalg.norm(closest_points(skin, face.skull.points[::40]) - face.skull.points[::40],
                          axis=1)
@@ -104,10 +109,16 @@ def test_a_scan_without_layout_or_landmarks_gets_no_muscles(tmp_path):
     face = wv.datasets.load_face()
     path = tmp_path / "face.ply"
     to_surface_polydata(face.skin).save(path)
-    plain = wv.datasets.load_face(skin=path)
+    with pytest.warns(wv.core.units.UnitWarning, match="reads as mm"):
+        plain = wv.datasets.load_face(skin=path)
     assert plain.muscles == () and set(plain.expressions) == {"neutral"}
-    assert plain.skull.n_points == plain.skin.n_points
+    assert plain.unit == "mm"
+    rep = plain.skull.report()  # a closed skull, 2.5 % of the height inside
+    assert len(rep.boundary_edges) == 0 and len(rep.non_manifold_edges) == 0
+    assert 0 < plain.skull.signed_volume()
     assert not plain.evaluate().W.any()
+    quiet = wv.datasets.load_face(skin=path, unit="mm")  # a unit given: no warning
+    assert quiet.unit == "mm"
 
 
 @pytest.mark.parametrize("suffix", [".obj", ".ply", ".stl", ".vtp", ".vtk"])

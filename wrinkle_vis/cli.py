@@ -17,6 +17,9 @@ CAMERA_CHOICES = ("front", "three_quarter", "side", "forehead", "upper_face")
 FIGURE_CHOICES = ("fig9", "fig11")
 FIG9_EXPRESSIONS = ("surprise", "frown", "fear")
 LAYER_CHOICES = ("skin", "muscles", "skull")
+#: The built-in faces (wrinkle_vis.datasets.FACES, without importing it here).
+FACE_CHOICES = ("procedural", "lee_perry_smith")
+UNIT_CHOICES = ("mm", "cm", "m", "um", "in", "ft")
 
 
 #: Image sizes: at least this many pixels a side (smaller is unreadable) ...
@@ -61,6 +64,19 @@ def _common(p: argparse.ArgumentParser, *, expression_many: bool = False,
                    help="built-in skin resolution in triangles, exactly (500 to 250000; "
                         "default: the layout's, else 4500)")
     p.add_argument("--layout", type=Path, help="a layout file (default: the built-in face)")
+    p.add_argument("--face", choices=FACE_CHOICES, default=None,
+                   help="a built-in face: procedural (default) or lee_perry_smith (a real "
+                        "head scan, CC BY 3.0 Lee Perry-Smith / Infinite Realities)")
+    p.add_argument("--skin", type=Path,
+                   help="a scan of your own (OBJ, PLY, STL, VTP, VTK, ...), with --landmarks "
+                        "or a --layout that has them; for bake, an OBJ with UVs")
+    p.add_argument("--landmarks", type=Path, metavar="FILE.json",
+                   help='where the landmarks lie on --skin: {"nasion": [x, y, z], ...} (at '
+                        "least 4 of nasion, nose_tip, chin, eye_inner_L/R, eye_outer_L/R, "
+                        "mouth_corner_L/R), or a layout file with them")
+    p.add_argument("--unit", choices=UNIT_CHOICES, default=None,
+                   help="the unit of the face's lengths (default: the layout's; mm for the "
+                        "built-in faces; guessed from a scan's size, with a note)")
 
 
 def _refine_options(p: argparse.ArgumentParser, what: str = "evaluate with adaptive "
@@ -124,9 +140,6 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--fps", type=int, default=None,
                    help=f"frames per second of --sequence (1 to {MAX_FPS}; default 12; at "
                         f"most {_max_frames():,} frames in all)")
-    p.add_argument("--unit", choices=("mm", "cm", "m", "in"), default=None,
-                   help="the unit of the face's lengths, for .glb (metres): default the "
-                        "face's, mm for the built-in face")
     p.add_argument("--output", "-o", type=Path, required=True,
                    help="a .vtp (ParaView), .vtk or .ply file for the skin, .vtm for "
                         "skin, skull and muscles, or .glb (glTF: the neutral skin with one "
@@ -177,17 +190,11 @@ def _parser() -> argparse.ArgumentParser:
                     "wrinkles, and each --field as a colour map, padded across UV seams. "
                     "W sampled back at the texel centres is reported.")
     _common(p)
-    p.add_argument("--skin", type=Path,
-                   help="the skin: an OBJ with UV coordinates (default: the layout's skin)")
     p.add_argument("--field", "-f", action="append", choices=field_choices_[:-1],
                    help="a field to bake as a colour map (repeatable; default W)")
     p.add_argument("--muscle", "-m", help="whose fields (default: the total, W only)")
     p.add_argument("--size", type=int, nargs=2, default=(1024, 1024), metavar=("W", "H"),
                    help=f"map size in texels ({_SIZES}; default 1024 1024)")
-    p.add_argument("--unit", choices=("mm", "cm", "m", "in"), default=None,
-                   help="the unit of the face's lengths, recorded with the maps: default "
-                        "the face's, mm for the built-in face (the Lee Perry-Smith head is "
-                        "in m)")
     p.add_argument("--padding", type=int, default=8,
                    help=f"texels of padding around each UV island (0 to {MAX_PADDING}; "
                         "default 8)")
@@ -324,10 +331,39 @@ def _wrote(args, written) -> str:
     return str(out)
 
 
+def _check_face_options(args, layout) -> None:
+    """One line for options that cannot go together, and for a scan without landmarks."""
+    skin = getattr(args, "skin", None)
+    if args.face is not None and skin is not None:
+        raise CliError(f"--face {args.face} and --skin {skin}: give one face, the built-in "
+                       "one or your scan")
+    if args.face == "lee_perry_smith" and args.triangles is not None:
+        raise CliError("--triangles sets the procedural face's resolution; the "
+                       "lee_perry_smith head has its own (leave --triangles out)")
+    if skin is not None and not skin.is_file():
+        what = "is a folder, not a file" if skin.is_dir() else "no such file"
+        raise CliError(f"--skin {skin}: {what}; check the path")
+    if args.landmarks is not None and skin is None and (layout is None or layout.skin is None):
+        raise CliError(f"--landmarks {args.landmarks}: landmarks place the muscles on a scan; "
+                       "add --skin SCAN")
+    scan = skin is not None or (layout is not None and layout.skin is not None)
+    has_marks = args.landmarks is not None or (layout is not None and layout.landmarks)
+    if scan and not has_marks and (layout is None or not layout.muscles):
+        raise CliError(
+            f"--skin {skin or layout.skin}: a scan needs landmarks to place the muscles; "
+            "give --landmarks FILE.json with {\"nasion\": [x, y, z], ...} (at least 4 of "
+            "nasion, nose_tip, chin, eye_inner_L, eye_inner_R, eye_outer_L, eye_outer_R, "
+            "mouth_corner_L, mouth_corner_R, in the scan's coordinates), or a --layout that "
+            "has them (the app's File > New face from mesh... writes one)")
+
+
 def _load(args, *, refine: bool = False):
+    import warnings
+
     from wrinkle_vis.core.layout import load_layout
     from wrinkle_vis.core.mesh import MeshError
-    from wrinkle_vis.datasets import load_face
+    from wrinkle_vis.core.units import UnitWarning
+    from wrinkle_vis.datasets import load_face, read_landmarks
 
     layout = None
     if args.layout is not None:
@@ -339,19 +375,34 @@ def _load(args, *, refine: bool = False):
                     f"--layout {args.layout}: its {key} file {str(path)!r} does not exist; "
                     f"fix \"{key}\" in the layout (a path relative to the layout's folder, "
                     "or null for the built-in face)")
+    _check_face_options(args, layout)
     meshes = _layout_meshes(layout, args.layout)
     skin = getattr(args, "skin", None)
     if skin is not None:
         meshes["skin"] = skin
+    landmarks = None
+    if args.landmarks is not None:
+        try:
+            landmarks = read_landmarks(args.landmarks)
+        except (OSError, ValueError) as exc:
+            raise CliError(f"--landmarks {exc}") from None
     try:
-        face = load_face(args.triangles, layout=layout, **meshes)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", UnitWarning)
+            face = load_face(args.face, args.triangles, layout=layout, landmarks=landmarks,
+                             unit=args.unit, **meshes)
+        for w in caught:
+            if issubclass(w.category, UnitWarning):
+                print(f"wrinkle-vis {args.command}: note: {w.message} (--unit)",
+                      file=sys.stderr)
+            else:
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     except ValueError as exc:  # a face the layout's meshes and landmarks cannot make
-        if args.layout is None and skin is None:
-            raise
         if isinstance(exc, MeshError):  # names its file
             raise
-        raise CliError(f"--{'layout' if args.layout else 'skin'} "
-                       f"{args.layout or skin}: {exc}") from None
+        where = (f"--layout {args.layout}" if args.layout else f"--skin {skin}" if skin
+                 else f"--face {args.face}" if args.face else "the built-in face")
+        raise CliError(f"{where}: {exc}") from None
     names = getattr(args, "expression", None)
     for name in names if isinstance(names, list) else [names] if names else []:
         if name not in face.expressions:
@@ -470,8 +521,6 @@ def _export(args) -> int:
     _output(args, MESH_SUFFIXES + GLTF_SUFFIXES)
     if suffix == ".glb":
         return _export_gltf(args)
-    if args.unit is not None:
-        raise CliError("--unit is for .glb output (glTF is in metres); leave it out")
     args.expression = args.expression or "surprise"
     face = _load(args)
     state = face.evaluate(args.expression, args.intensity)
@@ -502,8 +551,6 @@ def _export_sequence(args) -> int:
         check_sequence_target(args.output)
     except OutputPathError as exc:
         raise CliError(f"--output {exc}") from None
-    if args.unit is not None:
-        raise CliError("--unit is for .glb output (glTF is in metres); leave it out")
     args.expression = args.expression or "surprise"
     face = _load(args)
     expression = face.expressions[args.expression]
@@ -553,7 +600,7 @@ def _bake(args) -> int:
     from tqdm import tqdm
 
     from wrinkle_vis.core.files import OutputPathError
-    from wrinkle_vis.plotting.bake import bake_maps, check_bake_folder, read_obj_uvs, save_bake
+    from wrinkle_vis.plotting.bake import bake_maps, check_bake_folder, save_bake
     from wrinkle_vis.plotting.exchange import face_unit
 
     try:
@@ -563,22 +610,12 @@ def _bake(args) -> int:
     if not 0 <= args.padding <= MAX_PADDING:
         raise CliError(f"--padding {args.padding} is outside 0..{MAX_PADDING}; choose a "
                        "number of texels in that range (default 8)")
-    if args.skin is not None and not args.skin.is_file():
-        what = "is a folder, not a file" if args.skin.is_dir() else "no such file"
-        raise CliError(f"--skin {args.skin}: {what}; check the path")
     fields = args.field or ["W"]
     for name in fields:
         _check_field(name, args.muscle)
-    source = args.skin
-    if source is None and args.layout is not None:
-        from wrinkle_vis.core.layout import load_layout
-
-        source = load_layout(args.layout).resolve("skin", args.layout.parent)
-    if source is None:
-        raise CliError("the built-in face has no UV coordinates; give a skin with UVs: "
-                       "--skin head.obj (an OBJ with vt), with --layout for its muscles")
+    source = _uv_source(args)  # no UVs: said before any work
     face = _load(args)
-    uvs = read_obj_uvs(source, face.skin)
+    uvs = _uvs(source, face)
     state = face.evaluate(args.expression, args.intensity)
     progress = partial(tqdm, desc=f"baking {args.output.name}", unit="step", delay=0.5)
     maps = bake_maps(state, uvs, tuple(args.size), fields=[(f, args.muscle) for f in fields],
@@ -589,6 +626,44 @@ def _bake(args) -> int:
     print(f"wrote {args.output}: {written.summary}; W sampled back at the texel centres "
           f"within {100 * maps.check['texel_centres_max']:.3g} % of its range")
     return 0
+
+
+def _uv_source(args):
+    """Where the skin's UVs come from: ``"lee_perry_smith"`` (the built-in head's) or an
+    OBJ file, checked to hold UVs; a one-line error otherwise.
+    """
+    from wrinkle_vis.plotting.bake import _parse_obj, read_obj_uvs
+
+    source = args.skin
+    if source is None and args.layout is not None:
+        from wrinkle_vis.core.layout import load_layout
+
+        layout = load_layout(args.layout)
+        source = layout.resolve("skin", args.layout.parent)
+        if source is None and layout.face == "lee_perry_smith":
+            return "lee_perry_smith"
+    if source is None and args.face == "lee_perry_smith":
+        return "lee_perry_smith"
+    if source is None:
+        raise CliError("the built-in face has no UV coordinates; give a skin with UVs: "
+                       "--skin head.obj (an OBJ with vt) with --landmarks or --layout for "
+                       "its muscles, or bake the real head: --face lee_perry_smith")
+    if not Path(source).is_file():
+        return source  # _load names the missing file
+    if Path(source).suffix.lower() != ".obj" or len(_parse_obj(Path(source))[1]) == 0:
+        read_obj_uvs(source, None)  # raises UVError, naming the file and the way out
+    return source
+
+
+def _uvs(source, face):
+    """The corner UVs of ``face``'s skin from :func:`_uv_source`'s answer."""
+    from wrinkle_vis.plotting.bake import read_obj_uvs
+
+    if source == "lee_perry_smith":
+        from wrinkle_vis.datasets.lee_perry_smith import lee_perry_smith_uvs
+
+        return lee_perry_smith_uvs()
+    return read_obj_uvs(source, face.skin)
 
 
 def _animate(args) -> int:

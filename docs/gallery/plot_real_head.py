@@ -2,34 +2,22 @@
 The real head
 =============
 
-The built-in muscle layout moved onto a scanned head, Lee Perry-Smith's (CC BY 3.0,
-Infinite Realities), with the nine landmarks that
-``wrinkle_vis/datasets/examples/lee_perry_smith.json`` records. The scan is not shipped:
-it is read from ``$WRINKLE_VIS_REALMESHES`` (the documentation build points that at the
-workspace's ``shared/realmeshes``); without it this example says so and shows nothing.
+The Lee Perry-Smith head, built in: ``wv.datasets.load_face("lee_perry_smith")``. A real
+head scan ("Infinite, 3D Head Scan" by Lee Perry-Smith / Infinite Realities, CC BY 3.0,
+shipped in a derived form: welded, in millimetres, in the built-in frame) with the
+procedural face's 17 muscles placed on its anatomy from nine landmarks, and a closed skull
+inside it.
 """
-
-import os
-from pathlib import Path
 
 import wrinkle_vis as wv
 
-scan = Path(os.environ.get("WRINKLE_VIS_REALMESHES", "realmeshes")) / "lee_perry_smith_head.obj"
-layout = Path(wv.datasets.__file__).with_name("examples") / "lee_perry_smith.json"
-
-if not scan.is_file():
-    print(f"The scan is not here ({scan}); nothing to show.")
-    head = None
-else:
-    head = wv.datasets.load_face(skin=scan, layout=layout)
-    print(f"{head.skin.n_points} vertices, {len(head.muscles)} muscles")
+head = wv.datasets.load_face("lee_perry_smith")
+print(f"{head.skin.n_points} vertices, {len(head.muscles)} muscles, unit {head.unit}")
 
 # %%
-# Surprise on the scan, refined, as plain skin: the forehead furrows of the paper's Fig. 9.
-if head is not None:
-    head.plot("surprise", None, refine=True, camera="forehead")
+# Surprise, refined, as plain skin: the forehead furrows of the paper's Fig. 9.
+head.plot("surprise", None, refine=True, camera="forehead")
 
 # %%
-# Its wrinkle amplitude W (in the scan's units, metres).
-if head is not None:
-    head.plot("frown", "W", camera="upper_face")
+# Frown's wrinkle amplitude W (mm): the furrows between the brows.
+head.plot("frown", "W", camera="upper_face")

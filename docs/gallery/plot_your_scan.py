@@ -40,8 +40,10 @@ landmarks = {k: tuple(to_scan(v)) for k, v in wv.datasets.builtin_landmarks().it
 print(f"{path.name}: {mesh.n_points} points; landmarks: {', '.join(landmarks)}")
 
 # %%
-# Load it: the layout follows the landmarks, the skull is offset under the skin.
-face = wv.datasets.load_face(skin=path, landmarks=landmarks)
+# Load it: the layout follows the landmarks, a closed skull is built under the skin at the
+# regional tissue depth. The unit is the scan's (guessed from its size, with a warning,
+# when not given).
+face = wv.datasets.load_face(skin=path, landmarks=landmarks, unit="m")
 print(f"{len(face.muscles)} muscles, expressions: {', '.join(face.expressions)}")
 
 # %%

@@ -293,12 +293,14 @@ class Session:
 
     def added(self, type_name: str, at) -> tuple[FaceModel, str]:
         """The face with a new muscle of type ``type_name``, its insertion on the skin at
-        ``at`` ``(3,)``, made by the type itself (:meth:`Muscle.create`).
+        ``at`` ``(3,)``, made by the type itself (:meth:`Muscle.create`) in the face's unit
+        (:func:`~wrinkle_vis.widgets.placement.created`).
         """
+        from wrinkle_vis.widgets.placement import created
+
         cls = get_muscle_type(type_name)
         name = unique_name(f"{type_name}_1", self.face.muscle_names)
-        return self.face.with_muscle(cls.create(name, at, self.face.skin, self.face.skull)), \
-            name
+        return self.face.with_muscle(created(cls, name, self.face, at)), name
 
     def derived(self, muscle: str) -> dict[str, float]:
         """The muscle's derived d (Eq. 8) and u (Eq. 6)."""
@@ -327,11 +329,12 @@ class Session:
         should start (default: where they start now; None: absolute paths).
         """
         base = self._layout
-        extra = {"n_triangles": self.face.skin.n_triangles} if base.skin is None else {}
+        procedural = base.skin is None and base.face in (None, "procedural")
+        extra = {"n_triangles": self.face.skin.n_triangles} if procedural else {}
         layout = dataclasses.replace(base, name=self.face.name, muscles=self.face.muscles,
                                      expressions=self.face.expressions,
                                      landmarks=self.face.landmarks or base.landmarks,
-                                     **extra)
+                                     unit=self.face.unit or base.unit, **extra)
         return layout if folder is ... else self._relocated(layout, folder)
 
     def _relocated(self, layout: Layout, folder: str | Path | None) -> Layout:

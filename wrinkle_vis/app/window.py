@@ -10,6 +10,7 @@ observers are removed on close, so a closed window is freed with everything it d
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import re
 import sys
 import time
@@ -23,13 +24,15 @@ from vtkmodules.vtkRenderingCore import vtkPropPicker
 
 from ..core.editing import with_point
 from ..core.face import FIELD_NAMES
-from ..core.layout import LayoutError
+from ..core.layout import Layout, LayoutError, load_layout
 from ..core.muscle import MuscleParameterError
 from ..core.registry import muscle_types
+from ..core.units import LENGTH_UNITS
 from ..plotting import set_camera
 from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
 from ..widgets.panels import MuscleListPanel
+from .newface_panel import NewFaceFlow
 from .recovery import Recovery
 from .session import TIMELINE_STEPS, Session, editable, load_session, playback_position
 from .views import VIEWS, LinkedViews
@@ -37,6 +40,7 @@ from .views import VIEWS, LinkedViews
 __all__ = ["MainWindow"]
 
 TOTAL = "total"
+_FACE_LABELS = {"procedural": "&Procedural", "lee_perry_smith": "&Lee Perry-Smith"}
 PLAIN = "none"  # the field box's entry for plain skin (no field)
 KEEP = object()  # edit(): keep the selection
 MAX_RECENT = 8
@@ -176,6 +180,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.statusBar().addPermanentWidget(self.status_label)
         self._build_views()
         self._build_controls()
+        self.newface = NewFaceFlow(self)
         self._build_menus()
         self.timer = QtCore.QTimer(self)  # Play: ticks as fast as 60 a second
         self.timer.setInterval(PLAY_TICK_MS)
@@ -378,6 +383,8 @@ class MainWindow(QtWidgets.QMainWindow):
     def _build_menus(self) -> None:
         file_menu = self.menuBar().addMenu("&File")
         self._action(file_menu, "&Open layout...", "Ctrl+O", self.open_dialog)
+        self._action(file_menu, "&New face from mesh...", "Ctrl+N",
+                     _weak(self.newface.new_face_dialog))
         self._action(file_menu, "&Save layout", "Ctrl+S", self.save)
         self._action(file_menu, "Save layout &as...", "Ctrl+Shift+S", self.save_as_dialog)
         self.recent_menu = file_menu.addMenu("Open &recent")
@@ -395,6 +402,7 @@ class MainWindow(QtWidgets.QMainWindow):
         edit_menu.addMenu(self.add_menu)
         edit_menu.addActions([self.edit_actions[k] for k in
                               ("delete", "duplicate", "rename", "mirror", "mirror_pair")])
+        self._build_face_menu()
         view_menu = self.menuBar().addMenu("&View")
         for name, key in (("front", "1"), ("three_quarter", "2"), ("side", "3"),
                           ("forehead", "4")):
@@ -418,6 +426,39 @@ class MainWindow(QtWidgets.QMainWindow):
         self._action(help_menu, "&Keyboard shortcuts", "Ctrl+/", self.show_shortcuts)
         self._update_recent_menu()
 
+    def _build_face_menu(self) -> None:
+        """Face: the built-in faces, a new face from a mesh, its landmarks picked again."""
+        from wrinkle_vis.datasets import FACES
+
+        menu = self.menuBar().addMenu("F&ace")
+        self.face_actions = {}
+        for name in FACES:
+            action = menu.addAction(_FACE_LABELS.get(name, name.replace("_", " ").title()))
+            action.setToolTip(f"Show the built-in face load_face({name!r})")
+            action.triggered.connect(_weak(self.open_builtin, name))
+            self.face_actions[name] = action
+        menu.addSeparator()
+        self._action(menu, "New face from mesh...", "", _weak(self.newface.new_face_dialog))
+        menu.addAction(self.newface.actions["again"])
+
+    def open_builtin(self, name: str) -> bool:
+        """Show built-in face ``name`` (:data:`wrinkle_vis.datasets.FACES`), after asking
+        about unsaved changes.
+        """
+        from wrinkle_vis.datasets import load_face
+
+        if not self.may_discard_changes(f"opening the {name} face"):
+            return False
+        try:
+            face = load_face(name)
+        except (OSError, ValueError, KeyError) as exc:
+            QtWidgets.QMessageBox.warning(self, "Cannot open the face", str(exc))
+            return False
+        named = None if name == "procedural" else name  # the layout records the face
+        self._show_session(Session(face, layout=Layout(face=named, unit=face.unit)))
+        self.recovery.discard()
+        return True
+
     def _action(self, menu, text, shortcut, slot) -> QtGui.QAction:
         action = menu.addAction(text)
         action.setShortcut(QtGui.QKeySequence(shortcut))
@@ -438,6 +479,8 @@ class MainWindow(QtWidgets.QMainWindow):
             self.muscle_box.addItems([TOTAL, *s.face.muscle_names])
             self.muscle_box.setCurrentText(s.muscle or TOTAL)
             self.field_box.setCurrentText(PLAIN if self.plain_skin else s.field)
+            self.probe_table.setVerticalHeaderLabels(
+                [_field_label(f, s.unit) for f in FIELD_NAMES])
         finally:
             self._updating_controls = False
         self.muscle_panel.set_muscles(s.face.muscle_names, s.muscle)
@@ -997,8 +1040,10 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def may_discard_changes(self, doing: str = "going on") -> bool:
         """Whether the unsaved changes, if any, may be left behind: asks Save / Discard /
-        Cancel (Save saves them first, and a failed or cancelled save is a Cancel).
+        Cancel (Save saves them first, and a failed or cancelled save is a Cancel). Picking
+        a face's landmarks again while it has unsaved changes goes back to that face first.
         """
+        self.newface.back_to_unsaved()
         if not self.session.dirty:
             return True
         answer = QtWidgets.QMessageBox.question(
@@ -1016,17 +1061,69 @@ class MainWindow(QtWidgets.QMainWindow):
         """
         if not self.may_discard_changes("opening another layout"):
             return False
-        current = self.session
-        n = current.face.skin.n_triangles if current.layout().skin is None else None
+        current = self.session.layout()
+        n = self.session.face.skin.n_triangles if current.skin is None and current.face in (
+            None, "procedural") else None
         try:
             session = load_session(path, n_triangles=n)
+            session.state()  # a face that cannot be evaluated is refused here, not later
         except (OSError, LayoutError, ValueError, KeyError) as exc:
-            QtWidgets.QMessageBox.warning(self, "Cannot open layout", str(exc))
-            return False
+            session = self._session_on_chosen_mesh(Path(path), exc)
+            if session is None:
+                return False
         self._show_session(session)
+        if session.dirty:  # the mesh chosen for it: a change of the layout, unsaved
+            self.undo_stack.resetClean()
+            session.dirty = True
+            self._update_title()
         self.recovery.discard()  # what it held was saved or discarded just now
         self._remember(path)
         return True
+
+    def _session_on_chosen_mesh(self, path: Path, exc: Exception) -> Session | None:
+        """Layout ``path`` could not be opened (``exc``): when it has muscles but names no
+        mesh (made for a scan, ``"skin": null``) or names one that is not there (moved),
+        offer to choose the mesh it was made for; else report ``exc`` in one line. Returns
+        the session on the chosen mesh, or None.
+        """
+        from wrinkle_vis.datasets import load_face
+
+        from .newface import MESH_FILTER, relative_mesh_path
+
+        try:
+            layout = load_layout(path)
+        except (OSError, LayoutError, ValueError):
+            layout = None
+        missing = layout is not None and layout.skin is not None and not (
+            layout.resolve("skin", path.parent).is_file())
+        if layout is None or not layout.muscles or (layout.skin is not None and not missing):
+            QtWidgets.QMessageBox.warning(self, "Cannot open layout", str(exc))
+            return None
+        why = (f"The layout's mesh {layout.skin} is not there (moved or renamed?)." if missing
+               else "The layout names no mesh (\"skin\": null), and its muscles do not fit "
+               "the built-in face.")
+        box = QtWidgets.QMessageBox(
+            QtWidgets.QMessageBox.Question, "Which mesh?",
+            f"{exc}\n\n{why} Choose the mesh it was made for?", parent=self)
+        choose = box.addButton("Choose mesh...", QtWidgets.QMessageBox.AcceptRole)
+        box.addButton(QtWidgets.QMessageBox.Cancel)
+        box.exec()
+        chosen = box.clickedButton() is choose
+        box.deleteLater()
+        mesh = QtWidgets.QFileDialog.getOpenFileName(
+            self, f"The mesh of {path.name}", str(path.parent), MESH_FILTER)[0] \
+            if chosen else ""
+        if not mesh:
+            return None
+        named = dataclasses.replace(layout, skin=relative_mesh_path(mesh, path.parent))
+        try:
+            session = Session(load_face(layout=layout, skin=mesh), path, layout=named)
+            session.state()
+        except (OSError, LayoutError, ValueError, KeyError) as err:
+            QtWidgets.QMessageBox.warning(self, "Cannot open layout", f"{mesh}: {err}")
+            return None
+        session.dirty = True
+        return session
 
     def open_recent(self, path: str) -> bool:
         """Open a layout of the Open recent menu."""
@@ -1041,6 +1138,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.param_error.setText("")
         self._populate()
         self.refresh(reset_camera=True)
+        self.newface.session_changed(session)
 
     def save(self) -> bool:
         """Save to the open file, or ask for one."""
@@ -1320,6 +1418,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.autosave_timer.stop()
         self.autosave_deadline.stop()
         self.views.close_placement()
+        self.newface.close()
         self.undo_stack.clear()
         self.recovery.discard()  # a clean exit leaves nothing to recover
         # VTK holds observers strongly, out of Python's sight: remove them
@@ -1446,6 +1545,12 @@ def _parameter_box(spec, unit: str) -> QtWidgets.QAbstractSpinBox:
         box = QtWidgets.QSpinBox()
         box.setRange(-999, 999)
         box.setSingleStep(max(1, int(spec.step)))
+    elif spec.unit == "length":  # the step is in mm: steps and digits follow the unit
+        mm = LENGTH_UNITS["mm"] / LENGTH_UNITS.get(unit, LENGTH_UNITS["mm"])
+        box = QtWidgets.QDoubleSpinBox()
+        box.setDecimals(3 + max(0, round(-np.log10(mm))))
+        box.setRange(-1e6, 1e6)
+        box.setSingleStep(spec.step * mm)
     else:
         box = QtWidgets.QDoubleSpinBox()
         box.setDecimals(3)

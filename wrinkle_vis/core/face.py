@@ -48,7 +48,7 @@ from .mesh import (
 )
 from .muscle import Muscle, check_activation
 from .refined import RefinedEngine
-from .units import face_unit
+from .units import check_unit, face_unit
 
 __all__ = ["FIELD_NAMES", "FaceModel", "FaceState"]
 
@@ -385,6 +385,10 @@ class FaceModel:
     landmarks : mapping of str to (3,) array_like, optional
         Named points on the skin (see :data:`wrinkle_vis.datasets.scans.LANDMARKS`); left and
         right pairs (``*_L``, ``*_R``) give the face's symmetry plane.
+    unit : str, optional
+        The unit of the face's lengths (a key of :data:`~wrinkle_vis.core.units.LENGTH_UNITS`);
+        None for a face that does not say (labels then read
+        :data:`~wrinkle_vis.core.units.DEFAULT_UNIT`, :func:`~wrinkle_vis.core.units.face_unit`).
 
     Notes
     -----
@@ -394,7 +398,7 @@ class FaceModel:
 
     def __init__(self, skin: TriangleSurface, skull: TriangleSurface | None = None,
                  muscles: Iterable[Muscle] = (), expressions=None, *, name: str = "face",
-                 landmarks=None, _caches=None, _rest_normals=None):
+                 landmarks=None, unit: str | None = None, _caches=None, _rest_normals=None):
         if not isinstance(skin, TriangleSurface):
             raise TypeError(f"skin must be a TriangleSurface; got {type(skin).__name__}")
         if skull is not None and not isinstance(skull, TriangleSurface):
@@ -402,6 +406,7 @@ class FaceModel:
         self.skin = skin
         self.skull = skull
         self.name = name
+        self.unit: str | None = None if unit is None else check_unit(unit)
         self.landmarks: dict[str, tuple] = {
             str(k): tuple(float(x) for x in v) for k, v in dict(landmarks or {}).items()}
         self.muscles: tuple[Muscle, ...] = tuple(muscles)
@@ -490,7 +495,7 @@ class FaceModel:
                 del cache[m]
         return FaceModel(self.skin, self.skull, muscles,
                          self.expressions if expressions is None else expressions,
-                         name=self.name, landmarks=self.landmarks,
+                         name=self.name, landmarks=self.landmarks, unit=self.unit,
                          _caches=(cache, None, self._rest))
 
     def muscle_data(self, muscle: Muscle) -> _MuscleData:
@@ -631,7 +636,7 @@ class FaceModel:
         rest.slide_normals = hier.slide[order]
         rest.shape = _from_six(hier.shape6[order])
         face = FaceModel(surface, self.skull, self.muscles, self.expressions, name=self.name,
-                         landmarks=self.landmarks, _caches=({}, None, rest))
+                         landmarks=self.landmarks, unit=self.unit, _caches=({}, None, rest))
         engine.last = (key, face, order)
         return face, order
 

@@ -7,12 +7,18 @@
      "muscles": [{"type": "linear", "name": "corrugator_L", "attachment": [...], ...}],
      "expressions": {"frown": {"name": "frown", "activations": {"corrugator_L": 1.0}, ...}},
      "landmarks": {"nose_tip": [0.0, -29.0, 110.0], ...},
-     "n_triangles": 4500}
+     "n_triangles": 4500, "unit": "mm", "face": null}
 
 Mesh paths are relative to the layout file; ``null`` means the built-in face's mesh (skin)
 or, for the skull, one built from the skin. ``n_triangles`` (optional) records the
 resolution the built-in skin was requested at, which rebuilds exactly the same mesh
-(:func:`wrinkle_vis.datasets.load_face`). Saving is atomic
+(:func:`wrinkle_vis.datasets.load_face`). ``unit`` (optional) is the unit of every length in
+the file and of the skin's coordinates (:data:`~wrinkle_vis.core.units.LENGTH_UNITS`). A
+layout that names its skin file and its landmarks is a whole face: reopening it rebuilds the
+same skin, skull and muscles (the skull is made from the skin and the landmarks,
+deterministically). ``face`` (optional) names a built-in face whose skin and skull the
+layout uses when ``skin`` is null (``"lee_perry_smith"``; null: the procedural face).
+Saving is atomic
 (:func:`wrinkle_vis.core.files.atomic_output`): the file is written beside its destination,
 flushed to disk and renamed over it, so a crash never leaves half a file, and a file saved
 over keeps its permissions. Loading checks every field and names the file, the JSON path of
@@ -33,6 +39,7 @@ from .expressions import Expression
 from .files import atomic_write_text
 from .muscle import Muscle, MuscleParameterError
 from .registry import UnknownMuscleTypeError, get_muscle_type
+from .units import LENGTH_UNITS
 
 __all__ = ["FORMAT", "VERSION", "Layout", "LayoutError", "atomic_write_text", "load_layout",
            "save_layout"]
@@ -82,6 +89,12 @@ class Layout:
         The resolution the built-in skin was requested at (the ``n_triangles`` argument
         of :func:`wrinkle_vis.datasets.load_face`), so that reopening the layout rebuilds
         the same mesh; None when not recorded (the loader's default) or for a skin file.
+    unit : str or None
+        The unit of the layout's lengths and its skin's coordinates (a key of
+        :data:`~wrinkle_vis.core.units.LENGTH_UNITS`); None when not recorded.
+    face : str or None
+        The built-in face the layout is for when ``skin`` is None (a name
+        :func:`wrinkle_vis.datasets.load_face` knows); None: the procedural face.
     """
 
     name: str = "face"
@@ -91,6 +104,8 @@ class Layout:
     skull: str | None = None
     landmarks: dict = field(default_factory=dict)
     n_triangles: int | None = None
+    unit: str | None = None
+    face: str | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "muscles", tuple(self.muscles))
@@ -104,13 +119,19 @@ class Layout:
     __hash__ = None
 
     def to_dict(self) -> dict:
-        """The JSON-ready form of the file (``n_triangles`` only when recorded)."""
+        """The JSON-ready form of the file (``n_triangles``, ``unit`` and ``face`` only
+        when recorded).
+        """
         out = {"format": FORMAT, "version": VERSION, "name": self.name, "skin": self.skin,
                "skull": self.skull, "muscles": [m.to_dict() for m in self.muscles],
                "expressions": {k: e.to_dict() for k, e in self.expressions.items()},
                "landmarks": {k: list(v) for k, v in self.landmarks.items()}}
         if self.n_triangles is not None:
             out["n_triangles"] = int(self.n_triangles)
+        if self.unit is not None:
+            out["unit"] = str(self.unit)
+        if self.face is not None:
+            out["face"] = str(self.face)
         return out
 
     @classmethod
@@ -129,7 +150,7 @@ class Layout:
         _expect(version == VERSION, source, "$.version",
                 f"{VERSION} (this wrinkle-vis reads version {VERSION})", version)
         known = {"format", "version", "name", "skin", "skull", "muscles", "expressions",
-                 "landmarks", "n_triangles"}
+                 "landmarks", "n_triangles", "unit", "face"}
         for key in data:
             _expect(key in known, source, f"$.{key}", f"one of {sorted(known)}", key)
         name = data.get("name", "face")
@@ -144,13 +165,19 @@ class Layout:
                                         and n_triangles > 0),
                 source, "$.n_triangles", "a positive whole number of triangles or null",
                 n_triangles)
+        unit = data.get("unit")
+        _expect(unit is None or (isinstance(unit, str) and unit in LENGTH_UNITS), source, "$.unit",
+                f"a length unit ({', '.join(LENGTH_UNITS)}) or null", unit)
+        face = data.get("face")
+        _expect(face is None or (isinstance(face, str) and face), source, "$.face",
+                "the name of a built-in face or null", face)
         muscles = _muscles(data.get("muscles", []), source)
         expressions = _expressions(data.get("expressions", {}), source,
                                    {m.name for m in muscles})
         return cls(name=name, muscles=muscles, expressions=expressions,
                    skin=data.get("skin"), skull=data.get("skull"),
                    landmarks=_landmarks(data.get("landmarks", {}), source),
-                   n_triangles=n_triangles)
+                   n_triangles=n_triangles, unit=unit, face=face)
 
     def resolve(self, key: str, base: str | os.PathLike) -> Path | None:
         """The absolute path of ``skin`` or ``skull`` relative to folder ``base``."""

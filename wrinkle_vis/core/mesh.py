@@ -11,8 +11,9 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components
 from scipy.spatial import cKDTree
 
 __all__ = ["MeshError", "MeshReport", "TriangleSurface", "barycentric_points", "closest_points",
-           "cotangent_laplacian", "phong_midpoints", "shape_operators", "smoothed_normals",
-           "subdivide", "surface_coordinates", "tangent_bases", "triangle_normals", "unit_rows"]
+           "cotangent_laplacian", "phong_midpoints", "self_intersections", "shape_operators",
+           "smoothed_normals", "subdivide", "surface_coordinates", "tangent_bases",
+           "triangle_normals", "unit_rows"]
 
 
 class MeshError(ValueError):
@@ -671,3 +672,61 @@ def smoothed_normals(surface: TriangleSurface, normals, radius: float) -> np.nda
         out[:, c], _ = cg(system, areas * n[:, c], x0=n[:, c], rtol=1e-12, maxiter=2000,
                           M=jacobi)
     return unit_rows(out)
+
+
+def self_intersections(surface: TriangleSurface, chunk: int = 200_000) -> np.ndarray:
+    r"""``(k, 2)``: the pairs of triangles of ``surface`` that cross each other.
+
+    Two triangles that share no edge cross when an edge of one passes through the other's
+    interior (Moeller-Trumbore: the edge :math:`p + t (q - p)` meets the plane of
+    :math:`(a, b, c)` at barycentric :math:`(1 - u - v, u, v)` with :math:`0 < t < 1`,
+    :math:`u, v > 0`, :math:`u + v < 1`, all strictly, by a margin of 1e-9). A shared corner
+    is a touch, not a crossing: a pair sharing a vertex crosses only if an edge away from
+    that vertex passes through the other. Candidate pairs are those whose bounding spheres
+    (centroid, farthest corner) overlap. Coplanar overlaps are not reported.
+    """
+    pts = np.asarray(surface.points, float)
+    tri = np.asarray(surface.triangles)
+    if len(tri) < 2:
+        return np.zeros((0, 2), np.intp)
+    corners = pts[tri]
+    centre = corners.mean(axis=1)
+    radius = np.linalg.norm(corners - centre[:, None], axis=2).max(axis=1)
+    pairs = cKDTree(centre).query_pairs(2.0 * float(radius.max()), output_type="ndarray")
+    if len(pairs) == 0:
+        return np.zeros((0, 2), np.intp)
+    gap = np.linalg.norm(centre[pairs[:, 0]] - centre[pairs[:, 1]], axis=1)
+    pairs = pairs[gap <= radius[pairs[:, 0]] + radius[pairs[:, 1]]]
+    shared = (tri[pairs[:, 0]][:, :, None] == tri[pairs[:, 1]][:, None, :]).sum(axis=(1, 2))
+    pairs = pairs[shared < 2]
+    hits = np.zeros(len(pairs), bool)
+    for start in range(0, len(pairs), chunk):
+        part = pairs[start:start + chunk]
+        for a, b in ((0, 1), (1, 0)):
+            ta, tb = tri[part[:, a]], tri[part[:, b]]
+            for i, j in ((0, 1), (1, 2), (2, 0)):
+                share_end = ((ta[:, i][:, None] == tb).any(axis=1)
+                             | (ta[:, j][:, None] == tb).any(axis=1))
+                hit = _segment_crosses(pts[ta[:, i]], pts[ta[:, j]], pts[tb])
+                hits[start:start + chunk] |= hit & ~share_end
+    return pairs[hits]
+
+
+def _segment_crosses(p: np.ndarray, q: np.ndarray, tri: np.ndarray, eps: float = 1e-9
+                     ) -> np.ndarray:
+    """``(k,)`` bool: segment ``p q`` ``(k, 3)`` passes through triangle ``(k, 3, 3)``'s
+    interior, strictly.
+    """
+    d = q - p
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    h = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, h)
+    scale = np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1) * np.linalg.norm(d, axis=1)
+    ok = np.abs(det) > 1e-12 * np.maximum(scale, 1e-300)
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    s = p - tri[:, 0]
+    u = np.einsum("ij,ij->i", s, h) * inv
+    qv = np.cross(s, e1)
+    v = np.einsum("ij,ij->i", d, qv) * inv
+    t = np.einsum("ij,ij->i", e2, qv) * inv
+    return ok & (u > eps) & (v > eps) & (u + v < 1 - eps) & (t > eps) & (t < 1 - eps)

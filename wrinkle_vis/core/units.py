@@ -1,11 +1,59 @@
-"""The unit of a face's lengths, looked up in one place (bars, probe, summaries)."""
+"""The unit of a face's lengths, looked up in one place (bars, probe, summaries).
+
+A face knows its unit (:attr:`FaceModel.unit <wrinkle_vis.core.face.FaceModel>`): from its
+layout file (``"unit"``), set by the caller, or guessed from its size
+(:func:`guess_unit`, with a :class:`UnitWarning`). Default muscle parameters are given in
+millimetres and converted to the face's unit (:data:`LENGTH_UNITS`).
+"""
 
 from __future__ import annotations
 
-__all__ = ["DEFAULT_UNIT", "face_unit"]
+import math
+
+__all__ = ["DEFAULT_UNIT", "LENGTH_UNITS", "UnitWarning", "check_unit", "face_unit",
+           "guess_unit"]
 
 #: The unit of a face that does not say: the built-in face is in millimetres.
 DEFAULT_UNIT = "mm"
+
+#: Metres in one unit of a face's lengths, by the unit's name.
+LENGTH_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "um": 1e-6, "in": 0.0254, "ft": 0.3048}
+
+class UnitWarning(UserWarning):
+    """A face's unit was guessed from its size; set it to silence this."""
+
+
+def check_unit(unit) -> str:
+    """``unit`` if it is a known length unit (:data:`LENGTH_UNITS`).
+
+    Raises
+    ------
+    ValueError
+        Naming the unit and the known ones.
+    """
+    if not isinstance(unit, str) or unit not in LENGTH_UNITS:
+        raise ValueError(f"unknown length unit {unit!r}; use one of "
+                         f"{', '.join(LENGTH_UNITS)}")
+    return unit
+
+
+def guess_unit(height: float) -> str | None:
+    """The unit in which a head (or face) ``height`` units tall is a human size, or None.
+
+    A human face or head is 0.12 to 0.5 m tall: a height in 0.05..1.0 reads as metres,
+    5..100 as centimetres, 50..1000 as millimetres (centimetres win 50..100 only when the
+    height is under 60, the tallest bust in centimetres). Outside those: None.
+    """
+    h = float(height)
+    if not math.isfinite(h) or h <= 0:
+        return None
+    if 0.05 <= h <= 1.0:
+        return "m"
+    if 5.0 <= h < 60.0:
+        return "cm"
+    if 60.0 <= h <= 1000.0:
+        return "mm"
+    return None
 
 
 def face_unit(face) -> str:

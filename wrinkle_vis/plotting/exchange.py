@@ -48,6 +48,7 @@ from ..core.files import (
     replace_permissions,
     write_error,
 )
+from ..core.units import LENGTH_UNITS, face_unit
 from .polydata import to_polydata
 from .writers import (
     Written,
@@ -67,15 +68,7 @@ SEQUENCE_SUFFIXES = (".pvd", ".obj", ".ply")
 #: Formats :func:`save_gltf` writes.
 GLTF_SUFFIXES = (".glb",)
 #: Metres in one unit of a face's lengths, by the unit's name.
-METRES_PER_UNIT = {"m": 1.0, "cm": 0.01, "mm": 0.001, "um": 1e-6, "in": 0.0254,
-                   "ft": 0.3048}
-
-
-def face_unit(face: FaceModel) -> str:
-    """The unit of ``face``'s lengths: its ``unit`` attribute when it has one, else
-    ``"mm"`` (the built-in face's).
-    """
-    return str(getattr(face, "unit", None) or "mm")
+METRES_PER_UNIT = LENGTH_UNITS
 
 
 # ---------------------------------------------------------------------- sequences

@@ -1,0 +1,104 @@
+"""Rewrite datasets/lee_perry_smith.npz and datasets/lee_perry_smith.json from the scan.
+
+Usage: python scripts/write_lee_perry_smith.py [../shared/realmeshes/lee_perry_smith_head.obj]
+
+The scan ("Infinite, 3D Head Scan" by Lee Perry-Smith / Infinite Realities, CC BY 3.0) is
+read and welded (datasets.read_surface), its corner UVs read (plotting.bake.read_obj_uvs),
+moved into the built-in frame in millimetres by the rotation of the similarity that takes
+the procedural face's landmarks onto the scan's (datasets/examples/lee_perry_smith.json,
+picked on a front view), and stored as float32; the skull is the level set of
+datasets.skull.scan_skull; the muscles are the procedural layout moved by the landmarks
+(datasets.scans.transfer_layout), then the frontalis sheets refitted to this forehead
+(fit_frontalis). The original OBJ is never copied into the package.
+"""
+
+import dataclasses
+import sys
+from pathlib import Path
+
+import numpy as np
+
+import wrinkle_vis as wv
+from wrinkle_vis.core.mesh import closest_points
+from wrinkle_vis.datasets import BUILTIN_LAYOUT, read_surface, transfer_layout
+from wrinkle_vis.datasets.lee_perry_smith import DATA, LAYOUT
+from wrinkle_vis.datasets.scans import similarity_transform
+from wrinkle_vis.datasets.skull import scan_skull
+from wrinkle_vis.plotting.bake import read_obj_uvs
+
+ROOT = Path(__file__).resolve().parents[1]
+SOURCE = ROOT.parent / "shared" / "realmeshes" / "lee_perry_smith_head.obj"
+EXAMPLE = ROOT / "datasets" / "examples" / "lee_perry_smith.json"
+NAME = "Lee Perry-Smith head (CC BY 3.0, Lee Perry-Smith / Infinite Realities)"
+
+
+def to_builtin_frame(skin, landmarks):
+    """The scan in mm in the built-in frame: x_mm = 1000 R^T (x - t)."""
+    source = wv.datasets.builtin_landmarks()
+    names = list(source)
+    rot, _, shift = similarity_transform([source[n] for n in names],
+                                         [landmarks[n] for n in names])
+
+    def move(p):
+        return 1000.0 * (np.asarray(p, float) - shift) @ rot
+
+    return move
+
+
+def compact(surface):
+    """The surface as stored (float32 points), read back as float64."""
+    return wv.TriangleSurface(surface.points.astype(np.float32).astype(float),
+                              surface.triangles)
+
+
+#: How much higher the frontalis' wrinkling region ends on this head than the similarity
+#: puts it, mm: this forehead meets a fuller brow ridge, and a region reaching onto the
+#: ridge's bulge adds a crest there (the crest count along a fibre must equal n_w).
+FRONTALIS_END_RAISE = 8.0
+
+
+def fit_frontalis(layout):
+    """The frontalis sheets ending :data:`FRONTALIS_END_RAISE` higher: ``L`` and the fall's
+    start shortened by it, the region's start (``lambda_w L``, under the hairline) kept.
+    """
+    muscles = []
+    for m in layout.muscles:
+        if m.name.startswith("frontalis"):
+            start = m.lambda_w * m.length
+            length = m.length - FRONTALIS_END_RAISE
+            m = m.replace(length=length, lambda_w=start / length,
+                          fall_start=min(m.fall_start, length) - FRONTALIS_END_RAISE)
+        muscles.append(m)
+    return dataclasses.replace(layout, muscles=tuple(muscles))
+
+
+def main(path: Path) -> None:
+    scan = read_surface(path)
+    uvs = read_obj_uvs(path, scan)  # (m, 3, 2), corners of the welded triangles
+    marks_m = wv.load_layout(EXAMPLE).landmarks
+    move = to_builtin_frame(scan, marks_m)
+    skin = compact(scan.with_points(move(scan.points)))
+    marks = {k: tuple(map(float, closest_points(skin, move(v)[None])[0]))
+             for k, v in marks_m.items()}
+    skull = compact(scan_skull(skin, marks))
+    layout = transfer_layout(wv.load_layout(BUILTIN_LAYOUT), skin, marks, skull)
+    layout = dataclasses.replace(fit_frontalis(layout), name=NAME, landmarks=marks, unit="mm",
+                                 face="lee_perry_smith", skin=None, skull=None)
+    uv_table, uv_index = np.unique(uvs.reshape(-1, 2).astype(np.float32), axis=0,
+                                   return_inverse=True)
+    tmp = DATA.with_suffix(".tmp.npz")
+    np.savez_compressed(
+        tmp, skin_points=skin.points.astype(np.float32),
+        skin_triangles=skin.triangles.astype(np.uint32),
+        skull_points=skull.points.astype(np.float32),
+        skull_triangles=skull.triangles.astype(np.uint32),
+        uv_table=uv_table, uv_index=uv_index.reshape(-1, 3).astype(np.uint32))
+    tmp.replace(DATA)
+    wv.save_layout(layout, LAYOUT)
+    print(f"wrote {DATA} ({DATA.stat().st_size / 1e6:.2f} MB) and {LAYOUT}: skin "
+          f"{skin.n_points} points, {skin.n_triangles} triangles, skull {skull.n_triangles} "
+          f"triangles, {len(layout.muscles)} muscles")
+
+
+if __name__ == "__main__":
+    main(Path(sys.argv[1]) if len(sys.argv) > 1 else SOURCE)
