@@ -56,8 +56,9 @@ __all__ = ["FIELD_NAMES", "FaceModel", "FaceState"]
 #: 7.5 mm on the built-in face): features narrower than that move with the skin.
 SLIDE_SCALE = 0.029
 
-#: The most bytes the refined skins of one face keep cached (with their per-muscle data and
-#: operators), however long an animation runs; the least recently used go first.
+#: The most bytes the refinement engine of one skin keeps cached (the muscles' data on its
+#: subdivision hierarchy and the stacked rows of each set of active muscles), however long an
+#: animation runs; the least recently used go first (the latest active set's is kept too).
 REFINE_CACHE_BYTES = 160 * 2**20
 
 
@@ -556,11 +557,13 @@ class FaceModel:
             Fig. 11): level after level, the triangles influenced by an active muscle (a
             corner moved or wrinkled) whose vertex normals differ by more than
             ``refine_angle_deg`` are split 1-to-4 and the split closed conformingly
-            (:mod:`wrinkle_vis.core.refine`). New vertices get
+            (:mod:`wrinkle_vis.core.refined`). New vertices get
             rest positions on the smooth surface through the rest vertices and their normals
-            (not the straight edge midpoints, which would keep the coarse facets) and every
-            quantity is evaluated at them exactly. A refined skin is cached per set of split
-            triangles.
+            (not the straight edge midpoints, which would keep the coarse facets); each is
+            evaluated on its own ring in the subdivision hierarchy, so its values do not
+            depend on which triangles the frame splits, and the skin's own vertices keep the
+            unrefined values. The hierarchy and the muscles' data on it are built once per
+            skin and shared by every frame (:data:`REFINE_CACHE_BYTES`).
         refine_angle_deg : float, default 3.0
             The bending threshold (3 degrees and 3 levels match VTK's uniform subdivision
             three times over along the forehead furrows, ``benchmarks/bench_refine_fidelity.py``).
