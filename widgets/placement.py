@@ -13,7 +13,6 @@ carrying the barycentric coordinates of the deformed triangle over to the rest t
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
@@ -30,6 +29,7 @@ from wrinkle_vis.core.mesh import (
     surface_coordinates,
 )
 from wrinkle_vis.core.muscle import Muscle
+from wrinkle_vis.core.registry import TypeLookup
 from wrinkle_vis.plotting.scenes import replace_mesh
 
 __all__ = ["GenericWidget", "Handle", "LinearWidget", "PlacementWidget", "SheetWidget",
@@ -39,7 +39,6 @@ __all__ = ["GenericWidget", "Handle", "LinearWidget", "PlacementWidget", "SheetW
 #: Handle colours by layer, and the colours of the AOI and the wrinkling region.
 COLORS = {"skin": "#1f5fbf", "skull": "#8a1c1c", "aoi": "#2a9d8f", "region": "#e9c46a"}
 
-_WIDGETS: dict[type, Callable] = {}
 
 OnMove = Callable[["Handle", np.ndarray, bool], None]
 
@@ -88,47 +87,16 @@ def register_widget(muscle_type: type, factory: Callable | None = None):
     subclasses, over what the type declares in its ``widget`` attribute. Usable as a
     decorator: ``@register_widget(MyMuscle)``.
     """
-    if factory is None:
-        return lambda f: register_widget(muscle_type, f)
-    if not (isinstance(muscle_type, type) and issubclass(muscle_type, Muscle)):
-        raise TypeError(f"{muscle_type!r} is not a Muscle subclass")
-    _WIDGETS[muscle_type] = factory
-    return factory
+    return _LOOKUP.register(muscle_type, factory)
 
 
 def widget_factory(muscle_type: type) -> Callable:
-    """The widget factory of a muscle type, looked up along its class hierarchy.
-
-    At each class, a factory registered with :func:`register_widget` comes first, then the
-    class's own ``widget = "module:attribute"``; a type with neither anywhere gets
-    :class:`GenericWidget`.
-
-    Raises
-    ------
-    ImportError
-        If a declared ``widget`` cannot be imported; the message names the type and the
-        declaration.
+    """The widget factory of a muscle type, looked up along its class hierarchy
+    (:class:`~wrinkle_vis.core.registry.TypeLookup`): a factory registered with
+    :func:`register_widget`, then the class's own ``widget = "module:attribute"``, else
+    :class:`GenericWidget`. ``ImportError`` names a declaration that cannot be imported.
     """
-    for cls in muscle_type.__mro__:
-        if cls in _WIDGETS:
-            return _WIDGETS[cls]
-        declared = cls.__dict__.get("widget")
-        if declared:
-            return _resolve(declared, cls)
-    return GenericWidget
-
-
-def _resolve(declared, cls: type) -> Callable:
-    if callable(declared):
-        return declared
-    module, _, attr = str(declared).partition(":")
-    try:
-        return getattr(importlib.import_module(module), attr)
-    except (ImportError, AttributeError) as exc:
-        raise ImportError(
-            f"muscle type {cls.__name__} declares widget = {declared!r}, which cannot be "
-            f"imported ({exc}); install the package that provides it, or fix the declaration "
-            "as 'package.module:Class'") from exc
+    return _LOOKUP(muscle_type)
 
 
 # ---------------------------------------------------------------------- drawing helpers
@@ -471,3 +439,8 @@ def millimetre(face: FaceModel) -> float:
     from wrinkle_vis.core.units import LENGTH_UNITS, face_unit
 
     return LENGTH_UNITS["mm"] / LENGTH_UNITS[face_unit(face)]
+
+
+#: The widget factories by muscle type (:func:`register_widget`, :func:`widget_factory`).
+_LOOKUP = TypeLookup("widget", GenericWidget, "Class")
+_WIDGETS = _LOOKUP.registered

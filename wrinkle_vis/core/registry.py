@@ -8,12 +8,14 @@ that fails to import is skipped with a :class:`MusclePluginWarning` naming it.
 
 from __future__ import annotations
 
+import importlib
 import warnings
 from importlib.metadata import entry_points
 
 __all__ = [
     "ENTRY_POINT_GROUP",
     "MusclePluginWarning",
+    "TypeLookup",
     "UnknownMuscleTypeError",
     "get_muscle_type",
     "muscle_from_dict",
@@ -25,6 +27,72 @@ ENTRY_POINT_GROUP = "wrinkle_vis.muscles"
 
 _REGISTRY: dict[str, type] = {}
 _ENTRY_POINTS_LOADED = False
+
+
+class TypeLookup:
+    """What each muscle type brings to another layer (its placement widget, its glyph),
+    looked up along the class hierarchy.
+
+    At each class of a type's MRO, a value :meth:`register`-ed for that class comes first,
+    then the class's own declaration ``attribute = "package.module:name"`` (or the object
+    itself); a type with neither anywhere gets ``default``.
+
+    Parameters
+    ----------
+    attribute : str
+        The class attribute a type declares it in (``"widget"``, ``"glyph"``).
+    default : object
+        What a type gets that declares nothing.
+    kind : str
+        How the error message names what the declaration should point at
+        (``"Class"``, ``"function"``).
+    """
+
+    def __init__(self, attribute: str, default, kind: str):
+        self.attribute, self.default, self.kind = attribute, default, kind
+        self.registered: dict[type, object] = {}
+
+    def register(self, muscle_type: type, value=None):
+        """Use ``value`` for ``muscle_type`` and its subclasses, over what the type declares.
+        Usable as a decorator: ``@lookup.register(MyMuscle)``.
+        """
+        from .muscle import Muscle
+
+        if value is None:
+            return lambda v: self.register(muscle_type, v)
+        if not (isinstance(muscle_type, type) and issubclass(muscle_type, Muscle)):
+            raise TypeError(f"{muscle_type!r} is not a Muscle subclass")
+        self.registered[muscle_type] = value
+        return value
+
+    def __call__(self, muscle_type: type):
+        """The value for ``muscle_type``.
+
+        Raises
+        ------
+        ImportError
+            If a declaration cannot be imported; the message names the type and the
+            declaration.
+        """
+        for cls in muscle_type.__mro__:
+            if cls in self.registered:
+                return self.registered[cls]
+            declared = cls.__dict__.get(self.attribute)
+            if declared:
+                return self._resolve(declared, cls)
+        return self.default
+
+    def _resolve(self, declared, cls: type):
+        if callable(declared):
+            return declared
+        module, _, attr = str(declared).partition(":")
+        try:
+            return getattr(importlib.import_module(module), attr)
+        except (ImportError, AttributeError) as exc:
+            raise ImportError(
+                f"muscle type {cls.__name__} declares {self.attribute} = {declared!r}, which "
+                f"cannot be imported ({exc}); install the package that provides it, or fix "
+                f"the declaration as 'package.module:{self.kind}'") from exc
 
 
 class MusclePluginWarning(UserWarning):

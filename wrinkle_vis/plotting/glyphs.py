@@ -9,66 +9,34 @@ a function ``glyph(muscle) -> pyvista.PolyData``. A type with neither gets
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable
 
 import numpy as np
 import pyvista as pv
 
 from ..core.muscle import Muscle
+from ..core.registry import TypeLookup
 
 __all__ = ["generic_glyph", "glyph_factory", "linear_glyph", "register_glyph", "sheet_glyph"]
 
 Glyph = Callable[[Muscle], pv.PolyData]
 
-_GLYPHS: dict[type, Glyph] = {}
 
 
 def register_glyph(muscle_type: type, glyph: Glyph | None = None):
     """Use ``glyph`` for ``muscle_type`` and its subclasses, over what the type declares in
     its ``glyph`` attribute. Usable as a decorator: ``@register_glyph(MyMuscle)``.
     """
-    if glyph is None:
-        return lambda g: register_glyph(muscle_type, g)
-    if not (isinstance(muscle_type, type) and issubclass(muscle_type, Muscle)):
-        raise TypeError(f"{muscle_type!r} is not a Muscle subclass")
-    _GLYPHS[muscle_type] = glyph
-    return glyph
+    return _LOOKUP.register(muscle_type, glyph)
 
 
 def glyph_factory(muscle_type: type) -> Glyph:
-    """The glyph of a muscle type, looked up along its class hierarchy.
-
-    At each class, a glyph registered with :func:`register_glyph` comes first, then the
-    class's own ``glyph = "module:function"``; a type with neither anywhere gets
-    :func:`generic_glyph`.
-
-    Raises
-    ------
-    ImportError
-        If a declared ``glyph`` cannot be imported; the message names the type and the
-        declaration.
+    """The glyph of a muscle type, looked up along its class hierarchy
+    (:class:`~wrinkle_vis.core.registry.TypeLookup`): a glyph registered with
+    :func:`register_glyph`, then the class's own ``glyph = "module:function"``, else
+    :func:`generic_glyph`. ``ImportError`` names a declaration that cannot be imported.
     """
-    for cls in muscle_type.__mro__:
-        if cls in _GLYPHS:
-            return _GLYPHS[cls]
-        declared = cls.__dict__.get("glyph")
-        if declared:
-            return _resolve(declared, cls)
-    return generic_glyph
-
-
-def _resolve(declared, cls: type) -> Glyph:
-    if callable(declared):
-        return declared
-    module, _, attr = str(declared).partition(":")
-    try:
-        return getattr(importlib.import_module(module), attr)
-    except (ImportError, AttributeError) as exc:
-        raise ImportError(
-            f"muscle type {cls.__name__} declares glyph = {declared!r}, which cannot be "
-            f"imported ({exc}); install the package that provides it, or fix the declaration "
-            "as 'package.module:function'") from exc
+    return _LOOKUP(muscle_type)
 
 
 def linear_glyph(muscle) -> pv.PolyData:
@@ -127,3 +95,8 @@ def _size(muscle) -> float:
     except (NotImplementedError, AttributeError, TypeError, ValueError):
         return 4.0
     return size if np.isfinite(size) and size > 0 else 4.0
+
+
+#: The glyphs by muscle type (:func:`register_glyph`, :func:`glyph_factory`).
+_LOOKUP = TypeLookup("glyph", generic_glyph, "function")
+_GLYPHS = _LOOKUP.registered
