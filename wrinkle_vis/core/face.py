@@ -37,7 +37,7 @@ from .equations import (
 )
 from .expressions import Expression, paper_expressions
 from .fields import FIELD_NAMES, check_field, field_spec
-from .hierarchy import Hierarchy, canonical_order
+from .hierarchy import Hierarchy, canonical_order, six_entries
 from .mesh import (
     MeshError,
     TriangleSurface,
@@ -47,7 +47,7 @@ from .mesh import (
     unit_rows,
 )
 from .muscle import Muscle, check_activation
-from .refined import RefinedEngine
+from .refined import RefinedEngine, slide_bend
 from .units import check_unit, face_unit
 
 __all__ = ["FIELD_NAMES", "FaceModel", "FaceState"]
@@ -244,26 +244,16 @@ class _Assembly:
             tris=np.ascontiguousarray(to_local[tris[tri_order]].T),
             tri_inc=inc[:, tri_ids[tri_order]].tocsr(),
             slide_n=np.ascontiguousarray(rest.slide_normals[moved].T),
-            slide_s=np.ascontiguousarray(np.stack(
-                [shape[:, 0, 0], shape[:, 1, 1], shape[:, 2, 2], shape[:, 0, 1],
-                 shape[:, 0, 2], shape[:, 1, 2]])))
+            slide_s=np.ascontiguousarray(six_entries(shape).T))
 
     def _slide(self, p: np.ndarray) -> None:
-        r"""Bend the summed tangent pull of the moved vertices back onto the rest surface:
-        :math:`x \mathrel{-}= b\, n` with :math:`D` the pull and
-        :math:`b = \beta / \sqrt{1 + (\beta / 0.3\|D\|)^2}`, :math:`\beta = \tfrac12 D^T S D`,
-        in place. The bend is second order in :math:`D`, exact to that order where the pull is
-        short beside the radius of curvature, and never more than :math:`0.3\|D\|` where it
-        is not (there the quadratic would overshoot).
+        r"""Bend the summed tangent pull :math:`D` of the moved vertices back onto the rest
+        surface, in place: :math:`x \mathrel{-}= b\, n`, :math:`b` from
+        :func:`~wrinkle_vis.core.refined.slide_bend`.
         """
         d = np.take(p, self.moved_local, axis=1) - np.take(self.rest_local, self.moved_local,
                                                               axis=1)
-        s = self.slide_s
-        q = (s[0] * d[0] * d[0] + s[1] * d[1] * d[1] + s[2] * d[2] * d[2]
-             + 2.0 * (s[3] * d[0] * d[1] + s[4] * d[0] * d[2] + s[5] * d[1] * d[2]))
-        reach = 0.3 * np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-        bend = 0.5 * q / np.sqrt(1.0 + (0.5 * q / np.maximum(reach, 1e-300)) ** 2)
-        p[:, self.moved_local] -= bend * self.slide_n
+        p[:, self.moved_local] -= slide_bend(d, self.slide_s) * self.slide_n
 
     def arrays(self) -> list[np.ndarray]:
         """Every array a frame reads (for the memory-stream floor of the benchmarks)."""

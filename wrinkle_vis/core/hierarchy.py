@@ -34,12 +34,13 @@ from .equations import stretch_coefficients
 from .mesh import TriangleSurface, phong_midpoints, unit_rows
 from .muscle import Muscle
 
-__all__ = ["Hierarchy", "MuscleLevels", "refined_topology"]
+__all__ = ["Hierarchy", "MuscleLevels", "canonical_order", "conforming_triangles", "distinct",
+           "refined_topology", "six_entries"]
 
 _KEY = np.int64(1 << 31)
 
 
-def _six(shape: np.ndarray) -> np.ndarray:
+def six_entries(shape: np.ndarray) -> np.ndarray:
     """``(n, 6)``: the xx, yy, zz, xy, xz, yz entries of symmetric ``(n, 3, 3)``."""
     return np.stack([shape[:, 0, 0], shape[:, 1, 1], shape[:, 2, 2], shape[:, 0, 1],
                      shape[:, 0, 2], shape[:, 1, 2]], axis=1)
@@ -103,7 +104,7 @@ class Hierarchy:
         self.rest = np.array(skin.points, dtype=float)
         self.normal = np.array(normals, dtype=float)
         self.slide = np.array(slide_normals, dtype=float)
-        self.shape6 = _six(np.asarray(shape, dtype=float))
+        self.shape6 = six_entries(np.asarray(shape, dtype=float))
         self.level = np.zeros(n0, np.int8)
         self.ring = np.full((n0, 6), -1, np.int64)
         self.ring_len = np.ones((n0, 6))
@@ -448,14 +449,15 @@ def canonical_order(hier: Hierarchy, present: np.ndarray) -> np.ndarray:
     ids = np.flatnonzero(present)
     roots = ids[ids < hier.n_root]
     rank[roots] = np.arange(len(roots))
-    out = [roots]
+    out, done = [roots], len(roots)
     for level in range(1, hier.depth + 1):
         v = ids[hier.level[ids] == level]
         if not len(v):
             break
         lo, hi = rank[hier.ring[v, 3]], rank[hier.ring[v, 0]]
         v = v[np.argsort(np.minimum(lo, hi) * _KEY + np.maximum(lo, hi))]
-        rank[v] = len(ids) + np.arange(len(v)) + sum(len(o) for o in out)
+        rank[v] = done + np.arange(len(v))
+        done += len(v)
         out.append(v)
     return np.concatenate(out)
 

@@ -31,7 +31,7 @@ from .hierarchy import (
     refined_topology,
 )
 
-__all__ = ["PREBUILD_ROOTS", "RefinedEngine", "bent"]
+__all__ = ["PREBUILD_ROOTS", "RefinedEngine", "bent", "slide_bend"]
 
 #: A frame whose muscles influence at most this many root triangles (at three levels; a
 #: quarter as many a level deeper) builds their subtrees (and a ring around them) in one
@@ -173,7 +173,7 @@ class _Dynamic:
         scale = self.a[asm.muscle[rows]]
         pull = np.stack([np.bincount(owner, asm.unit[rows, c] * scale, minlength=len(v))
                          for c in range(3)], axis=1)
-        bend = _bend(pull, hier.shape6[v])
+        bend = slide_bend(pull.T, hier.shape6[v].T)
         self.deformed[:, v] = (hier.rest[v] + pull - bend[:, None] * hier.slide[v]).T
         self.computed[v] = True
         self._moved.append(v)
@@ -244,13 +244,18 @@ def _ring_normal(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
     return np.stack([wedge(y, z), wedge(z, x), wedge(x, y)])
 
 
-def _bend(pull: np.ndarray, s: np.ndarray) -> np.ndarray:
-    r"""The slide's bend :math:`b = \beta / \sqrt{1 + (\beta / 0.3|D|)^2}`,
-    :math:`\beta = \tfrac12 D^T S D` (as the unrefined frame).
+def slide_bend(d: np.ndarray, s: np.ndarray) -> np.ndarray:
+    r"""``(u,)``: how far the skin's slide bends pulls ``d`` ``(3, u)`` back along the
+    slide normal, with shape operators ``s`` ``(6, u)`` (xx, yy, zz, xy, xz, yz):
+    :math:`b = \beta / \sqrt{1 + (\beta / 0.3\|D\|)^2}`, :math:`\beta = \tfrac12 D^T S D`.
+
+    Second order in :math:`D`, exact to that order where the pull is short beside the
+    radius of curvature, and never more than :math:`0.3\|D\|` where it is not (there the
+    quadratic would overshoot). The unrefined frame and the refined one both use it.
     """
-    x, y, z = pull.T
-    q = (s[:, 0] * x * x + s[:, 1] * y * y + s[:, 2] * z * z
-         + 2.0 * (s[:, 3] * x * y + s[:, 4] * x * z + s[:, 5] * y * z))
+    x, y, z = d
+    q = (s[0] * x * x + s[1] * y * y + s[2] * z * z
+         + 2.0 * (s[3] * x * y + s[4] * x * z + s[5] * y * z))
     reach = 0.3 * np.sqrt(x * x + y * y + z * z)
     return 0.5 * q / np.sqrt(1.0 + (0.5 * q / np.maximum(reach, 1e-300)) ** 2)
 
@@ -342,7 +347,7 @@ class RefinedEngine:
             if not marked.any():
                 break
             split = self._close(split, distinct(nodes[marked], hier.scratch()))
-            if len(dyn.W) != hier.n_points or dyn.asm is not self.assembly(muscles):
+            if dyn.asm.version != (hier.version, hier.n_points):  # the hierarchy grew
                 old = np.flatnonzero(dyn.evaluated[hier.n_root:]) + hier.n_root
                 dyn = _Dynamic(hier, self.assembly(muscles), root, a)
                 dyn.evaluate(old)
