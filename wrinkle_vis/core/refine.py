@@ -19,7 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .mesh import TriangleSurface, phong_midpoints, unit_rows
+from .mesh import TriangleSurface, phong_midpoints
+from .refined import bent
 
 __all__ = ["Refinement", "bent_triangles", "refine_triangles"]
 
@@ -110,11 +111,10 @@ def bent_triangles(surface: TriangleSurface, points: np.ndarray, angle_deg: floa
     """``(m,) bool``: triangles whose vertex normals at ``points`` differ by more than
     ``angle_deg`` (the largest angle between two of its three vertex normals).
 
-    ``candidates`` ``(m,) bool`` restricts the test (to the influenced triangles).
+    ``candidates`` ``(m,) bool`` restricts the test (to the influenced triangles). The
+    refined frames' own test (:func:`wrinkle_vis.core.refined.bent`) on a surface.
     """
-    normals = unit_rows(surface.incidence @ surface.face_normals(points))
-    t = surface.triangles
-    cos_min = np.minimum.reduce([
-        np.einsum("ij,ij->i", normals[t[:, i]], normals[t[:, (i + 1) % 3]]) for i in range(3)])
-    bent = cos_min < np.cos(np.radians(angle_deg))
-    return bent if candidates is None else bent & candidates
+    if candidates is None:
+        candidates = np.ones(surface.n_triangles, bool)
+    return bent(surface.triangles, np.ascontiguousarray(np.asarray(points, float).T),
+                angle_deg, np.asarray(candidates, bool))

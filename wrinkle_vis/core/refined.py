@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .cache import ByteBudgetCache, nbytes
+from .cache import ByteBudgetCache
 from .equations import anisotropy
 from .hierarchy import (
     Hierarchy,
@@ -282,10 +282,6 @@ class RefinedEngine:
         self.last = None  # (key, face, order) of the latest split set
         self.buffers = None  # the frame arrays, reused
         self._current: dict = {}  # the latest active set's data, whatever the budget
-
-    def nbytes(self) -> int:
-        """Bytes held: the hierarchy and the cache."""
-        return nbytes(vars(self.hier)) + self.cache.total
 
     def levels(self, muscle) -> MuscleLevels:
         """``muscle``'s data on the hierarchy, brought up to date."""
