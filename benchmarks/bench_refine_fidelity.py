@@ -22,6 +22,8 @@ the target is at most a fifth of the triangles and at most half the time.
 """
 
 import argparse
+import statistics
+import time
 
 import numpy as np
 from _timing import median_seconds
@@ -38,9 +40,6 @@ LEVELS = (0.5, 0.75, 1.0)  # intensities the fidelity is taken at
 def ramp_ms(frame_at, steps=30, rounds=3):
     """Median milliseconds of a frame of the ramp 0..1 in ``steps`` steps (median of the
     rounds' medians)."""
-    import statistics
-    import time
-
     medians = []
     for _ in range(rounds):
         times = []
