@@ -38,3 +38,15 @@ def rotation(seed: int) -> np.ndarray:
     if np.linalg.det(q) < 0:
         q[:, 0] *= -1
     return q
+
+
+def assert_c1_along_random_lines(muscle, seed: int = 3, lines: int = 6) -> None:
+    """The muscle's displacement has no slope jump along random lines through [-25, 25]^3:
+    a kink shows as a spike of the second difference."""
+    rng = np.random.default_rng(seed)
+    for _ in range(lines):
+        a, b = rng.uniform(-25, 25, 3), rng.uniform(-25, 25, 3)
+        t = np.linspace(0, 1, 20001)
+        d = muscle.displacement(a + t[:, None] * (b - a), 1.0)
+        second = np.diff(d, 2, axis=0)
+        assert np.abs(second).max() < 1e-5 * max(1.0, np.abs(d).max())
