@@ -55,17 +55,18 @@ def test_playback_position_plays_in_real_time_and_wraps_round():
 
 # ---------------------------------------------------------------------- the window
 def _pair(face, same: bool):
-    """An expression and two intensities (percent) whose refined frames have the same
-    triangles (``same``) or other ones, found with the core.
+    """An expression and two neighbouring intensities (percent) whose refined frames have
+    the same triangles (``same``) or other ones, found with the core.
     """
     for name in ("frown", "surprise", "fear"):
-        peak = face.evaluate(name, 1.0, refine=True)
-        for percent in range(99, 79, -1):
+        later = face.evaluate(name, 1.0, refine=True)
+        for percent in range(99, 59, -1):
             state = face.evaluate(name, percent / 100, refine=True)
-            equal = state.triangles.shape == peak.triangles.shape and np.array_equal(
-                state.triangles, peak.triangles)
-            if equal == same and not np.array_equal(state.points, peak.points):
-                return name, 100, percent
+            equal = state.triangles.shape == later.triangles.shape and np.array_equal(
+                state.triangles, later.triangles)
+            if equal == same and not np.array_equal(state.points, later.points):
+                return name, percent + 1, percent
+            later = state
     raise AssertionError(f"no two refined frames with {'the same' if same else 'other'} "
                          "triangles")
 

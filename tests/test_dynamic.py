@@ -7,7 +7,13 @@ from meshes import sphere as make_sphere
 
 import wrinkle_vis as wv
 from wrinkle_vis.core import mesh
-from wrinkle_vis.core.hierarchy import Hierarchy, conforming_triangles, refined_topology
+from wrinkle_vis.core.hierarchy import (
+    Hierarchy,
+    conforming_triangles,
+    longest_edge,
+    refined_topology,
+)
+from wrinkle_vis.core.refined import bent
 
 
 @pytest.fixture(scope="module")
@@ -75,8 +81,8 @@ def test_the_closure_is_conforming_for_any_split_set():
 
 def test_skin_vertices_keep_the_unrefined_values_exactly(face):
     for name in ("surprise", "frown", "fear"):
-        base = face.evaluate(name, 0.7)
-        state = face.evaluate(name, 0.7, refine=True)
+        base = face.evaluate(name, 1.0)
+        state = face.evaluate(name, 1.0, refine=True)
         n = face.skin.n_points
         assert len(state.points) > n
         np.testing.assert_array_equal(state.points[:n], base.points)
@@ -85,9 +91,9 @@ def test_skin_vertices_keep_the_unrefined_values_exactly(face):
 
 def test_a_vertex_has_the_same_values_whatever_the_frame_splits(face):
     """The frame's values at a vertex do not depend on the topology: two refinements of
-    one frame (thresholds 2 and 5 degrees) agree wherever they share a vertex."""
-    fine = face.evaluate("surprise", 0.8, refine=True, refine_angle_deg=2.0)
-    coarse = face.evaluate("surprise", 0.8, refine=True, refine_angle_deg=5.0)
+    one frame (thresholds 0.5 and 2 degrees) agree wherever they share a vertex."""
+    fine = face.evaluate("surprise", 0.8, refine=True, refine_angle_deg=0.5)
+    coarse = face.evaluate("surprise", 0.8, refine=True, refine_angle_deg=2.0)
     assert len(fine.points) > len(coarse.points)
     key = {p.tobytes(): i for i, p in enumerate(fine.rest_points)}
     shared = [(key[p.tobytes()], j) for j, p in enumerate(coarse.rest_points)
@@ -151,3 +157,47 @@ def test_other_depths_are_conforming_and_as_deep_as_asked(face, levels):
     hier = face._rest.engine(levels).hier
     used = hier.level[face._rest.engine(levels).last[2]]
     assert used.max() == levels  # the deepest level is reached, no deeper
+
+
+def test_a_triangle_splits_for_the_bend_the_expression_adds_not_the_rest_skins():
+    """The rest skin's own curvature does not count: a coarse sphere bends 30 degrees or so
+    across every triangle, yet nothing splits until its surface is bent further."""
+    s = make_sphere(1)
+    hier = _hierarchy(s, np.arange(s.n_triangles), depth=1)
+    rest_bend = hier.node_bend[:s.n_triangles]
+    points = np.ascontiguousarray(s.points.T)
+    everywhere = np.ones(s.n_triangles, bool)
+    assert np.degrees(rest_bend).min() > 20.0
+    assert bent(s.triangles, points, 5.0, everywhere).all()
+    assert not bent(s.triangles, points, 5.0, everywhere, rest_bend).any()
+    bumped = points.copy()
+    bumped[:, 0] *= 1.5  # one vertex pushed out: its triangles bend further
+    marked = bent(s.triangles, bumped, 5.0, everywhere, rest_bend)
+    touching = (s.triangles == 0).any(axis=1)
+    assert marked[touching].all()
+    far = ~np.isin(s.triangles, s.triangles[touching]).any(axis=1)  # no corner near it
+    assert far.any() and not marked[far].any()
+
+
+def test_a_faint_expression_does_not_split_the_rest_skins_curvature(face):
+    """Surprise at 1/30: the muscles move the forehead, but no furrow bends it yet."""
+    state = face.evaluate("surprise", 1 / 30, refine=True)
+    assert state.triangles.shape == face.skin.triangles.shape
+
+
+def test_wrinkles_finer_than_the_triangles_split_them_until_they_are_sampled(face):
+    """The corrugators' half period u (Eq. 6) is shorter than the face's edges: every
+    triangle with a corner they wrinkle ends up with edges shorter than u, at any
+    intensity; without the rule, the curvature test alone missed one side's furrows."""
+    corrugators = [m for m in face.muscles if m.name.startswith("corrugator")]
+    u = min(float(m.u) for m in corrugators)
+    assert np.median(face.skin.rest_edge_lengths) > u
+    for intensity in (0.1, 0.5, 1.0):
+        state = face.evaluate("frown", intensity, refine=True)
+        region = np.zeros(state.n_points, bool)
+        for m in corrugators:
+            region |= np.isfinite(state.fields[m.name]["H"])
+        wrinkled = region & (state.W != 0.0)
+        tris = state.triangles[wrinkled[state.triangles].any(axis=1)]
+        assert len(tris) > 500
+        assert longest_edge(state.rest_points, tris).max() <= u

@@ -545,9 +545,12 @@ class FaceModel:
         refine : bool, default False
             Refine the skin adaptively where the deformed surface bends (paper Sec. 3,
             Fig. 11): level after level, the triangles influenced by an active muscle (a
-            corner moved or wrinkled) whose vertex normals differ by more than
-            ``refine_angle_deg`` are split 1-to-4 and the split closed conformingly
-            (:mod:`wrinkle_vis.core.refined`). New vertices get
+            corner moved or wrinkled) are split 1-to-4 where their vertex normals differ by
+            more than ``refine_angle_deg`` beyond the rest skin's own bend across them (the
+            curvature that the expression adds), or where a corner wrinkles and the longest
+            edge exceeds the half period :math:`u` (Eq. 6) of a muscle wrinkling it (normals
+            that sample the furrows that coarsely cannot see them bend); the split is closed
+            conformingly (:mod:`wrinkle_vis.core.refined`). New vertices get
             rest positions on the smooth surface through the rest vertices and their normals
             (not the straight edge midpoints, which would keep the coarse facets); each is
             evaluated on its own ring in the subdivision hierarchy, so its values do not
@@ -555,8 +558,9 @@ class FaceModel:
             unrefined values. The hierarchy and the muscles' data on it are built once per
             skin and shared by every frame (:data:`REFINE_CACHE_BYTES`).
         refine_angle_deg : float, default 3.0
-            The bending threshold (3 degrees and 3 levels match VTK's uniform subdivision
-            three times over along the forehead furrows, ``benchmarks/bench_refine_fidelity.py``).
+            The bending threshold, beyond the rest skin's bend (3 degrees and 3 levels come
+            as close to the model along the forehead furrows as VTK's butterfly subdivision
+            twice over, with a fifth of its triangles: ``benchmarks/bench_refine_fidelity.py``).
         refine_levels : int, default 3
             At most this many levels.
 
@@ -603,16 +607,16 @@ class FaceModel:
             return root
         engine = self._rest.engine(levels)
         a = np.array([acts[m.name] for m in active])
-        dyn, tris, present, split = engine.frame(root, tuple(active), a, angle_deg, levels)
+        dyn, tris, _, split = engine.frame(root, tuple(active), a, angle_deg, levels)
         if not split.any():
             return root
-        face, order = self._refined_face(engine, split, tris, present)
+        face, order = self._refined_face(engine, split, tris)
         source = _RefinedSource(root, engine, (tuple(active), a), order)
         deformed = np.ascontiguousarray(dyn.deformed[:, order].T)
         return FaceState(face, acts, deformed, np.ascontiguousarray(dyn.points[:, order].T),
                          dyn.W[order], None, {}, source)
 
-    def _refined_face(self, engine: RefinedEngine, split, tris, present):
+    def _refined_face(self, engine: RefinedEngine, split, tris):
         """The face on the refined skin of a split set (the latest one is kept, so frames
         with the same split set share their face, triangles and rest skin).
         """
@@ -621,10 +625,10 @@ class FaceModel:
         if last is not None and last[0] == key:
             return last[1], last[2]
         hier = engine.hier
-        order = canonical_order(hier, present)
+        order = canonical_order(hier, split)
         remap = np.full(hier.n_points, -1, np.int64)
         remap[order] = np.arange(len(order))
-        surface = TriangleSurface(hier.rest[order], _canonical_triangles(remap[tris]))
+        surface = TriangleSurface(hier.rest[order], remap[tris])
         rest = _RestFrame(surface, hier.normal[order], self._rest.radius)
         rest.slide_normals = hier.slide[order]
         rest.shape = _from_six(hier.shape6[order])
@@ -644,19 +648,6 @@ class FaceModel:
         asm = self._assembly(active)
         deformed, points, total, compact = asm.frame(rest, np.array([acts[m] for m in active]))
         return FaceState(self, acts, deformed, points, total, asm, compact)
-
-
-def _canonical_triangles(tri: np.ndarray) -> np.ndarray:
-    """``(t, 3)``: the triangles in the order of their rows turned to start at their smallest
-    vertex: the same mesh whatever order it was assembled in (rows as given).
-    """
-    k = np.argmin(tri, axis=1)
-    rows = np.arange(len(tri))[:, None]
-    turned = tri[rows, (k[:, None] + np.arange(3)) % 3]
-    n = np.int64(tri.max() + 1) if len(tri) else np.int64(1)
-    if n < 2_000_000:  # one int64 key per triangle sorts as the rows do
-        return tri[np.argsort((turned[:, 0] * n + turned[:, 1]) * n + turned[:, 2])]
-    return tri[np.lexsort((turned[:, 2], turned[:, 1], turned[:, 0]))]
 
 
 def _from_six(six: np.ndarray) -> np.ndarray:

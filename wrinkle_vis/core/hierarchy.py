@@ -34,8 +34,9 @@ from .equations import stretch_coefficients
 from .mesh import TriangleSurface, phong_midpoints, unit_rows
 from .muscle import Muscle
 
-__all__ = ["Hierarchy", "MuscleLevels", "canonical_order", "conforming_triangles", "distinct",
-           "refined_topology", "six_entries"]
+__all__ = ["Hierarchy", "MuscleLevels", "canonical_order", "conforming_triangles",
+           "corner_angle", "distinct", "first_seen", "longest_edge", "refined_topology",
+           "six_entries", "split_in_order"]
 
 _KEY = np.int64(1 << 31)
 
@@ -44,6 +45,24 @@ def six_entries(shape: np.ndarray) -> np.ndarray:
     """``(n, 6)``: the xx, yy, zz, xy, xz, yz entries of symmetric ``(n, 3, 3)``."""
     return np.stack([shape[:, 0, 0], shape[:, 1, 1], shape[:, 2, 2], shape[:, 0, 1],
                      shape[:, 0, 2], shape[:, 1, 2]], axis=1)
+
+
+def corner_angle(normals: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """``(t,)``: the largest angle (radians) between two of the unit ``normals`` ``(n, 3)``
+    at the corners of each of ``triangles`` ``(t, 3)``.
+    """
+    a, b, c = (normals[triangles[:, k]] for k in range(3))
+    cos = np.minimum.reduce([(a * b).sum(axis=1), (b * c).sum(axis=1), (c * a).sum(axis=1)])
+    return np.arccos(np.clip(cos, -1.0, 1.0))
+
+
+def longest_edge(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """``(t,)``: the longest edge of each of ``triangles`` ``(t, 3)`` over ``points``
+    ``(n, 3)``.
+    """
+    a, b, c = (points[triangles[:, k]] for k in range(3))
+    return np.sqrt(np.maximum.reduce([((a - b) ** 2).sum(axis=1), ((b - c) ** 2).sum(axis=1),
+                                      ((c - a) ** 2).sum(axis=1)]))
 
 
 def _grow(a: np.ndarray, more: np.ndarray) -> np.ndarray:
@@ -96,6 +115,11 @@ class Hierarchy:
         The midpoints of a node's edges 01, 12, 20 (``-1`` likewise).
     node_level, node_root : (N,) int
         A node's level and root triangle.
+    node_bend : (N,) float
+        The largest angle (radians) between the rest normals at a node's corners: how much
+        the rest skin itself bends across it (:func:`corner_angle`).
+    node_edge : (N,) float
+        A node's longest rest edge.
     """
 
     def __init__(self, skin: TriangleSurface, normals, slide_normals, shape, depth: int):
@@ -115,6 +139,8 @@ class Hierarchy:
         self.node_level = np.zeros(t0, np.int8)
         self.node_root = np.arange(t0, dtype=np.int64)
         self.node_parent = np.full(t0, -1, np.int64)
+        self.node_bend = corner_angle(self.normal, self.node_tri)
+        self.node_edge = longest_edge(self.rest, self.node_tri)
         self._keys = np.zeros(0, np.int64)  # sorted edge keys (lo * 2**31 + hi)
         self._mids = np.zeros(0, np.int64)  # their midpoints
         self.root_built = np.zeros(t0, bool)
@@ -127,6 +153,12 @@ class Hierarchy:
     def n_points(self) -> int:
         """Vertices built so far."""
         return len(self.rest)
+
+    def point_scratch(self) -> np.ndarray:
+        """``(v,) int``, all -1: working space for :func:`first_seen` over vertex ids."""
+        if len(getattr(self, "_point_scratch", ())) != self.n_points:
+            self._point_scratch = np.full(self.n_points, -1, np.int64)
+        return self._point_scratch
 
     def scratch(self) -> np.ndarray:
         """``(N,) int``, all -1: working space for :func:`distinct` over node ids."""
@@ -182,6 +214,8 @@ class Hierarchy:
             self.node_level = _grow(self.node_level, np.full(len(kids), k + 1))
             self.node_root = _grow(self.node_root, np.repeat(self.node_root[nodes], 4))
             self.node_parent = _grow(self.node_parent, np.repeat(nodes, 4))
+            self.node_bend = _grow(self.node_bend, corner_angle(self.normal, kids))
+            self.node_edge = _grow(self.node_edge, longest_edge(self.rest, kids))
             nodes = first[:, None] + np.arange(4)
             nodes = nodes.ravel()
         self.root_built[roots] = True
@@ -440,26 +474,48 @@ def distinct(ids: np.ndarray, slot: np.ndarray) -> np.ndarray:
     return out
 
 
-def canonical_order(hier: Hierarchy, present: np.ndarray) -> np.ndarray:
-    """``(v,)``: the ``present`` vertices in an order that does not depend on the order the
-    hierarchy was built in: the skin's vertices, then level by level the new ones sorted by
-    their edge's ends (in this order).
+def split_in_order(hier: Hierarchy, split: np.ndarray):
+    """The split set ``split`` ``(N,) bool`` walked breadth first: level by level, the
+    nodes in the order of their parents (roots by index, children by corner): an order
+    that does not depend on the order the hierarchy was built in.
+
+    Returns
+    -------
+    split_ids : (s,) int
+        The split nodes, in that order.
+    leaves : (l,) int
+        The nodes of the mesh (not split, a root or a split node's child), in that order.
     """
-    rank = np.full(hier.n_points, -1, np.int64)
-    ids = np.flatnonzero(present)
-    roots = ids[ids < hier.n_root]
-    rank[roots] = np.arange(len(roots))
-    out, done = [roots], len(roots)
-    for level in range(1, hier.depth + 1):
-        v = ids[hier.level[ids] == level]
-        if not len(v):
-            break
-        lo, hi = rank[hier.ring[v, 3]], rank[hier.ring[v, 0]]
-        v = v[np.argsort(np.minimum(lo, hi) * _KEY + np.maximum(lo, hi))]
-        rank[v] = done + np.arange(len(v))
-        done += len(v)
-        out.append(v)
-    return np.concatenate(out)
+    nodes = np.arange(len(hier.root_built))
+    splits, leaves = [], []
+    while len(nodes):
+        s = split[nodes]
+        leaves.append(nodes[~s])
+        nodes = nodes[s]
+        splits.append(nodes)
+        nodes = (hier.node_child[nodes][:, None] + np.arange(4)).ravel()
+    return np.concatenate(splits), np.concatenate(leaves)
+
+
+def canonical_order(hier: Hierarchy, split: np.ndarray) -> np.ndarray:
+    """``(v,)``: the vertices of the mesh of the closed split set ``split`` in an order that
+    does not depend on the order the hierarchy was built in: the skin's vertices, then the
+    midpoints of the split nodes as :func:`split_in_order` meets them.
+    """
+    split_ids, _ = split_in_order(hier, split)
+    mids = hier.node_mid[split_ids].ravel()
+    return np.concatenate([np.arange(hier.n_root), first_seen(mids, hier.point_scratch())])
+
+
+def first_seen(ids: np.ndarray, slot: np.ndarray) -> np.ndarray:
+    """``ids`` without repeats, each where it first occurs, in linear time; ``slot``
+    ``(N,) int`` is all -1 before and after.
+    """
+    at = np.arange(len(ids))
+    slot[ids[::-1]] = at[::-1]  # the last write wins: the first occurrence
+    out = ids[slot[ids] == at]
+    slot[ids] = -1
+    return out
 
 
 def _present(hier: Hierarchy, split_ids: np.ndarray) -> np.ndarray:
@@ -469,29 +525,22 @@ def _present(hier: Hierarchy, split_ids: np.ndarray) -> np.ndarray:
     return present
 
 
-def _leaves(hier: Hierarchy, split: np.ndarray, split_ids: np.ndarray) -> np.ndarray:
-    """Nodes in the current mesh: not split, and a root or a split node's child."""
-    n_root = len(hier.root_built)
-    roots = np.flatnonzero(~split[:n_root])
-    kids = (hier.node_child[split_ids][:, None] + np.arange(4)).ravel()
-    return np.concatenate([roots, kids[~split[kids]]])
-
-
 def conforming_triangles(hier: Hierarchy, split: np.ndarray):
     """The mesh of a closed split set: every leaf, bisected where one edge has a midpoint.
 
     Returns
     -------
     triangles : (t, 3) int
-        Hierarchy vertex ids, counter-clockwise.
+        Hierarchy vertex ids, counter-clockwise; whole leaves in the order of
+        :func:`split_in_order`, then the halves of the bisected ones (the same rows,
+        renamed, whatever order the hierarchy was built in).
     nodes : (t,) int
         The node each triangle lies in.
     present : (v,) bool
         The vertices the mesh uses.
     """
-    split_ids = np.flatnonzero(split)
+    split_ids, leaf = split_in_order(hier, split)
     present = _present(hier, split_ids)
-    leaf = _leaves(hier, split, split_ids)
     tri = hier.node_tri[leaf]
     mids = hier.node_mid[leaf]
     has = (mids >= 0) & present[np.maximum(mids, 0)]

@@ -42,10 +42,11 @@ PREBUILD_ROOTS = 8000
 
 
 def bent(triangles: np.ndarray, points: np.ndarray, angle_deg: float,
-         candidates: np.ndarray) -> np.ndarray:
+         candidates: np.ndarray, rest_bend: np.ndarray | None = None) -> np.ndarray:
     """``(t,) bool``: the ``candidates`` among ``triangles`` ``(t, 3)`` whose vertex normals
     at ``points`` ``(3, v)`` (area-weighted over ``triangles``) differ by more than
-    ``angle_deg``.
+    ``angle_deg`` beyond ``rest_bend`` ``(t,)`` (radians; how much the rest skin bends
+    across each triangle; none: 0).
     """
     t0, t1, t2 = triangles.T
     n = points.shape[1]
@@ -59,8 +60,11 @@ def bent(triangles: np.ndarray, points: np.ndarray, angle_deg: float,
     c = np.flatnonzero(candidates)
     corner = [vn[:, t[c]] for t in (t0, t1, t2)]  # (3, k) each
     cos = np.minimum.reduce([(corner[i] * corner[(i + 1) % 3]).sum(axis=0) for i in range(3)])
+    limit = np.radians(angle_deg)
+    if rest_bend is not None:
+        limit = np.minimum(limit + rest_bend[c], np.pi)
     out = np.zeros(len(triangles), bool)
-    out[c] = cos < np.cos(np.radians(angle_deg))
+    out[c] = cos < np.cos(limit)
     return out
 
 
@@ -90,6 +94,8 @@ class _Assembly:
             self.area = np.concatenate(area)[order]
         hat = np.concatenate([m.h * m.at for m in levels])[order]
         self.hat = np.nan_to_num(hat)  # 0 outside the wrinkling region
+        u = np.repeat([float(m.muscle.u) for m in levels], counts)[order]
+        u = np.where(np.isfinite(hat), u, np.inf)  # only where the muscle wrinkles
         first = np.flatnonzero(np.r_[True, self.ids[1:] != self.ids[:-1]]) if len(
             self.ids) else np.zeros(0, np.int64)
         self.moved = self.ids[first]  # ids are sorted: each vertex's rows are adjacent
@@ -97,6 +103,32 @@ class _Assembly:
         self.slot = np.full(hier.n_points, -1, np.int64)
         self.slot[self.moved] = np.arange(len(self.moved))
         self.influenced = self.slot >= 0
+        self.half_period = np.full(hier.n_points, np.inf)  # root part: set_root_periods
+        if len(u):
+            self.half_period[self.moved] = np.minimum.reduceat(u, first)
+        self.root_periods = False
+
+    def set_root_periods(self, face, muscles) -> None:
+        """Fill :attr:`half_period` on the skin's vertices: the smallest half period
+        :math:`u` (Eq. 6) of the ``muscles`` whose wrinkling region on ``face`` holds them.
+        """
+        if self.root_periods:
+            return
+        for m in muscles:
+            region = face.muscle_data(m).region
+            self.half_period[region] = np.minimum(self.half_period[region], float(m.u))
+        self.root_periods = True
+
+    def undersampled(self, hier: Hierarchy, triangles: np.ndarray, nodes: np.ndarray,
+                     W: np.ndarray) -> np.ndarray:
+        r"""``(t,) bool``: the ``triangles`` ``(t, 3)`` (in ``nodes``) that cannot show the
+        wrinkles at their corners: a corner wrinkles (``W`` ``(v,)`` not 0) and the node's
+        longest edge exceeds the half period :math:`u` (Eq. 6) of a muscle wrinkling it.
+        There the vertex normals sample the furrows too coarsely to see them bend.
+        """
+        u = np.where(W != 0.0, self.half_period, np.inf)
+        shortest = np.minimum.reduce([np.take(u, triangles[:, k]) for k in range(3)])
+        return hier.node_edge[nodes] > shortest
 
     def entries(self, v: np.ndarray):
         """The stacked rows of vertices ``v`` ``(k,)``: ``(rows, owner)``, ``owner`` the
@@ -333,19 +365,22 @@ class RefinedEngine:
             near = hier.root_nbrs[cand].ravel()
             hier.ensure(np.concatenate([cand, near[near >= 0]]))
         dyn = _Dynamic(hier, self.assembly(muscles), root, a, self.buffers)
+        dyn.asm.set_root_periods(root.face, muscles)
         split = np.zeros(len(hier.node_tri), bool)
         nodes = np.arange(len(tris))
         present = dyn.evaluated.copy()
         for _ in range(n_levels):
             cand = (dyn.influenced()[tris].any(axis=1)
                     & (hier.node_level[nodes] < hier.depth))
-            marked = bent(tris, dyn.points, angle_deg, cand)
+            marked = bent(tris, dyn.points, angle_deg, cand, hier.node_bend[nodes])
+            marked |= cand & dyn.asm.undersampled(hier, tris, nodes, dyn.W)
             if not marked.any():
                 break
             split = self._close(split, distinct(nodes[marked], hier.scratch()))
             if dyn.asm.version != (hier.version, hier.n_points):  # the hierarchy grew
                 old = np.flatnonzero(dyn.evaluated[hier.n_root:]) + hier.n_root
                 dyn = _Dynamic(hier, self.assembly(muscles), root, a)
+                dyn.asm.set_root_periods(root.face, muscles)
                 dyn.evaluate(old)
             tris, nodes, present = conforming_triangles(hier, split)
             dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))
