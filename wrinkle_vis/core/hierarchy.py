@@ -474,10 +474,11 @@ def distinct(ids: np.ndarray, slot: np.ndarray) -> np.ndarray:
     return out
 
 
-def split_in_order(hier: Hierarchy, split: np.ndarray):
+def split_in_order(hier: Hierarchy, split: np.ndarray, roots: np.ndarray | None = None):
     """The split set ``split`` ``(N,) bool`` walked breadth first: level by level, the
     nodes in the order of their parents (roots by index, children by corner): an order
-    that does not depend on the order the hierarchy was built in.
+    that does not depend on the order the hierarchy was built in. ``roots`` ``(r,)``
+    (increasing) restricts the walk to their subtrees.
 
     Returns
     -------
@@ -486,7 +487,7 @@ def split_in_order(hier: Hierarchy, split: np.ndarray):
     leaves : (l,) int
         The nodes of the mesh (not split, a root or a split node's child), in that order.
     """
-    nodes = np.arange(len(hier.root_built))
+    nodes = np.arange(len(hier.root_built)) if roots is None else roots
     splits, leaves = [], []
     while len(nodes):
         s = split[nodes]
@@ -525,8 +526,10 @@ def _present(hier: Hierarchy, split_ids: np.ndarray) -> np.ndarray:
     return present
 
 
-def conforming_triangles(hier: Hierarchy, split: np.ndarray):
-    """The mesh of a closed split set: every leaf, bisected where one edge has a midpoint.
+def conforming_triangles(hier: Hierarchy, split: np.ndarray, roots: np.ndarray | None = None):
+    """The mesh of a closed split set: every leaf, bisected where one edge has a midpoint
+    (of ``roots``' subtrees only, if given: then a leaf is bisected where a node among them
+    split).
 
     Returns
     -------
@@ -539,7 +542,7 @@ def conforming_triangles(hier: Hierarchy, split: np.ndarray):
     present : (v,) bool
         The vertices the mesh uses.
     """
-    split_ids, leaf = split_in_order(hier, split)
+    split_ids, leaf = split_in_order(hier, split, roots)
     present = _present(hier, split_ids)
     tri = hier.node_tri[leaf]
     mids = hier.node_mid[leaf]

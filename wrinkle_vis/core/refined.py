@@ -54,11 +54,9 @@ def bent(triangles: np.ndarray, points: np.ndarray, angle_deg: float,
     ux, uy, uz = (np.take(p, t1) - a for p, a in zip(points, (ax, ay, az), strict=True))
     vx, vy, vz = (np.take(p, t2) - a for p, a in zip(points, (ax, ay, az), strict=True))
     fn = (uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx)
-    vn = np.stack([np.bincount(t0, f, n) + np.bincount(t1, f, n) + np.bincount(t2, f, n)
-                   for f in fn])
-    vn /= np.maximum(np.sqrt((vn * vn).sum(axis=0)), 1e-300)
+    vn = [np.bincount(t0, f, n) + np.bincount(t1, f, n) + np.bincount(t2, f, n) for f in fn]
     c = np.flatnonzero(candidates)
-    corner = [vn[:, t[c]] for t in (t0, t1, t2)]  # (3, k) each
+    corner = [_unit(*(np.take(v, t[c]) for v in vn)) for t in (t0, t1, t2)]  # (3, k) each
     cos = np.minimum.reduce([(corner[i] * corner[(i + 1) % 3]).sum(axis=0) for i in range(3)])
     limit = np.radians(angle_deg)
     if rest_bend is not None:
@@ -66,6 +64,13 @@ def bent(triangles: np.ndarray, points: np.ndarray, angle_deg: float,
     out = np.zeros(len(triangles), bool)
     out[c] = cos < np.cos(limit)
     return out
+
+
+def _unit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """``(3, k)``: the vectors ``(x, y, z)`` ``(k,)`` each, scaled to unit length."""
+    v = np.stack([x, y, z])
+    v /= np.maximum(np.sqrt(x * x + y * y + z * z), 1e-300)
+    return v
 
 
 class _Assembly:
@@ -367,8 +372,10 @@ class RefinedEngine:
         dyn = _Dynamic(hier, self.assembly(muscles), root, a, self.buffers)
         dyn.asm.set_root_periods(root.face, muscles)
         split = np.zeros(len(hier.node_tri), bool)
-        nodes = np.arange(len(tris))
-        present = dyn.evaluated.copy()
+        corner = np.zeros(hier.n_root, bool)
+        corner[tris[cand]] = True
+        zone = np.flatnonzero(corner[tris].any(axis=1))  # what the levels look at
+        tris, nodes = tris[zone], zone
         for _ in range(n_levels):
             cand = (dyn.influenced()[tris].any(axis=1)
                     & (hier.node_level[nodes] < hier.depth))
@@ -382,8 +389,10 @@ class RefinedEngine:
                 dyn = _Dynamic(hier, self.assembly(muscles), root, a)
                 dyn.asm.set_root_periods(root.face, muscles)
                 dyn.evaluate(old)
-            tris, nodes, present = conforming_triangles(hier, split)
+            tris, nodes, present = conforming_triangles(hier, split, zone)
             dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))
+        tris, _, present = conforming_triangles(hier, split)
+        dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))  # closed beyond the zone
         dyn.finish()
         self.buffers = dyn.buffers
         return dyn, tris, present, split
