@@ -324,6 +324,7 @@ class _RestFrame:
         if radius is None:  # invariant under rigid motions
             radius = SLIDE_SCALE * float(np.sqrt(skin.triangle_areas().sum()))
         self.radius = radius
+        self.shape6: np.ndarray | None = None  # (n, 6): set on a refined skin
         self._engines: dict[int, RefinedEngine] = {}
 
     def engine(self, depth: int) -> RefinedEngine:
@@ -353,7 +354,11 @@ class _RestFrame:
 
     @cached_property
     def shape(self) -> np.ndarray:
-        """``(n, 3, 3)``: shape operators of :attr:`slide_normals` (:func:`shape_operators`)."""
+        """``(n, 3, 3)``: shape operators of :attr:`slide_normals` (:func:`shape_operators`;
+        a refined skin's from its hierarchy's six entries, :attr:`shape6`).
+        """
+        if self.shape6 is not None:
+            return _from_six(self.shape6)
         return shape_operators(self._skin, self.slide_normals)
 
 
@@ -607,7 +612,7 @@ class FaceModel:
             return root
         engine = self._rest.engine(levels)
         a = np.array([acts[m.name] for m in active])
-        dyn, tris, _, split = engine.frame(root, tuple(active), a, angle_deg, levels)
+        dyn, tris, split = engine.frame(root, tuple(active), a, angle_deg, levels)
         if not split.any():
             return root
         face, order = self._refined_face(engine, split, tris)
@@ -631,7 +636,7 @@ class FaceModel:
         surface = TriangleSurface(hier.rest[order], remap[tris])
         rest = _RestFrame(surface, hier.normal[order], self._rest.radius)
         rest.slide_normals = hier.slide[order]
-        rest.shape = _from_six(hier.shape6[order])
+        rest.shape6 = hier.shape6[order]
         face = FaceModel(surface, self.skull, self.muscles, self.expressions, name=self.name,
                          landmarks=self.landmarks, unit=self.unit, _caches=({}, None, rest))
         engine.last = (key, face, order)

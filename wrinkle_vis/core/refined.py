@@ -74,8 +74,21 @@ def _unit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
 
 
 class _Assembly:
-    """The active muscles' rows on the hierarchy's new vertices, stacked vertex by vertex
-    (built once per active set and hierarchy version).
+    r"""The active muscles' data on the hierarchy's new vertices, one row per vertex that a
+    muscle moves and one column per muscle acting there (padded with an inactive one),
+    built once per active set and hierarchy version.
+
+    Attributes
+    ----------
+    moved : (r,) int
+        The vertices, increasing; ``slot`` ``(v,)`` maps a vertex to its row (-1: none).
+    muscle : (r, c) int
+        The muscles acting on each (their index in the active set; ``M``: padding).
+    unit, weights, hat : (r, c, 3), (r, c, 6), (r, c) float
+        Their unit tangent pulls, Eq. 10 ring weights (0 for the ``"gradient"`` option),
+        and :math:`H\,At` (0 outside the wrinkling region and in padding).
+    coef, area : (r, c, 6, 2), (r, c, 6) float
+        The ``"gradient"`` option's ring triangle data (only if a muscle has it).
     """
 
     def __init__(self, hier: Hierarchy, levels: list[MuscleLevels]):
@@ -83,34 +96,40 @@ class _Assembly:
         counts = np.array([len(m.ids) for m in levels])
         ids = np.concatenate([m.ids for m in levels])
         order = np.argsort(ids, kind="stable")
-        self.muscle = np.repeat(np.arange(len(levels)), counts)[order]
-        self.ids = ids[order]
-        self.unit = np.concatenate([m.unit for m in levels])[order]
-        grad = np.repeat([m.muscle.compression == "gradient" for m in levels], counts)[order]
-        w = np.concatenate([m.weights for m in levels])[order]
-        self.weights = np.where(grad[:, None], 0.0, np.nan_to_num(w))
-        self.has_grad = bool(grad.any())
+        ids = ids[order]
+        first = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]]) if len(ids) else \
+            np.zeros(0, np.int64)
+        self.moved = ids[first]  # each vertex's rows are adjacent
+        row = np.repeat(np.arange(len(first)), np.diff(np.append(first, len(ids))))
+        col = np.arange(len(ids)) - first[row]
+        shape = (len(first), int(col.max()) + 1 if len(col) else 1)
+
+        def dense(parts, fill=0.0):
+            flat = np.concatenate(parts)[order]
+            out = np.full(shape + flat.shape[1:], fill, flat.dtype)
+            out[row, col] = flat
+            return out
+
+        self.muscle = dense([np.full(n, i) for i, n in enumerate(counts)], len(levels))
+        self.unit = dense([m.unit for m in levels])
+        grad = [m.muscle.compression == "gradient" for m in levels]
+        self.weights = dense([np.zeros_like(m.weights) if g else np.nan_to_num(m.weights)
+                              for m, g in zip(levels, grad, strict=True)])
+        self.has_grad = any(grad)
         if self.has_grad:  # zero rows for the muscles without the option
-            coef = [m.coef if len(m.coef) == len(m.ids) else np.zeros((len(m.ids), 6, 2))
-                    for m in levels]
-            area = [m.area if len(m.area) == len(m.ids) else np.zeros((len(m.ids), 6))
-                    for m in levels]
-            self.coef = np.concatenate(coef)[order]
-            self.area = np.concatenate(area)[order]
-        hat = np.concatenate([m.h * m.at for m in levels])[order]
-        self.hat = np.nan_to_num(hat)  # 0 outside the wrinkling region
-        u = np.repeat([float(m.muscle.u) for m in levels], counts)[order]
-        u = np.where(np.isfinite(hat), u, np.inf)  # only where the muscle wrinkles
-        first = np.flatnonzero(np.r_[True, self.ids[1:] != self.ids[:-1]]) if len(
-            self.ids) else np.zeros(0, np.int64)
-        self.moved = self.ids[first]  # ids are sorted: each vertex's rows are adjacent
-        self.start = np.append(first, len(self.ids))
+            self.coef = dense([m.coef if g else np.zeros((len(m.ids), 6, 2))
+                               for m, g in zip(levels, grad, strict=True)])
+            self.area = dense([m.area if g else np.zeros((len(m.ids), 6))
+                               for m, g in zip(levels, grad, strict=True)])
+        hat = [m.h * m.at for m in levels]
+        self.hat = dense([np.nan_to_num(h) for h in hat])  # 0 outside the wrinkling region
+        u = dense([np.where(np.isfinite(h), float(m.muscle.u), np.inf)
+                   for m, h in zip(levels, hat, strict=True)], np.inf)
         self.slot = np.full(hier.n_points, -1, np.int64)
         self.slot[self.moved] = np.arange(len(self.moved))
         self.influenced = self.slot >= 0
         self.half_period = np.full(hier.n_points, np.inf)  # root part: set_root_periods
-        if len(u):
-            self.half_period[self.moved] = np.minimum.reduceat(u, first)
+        self.half_period[self.moved] = u.min(axis=1)  # where a muscle wrinkles
         self.root_periods = False
 
     def set_root_periods(self, face, muscles) -> None:
@@ -135,19 +154,6 @@ class _Assembly:
         shortest = np.minimum.reduce([np.take(u, triangles[:, k]) for k in range(3)])
         return hier.node_edge[nodes] > shortest
 
-    def entries(self, v: np.ndarray):
-        """The stacked rows of vertices ``v`` ``(k,)``: ``(rows, owner)``, ``owner`` the
-        position in ``v`` of each row's vertex.
-        """
-        p = self.slot[v]
-        has = np.flatnonzero(p >= 0)
-        p = p[has]
-        first, count = self.start[p], self.start[p + 1] - self.start[p]
-        total = int(count.sum())
-        owner = np.repeat(has, count)
-        rows = np.arange(total) + np.repeat(first - np.cumsum(count) + count, count)
-        return rows, owner
-
 
 class _Dynamic:
     """One frame's values on the hierarchy's vertices, computed where asked.
@@ -158,6 +164,7 @@ class _Dynamic:
 
     def __init__(self, hier: Hierarchy, asm: _Assembly, root, a: np.ndarray, buffers=None):
         self.hier, self.asm, self.a = hier, asm, a
+        self.a_padded = np.append(a, 0.0)  # the padding muscle does not act
         n, n0 = hier.n_points, hier.n_root
         if buffers is None or buffers["deformed"].shape[1] != n:
             rest = np.ascontiguousarray(hier.rest.T)
@@ -206,10 +213,12 @@ class _Dynamic:
         if not len(v):
             return
         asm, hier = self.asm, self.hier
-        rows, owner = asm.entries(v)
-        scale = self.a[asm.muscle[rows]]
-        pull = np.stack([np.bincount(owner, asm.unit[rows, c] * scale, minlength=len(v))
-                         for c in range(3)], axis=1)
+        p = asm.slot[v]
+        has = np.flatnonzero(p >= 0)
+        p = p[has]
+        scale = np.take(self.a_padded, asm.muscle[p])  # (k, c)
+        pull = np.zeros((len(v), 3))
+        pull[has] = np.einsum("kc,kcx->kx", scale, asm.unit[p])
         bend = slide_bend(pull.T, hier.shape6[v].T)
         self.deformed[:, v] = (hier.rest[v] + pull - bend[:, None] * hier.slide[v]).T
         self.computed[v] = True
@@ -224,12 +233,15 @@ class _Dynamic:
         tau = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / hier.ring_len[v]
         normal = _ring_normal(dx, dy, dz)
         normal /= np.maximum(np.sqrt((normal * normal).sum(axis=0)), 1e-300)
-        rows, owner = asm.entries(v)
-        eps = (asm.weights[rows] * tau[owner]).sum(axis=1)
+        p = asm.slot[v]
+        has = np.flatnonzero(p >= 0)
+        p = p[has]
+        eps = np.einsum("kcj,kj->kc", asm.weights[p], tau[has])  # (k, c)
         if asm.has_grad:
-            eps += _stretch_mean(asm.coef[rows], asm.area[rows], dx[owner], dy[owner],
-                                 dz[owner])
-        w = np.bincount(owner, asm.hat[rows] * anisotropy(eps), minlength=len(v))
+            eps += _stretch_mean(asm.coef[p], asm.area[p], *(e[has, None] for e in
+                                                             (dx, dy, dz)))
+        w = np.zeros(len(v))
+        w[has] = (asm.hat[p] * anisotropy(eps)).sum(axis=1)
         self.W[v] = w
         self.points[:, v] = self.deformed[:, v] + w * normal
         self.evaluated[v] = True
@@ -259,14 +271,14 @@ class _Dynamic:
 
 
 def _stretch_mean(coef, area, dx, dy, dz) -> np.ndarray:
-    r"""``(k,)``: :math:`\sum_j a_j (1 - |F_j d_j|)` over the ring triangles
+    r"""``(...)``: :math:`\sum_j a_j (1 - |F_j d_j|)` over the ring triangles
     :math:`(i, r_j, r_{j+1})`, with :math:`F_j d_j = c_0 e_j + c_1 e_{j+1}` (``coef``
-    ``(k, 6, 2)``, ``area`` ``(k, 6)``, ring edges ``(k, 6)`` each).
+    ``(..., 6, 2)``, ``area`` ``(..., 6)``, ring edges ``(..., 6)`` each, broadcast).
     """
-    c0, c1 = coef[:, :, 0], coef[:, :, 1]
-    g = [c0 * e + c1 * np.roll(e, -1, axis=1) for e in (dx, dy, dz)]
+    c0, c1 = coef[..., 0], coef[..., 1]
+    g = [c0 * e + c1 * np.roll(e, -1, axis=-1) for e in (dx, dy, dz)]
     stretch = np.sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
-    return (area * (1.0 - stretch)).sum(axis=1)
+    return (area * (1.0 - stretch)).sum(axis=-1)
 
 
 def _ring_normal(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
@@ -354,9 +366,8 @@ class RefinedEngine:
         dyn : _Dynamic
             The frame's values on the hierarchy.
         triangles : (t, 3) int
-            The refined mesh, in hierarchy vertex ids.
-        present : (v,) bool
-            The vertices it uses.
+            The refined mesh, in hierarchy vertex ids, in an order that depends on the
+            split set alone.
         split : (N,) bool
             The split nodes.
         """
@@ -391,11 +402,29 @@ class RefinedEngine:
                 dyn.evaluate(old)
             tris, nodes, present = conforming_triangles(hier, split, zone)
             dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))
-        tris, _, present = conforming_triangles(hier, split)
-        dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))  # closed beyond the zone
+        tris = self._whole(split, zone, tris, dyn)
         dyn.finish()
         self.buffers = dyn.buffers
-        return dyn, tris, present, split
+        return dyn, tris, split
+
+    def _whole(self, split: np.ndarray, zone: np.ndarray, zone_tris: np.ndarray,
+               dyn: _Dynamic) -> np.ndarray:
+        """``(t, 3)``: the whole mesh: the zone's, then the root triangles outside it, when
+        the split set keeps to the zone and its neighbours are in it (no triangle outside
+        is bisected); else assembled anew (the closure reached beyond the zone: its new
+        vertices are evaluated).
+        """
+        hier = self.hier
+        n_roots = len(hier.root_built)
+        in_zone = np.zeros(n_roots, bool)
+        in_zone[zone] = True
+        roots = np.flatnonzero(split[:n_roots])
+        near = hier.root_nbrs[roots]
+        if in_zone[roots].all() and in_zone[near[near >= 0]].all():
+            return np.concatenate([zone_tris, hier.skin.triangles[~in_zone]])
+        tris, _, present = conforming_triangles(hier, split)
+        dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))
+        return tris
 
     def dynamic(self, root, muscles, a: np.ndarray) -> _Dynamic:
         """A frame's values in arrays of their own, computed where asked (for a state's
