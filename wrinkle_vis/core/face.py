@@ -617,8 +617,9 @@ class FaceModel:
             return root
         face, order = self._refined_face(engine, split, tris)
         source = _RefinedSource(root, engine, (tuple(active), a), order)
-        deformed = np.ascontiguousarray(dyn.deformed[:, order].T)
-        return FaceState(face, acts, deformed, np.ascontiguousarray(dyn.points[:, order].T),
+        deformed = np.ascontiguousarray(np.take(dyn.deformed, order, axis=1).T)
+        points = np.ascontiguousarray(np.take(dyn.points, order, axis=1).T)
+        return FaceState(face, acts, deformed, points,
                          dyn.W[order], None, {}, source)
 
     def _refined_face(self, engine: RefinedEngine, split, tris):
