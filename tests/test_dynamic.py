@@ -10,6 +10,7 @@ from wrinkle_vis.core import mesh
 from wrinkle_vis.core.hierarchy import (
     Hierarchy,
     conforming_triangles,
+    corner_angle,
     longest_edge,
     refined_topology,
 )
@@ -201,3 +202,14 @@ def test_wrinkles_finer_than_the_triangles_split_them_until_they_are_sampled(fac
         tris = state.triangles[wrinkled[state.triangles].any(axis=1)]
         assert len(tris) > 500
         assert longest_edge(state.rest_points, tris).max() <= u
+
+
+def test_node_bend_and_edge_are_their_triangles():
+    """Built child by child from shared points and edges, they equal the direct formulas."""
+    s = make_sphere(2)
+    hier = _hierarchy(s, np.arange(0, s.n_triangles, 3))
+    np.testing.assert_allclose(hier.node_bend, corner_angle(hier.normal, hier.node_tri),
+                               rtol=0, atol=1e-12)
+    np.testing.assert_allclose(hier.node_edge, longest_edge(hier.rest, hier.node_tri),
+                               rtol=0, atol=1e-12)
+    assert len(hier.node_tri) > 20 * s.n_triangles // 3

@@ -65,6 +65,26 @@ def longest_edge(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
                                       ((c - a) ** 2).sum(axis=1)]))
 
 
+#: The children of a node (a, b, c) with edge midpoints (m01, m12, m20), as pairs of the
+#: nine edges between those six points: child k's edges are _CHILD_PAIRS[k].
+_PAIRS = ((0, 3), (3, 5), (5, 0), (3, 1), (1, 4), (4, 3), (5, 4), (4, 2), (2, 5))
+_CHILD_PAIRS = ((0, 1, 2), (3, 4, 5), (6, 7, 8), (5, 6, 1))
+
+
+def _children_geometry(normals, points, *corners):
+    """``(4 p,)`` each: :func:`corner_angle` and :func:`longest_edge` of the children of
+    ``p`` nodes, from the ids ``(p,)`` each of their corners a, b, c and midpoints m01,
+    m12, m20 (each point gathered once, each shared edge measured once).
+    """
+    n = [np.take(normals, v, axis=0) for v in corners]
+    x = [np.take(points, v, axis=0) for v in corners]
+    cos = [np.einsum("ij,ij->i", n[i], n[j]) for i, j in _PAIRS]
+    sq = [np.einsum("ij,ij->i", x[i] - x[j], x[i] - x[j]) for i, j in _PAIRS]
+    bend = np.stack([np.minimum.reduce([cos[k] for k in kid]) for kid in _CHILD_PAIRS], axis=1)
+    edge = np.stack([np.maximum.reduce([sq[k] for k in kid]) for kid in _CHILD_PAIRS], axis=1)
+    return np.arccos(np.clip(bend, -1.0, 1.0)).ravel(), np.sqrt(edge).ravel()
+
+
 def _grow(a: np.ndarray, more: np.ndarray) -> np.ndarray:
     """``a`` with the rows ``more`` appended, amortized: ``a`` is a prefix of a buffer with
     spare rows (grown by doubling), so appending copies only ``more``.
@@ -214,8 +234,9 @@ class Hierarchy:
             self.node_level = _grow(self.node_level, np.full(len(kids), k + 1))
             self.node_root = _grow(self.node_root, np.repeat(self.node_root[nodes], 4))
             self.node_parent = _grow(self.node_parent, np.repeat(nodes, 4))
-            self.node_bend = _grow(self.node_bend, corner_angle(self.normal, kids))
-            self.node_edge = _grow(self.node_edge, longest_edge(self.rest, kids))
+            bend, edge = _children_geometry(self.normal, self.rest, a, b, c, m01, m12, m20)
+            self.node_bend = _grow(self.node_bend, bend)
+            self.node_edge = _grow(self.node_edge, edge)
             nodes = first[:, None] + np.arange(4)
             nodes = nodes.ravel()
         self.root_built[roots] = True
