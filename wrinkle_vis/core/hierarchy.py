@@ -180,6 +180,21 @@ class Hierarchy:
             self._point_scratch = np.full(self.n_points, -1, np.int64)
         return self._point_scratch
 
+    def parent_across(self) -> np.ndarray:
+        """``(N, 2) int``: for each node, its parent's neighbours across the parent's edges
+        that the node lies on (-1: none, a root, or the centre child), for the closure's
+        level rule; kept until the hierarchy changes.
+        """
+        key = (self.version, len(self.node_tri))
+        if getattr(self, "_across_key", None) != key:
+            out = np.full((len(self.node_tri), 2), -1, np.int64)
+            kids = np.flatnonzero(self.node_parent >= 0)
+            p = self.node_parent[kids]
+            edges = _CHILD_EDGES[kids - self.node_child[p]]
+            out[kids] = np.where(edges >= 0, self.node_nbr[p[:, None], np.maximum(edges, 0)], -1)
+            self._across, self._across_key = out, key
+        return self._across
+
     def scratch(self) -> np.ndarray:
         """``(N,) int``, all -1: working space for :func:`distinct` over node ids."""
         if len(getattr(self, "_scratch", ())) != len(self.node_tri):
@@ -462,25 +477,22 @@ def refined_topology(hier: Hierarchy, split: np.ndarray, new: np.ndarray) -> np.
     done = [new]
     frontier = new
     mark = hier.scratch()  # dedupes without sorting
+    across = hier.parent_across()
+    ext = np.append(split, False)  # a missing neighbour (-1) reads the last entry: False
     while len(frontier):
-        parent = hier.node_parent[frontier]
-        deep = parent >= 0
-        p, f = parent[deep], frontier[deep]
-        edges = _CHILD_EDGES[f - hier.node_child[p]]
-        across = np.where(edges >= 0, hier.node_nbr[p[:, None], np.maximum(edges, 0)], -1)
         kids = hier.node_child[frontier]
         kids = (kids[kids >= 0][:, None] + np.arange(4)).ravel()
         near = np.concatenate([hier.node_nbr[frontier].ravel(), kids])
         near = distinct(near[near >= 0], mark)
-        near = near[~split[near]]
-        nb = hier.node_nbr[near]
-        crowded = ((nb >= 0) & split[np.maximum(nb, 0)]).sum(axis=1) >= 2
-        cand = np.concatenate([across.ravel(), near[crowded]])
+        near = near[~ext[near]]
+        crowded = ext[hier.node_nbr[near]].sum(axis=1) >= 2
+        cand = np.concatenate([across[frontier].ravel(), near[crowded]])
         cand = distinct(cand[cand >= 0], mark)
-        cand = cand[~split[cand] & (hier.node_child[cand] >= 0)]
-        split[cand] = True
+        cand = cand[~ext[cand] & (hier.node_child[cand] >= 0)]
+        ext[cand] = True
         done.append(cand)
         frontier = cand
+    split[:] = ext[:-1]
     return np.concatenate(done)
 
 
