@@ -538,7 +538,7 @@ class FaceModel:
 
     def evaluate(self, activations=None, intensity: float = 1.0, *, refine: bool = False,
                  refine_angle_deg: float = 3.0, refine_levels: int = 3) -> FaceState:
-        """One frame of the wrinkle model.
+        r"""One frame of the wrinkle model.
 
         Parameters
         ----------
@@ -552,9 +552,10 @@ class FaceModel:
             Fig. 11): level after level, the triangles influenced by an active muscle (a
             corner moved or wrinkled) are split 1-to-4 where their vertex normals differ by
             more than ``refine_angle_deg`` beyond the rest skin's own bend across them (the
-            curvature that the expression adds), or where a corner wrinkles and the longest
-            edge exceeds the half period :math:`u` (Eq. 6) of a muscle wrinkling it (normals
-            that sample the furrows that coarsely cannot see them bend); the split is closed
+            curvature that the expression adds), or where the longest edge :math:`h` exceeds
+            half the half period :math:`u` (Eq. 6) of a muscle wrinkling a corner as deep as
+            :math:`|W| \pi^2 h / u^2 >` ``refine_angle_deg`` (normals that sample the
+            furrows that coarsely cannot see them bend); the split is closed
             conformingly (:mod:`wrinkle_vis.core.refined`). New vertices get
             rest positions on the smooth surface through the rest vertices and their normals
             (not the straight edge midpoints, which would keep the coarse facets); each is
@@ -565,7 +566,8 @@ class FaceModel:
         refine_angle_deg : float, default 3.0
             The bending threshold, beyond the rest skin's bend (3 degrees and 3 levels come
             as close to the model along the forehead furrows as VTK's butterfly subdivision
-            twice over, with a fifth of its triangles: ``benchmarks/bench_refine_fidelity.py``).
+            twice over, with about a quarter of its triangles:
+            ``benchmarks/bench_refine_fidelity.py``).
         refine_levels : int, default 3
             At most this many levels.
 

@@ -40,6 +40,10 @@ __all__ = ["PREBUILD_ROOTS", "RefinedEngine", "bent", "slide_bend"]
 #: triangle at three levels.
 PREBUILD_ROOTS = 8000
 
+#: A triangle where a muscle wrinkles splits until its longest edge is at most this many
+#: times shorter than the muscle's half period u (Eq. 6).
+EDGES_PER_HALF_PERIOD = 2.0
+
 
 def bent(triangles: np.ndarray, points: np.ndarray, angle_deg: float,
          candidates: np.ndarray, rest_bend: np.ndarray | None = None) -> np.ndarray:
@@ -144,15 +148,24 @@ class _Assembly:
         self.root_periods = True
 
     def undersampled(self, hier: Hierarchy, triangles: np.ndarray, nodes: np.ndarray,
-                     W: np.ndarray) -> np.ndarray:
-        r"""``(t,) bool``: the ``triangles`` ``(t, 3)`` (in ``nodes``) that cannot show the
-        wrinkles at their corners: a corner wrinkles (``W`` ``(v,)`` not 0) and the node's
-        longest edge exceeds the half period :math:`u` (Eq. 6) of a muscle wrinkling it.
-        There the vertex normals sample the furrows too coarsely to see them bend.
+                     W: np.ndarray, angle: float) -> np.ndarray:
+        r"""``(t,) bool``: the ``triangles`` ``(t, 3)`` (in ``nodes``) too coarse for the
+        wrinkles at a corner: the node's longest edge :math:`h` exceeds
+        ``1 / EDGES_PER_HALF_PERIOD`` of the half period :math:`u` (Eq. 6) of a muscle
+        wrinkling the corner, and a furrow of the corner's depth :math:`|W|` would bend
+        the skin across :math:`h` by more than ``angle`` (radians):
+        :math:`|W| \pi^2 h / u^2 > 	heta`, the change of slope of
+        :math:`|W| \sin(\pi s / u)` over :math:`h`. There the vertex normals sample the
+        furrows too coarsely to see them bend; a faint wrinkle does not split.
         """
-        u = np.where(W != 0.0, self.half_period, np.inf)
-        shortest = np.minimum.reduce([np.take(u, triangles[:, k]) for k in range(3)])
-        return hier.node_edge[nodes] > shortest
+        h = hier.node_edge[nodes]
+        out = np.zeros(len(triangles), bool)
+        for k in range(3):
+            v = triangles[:, k]
+            u = np.take(self.half_period, v)
+            depth = np.abs(np.take(W, v))
+            out |= (h * EDGES_PER_HALF_PERIOD > u) & (depth * np.pi ** 2 * h > angle * u * u)
+        return out
 
 
 class _Dynamic:
@@ -391,7 +404,8 @@ class RefinedEngine:
             cand = (dyn.influenced()[tris].any(axis=1)
                     & (hier.node_level[nodes] < hier.depth))
             marked = bent(tris, dyn.points, angle_deg, cand, hier.node_bend[nodes])
-            marked |= cand & dyn.asm.undersampled(hier, tris, nodes, dyn.W)
+            marked |= cand & dyn.asm.undersampled(hier, tris, nodes, dyn.W,
+                                                    np.radians(angle_deg))
             if not marked.any():
                 break
             split = self._close(split, distinct(nodes[marked], hier.scratch()))
