@@ -84,7 +84,8 @@ def _refine_options(p: argparse.ArgumentParser, what: str = "evaluate with adapt
     p.add_argument("--refine", action="store_true", help=what)
     p.add_argument("--refine-angle", type=float, metavar="DEG",
                    help="with --refine: split the triangles whose vertex normals differ by "
-                        "more than DEG degrees, in (0, 180) (default 3)")
+                        "more than DEG degrees beyond the rest skin's own bend, or too "
+                        "coarse for a furrow that deep; in (0, 180) (default 3)")
     p.add_argument("--refine-levels", type=int, metavar="N",
                    help=f"with --refine: at most N levels of splitting, 0 to "
                         f"{MAX_REFINE_LEVELS} (default 3)")
