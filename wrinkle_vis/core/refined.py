@@ -93,6 +93,10 @@ class _Assembly:
         and :math:`H\,At` (0 outside the wrinkling region and in padding).
     coef, area : (r, c, 6, 2), (r, c, 6) float
         The ``"gradient"`` option's ring triangle data (only if a muscle has it).
+    half_period : (v,) float
+        At every vertex, the smallest half period :math:`u` (Eq. 6) of the muscles whose
+        wrinkling region holds it (``inf``: none); the skin's vertices once
+        :meth:`set_root_periods` ran.
     """
 
     def __init__(self, hier: Hierarchy, levels: list[MuscleLevels]):
@@ -154,7 +158,7 @@ class _Assembly:
         ``1 / EDGES_PER_HALF_PERIOD`` of the half period :math:`u` (Eq. 6) of a muscle
         wrinkling the corner, and a furrow of the corner's depth :math:`|W|` would bend
         the skin across :math:`h` by more than ``angle`` (radians):
-        :math:`|W| \pi^2 h / u^2 > 	heta`, the change of slope of
+        :math:`|W| \pi^2 h / u^2 > \theta`, the change of slope of
         :math:`|W| \sin(\pi s / u)` over :math:`h`. There the vertex normals sample the
         furrows too coarsely to see them bend; a faint wrinkle does not split.
         """
