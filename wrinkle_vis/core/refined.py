@@ -101,6 +101,7 @@ class _Assembly:
 
     def __init__(self, hier: Hierarchy, levels: list[MuscleLevels]):
         self.version = hier.version, hier.n_points
+        self.muscles = [m.muscle for m in levels]
         counts = np.array([len(m.ids) for m in levels])
         ids = np.concatenate([m.ids for m in levels])
         order = np.argsort(ids, kind="stable")
@@ -140,13 +141,14 @@ class _Assembly:
         self.half_period[self.moved] = u.min(axis=1)  # where a muscle wrinkles
         self.root_periods = False
 
-    def set_root_periods(self, face, muscles) -> None:
-        """Fill :attr:`half_period` on the skin's vertices: the smallest half period
-        :math:`u` (Eq. 6) of the ``muscles`` whose wrinkling region on ``face`` holds them.
+    def set_root_periods(self, face) -> None:
+        """Fill :attr:`half_period` on the skin's vertices (once): the smallest half period
+        :math:`u` (Eq. 6) of the active muscles whose wrinkling region on ``face`` holds
+        them.
         """
         if self.root_periods:
             return
-        for m in muscles:
+        for m in self.muscles:
             region = face.muscle_data(m).region
             self.half_period[region] = np.minimum(self.half_period[region], float(m.u))
         self.root_periods = True
@@ -179,8 +181,10 @@ class _Dynamic:
     is reset) or fresh arrays.
     """
 
-    def __init__(self, hier: Hierarchy, asm: _Assembly, root, a: np.ndarray, buffers=None):
+    def __init__(self, hier: Hierarchy, asm: _Assembly, root, a: np.ndarray, buffers=None,
+                 root_influenced: np.ndarray | None = None):
         self.hier, self.asm, self.a = hier, asm, a
+        asm.set_root_periods(root.face)
         self.a_padded = np.append(a, 0.0)  # the padding muscle does not act
         n, n0 = hier.n_points, hier.n_root
         if buffers is None or buffers["deformed"].shape[1] != n:
@@ -202,9 +206,9 @@ class _Dynamic:
         self.evaluated[:n0] = True
         self.computed[:n0] = True
         self._touched, self._moved = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
-        root_moved = (root.W != 0.0) | (root.deformed_points != root.rest_points).any(axis=1)
         self._influenced = asm.influenced.copy()
-        self._influenced[:n0] = root_moved
+        self._influenced[:n0] = (_moved_or_wrinkled(root) if root_influenced is None
+                                 else root_influenced)
 
     def _slot(self, n: int) -> np.ndarray:
         slot = self.buffers.get("slot")
@@ -285,6 +289,13 @@ class _Dynamic:
             return _stretch_mean(levels.coef[rows], levels.area[rows], dx, dy, dz)
         tau = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / self.hier.ring_len[v]
         return (levels.weights[rows] * tau).sum(axis=1)
+
+
+def _moved_or_wrinkled(root) -> np.ndarray:
+    """``(n,) bool``: the skin's vertices that the unrefined frame ``root`` moved or
+    wrinkled (the influenced ones).
+    """
+    return (root.W != 0.0) | (root.deformed_points != root.rest_points).any(axis=1)
 
 
 def _stretch_mean(coef, area, dx, dy, dz) -> np.ndarray:
@@ -390,15 +401,14 @@ class RefinedEngine:
         """
         hier = self.hier
         tris = hier.skin.triangles
-        influenced = (root.W != 0.0) | (root.deformed_points != root.rest_points).any(axis=1)
+        influenced = _moved_or_wrinkled(root)
         cand = np.flatnonzero(influenced[tris].any(axis=1))
         subtree = (4 ** (hier.depth + 1) - 1) // 3  # nodes a root triangle holds
         if len(cand) * subtree <= PREBUILD_ROOTS * 85 and not hier.root_final[cand].all():
             # build what the frame can reach in one batch: the candidates and a ring
             near = hier.root_nbrs[cand].ravel()
             hier.ensure(np.concatenate([cand, near[near >= 0]]))
-        dyn = _Dynamic(hier, self.assembly(muscles), root, a, self.buffers)
-        dyn.asm.set_root_periods(root.face, muscles)
+        dyn = _Dynamic(hier, self.assembly(muscles), root, a, self.buffers, influenced)
         split = np.zeros(len(hier.node_tri), bool)
         corner = np.zeros(hier.n_root, bool)
         corner[tris[cand]] = True
@@ -415,8 +425,7 @@ class RefinedEngine:
             split = self._close(split, distinct(nodes[marked], hier.scratch()))
             if dyn.asm.version != (hier.version, hier.n_points):  # the hierarchy grew
                 old = np.flatnonzero(dyn.evaluated[hier.n_root:]) + hier.n_root
-                dyn = _Dynamic(hier, self.assembly(muscles), root, a)
-                dyn.asm.set_root_periods(root.face, muscles)
+                dyn = _Dynamic(hier, self.assembly(muscles), root, a, None, influenced)
                 dyn.evaluate(old)
             tris, nodes, present = conforming_triangles(hier, split, zone)
             dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))
