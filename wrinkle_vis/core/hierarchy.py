@@ -542,14 +542,10 @@ def canonical_order(hier: Hierarchy, split: np.ndarray) -> np.ndarray:
 
 
 def first_seen(ids: np.ndarray, slot: np.ndarray) -> np.ndarray:
-    """``ids`` without repeats, each where it first occurs, in linear time; ``slot``
-    ``(N,) int`` is all -1 before and after.
+    """``ids`` without repeats, each where it first occurs (:func:`distinct`, which keeps
+    the last occurrence, of the reversed ids).
     """
-    at = np.arange(len(ids))
-    slot[ids[::-1]] = at[::-1]  # the last write wins: the first occurrence
-    out = ids[slot[ids] == at]
-    slot[ids] = -1
-    return out
+    return distinct(ids[::-1], slot)[::-1]
 
 
 def _present(hier: Hierarchy, split_ids: np.ndarray) -> np.ndarray:
