@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import skin_mesh
+from conftest import _discard_changes, skin_mesh
 from qtpy import QtWidgets
 
 import wrinkle_vis as wv
@@ -274,3 +274,86 @@ def test_plain_skin_and_the_raking_light(window):
 
     window.raking_action.trigger()
     assert len(renderer.lights) == kit and not window.raking_action.isChecked()
+
+
+# ---------------------------------------------------------------------- the view widgets
+def test_views_are_native_windows_that_render_once_a_frame(window):
+    """On X11 each view is a native child window VTK renders into (Qt composes nothing), and
+    a playback frame renders each view it changed once: no paint event renders it again.
+    """
+    from qtpy import QtCore, QtGui
+
+    from wrinkle_vis.app.viewwidget import NativeView
+
+    assert QtGui.QGuiApplication.platformName() == "xcb"
+    assert all(isinstance(p, NativeView) for p in window.plotters)
+    assert all(p.testAttribute(QtCore.Qt.WA_NativeWindow) for p in window.plotters)
+    renders = [0, 0, 0]
+    for i, p in enumerate(window.plotters):
+        p.render_window.AddObserver("EndEvent", lambda *a, i=i: renders.__setitem__(
+            i, renders[i] + 1))
+    window.intensity_slider.setValue(window.intensity_slider.value() // 2)
+    QtWidgets.QApplication.processEvents()
+    assert renders == [1, 1, 0]  # skin and muscles changed, the skull did not
+
+
+def shown_pixels(view) -> np.ndarray:
+    """``(h, w, 3)`` uint8: what the screen shows of a view (a native window: grabbed from
+    the X server; a QOpenGLWidget: its framebuffer, which Qt composes as it is)."""
+    from qtpy import QtGui
+
+    from wrinkle_vis.app.viewwidget import NativeView
+
+    QtWidgets.QApplication.processEvents()
+    if isinstance(view, NativeView):
+        image = QtGui.QGuiApplication.primaryScreen().grabWindow(view.winId()).toImage()
+    else:
+        image = view.grabFramebuffer()
+    image = image.convertToFormat(QtGui.QImage.Format_RGB888)
+    rows = np.frombuffer(image.constBits(), np.uint8, image.sizeInBytes())
+    return rows.reshape(image.height(), image.bytesPerLine())[:, :3 * image.width()].reshape(
+        image.height(), image.width(), 3)
+
+
+def test_both_view_kinds_show_the_same_picture(make_window, monkeypatch):
+    """The QOpenGLWidget views (Wayland, offscreen Qt) and the native ones show the same
+    frame on screen.
+    """
+    from wrinkle_vis.app.viewwidget import NativeView, View
+
+    shown = {}
+    for kind, cls in (("native", NativeView), ("qopenglwidget", View)):
+        monkeypatch.setenv("WRINKLE_VIS_VIEW", kind)
+        w = make_window()
+        assert all(type(p) is cls for p in w.plotters)
+        shown[kind] = shown_pixels(w.skin_view).astype(int)
+        _discard_changes(w)
+        w.close()
+    a, b = shown["native"], shown["qopenglwidget"]
+    assert a.shape == b.shape and a.std() > 10  # a picture, not a cleared window
+    assert (np.abs(a - b).max(axis=2) > 8).mean() < 0.01
+
+
+def test_saved_view_image_is_what_the_view_shows(window, tmp_path):
+    """File > Save view as image renders the view off screen at its size: the same picture
+    as on screen (the camera copied, not reset by PyVista's first render).
+    """
+    from PIL import Image
+
+    shown = shown_pixels(window.skin_view).astype(int)
+    path = window.save_image("skin", tmp_path / "skin.png", window.skin_view.window_size)
+    saved = np.asarray(Image.open(path))[..., :3].astype(int)
+    assert saved.shape == shown.shape and shown.std() > 10
+    assert (np.abs(saved - shown).max(axis=2) > 8).mean() < 0.01
+
+
+def test_the_view_kind_comes_from_the_platform_or_the_environment(qapp, monkeypatch):
+    from wrinkle_vis.app.viewwidget import view_kind
+
+    monkeypatch.delenv("WRINKLE_VIS_VIEW", raising=False)
+    assert view_kind() == "native"  # xcb
+    monkeypatch.setenv("WRINKLE_VIS_VIEW", "QOpenGLWidget")
+    assert view_kind() == "qopenglwidget"
+    monkeypatch.setenv("WRINKLE_VIS_VIEW", "opengl")
+    with pytest.raises(ValueError, match="WRINKLE_VIS_VIEW='opengl' is not a view kind; use"):
+        view_kind()

@@ -357,6 +357,7 @@ class LinkedViews:
             camera = vtkCamera()
             camera.DeepCopy(renderer.GetActiveCamera())
             target.SetActiveCamera(camera)
+            target.camera_set = True  # else PyVista's first render resets (zooms out) it
             lights = renderer.GetLights()
             for i in range(lights.GetNumberOfItems()):
                 target.AddLight(lights.GetItemAsObject(i))

@@ -18,7 +18,6 @@ import weakref
 from pathlib import Path
 
 import numpy as np
-from pyvistaqt import QtInteractor
 from qtpy import QtCore, QtGui, QtWidgets
 from vtkmodules.vtkRenderingCore import vtkPropPicker
 
@@ -36,6 +35,7 @@ from .newface_panel import NewFaceFlow
 from .recovery import Recovery
 from .session import TIMELINE_STEPS, Session, editable, load_session, playback_position
 from .views import VIEWS, LinkedViews
+from .viewwidget import NativeView, View, make_view
 
 __all__ = ["MainWindow"]
 
@@ -93,41 +93,7 @@ def _weak(method, *args, keep: int = 0):
     return slot
 
 
-class View(QtInteractor):
-    """A view of the window: a ``QtInteractor`` that renders a frame once.
-
-    pyvistaqt's widget renders the scene again in every paint event, also in the one a
-    finished render schedules to show itself, so each frame the app rendered was rendered
-    twice (half the frame time of timeline playback in software). :meth:`render_now`
-    renders the scene at once (a screenshot right after it is of the new frame) and lets
-    the paint event that follows show that render without making another. Any other
-    paint (an expose, a resize, the interactor's own renders) renders as before.
-    """
-
-    _fresh = False  # rendered by render_now, not shown yet
-
-    def render_now(self) -> None:
-        """Render the scene now; the next paint shows this render."""
-        self.render_window.Render()  # its frame event schedules the paint
-        self._fresh = True
-
-    def resizeGL(self, w, h):  # noqa: N802 (Qt's name)
-        self._fresh = False  # the next paint renders at the new size
-        super().resizeGL(w, h)
-
-    def paintGL(self):  # noqa: N802 (Qt's name)
-        fresh, self._fresh = self._fresh, False
-        if not fresh or getattr(self, "_in_paint", None) is not False:
-            super().paintGL()
-            return
-        self._in_paint = True  # pyvistaqt's paintGL: "a render is under way", no render
-        try:
-            super().paintGL()
-        finally:
-            self._in_paint = False
-
-
-def _render_view(view: View) -> None:
+def _render_view(view: View | NativeView) -> None:
     view.render_now()
 
 
@@ -175,7 +141,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._syncing = False
         self._updating_controls = False
         self.plain_skin = False  # the skin view shows no field
-        self.plotters: list[QtInteractor] = []
+        self.plotters: list[View | NativeView] = []
         self.status_label = QtWidgets.QLabel()  # the frame's summary; messages go beside
         self.statusBar().addPermanentWidget(self.status_label)
         self._build_views()
@@ -197,7 +163,7 @@ class MainWindow(QtWidgets.QMainWindow):
             box = QtWidgets.QVBoxLayout(frame)
             box.setContentsMargins(0, 0, 0, 0)
             box.addWidget(QtWidgets.QLabel(f"<b>{title}</b>"))
-            plotter = View(frame, auto_update=False)
+            plotter = make_view(frame)
             box.addWidget(plotter.interactor)
             splitter.addWidget(frame)
             self.plotters.append(plotter)
