@@ -341,7 +341,7 @@ class Hierarchy:
 
     def safe_ring(self, v: np.ndarray) -> np.ndarray:
         """``(k, 6)``: the rings of vertices ``v``, the vertex itself where none."""
-        ring = self.ring[v]
+        ring = np.take(self.ring, v, axis=0)
         return np.where(ring >= 0, ring, v[:, None])
 
 

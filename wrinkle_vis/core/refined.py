@@ -237,11 +237,12 @@ class _Dynamic:
         p = asm.slot[v]
         has = np.flatnonzero(p >= 0)
         p = p[has]
-        scale = np.take(self.a_padded, asm.muscle[p])  # (k, c)
+        scale = np.take(self.a_padded, np.take(asm.muscle, p, axis=0))  # (k, c)
         pull = np.zeros((len(v), 3))
-        pull[has] = np.einsum("kc,kcx->kx", scale, asm.unit[p])
-        bend = slide_bend(pull.T, hier.shape6[v].T)
-        self.deformed[:, v] = (hier.rest[v] + pull - bend[:, None] * hier.slide[v]).T
+        pull[has] = np.einsum("kc,kcx->kx", scale, np.take(asm.unit, p, axis=0))
+        bend = slide_bend(pull.T, np.take(hier.shape6, v, axis=0).T)
+        self.deformed[:, v] = (np.take(hier.rest, v, axis=0) + pull
+                               - bend[:, None] * np.take(hier.slide, v, axis=0)).T
         self.computed[v] = True
         self._moved.append(v)
 
@@ -251,18 +252,18 @@ class _Dynamic:
             return
         hier, asm = self.hier, self.asm
         dx, dy, dz = self.ring_deltas(v)  # (k, 6) each
-        tau = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / hier.ring_len[v]
+        tau = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / np.take(hier.ring_len, v, axis=0)
         normal = _ring_normal(dx, dy, dz)
         normal /= np.maximum(np.sqrt((normal * normal).sum(axis=0)), 1e-300)
         p = asm.slot[v]
         has = np.flatnonzero(p >= 0)
         p = p[has]
-        eps = np.einsum("kcj,kj->kc", asm.weights[p], tau[has])  # (k, c)
+        eps = np.einsum("kcj,kj->kc", np.take(asm.weights, p, axis=0), tau[has])  # (k, c)
         if asm.has_grad:
             eps += _stretch_mean(asm.coef[p], asm.area[p], *(e[has, None] for e in
                                                              (dx, dy, dz)))
         w = np.zeros(len(v))
-        w[has] = (asm.hat[p] * anisotropy(eps)).sum(axis=1)
+        w[has] = (np.take(asm.hat, p, axis=0) * anisotropy(eps)).sum(axis=1)
         self.W[v] = w
         self.points[:, v] = self.deformed[:, v] + w * normal
         self.evaluated[v] = True
@@ -438,8 +439,9 @@ class RefinedEngine:
                dyn: _Dynamic) -> np.ndarray:
         """``(t, 3)``: the whole mesh: the zone's, then the root triangles outside it, when
         the split set keeps to the zone and its neighbours are in it (no triangle outside
-        is bisected); else assembled anew (the closure reached beyond the zone: its new
-        vertices are evaluated).
+        is bisected); else the zone grows by the split root triangles outside it and their
+        neighbours, is assembled anew (its new vertices evaluated), and the root triangles
+        outside it follow (none of them borders a split one).
         """
         hier = self.hier
         n_roots = len(hier.root_built)
@@ -447,11 +449,14 @@ class RefinedEngine:
         in_zone[zone] = True
         roots = np.flatnonzero(split[:n_roots])
         near = hier.root_nbrs[roots]
-        if in_zone[roots].all() and in_zone[near[near >= 0]].all():
+        near = near[near >= 0]
+        if in_zone[roots].all() and in_zone[near].all():
             return np.concatenate([zone_tris, hier.skin.triangles[~in_zone]])
-        tris, _, present = conforming_triangles(hier, split)
+        in_zone[roots] = True
+        in_zone[near] = True
+        tris, _, present = conforming_triangles(hier, split, np.flatnonzero(in_zone))
         dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))
-        return tris
+        return np.concatenate([tris, hier.skin.triangles[~in_zone]])
 
     def dynamic(self, root, muscles, a: np.ndarray) -> _Dynamic:
         """A frame's values in arrays of their own, computed where asked (for a state's
