@@ -636,10 +636,10 @@ class FaceModel:
         order = canonical_order(hier, split)
         remap = np.full(hier.n_points, -1, np.int64)
         remap[order] = np.arange(len(order))
-        surface = TriangleSurface(hier.rest[order], remap[tris])
-        rest = _RestFrame(surface, hier.normal[order], self._rest.radius)
-        rest.slide_normals = hier.slide[order]
-        rest.shape6 = hier.shape6[order]
+        surface = TriangleSurface(np.take(hier.rest, order, axis=0), np.take(remap, tris))
+        rest = _RestFrame(surface, np.take(hier.normal, order, axis=0), self._rest.radius)
+        rest.slide_normals = np.take(hier.slide, order, axis=0)
+        rest.shape6 = np.take(hier.shape6, order, axis=0)
         face = FaceModel(surface, self.skull, self.muscles, self.expressions, name=self.name,
                          landmarks=self.landmarks, unit=self.unit, _caches=({}, None, rest))
         engine.last = (key, face, order)
