@@ -103,6 +103,20 @@ def _native_base():
     return QVTKRenderWindowInteractor
 
 
+def _window_for_platform():
+    """A render window for a native window of Qt's platform: on X11 an X one, whatever
+    VTK's factory would pick (it picks EGL when no display was set as VTK loaded, and an
+    EGL window cannot draw into an X window); elsewhere the factory's.
+    """
+    if QtGui.QGuiApplication.platformName() == "xcb":
+        from vtkmodules.vtkRenderingOpenGL2 import vtkXOpenGLRenderWindow
+
+        return vtkXOpenGLRenderWindow()
+    from vtkmodules.vtkRenderingCore import vtkRenderWindow
+
+    return vtkRenderWindow()
+
+
 @contextlib.contextmanager
 def _no_base_plotter_init():
     """Qt's ``QWidget.__init__`` continues the cooperative ``super()`` chain into
@@ -135,7 +149,7 @@ class NativeView(_native_base(), BasePlotter):
 
     def __init__(self, parent: QtWidgets.QWidget | None = None, **kwargs):
         with _no_base_plotter_init():
-            type(self).__mro__[1].__init__(self, parent)
+            type(self).__mro__[1].__init__(self, parent, rw=_window_for_platform())
         BasePlotter.__init__(self, **kwargs)
         self.interactor = self
         self.ren_win = self.GetRenderWindow()
