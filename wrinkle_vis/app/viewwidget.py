@@ -138,7 +138,10 @@ class _NoEvents:
         return lambda *args, **kwargs: None
 
 
-class NativeView(_native_base(), BasePlotter):
+_NativeBase = _native_base()
+
+
+class NativeView(_NativeBase, BasePlotter):
     """A PyVista plotter in a native child window that VTK renders into directly.
 
     Mouse and key events reach VTK's interactor as in pyvistaqt (through
@@ -149,12 +152,12 @@ class NativeView(_native_base(), BasePlotter):
 
     def __init__(self, parent: QtWidgets.QWidget | None = None, **kwargs):
         with _no_base_plotter_init():
-            type(self).__mro__[1].__init__(self, parent, rw=_window_for_platform())
+            _NativeBase.__init__(self, parent, rw=_window_for_platform())
         BasePlotter.__init__(self, **kwargs)
         self.interactor = self
         self.ren_win = self.GetRenderWindow()
         self.ren_win.SetMultiSamples(pyvista.global_theme.multi_samples)
-        self.ren_win.SetAlphaBitPlanes(1)  # asks GLX for 8 bits a channel (else 5-6-5 may come)
+        self.ren_win.SetAlphaBitPlanes(1)  # an alpha channel: PyVista's depth peeling needs one
         for renderer in self.renderers:
             renderer.view_isometric()
             self.ren_win.AddRenderer(renderer)
