@@ -5,6 +5,7 @@ window and plotter a test makes is closed and freed.
 import gc
 import weakref
 
+import numpy as np
 import pytest
 from qtpy import QtCore, QtWidgets
 
@@ -70,6 +71,25 @@ def no_leaks(request):
 def private_recovery_dir(tmp_path, monkeypatch):
     """The app's autosave folder, private to each test."""
     monkeypatch.setenv("WRINKLE_VIS_RECOVERY_DIR", str(tmp_path / "recovery-default"))
+
+
+# ---------------------------------------------------------------------- faces
+def assert_same_face(a, b, expression: str = "surprise") -> None:
+    """Faces ``a`` and ``b`` are the same: skin, skull, muscles, landmarks, unit and
+    expressions equal, and ``expression`` evaluates to the same points and W bit for bit.
+    """
+    np.testing.assert_array_equal(a.skin.points, b.skin.points)
+    np.testing.assert_array_equal(a.skin.triangles, b.skin.triangles)
+    assert (a.skull is None) == (b.skull is None)
+    if a.skull is not None:
+        np.testing.assert_array_equal(a.skull.points, b.skull.points)
+        np.testing.assert_array_equal(a.skull.triangles, b.skull.triangles)
+    assert [m.to_dict() for m in a.muscles] == [m.to_dict() for m in b.muscles]
+    assert a.landmarks == b.landmarks and a.unit == b.unit
+    assert {k: e.to_dict() for k, e in a.expressions.items()} == \
+        {k: e.to_dict() for k, e in b.expressions.items()}
+    sa, sb = a.evaluate(expression), b.evaluate(expression)
+    assert np.array_equal(sa.W, sb.W) and np.array_equal(sa.points, sb.points)
 
 
 # ---------------------------------------------------------------------- the Qt app

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import assert_same_face
 from qtpy import QtCore, QtWidgets
 from qtpy.QtTest import QTest
 
@@ -345,14 +346,7 @@ def test_a_new_face_from_a_scan_by_clicks_wrinkles_and_reopens_bit_for_bit(
     assert w.open_layout(target)
     again = w.session.face
     assert again is not shown
-    np.testing.assert_array_equal(again.skin.points, shown.skin.points)
-    np.testing.assert_array_equal(again.skin.triangles, shown.skin.triangles)
-    np.testing.assert_array_equal(again.skull.points, shown.skull.points)
-    np.testing.assert_array_equal(again.skull.triangles, shown.skull.triangles)
-    assert [m.to_dict() for m in again.muscles] == [m.to_dict() for m in shown.muscles]
-    assert again.landmarks == shown.landmarks and again.unit == shown.unit
-    assert {k: e.to_dict() for k, e in again.expressions.items()} == \
-        {k: e.to_dict() for k, e in shown.expressions.items()}
+    assert_same_face(again, shown)
 
 
 def test_a_gltf_scan_starts_the_flow(make_window, monkeypatch, tmp_path, wv_face):

@@ -5,19 +5,13 @@ import json
 
 import numpy as np
 import pytest
+from conftest import assert_same_face
 from meshes import grid
 
 import wrinkle_vis as wv
 from wrinkle_vis.app.session import Session
 from wrinkle_vis.cli import main
 from wrinkle_vis.datasets.face import split_longest_edges
-
-
-def _same_face(a, b, expression="surprise"):
-    np.testing.assert_array_equal(a.skin.points, b.skin.points)
-    np.testing.assert_array_equal(a.skin.triangles, b.skin.triangles)
-    sa, sb = a.evaluate(expression), b.evaluate(expression)
-    assert np.array_equal(sa.W, sb.W) and np.array_equal(sa.points, sb.points)
 
 
 @pytest.mark.parametrize("n", [4498, 4496, 4493, 4500, 1001])
@@ -27,7 +21,7 @@ def test_the_builtin_skin_has_exactly_the_requested_triangles(n):
     rep = face.skin.report()
     assert rep.n_components == 1 and rep.consistently_oriented
     assert len(rep.degenerate_triangles) == 0
-    _same_face(wv.datasets.load_face(face.skin.n_triangles), face)
+    assert_same_face(wv.datasets.load_face(face.skin.n_triangles), face)
 
 
 def test_a_saved_builtin_face_reopens_bit_for_bit(tmp_path):
@@ -35,8 +29,8 @@ def test_a_saved_builtin_face_reopens_bit_for_bit(tmp_path):
     face = wv.datasets.load_face(4498)
     path = Session(face).save(tmp_path / "face.json")
     again = wv.datasets.load_face(face.skin.n_triangles, layout=path)  # as the app does
-    _same_face(again, face)
-    _same_face(again, face, "frown")
+    assert_same_face(again, face)
+    assert_same_face(again, face, "frown")
 
 
 def test_a_layout_records_the_request_that_rebuilds_its_mesh(tmp_path, capsys):
@@ -45,7 +39,7 @@ def test_a_layout_records_the_request_that_rebuilds_its_mesh(tmp_path, capsys):
     wv.save_layout(layout, tmp_path / "face.json")
     assert json.loads((tmp_path / "face.json").read_text())["n_triangles"] == 4498
     assert wv.load_layout(tmp_path / "face.json") == layout
-    _same_face(wv.datasets.load_face(layout=tmp_path / "face.json"), face)
+    assert_same_face(wv.datasets.load_face(layout=tmp_path / "face.json"), face)
     # the CLI rebuilds it too, unless --triangles says otherwise
     assert main(["summary", "-e", "neutral", "--layout", str(tmp_path / "face.json")]) == 0
     assert "4498 skin triangles" in capsys.readouterr().out

@@ -4,8 +4,8 @@ import json
 import shutil
 from pathlib import Path
 
-import numpy as np
 import pytest
+from conftest import assert_same_face
 
 import wrinkle_vis as wv
 from wrinkle_vis.datasets import read_landmarks, scan_layout
@@ -15,16 +15,6 @@ HEAD = REAL / "lee_perry_smith_head.obj"
 EXAMPLE = Path(wv.datasets.__file__).with_name("examples") / "lee_perry_smith.json"
 
 needs_scans = pytest.mark.skipif(not HEAD.exists(), reason="../shared/realmeshes is not here")
-
-
-def same_face(a, b):
-    np.testing.assert_array_equal(a.skin.points, b.skin.points)
-    np.testing.assert_array_equal(a.skin.triangles, b.skin.triangles)
-    np.testing.assert_array_equal(a.skull.points, b.skull.points)
-    np.testing.assert_array_equal(a.skull.triangles, b.skull.triangles)
-    assert [m.to_dict() for m in a.muscles] == [m.to_dict() for m in b.muscles]
-    assert a.landmarks == b.landmarks and a.unit == b.unit
-    np.testing.assert_array_equal(a.evaluate("surprise").points, b.evaluate("surprise").points)
 
 
 @needs_scans
@@ -44,10 +34,10 @@ def test_a_scan_layout_names_its_mesh_and_reopens_bit_for_bit(tmp_path):
     assert saved["skin"] == "../scans/head.obj" and saved["landmarks"]["nasion"]
     first = wv.datasets.load_face(layout=path)
     again = wv.datasets.load_face(layout=path)
-    same_face(first, again)
+    assert_same_face(first, again)
     # the same face as the scan with the landmarks given directly
     direct = wv.datasets.load_face(skin=scans / "head.obj", landmarks=marks, unit="m")
-    same_face(first, direct)
+    assert_same_face(first, direct)
     # the folder moves with the layout: paths are relative
     shutil.move(tmp_path / "layouts", tmp_path / "moved_layouts")
     shutil.move(scans, tmp_path / "scans_too")
@@ -55,7 +45,7 @@ def test_a_scan_layout_names_its_mesh_and_reopens_bit_for_bit(tmp_path):
     data = json.loads(moved.read_text())
     data["skin"] = "../scans_too/head.obj"
     moved.write_text(json.dumps(data))
-    same_face(first, wv.datasets.load_face(layout=moved))
+    assert_same_face(first, wv.datasets.load_face(layout=moved))
 
 
 def test_unit_and_face_keys_round_trip_and_are_checked(tmp_path):
