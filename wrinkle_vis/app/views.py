@@ -126,13 +126,14 @@ class LinkedViews:
     Parameters
     ----------
     skin, muscles, skull : pyvista.Plotter
-        The three views (``QtInteractor`` in the app, off-screen plotters elsewhere).
+        The three views (the app's view widgets, :mod:`wrinkle_vis.app.viewwidget`;
+        off-screen plotters elsewhere).
     on_move, on_start : callable, optional
         Passed to each placement widget (see :class:`~wrinkle_vis.widgets.PlacementWidget`).
     render_view : callable, optional
         ``render_view(plotter)`` renders one view for :meth:`render` (default
-        ``plotter.render_window.Render()``; the app's views render once a frame where a
-        plain Qt OpenGL widget would render twice).
+        ``plotter.render_window.Render()``; the app's views' ``render_now``, which a
+        pyvistaqt widget needs to render once a frame, not twice).
     """
 
     def __init__(self, skin: pv.Plotter, muscles: pv.Plotter, skull: pv.Plotter,
