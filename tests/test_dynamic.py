@@ -22,16 +22,18 @@ def face():
     return wv.datasets.load_face()
 
 
-def _hierarchy(surface, roots, depth=3):
+def _hierarchy(surface, depth=3, built=True):
+    """The hierarchy of ``surface``; ``built``: all of it, level by level."""
     hier = Hierarchy(surface, surface.vertex_normals(), surface.vertex_normals(),
                      np.zeros((surface.n_points, 3, 3)), depth)
-    hier.ensure(np.asarray(roots))
+    for level in range(depth if built else 0):
+        hier.ensure(np.flatnonzero(hier.node_level == level))
     return hier
 
 
 def test_neighbour_tables_and_rings_match_the_uniform_subdivision():
     sphere = make_sphere(2)
-    hier = _hierarchy(sphere, np.arange(sphere.n_triangles))  # everything, 3 levels
+    hier = _hierarchy(sphere)  # everything, 3 levels
     n_root = sphere.n_triangles
     for level in (1, 2, 3):
         nodes = np.flatnonzero(hier.node_level == level)
@@ -58,26 +60,30 @@ def test_neighbour_tables_and_rings_match_the_uniform_subdivision():
                 assert any(set(row) == t for row in tri[(tri == v).any(axis=1)].tolist())
 
 
-def test_the_closure_is_conforming_for_any_split_set():
+@pytest.mark.parametrize("built", [True, False], ids=["built", "built-as-it-splits"])
+def test_the_closure_is_conforming_for_any_split_set(built):
     rng = np.random.default_rng(4)
     sphere = make_sphere(1)
-    hier = _hierarchy(sphere, np.arange(sphere.n_triangles))
+    full = _hierarchy(sphere)
+    area = mesh.TriangleSurface(full.rest, full.node_tri[full.node_level == 3]).triangle_areas()
     for _ in range(20):
+        hier = _hierarchy(sphere, built=built)
         split = np.zeros(len(hier.node_tri), bool)
         alive = np.arange(sphere.n_triangles)
         for _level in range(3):  # split random leaves, level after level
             pick = alive[rng.random(len(alive)) < 0.3]
-            pick = pick[~split[pick] & (hier.node_child[pick] >= 0)]
-            split[pick] = True
-            refined_topology(hier, split, pick)
+            pick = pick[~split[pick] & (hier.node_level[pick] < 3)]
+            split, added = refined_topology(hier, split, pick)
+            np.testing.assert_array_equal(added[:len(pick)], pick)
+            assert split[added].all()
             tris, nodes, present = conforming_triangles(hier, split)
             alive = nodes
         rep = mesh.TriangleSurface(hier.rest, tris).report()
         assert len(rep.boundary_edges) == 0 and len(rep.non_manifold_edges) == 0
         assert rep.consistently_oriented
         assert np.isclose(mesh.TriangleSurface(hier.rest, tris).triangle_areas().sum(),
-                          mesh.TriangleSurface(hier.rest, hier.node_tri[hier.node_level == 3])
-                          .triangle_areas().sum(), rtol=0.05)
+                          area.sum(), rtol=0.05)
+        assert hier.final[present[hier.n_root:].nonzero()[0] + hier.n_root].all()
 
 
 def test_skin_vertices_keep_the_unrefined_values_exactly(face):
@@ -139,14 +145,35 @@ def test_the_gradient_option_refines_too(face):
     assert np.nanmax(eps) > 0.0
 
 
-def test_the_hierarchy_is_bounded_by_the_uniform_subdivision(face):
+def test_the_hierarchy_grows_only_around_what_frames_split():
+    """A node has children only where a frame split it, the node across one of its edges,
+    or (the level rule) a node across its parent's edges; the rest of the uniform
+    subdivision of the touched root triangles is never built."""
+    face = wv.datasets.load_face(n_triangles=2000)
+    engine = face._rest.engine(3)
+    hier = engine.hier
+    ever = np.zeros(0, bool)
     for name in ("surprise", "frown", "fear"):
         for t in np.linspace(0.1, 1.0, 4):
             face.evaluate(name, t, refine=True)
-    hier = face._rest.engine(3).hier
-    built = int(hier.root_built.sum())
-    assert len(hier.node_tri) == face.skin.n_triangles + built * (4 + 16 + 64)
-    assert built < face.skin.n_triangles
+            split = np.unpackbits(np.frombuffer(engine.last[0][1], np.uint8)).astype(bool)
+            ever = np.resize(ever, len(split)) & (np.arange(len(split)) < len(ever))
+            ever |= split[:len(split)]
+    n = len(hier.node_tri)
+    ever = np.resize(ever, n) & (np.arange(n) < len(ever))
+    allowed = ever.copy()
+    nbr = hier.node_nbr[ever].ravel()
+    allowed[nbr[nbr >= 0]] = True
+    for _ in range(3):  # the nodes across the parents' edges of what is allowed, up
+        parents = hier.node_parent[allowed]
+        up = hier.node_nbr[parents[parents >= 0]].ravel()
+        allowed[up[up >= 0]] = True
+    expanded = hier.node_child >= 0
+    assert ever.sum() > 500
+    assert not (expanded & ~allowed).any()
+    assert n == face.skin.n_triangles + 4 * expanded.sum()
+    touched = np.unique(hier.node_root[expanded])
+    assert n - face.skin.n_triangles < 0.75 * 84 * len(touched)  # whole subtrees: 84 a root
 
 
 @pytest.mark.parametrize("levels", [1, 2, 4])
@@ -164,7 +191,7 @@ def test_a_triangle_splits_for_the_bend_the_expression_adds_not_the_rest_skins()
     """The rest skin's own curvature does not count: a coarse sphere bends 30 degrees or so
     across every triangle, yet nothing splits until its surface is bent further."""
     s = make_sphere(1)
-    hier = _hierarchy(s, np.arange(s.n_triangles), depth=1)
+    hier = _hierarchy(s, depth=1)
     rest_bend = hier.node_bend[:s.n_triangles]
     points = np.ascontiguousarray(s.points.T)
     everywhere = np.ones(s.n_triangles, bool)
@@ -214,7 +241,9 @@ def test_wrinkles_finer_than_the_triangles_split_them_until_they_are_sampled(fac
 def test_node_bend_and_edge_are_their_triangles():
     """Built child by child from shared points and edges, they equal the direct formulas."""
     s = make_sphere(2)
-    hier = _hierarchy(s, np.arange(0, s.n_triangles, 3))
+    hier = _hierarchy(s, built=False)
+    for level in range(3):  # a third of the root triangles' subtrees, and what they border
+        hier.ensure(np.flatnonzero((hier.node_level == level) & (hier.node_root % 3 == 0)))
     np.testing.assert_allclose(hier.node_bend, corner_angle(hier.normal, hier.node_tri),
                                rtol=0, atol=1e-12)
     np.testing.assert_allclose(hier.node_edge, longest_edge(hier.rest, hier.node_tri),

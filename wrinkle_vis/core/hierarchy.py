@@ -4,9 +4,9 @@ New vertices have fixed rest positions, so everything that depends on the rest s
 built once per skin (and per muscle) and shared by every frame:
 
 * :class:`Hierarchy`: the uniform 1-to-4 subdivision of the skin's triangles down to the
-  deepest level, built root triangle by root triangle when a frame first splits one (and its
-  edge neighbours, whose children border it). New vertices sit on the Phong midpoints of
-  their edges (:func:`~wrinkle_vis.core.mesh.phong_midpoints`), as
+  deepest level, built node by node where a frame first splits one (with the nodes across
+  its edges, whose children border it: :meth:`Hierarchy.ensure`). New vertices sit on the
+  Phong midpoints of their edges (:func:`~wrinkle_vis.core.mesh.phong_midpoints`), as
   :func:`~wrinkle_vis.core.refine.refine_triangles` puts them. Each new vertex also keeps its
   *ring*: its six neighbours in the uniform mesh of the level it was made at.
 * :class:`MuscleLevels`: one muscle's rest data on the hierarchy's vertices (:math:`\lambda`,
@@ -105,6 +105,13 @@ def _grow(a: np.ndarray, more: np.ndarray) -> np.ndarray:
 class Hierarchy:
     """The uniform subdivision hierarchy of a skin, ``depth`` levels deep, built on demand.
 
+    A node gets its four children the first time a frame splits it or a node across one of
+    its edges (:meth:`ensure`), and only once the nodes across its parent's edges have
+    theirs. So a node with children has all its neighbours of its own level
+    (:attr:`node_nbr`; a node without may miss some until they are built), and what is
+    built is the subdivision of the split nodes and one ring of nodes around them, level by
+    level.
+
     Parameters
     ----------
     skin : TriangleSurface
@@ -126,15 +133,26 @@ class Hierarchy:
         The level a vertex was made at (0 for the skin's).
     ring : (v, 6) int
         A new vertex's neighbours in the uniform mesh of its level, counter-clockwise seen
-        from outside, ``-1`` where a side lies beyond the skin's boundary.
+        from outside, ``-1`` where a side lies beyond the skin's boundary (or is not built
+        yet: ``final`` tells).
+    final : (v,) bool
+        New vertices whose ring is complete (and ``ring_len`` ``(v, 6)`` its rest lengths).
     node_tri : (N, 3) int
         Corners of every node (root triangles first, then children in fours).
     node_child : (N,) int
         Each node's first child, ``-1`` while unbuilt or at the deepest level.
     node_mid : (N, 3) int
         The midpoints of a node's edges 01, 12, 20 (``-1`` likewise).
-    node_level, node_root : (N,) int
-        A node's level and root triangle.
+    node_level, node_root, node_parent : (N,) int
+        A node's level, root triangle and parent (-1 for a root).
+    node_nbr : (N, 3) int
+        The node of the same level across each edge, ``-1`` at the skin's boundary (or
+        where it is not built yet).
+    node_across : (N, 2) int
+        The neighbours of a node's parent across the parent's edges that the node lies on
+        (-1: none, a root, the centre child, or the boundary), for the closure's level rule.
+    node_ready : (N,) bool
+        Nodes that may split (:meth:`ensure` ran for them).
     node_bend : (N,) float
         The largest angle (radians) between the rest normals at a node's corners: how much
         the rest skin itself bends across it (:func:`corner_angle`).
@@ -152,21 +170,21 @@ class Hierarchy:
         self.level = np.zeros(n0, np.int8)
         self.ring = np.full((n0, 6), -1, np.int64)
         self.ring_len = np.ones((n0, 6))
-        self.final = np.zeros(n0, bool)  # new vertices whose ring data is complete
+        self.final = np.zeros(n0, bool)
         self.node_tri = np.asarray(skin.triangles, dtype=np.int64).copy()
         self.node_child = np.full(t0, -1, np.int64)
         self.node_mid = np.full((t0, 3), -1, np.int64)
         self.node_level = np.zeros(t0, np.int8)
         self.node_root = np.arange(t0, dtype=np.int64)
         self.node_parent = np.full(t0, -1, np.int64)
+        self.node_across = np.full((t0, 2), -1, np.int64)
+        self.node_ready = np.zeros(t0, bool)
         self.node_bend = corner_angle(self.normal, self.node_tri)
         self.node_edge = longest_edge(self.rest, self.node_tri)
         self._keys = np.zeros(0, np.int64)  # sorted edge keys (lo * 2**31 + hi)
         self._mids = np.zeros(0, np.int64)  # their midpoints
-        self.root_built = np.zeros(t0, bool)
-        self.root_final = np.zeros(t0, bool)
         self.root_nbrs = _edge_neighbours(skin)
-        self.node_nbr = self.root_nbrs.copy()  # the same-level node across each edge
+        self.node_nbr = self.root_nbrs.copy()
         self.version = 0  # bumped whenever vertices or ring data are added
 
     @property
@@ -174,26 +192,16 @@ class Hierarchy:
         """Vertices built so far."""
         return len(self.rest)
 
+    @property
+    def n_roots(self) -> int:
+        """Root nodes: the skin's triangles."""
+        return len(self.root_nbrs)
+
     def point_scratch(self) -> np.ndarray:
         """``(v,) int``, all -1: working space for :func:`first_seen` over vertex ids."""
         if len(getattr(self, "_point_scratch", ())) != self.n_points:
             self._point_scratch = np.full(self.n_points, -1, np.int64)
         return self._point_scratch
-
-    def parent_across(self) -> np.ndarray:
-        """``(N, 2) int``: for each node, its parent's neighbours across the parent's edges
-        that the node lies on (-1: none, a root, or the centre child), for the closure's
-        level rule; kept until the hierarchy changes.
-        """
-        key = (self.version, len(self.node_tri))
-        if getattr(self, "_across_key", None) != key:
-            out = np.full((len(self.node_tri), 2), -1, np.int64)
-            kids = np.flatnonzero(self.node_parent >= 0)
-            p = self.node_parent[kids]
-            edges = _CHILD_EDGES[kids - self.node_child[p]]
-            out[kids] = np.where(edges >= 0, self.node_nbr[p[:, None], np.maximum(edges, 0)], -1)
-            self._across, self._across_key = out, key
-        return self._across
 
     def scratch(self) -> np.ndarray:
         """``(N,) int``, all -1: working space for :func:`distinct` over node ids."""
@@ -201,23 +209,26 @@ class Hierarchy:
             self._scratch = np.full(len(self.node_tri), -1, np.int64)
         return self._scratch
 
-    def ensure(self, roots: np.ndarray) -> bool:
-        """Build the subtrees of root triangles ``roots`` ``(k,)`` and of their edge
-        neighbours, and complete the rings of the vertices inside ``roots``.
+    def ensure(self, nodes: np.ndarray) -> bool:
+        """Make ``nodes`` ``(k,)`` (above the deepest level) ready to split: give them and
+        the nodes across their edges children, and complete the rings of their edges'
+        midpoints.
 
         Returns whether anything was added.
         """
-        roots = np.asarray(roots, dtype=np.int64)
-        need = roots[~self.root_final[roots]]
-        if not len(need):
+        nodes = np.asarray(nodes, dtype=np.int64)
+        nodes = nodes[~self.node_ready[nodes]]
+        if not len(nodes):
             return False
-        need = np.unique(need)
-        nbrs = self.root_nbrs[need].ravel()
-        grow = np.unique(np.concatenate([need, nbrs[nbrs >= 0]]))
-        grow = grow[~self.root_built[grow]]
-        if len(grow):
-            self._build(grow)
-        self._finalize(need)
+        nodes = np.unique(nodes)
+        if (self.node_level[nodes] >= self.depth).any():
+            raise ValueError(f"a node of the deepest level ({self.depth}) cannot split; "
+                             "ask for more levels")
+        self._expand(nodes)  # their neighbours of their level exist from now on
+        nbrs = self.node_nbr[nodes].ravel()
+        self._expand(nbrs[nbrs >= 0])
+        self._finalize(nodes)
+        self.node_ready[nodes] = True
         self.version += 1
         return True
 
@@ -230,31 +241,47 @@ class Hierarchy:
         return np.where(self._keys[pos] == keys, self._mids[pos], -1)
 
     # ------------------------------------------------------------------ building
-    def _build(self, roots: np.ndarray) -> None:
-        nodes = roots
-        for k in range(self.depth):
-            a, b, c = self.node_tri[nodes].T
-            m01, m12, m20 = self._midpoints(np.concatenate([a, b, c]),
-                                            np.concatenate([b, c, a]), k + 1).reshape(3, -1)
-            first = len(self.node_tri) + 4 * np.arange(len(nodes))
-            kids = np.stack([np.c_[a, m01, m20], np.c_[m01, b, m12], np.c_[m20, m12, c],
-                             np.c_[m01, m12, m20]], axis=1).reshape(-1, 3)
-            self.node_child[nodes] = first
-            self.node_mid[nodes] = np.c_[m01, m12, m20]
-            self._half_rings(a, b, c, m01, m12, m20)
-            self._link(nodes, first)
-            self.node_tri = _grow(self.node_tri, kids)
-            self.node_child = _grow(self.node_child, np.full(len(kids), -1))
-            self.node_mid = _grow(self.node_mid, np.full((len(kids), 3), -1))
-            self.node_level = _grow(self.node_level, np.full(len(kids), k + 1))
-            self.node_root = _grow(self.node_root, np.repeat(self.node_root[nodes], 4))
-            self.node_parent = _grow(self.node_parent, np.repeat(nodes, 4))
-            bend, edge = _children_geometry(self.normal, self.rest, a, b, c, m01, m12, m20)
-            self.node_bend = _grow(self.node_bend, bend)
-            self.node_edge = _grow(self.node_edge, edge)
-            nodes = first[:, None] + np.arange(4)
-            nodes = nodes.ravel()
-        self.root_built[roots] = True
+    def _expand(self, nodes: np.ndarray) -> None:
+        """Give children to those of ``nodes`` without, after the nodes across their
+        parents' edges (so their children's neighbours exist).
+        """
+        nodes = nodes[self.node_child[nodes] < 0]
+        if not len(nodes):
+            return
+        nodes = np.unique(nodes)
+        parents = self.node_parent[nodes]
+        up = self.node_nbr[parents[parents >= 0]].ravel()
+        self._expand(up[up >= 0])
+        nodes = nodes[self.node_child[nodes] < 0]  # some were among ``up``
+        level = self.node_level[nodes]
+        for k in np.unique(level):  # the coarser first
+            self._children(nodes[level == k], int(k) + 1)
+
+    def _children(self, nodes: np.ndarray, level: int) -> None:
+        """Build the four children of each of ``nodes`` ``(p,)`` (of ``level - 1``)."""
+        a, b, c = self.node_tri[nodes].T
+        m01, m12, m20 = self._midpoints(np.concatenate([a, b, c]),
+                                        np.concatenate([b, c, a]), level).reshape(3, -1)
+        first = len(self.node_tri) + 4 * np.arange(len(nodes))
+        kids = np.stack([np.c_[a, m01, m20], np.c_[m01, b, m12], np.c_[m20, m12, c],
+                         np.c_[m01, m12, m20]], axis=1).reshape(-1, 3)
+        self.node_child[nodes] = first
+        self.node_mid[nodes] = np.c_[m01, m12, m20]
+        self._half_rings(a, b, c, m01, m12, m20)
+        across = self.node_nbr[nodes][:, np.maximum(_CHILD_EDGES, 0)]  # (p, 4, 2)
+        self._link(nodes, first)
+        self.node_tri = _grow(self.node_tri, kids)
+        self.node_child = _grow(self.node_child, np.full(len(kids), -1))
+        self.node_mid = _grow(self.node_mid, np.full((len(kids), 3), -1))
+        self.node_level = _grow(self.node_level, np.full(len(kids), level))
+        self.node_root = _grow(self.node_root, np.repeat(self.node_root[nodes], 4))
+        self.node_parent = _grow(self.node_parent, np.repeat(nodes, 4))
+        self.node_across = _grow(self.node_across,
+                                 np.where(_CHILD_EDGES >= 0, across, -1).reshape(-1, 2))
+        self.node_ready = _grow(self.node_ready, np.zeros(len(kids), bool))
+        bend, edge = _children_geometry(self.normal, self.rest, a, b, c, m01, m12, m20)
+        self.node_bend = _grow(self.node_bend, bend)
+        self.node_edge = _grow(self.node_edge, edge)
 
     def _link(self, parents: np.ndarray, first: np.ndarray) -> None:
         """Set the neighbours of the children ``first + 0..3`` of ``parents`` (and of the
@@ -301,7 +328,18 @@ class Hierarchy:
             self._mids = np.insert(self._mids, at, ids)
         return mids[inverse.ravel()]
 
+    def _before(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """``(k,) bool``: vertex ``a`` comes before ``b`` (each ``(k,)``) in the
+        lexicographic order of their rest positions: an order of an edge's ends that does
+        not depend on the order the vertices were built in (nor then do the rings, nor the
+        order their sums run in).
+        """
+        pa, pb = np.take(self.rest, a, axis=0), np.take(self.rest, b, axis=0)
+        lt, eq = pa < pb, pa == pb
+        return lt[:, 0] | (eq[:, 0] & (lt[:, 1] | (eq[:, 1] & lt[:, 2])))
+
     def _add_vertices(self, pairs: np.ndarray, level: int) -> None:
+        pairs = np.where(self._before(pairs[:, 0], pairs[:, 1])[:, None], pairs, pairs[:, ::-1])
         mid, mid_normals = phong_midpoints(self.rest, self.normal, pairs)
         self.rest = _grow(self.rest, mid)
         self.normal = _grow(self.normal, mid_normals)
@@ -309,7 +347,7 @@ class Hierarchy:
         self.shape6 = _grow(self.shape6, self.shape6[pairs].mean(axis=1))
         self.level = _grow(self.level, np.full(len(pairs), level))
         ring = np.full((len(pairs), 6), -1, np.int64)
-        ring[:, 0], ring[:, 3] = pairs[:, 1], pairs[:, 0]  # hi, lo
+        ring[:, 0], ring[:, 3] = pairs[:, 1], pairs[:, 0]  # the later end, the earlier
         self.ring = _grow(self.ring, ring)
         self.ring_len = _grow(self.ring_len, np.ones((len(pairs), 6)))
         self.final = _grow(self.final, np.zeros(len(pairs), bool))
@@ -317,27 +355,26 @@ class Hierarchy:
     def _half_rings(self, a, b, c, m01, m12, m20) -> None:
         """Fill the ring sides that the nodes ``(a, b, c)`` give their edges' midpoints:
         the midpoint of directed edge ``x -> y`` (opposite ``z``) sees ``y, m_yz, m_zx, x``
-        counter-clockwise; the side of the edge it fills is 0 where ``x < y``, else 1.
+        counter-clockwise; the side of the edge it fills is 0 where ``x`` comes before
+        ``y`` (:meth:`_before`), else 1.
         """
         for x, y, mxy, myz, mzx in ((a, b, m01, m12, m20), (b, c, m12, m20, m01),
                                     (c, a, m20, m01, m12)):
-            low = x < y
+            low = self._before(x, y)
             self.ring[mxy[low], 1], self.ring[mxy[low], 2] = myz[low], mzx[low]
             self.ring[mxy[~low], 4], self.ring[mxy[~low], 5] = myz[~low], mzx[~low]
 
-    def _finalize(self, roots: np.ndarray) -> None:
-        mask = np.zeros(len(self.root_built), bool)
-        mask[roots] = True
-        used = np.zeros(self.n_points, bool)
-        used[self.node_tri[mask[self.node_root]].ravel()] = True
-        used[:self.n_root] = False
-        v = np.flatnonzero(used & ~self.final)
+    def _finalize(self, nodes: np.ndarray) -> None:
+        """Complete the rings of the midpoints of ``nodes`` (they and the nodes across their
+        edges have children): their rest lengths.
+        """
+        v = self.node_mid[nodes].ravel()
+        v = np.unique(v[~self.final[v]])
         ring = self.ring[v]
         safe = np.where(ring >= 0, ring, v[:, None])
         length = np.linalg.norm(self.rest[safe] - self.rest[v][:, None], axis=2)
         self.ring_len[v] = np.where(ring >= 0, length, 1.0)
         self.final[v] = True
-        self.root_final[roots] = True
 
     def safe_ring(self, v: np.ndarray) -> np.ndarray:
         """``(k, 6)``: the rings of vertices ``v``, the vertex itself where none."""
@@ -464,36 +501,65 @@ class MuscleLevels:
 _CHILD_EDGES = np.array([[0, 2], [0, 1], [1, 2], [-1, -1]])
 
 
-def refined_topology(hier: Hierarchy, split: np.ndarray, new: np.ndarray) -> np.ndarray:
-    """Close a set of split nodes conformingly, in place, from the nodes ``new`` ``(k,)``
-    just split: a leaf with two or three split neighbours is split too (a green bisection
-    closes one hanging vertex only), and so is the neighbour of a split node's parent across
-    an edge the node lies on (neighbours differ by one level at most). Returns the nodes
-    split in all.
+def refined_topology(hier: Hierarchy, split: np.ndarray, new: np.ndarray):
+    """Close a set of split nodes conformingly from the nodes ``new`` ``(k,)`` (above the
+    deepest level) that split: a leaf with two or three split neighbours is split too (a
+    green bisection closes one hanging vertex only), and so is the neighbour of a split
+    node's parent across an edge the node lies on (neighbours differ by one level at most).
 
     Only the neighbourhood of what changed is looked at: each round takes the nodes split in
-    the round before.
+    the round before. The hierarchy is built where the closure reaches
+    (:meth:`Hierarchy.ensure`), in one batch per pass: a pass runs its rounds on the
+    hierarchy as it is (a node not built yet has no children to look at, and may miss
+    neighbours), then the nodes it split that were not built are built and looked at
+    again, until a pass splits nothing more.
+
+    Returns
+    -------
+    split : (N,) bool
+        The closed set (longer than ``split`` ``(n,)`` where the hierarchy grew).
+    added : (a,) int
+        The nodes split in all, ``new`` first.
     """
-    done = [new]
-    frontier = new
-    mark = hier.scratch()  # dedupes without sorting
-    across = hier.parent_across()
-    ext = np.append(split, False)  # a missing neighbour (-1) reads the last entry: False
+    new = np.asarray(new, dtype=np.int64)
+    ext = _with_sentinel(split, hier)  # a missing neighbour (-1) reads the last entry: False
+    ext[new] = True
+    done, frontier = [new], new
     while len(frontier):
-        kids = hier.node_child[frontier]
-        kids = (kids[kids >= 0][:, None] + np.arange(4)).ravel()
-        near = np.concatenate([hier.node_nbr[frontier].ravel(), kids])
-        near = distinct(near[near >= 0], mark)
-        near = near[~ext[near]]
-        crowded = ext[hier.node_nbr[near]].sum(axis=1) >= 2
-        cand = np.concatenate([across[frontier].ravel(), near[crowded]])
-        cand = distinct(cand[cand >= 0], mark)
-        cand = cand[~ext[cand] & (hier.node_child[cand] >= 0)]
-        ext[cand] = True
-        done.append(cand)
-        frontier = cand
-    split[:] = ext[:-1]
-    return np.concatenate(done)
+        if hier.ensure(frontier):
+            ext = _with_sentinel(ext[:-1], hier)
+        passed = []
+        while len(frontier):
+            frontier = _closure_round(hier, ext, frontier)
+            ext[frontier] = True
+            passed.append(frontier)
+        passed = np.concatenate(passed)
+        done.append(passed)
+        frontier = passed[~hier.node_ready[passed]]  # the others saw all they border
+    return ext[:-1], np.concatenate(done)
+
+
+def _closure_round(hier: Hierarchy, ext: np.ndarray, frontier: np.ndarray) -> np.ndarray:
+    """``(c,)``: the nodes that must split because ``frontier`` did (``ext`` ``(N + 1,)``:
+    the split set and a False sentinel).
+    """
+    mark = hier.scratch()  # dedupes without sorting
+    kids = hier.node_child[frontier]
+    kids = (kids[kids >= 0][:, None] + np.arange(4)).ravel()
+    near = np.concatenate([hier.node_nbr[frontier].ravel(), kids])
+    near = distinct(near[near >= 0], mark)
+    near = near[~ext[near]]
+    crowded = ext[hier.node_nbr[near]].sum(axis=1) >= 2
+    cand = np.concatenate([hier.node_across[frontier].ravel(), near[crowded]])
+    cand = distinct(cand[cand >= 0], mark)
+    return cand[~ext[cand] & (hier.node_level[cand] < hier.depth)]
+
+
+def _with_sentinel(split: np.ndarray, hier: Hierarchy) -> np.ndarray:
+    """``(N + 1,) bool``: ``split`` over all of ``hier``'s nodes, then False."""
+    out = np.zeros(len(hier.node_tri) + 1, bool)
+    out[:len(split)] = split
+    return out
 
 
 def distinct(ids: np.ndarray, slot: np.ndarray) -> np.ndarray:
@@ -520,7 +586,7 @@ def split_in_order(hier: Hierarchy, split: np.ndarray, roots: np.ndarray | None 
     leaves : (l,) int
         The nodes of the mesh (not split, a root or a split node's child), in that order.
     """
-    nodes = np.arange(len(hier.root_built)) if roots is None else roots
+    nodes = np.arange(hier.n_roots) if roots is None else roots
     splits, leaves = [], []
     while len(nodes):
         s = split[nodes]

@@ -31,14 +31,7 @@ from .hierarchy import (
     refined_topology,
 )
 
-__all__ = ["PREBUILD_ROOTS", "RefinedEngine", "bent", "slide_bend"]
-
-#: A frame whose muscles influence at most this many root triangles (at three levels; a
-#: quarter as many a level deeper) builds their subtrees (and a ring around them) in one
-#: batch before it starts, so later frames find them built; beyond it (a fine skin, where
-#: few of them bend), subtrees are built as the frame splits their roots. About 18 kB a root
-#: triangle at three levels.
-PREBUILD_ROOTS = 8000
+__all__ = ["RefinedEngine", "bent", "slide_bend"]
 
 #: A triangle where a muscle wrinkles splits until its longest edge is at most this many
 #: times shorter than the muscle's half period u (Eq. 6).
@@ -404,11 +397,6 @@ class RefinedEngine:
         tris = hier.skin.triangles
         influenced = _moved_or_wrinkled(root)
         cand = np.flatnonzero(influenced[tris].any(axis=1))
-        subtree = (4 ** (hier.depth + 1) - 1) // 3  # nodes a root triangle holds
-        if len(cand) * subtree <= PREBUILD_ROOTS * 85 and not hier.root_final[cand].all():
-            # build what the frame can reach in one batch: the candidates and a ring
-            near = hier.root_nbrs[cand].ravel()
-            hier.ensure(np.concatenate([cand, near[near >= 0]]))
         dyn = _Dynamic(hier, self.assembly(muscles), root, a, self.buffers, influenced)
         split = np.zeros(len(hier.node_tri), bool)
         corner = np.zeros(hier.n_root, bool)
@@ -423,7 +411,7 @@ class RefinedEngine:
                                                     np.radians(angle_deg))
             if not marked.any():
                 break
-            split = self._close(split, distinct(nodes[marked], hier.scratch()))
+            split, _ = refined_topology(hier, split, distinct(nodes[marked], hier.scratch()))
             if dyn.asm.version != (hier.version, hier.n_points):  # the hierarchy grew
                 old = np.flatnonzero(dyn.evaluated[hier.n_root:]) + hier.n_root
                 dyn = _Dynamic(hier, self.assembly(muscles), root, a, None, influenced)
@@ -444,7 +432,7 @@ class RefinedEngine:
         outside it follow (none of them borders a split one).
         """
         hier = self.hier
-        n_roots = len(hier.root_built)
+        n_roots = hier.n_roots
         in_zone = np.zeros(n_roots, bool)
         in_zone[zone] = True
         roots = np.flatnonzero(split[:n_roots])
@@ -463,21 +451,3 @@ class RefinedEngine:
         fields, which must not change when the engine moves on to the next frame).
         """
         return _Dynamic(self.hier, self.assembly(muscles), root, a)
-
-    def _close(self, split: np.ndarray, new: np.ndarray) -> np.ndarray:
-        """Split the nodes ``new`` and close ``split`` conformingly
-        (:func:`~wrinkle_vis.core.hierarchy.refined_topology`), building the hierarchy where
-        the closure reaches (and running it again over what the new part borders).
-        """
-        hier = self.hier
-        frontier = new
-        while True:
-            if hier.ensure(hier.node_root[frontier]):
-                split = np.concatenate([split, np.zeros(len(hier.node_tri) - len(split), bool)])
-                frontier = np.concatenate([np.flatnonzero(split), new[~split[new]]])
-            split[frontier] = True
-            added = refined_topology(hier, split, frontier)
-            new = np.zeros(0, np.int64)
-            if hier.root_final[hier.node_root[added]].all():
-                return split
-            frontier = added
