@@ -88,12 +88,14 @@ def _children_geometry(normals, points, *corners):
 def _grow(a: np.ndarray, more: np.ndarray) -> np.ndarray:
     """``a`` with the rows ``more`` appended, amortized: ``a`` is a prefix of a buffer with
     spare rows (grown by doubling), so appending copies only ``more``.
+
+    ``a`` is an array of its own or one this function returned (a view of a buffer it made
+    is taken for a prefix of it: comparing data addresses cost more than the append).
     """
     n, k = len(a), len(more)
     base = a.base
-    if (isinstance(base, np.ndarray) and base.shape[1:] == a.shape[1:]
-            and base.dtype == a.dtype and len(base) >= n + k
-            and base.__array_interface__["data"][0] == a.__array_interface__["data"][0]):
+    if (base is not None and type(base) is np.ndarray and base.shape[1:] == a.shape[1:]
+            and base.dtype == a.dtype and len(base) >= n + k and a.strides == base.strides):
         base[n:n + k] = more
         return base[:n + k]
     base = np.empty((max(2 * (n + k), 1024), *a.shape[1:]), a.dtype)
@@ -224,9 +226,9 @@ class Hierarchy:
         if (self.node_level[nodes] >= self.depth).any():
             raise ValueError(f"a node of the deepest level ({self.depth}) cannot split; "
                              "ask for more levels")
-        self._expand(nodes)  # their neighbours of their level exist from now on
+        self._prepare(nodes)  # their neighbours of their level exist from now on
         nbrs = self.node_nbr[nodes].ravel()
-        self._expand(nbrs[nbrs >= 0])
+        self._expand(np.concatenate([nodes, nbrs[nbrs >= 0]]))
         self._finalize(nodes)
         self.node_ready[nodes] = True
         self.version += 1
@@ -249,13 +251,17 @@ class Hierarchy:
         if not len(nodes):
             return
         nodes = np.unique(nodes)
-        parents = self.node_parent[nodes]
-        up = self.node_nbr[parents[parents >= 0]].ravel()
-        self._expand(up[up >= 0])
-        nodes = nodes[self.node_child[nodes] < 0]  # some were among ``up``
+        self._prepare(nodes)
+        nodes = nodes[self.node_child[nodes] < 0]  # some were prepared
         level = self.node_level[nodes]
         for k in np.unique(level):  # the coarser first
             self._children(nodes[level == k], int(k) + 1)
+
+    def _prepare(self, nodes: np.ndarray) -> None:
+        """Give children to the nodes across the edges of ``nodes``' parents."""
+        parents = self.node_parent[nodes]
+        up = self.node_nbr[parents[parents >= 0]].ravel()
+        self._expand(up[up >= 0])
 
     def _children(self, nodes: np.ndarray, level: int) -> None:
         """Build the four children of each of ``nodes`` ``(p,)`` (of ``level - 1``)."""
