@@ -249,3 +249,26 @@ def test_node_bend_and_edge_are_their_triangles():
     np.testing.assert_allclose(hier.node_edge, longest_edge(hier.rest, hier.node_tri),
                                rtol=0, atol=1e-12)
     assert len(hier.node_tri) > 20 * s.n_triangles // 3
+
+
+def test_the_muscles_rows_extended_as_the_hierarchy_grows_are_those_built_at_once():
+    """Frames of several expressions grow the hierarchy; each active set's rows, extended
+    with every growth, equal the rows built in one go from the muscles' data."""
+    from wrinkle_vis.core.refined import _Assembly
+
+    face = wv.datasets.load_face(n_triangles=2000)
+    for name, t in (("frown", 0.3), ("fear", 0.5), ("surprise", 0.4), ("frown", 1.0),
+                    ("surprise", 1.0)):
+        face.evaluate(name, t, refine=True)
+    engine = face._rest.engine(3)
+    keys = [k for k in engine.cache._entries if k[0] == "assembly"]
+    assert len(keys) >= 2
+    for _, muscles in keys:
+        asm = engine.assembly(muscles)
+        fresh = _Assembly(engine.hier, [engine.levels(m) for m in muscles])
+        assert asm.version == fresh.version
+        for name in ("moved", "muscle", "unit", "weights", "hat", "slot", "influenced"):
+            np.testing.assert_array_equal(getattr(asm, name), getattr(fresh, name))
+        n0 = engine.hier.n_root
+        np.testing.assert_array_equal(asm.half_period[n0:], fresh.half_period[n0:])
+        assert len(asm.unfinished) == (~engine.hier.final[asm.moved]).sum()

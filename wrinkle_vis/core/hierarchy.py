@@ -517,8 +517,8 @@ def refined_topology(hier: Hierarchy, split: np.ndarray, new: np.ndarray):
     the round before. The hierarchy is built where the closure reaches
     (:meth:`Hierarchy.ensure`), in one batch per pass: a pass runs its rounds on the
     hierarchy as it is (a node not built yet has no children to look at, and may miss
-    neighbours), then the nodes it split that were not built are built and looked at
-    again, until a pass splits nothing more.
+    neighbours), then the nodes it looked at that were not built are built and looked at
+    again, until a pass meets only built nodes.
 
     Returns
     -------
@@ -532,16 +532,16 @@ def refined_topology(hier: Hierarchy, split: np.ndarray, new: np.ndarray):
     ext[new] = True
     done, frontier = [new], new
     while len(frontier):
-        if hier.ensure(frontier):
-            ext = _with_sentinel(ext[:-1], hier)
-        passed = []
+        looked = [frontier]
         while len(frontier):
             frontier = _closure_round(hier, ext, frontier)
             ext[frontier] = True
-            passed.append(frontier)
-        passed = np.concatenate(passed)
-        done.append(passed)
-        frontier = passed[~hier.node_ready[passed]]  # the others saw all they border
+            looked.append(frontier)
+        done += looked[1:]
+        looked = np.concatenate(looked)
+        frontier = looked[~hier.node_ready[looked]]  # the others saw all they border
+        if hier.ensure(frontier):
+            ext = _with_sentinel(ext[:-1], hier)
     return ext[:-1], np.concatenate(done)
 
 

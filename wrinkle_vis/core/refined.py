@@ -26,6 +26,7 @@ from .equations import anisotropy
 from .hierarchy import (
     Hierarchy,
     MuscleLevels,
+    _grow,
     conforming_triangles,
     distinct,
     refined_topology,
@@ -73,7 +74,7 @@ def _unit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
 class _Assembly:
     r"""The active muscles' data on the hierarchy's new vertices, one row per vertex that a
     muscle moves and one column per muscle acting there (padded with an inactive one),
-    built once per active set and hierarchy version.
+    built once per active set and extended as the hierarchy grows.
 
     Attributes
     ----------
@@ -93,46 +94,65 @@ class _Assembly:
     """
 
     def __init__(self, hier: Hierarchy, levels: list[MuscleLevels]):
-        self.version = hier.version, hier.n_points
         self.muscles = [m.muscle for m in levels]
-        counts = np.array([len(m.ids) for m in levels])
-        ids = np.concatenate([m.ids for m in levels])
-        order = np.argsort(ids, kind="stable")
-        ids = ids[order]
-        first = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]]) if len(ids) else \
-            np.zeros(0, np.int64)
-        self.moved = ids[first]  # each vertex's rows are adjacent
-        row = np.repeat(np.arange(len(first)), np.diff(np.append(first, len(ids))))
-        col = np.arange(len(ids)) - first[row]
-        shape = (len(first), int(col.max()) + 1 if len(col) else 1)
-
-        def dense(parts, fill=0.0):
-            flat = np.concatenate(parts)[order]
-            out = np.full(shape + flat.shape[1:], fill, flat.dtype)
-            out[row, col] = flat
-            return out
-
-        self.muscle = dense([np.full(n, i) for i, n in enumerate(counts)], len(levels))
-        self.unit = dense([m.unit for m in levels])
-        grad = [m.muscle.compression == "gradient" for m in levels]
-        self.weights = dense([np.zeros_like(m.weights) if g else np.nan_to_num(m.weights)
-                              for m, g in zip(levels, grad, strict=True)])
-        self.has_grad = any(grad)
-        if self.has_grad:  # zero rows for the muscles without the option
-            self.coef = dense([m.coef if g else np.zeros((len(m.ids), 6, 2))
-                               for m, g in zip(levels, grad, strict=True)])
-            self.area = dense([m.area if g else np.zeros((len(m.ids), 6))
-                               for m, g in zip(levels, grad, strict=True)])
-        hat = [m.h * m.at for m in levels]
-        self.hat = dense([np.nan_to_num(h) for h in hat])  # 0 outside the wrinkling region
-        u = dense([np.where(np.isfinite(h), float(m.muscle.u), np.inf)
-                   for m, h in zip(levels, hat, strict=True)], np.inf)
+        self.has_grad = any(m.muscle.compression == "gradient" for m in levels)
+        rows = _stacked_rows(levels, 0)
+        self.width = rows["muscle"].shape[1]
+        for name in _ROW_FIELDS:
+            if name in rows:
+                setattr(self, name, rows[name])
         self.slot = np.full(hier.n_points, -1, np.int64)
         self.slot[self.moved] = np.arange(len(self.moved))
         self.influenced = self.slot >= 0
         self.half_period = np.full(hier.n_points, np.inf)  # root part: set_root_periods
-        self.half_period[self.moved] = u.min(axis=1)  # where a muscle wrinkles
+        self.half_period[self.moved] = rows["u"].min(axis=1)  # where a muscle wrinkles
+        self.unfinished = self.moved[~hier.final[self.moved]]  # rings not complete yet
         self.root_periods = False
+        self.version = hier.version, hier.n_points
+
+    def extend(self, hier: Hierarchy, levels: list[MuscleLevels]) -> bool:
+        """Bring the rows up to date after the hierarchy grew (``levels`` updated): rows
+        for the new vertices, and the ring weights of the vertices whose rings were
+        completed since. Returns False where the new rows need more columns (build anew).
+        """
+        start = self.version[1]
+        rows = _stacked_rows(levels, start)
+        if rows["muscle"].shape[1] > self.width:
+            return False
+        k = len(rows["moved"])
+        for name in _ROW_FIELDS:
+            if name in rows:
+                setattr(self, name, _grow(getattr(self, name), _padded(rows[name], self.width,
+                                                                     len(levels))))
+        n = hier.n_points
+        slot = np.full(n - start, -1, np.int64)
+        slot[rows["moved"] - start] = np.arange(len(self.moved) - k, len(self.moved))
+        self.slot = _grow(self.slot, slot)
+        self.influenced = _grow(self.influenced, slot >= 0)
+        half = np.full(n - start, np.inf)
+        half[rows["moved"] - start] = rows["u"].min(axis=1)
+        self.half_period = _grow(self.half_period, half)
+        done = self.unfinished[hier.final[self.unfinished]]
+        self._refresh_rings(levels, done)
+        self.unfinished = np.concatenate([self.unfinished[~hier.final[self.unfinished]],
+                                          rows["moved"][~hier.final[rows["moved"]]]])
+        self.version = hier.version, n
+        return True
+
+    def _refresh_rings(self, levels: list[MuscleLevels], v: np.ndarray) -> None:
+        """Copy the ring data of vertices ``v`` ``(k,)`` (rows of this assembly, rings now
+        complete) from ``levels``.
+        """
+        r = self.slot[v]
+        for i, m in enumerate(levels):
+            c = np.argmax(self.muscle[r] == i, axis=1)
+            mine = self.muscle[r, c] == i
+            pos = np.searchsorted(m.ids, v[mine])  # ids increase
+            grad = m.muscle.compression == "gradient"
+            self.weights[r[mine], c[mine]] = 0.0 if grad else np.nan_to_num(m.weights[pos])
+            if self.has_grad:
+                self.coef[r[mine], c[mine]] = m.coef[pos] if grad else 0.0
+                self.area[r[mine], c[mine]] = m.area[pos] if grad else 0.0
 
     def set_root_periods(self, face) -> None:
         """Fill :attr:`half_period` on the skin's vertices (once): the smallest half period
@@ -167,6 +187,64 @@ class _Assembly:
         return out
 
 
+#: The per-row arrays of an :class:`_Assembly` (``coef`` and ``area`` only with the
+#: ``"gradient"`` option).
+_ROW_FIELDS = ("moved", "muscle", "unit", "weights", "coef", "area", "hat")
+
+
+def _stacked_rows(levels: list[MuscleLevels], start: int) -> dict:
+    """The muscles' rows of the vertices ``start`` and above, stacked: one row a vertex,
+    one column a muscle acting there (padded), as :class:`_Assembly` holds them, and
+    ``u`` ``(r, c)``: the half periods where a muscle wrinkles (``inf`` elsewhere).
+    """
+    first_row = [int(np.searchsorted(m.ids, start)) for m in levels]  # ids increase
+    counts = np.array([len(m.ids) - f for m, f in zip(levels, first_row, strict=True)])
+    ids = np.concatenate([m.ids[f:] for m, f in zip(levels, first_row, strict=True)])
+    order = np.argsort(ids, kind="stable")
+    ids = ids[order]
+    first = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]]) if len(ids) else \
+        np.zeros(0, np.int64)
+    row = np.repeat(np.arange(len(first)), np.diff(np.append(first, len(ids))))
+    col = np.arange(len(ids)) - first[row]
+    shape = (len(first), int(col.max()) + 1 if len(col) else 1)
+
+    def dense(parts, fill=0.0):
+        flat = np.concatenate(parts)[order]
+        out = np.full(shape + flat.shape[1:], fill, flat.dtype)
+        out[row, col] = flat
+        return out
+
+    tail = [(m, f, m.muscle.compression == "gradient")
+            for m, f in zip(levels, first_row, strict=True)]
+    out = {"moved": ids[first],  # each vertex's rows are adjacent
+           "muscle": dense([np.full(n, i) for i, n in enumerate(counts)], len(levels)),
+           "unit": dense([m.unit[f:] for m, f, _ in tail]),
+           "weights": dense([np.zeros_like(m.weights[f:]) if g else
+                             np.nan_to_num(m.weights[f:]) for m, f, g in tail])}
+    if any(g for _, _, g in tail):  # zero rows for the muscles without the option
+        out["coef"] = dense([m.coef[f:] if g else np.zeros((len(m.ids) - f, 6, 2))
+                             for m, f, g in tail])
+        out["area"] = dense([m.area[f:] if g else np.zeros((len(m.ids) - f, 6))
+                             for m, f, g in tail])
+    hat = [m.h[f:] * m.at[f:] for m, f, _ in tail]
+    out["hat"] = dense([np.nan_to_num(h) for h in hat])  # 0 outside the wrinkling region
+    out["u"] = dense([np.where(np.isfinite(h), float(m.muscle.u), np.inf)
+                      for (m, _, _), h in zip(tail, hat, strict=True)], np.inf)
+    return out
+
+
+def _padded(rows: np.ndarray, width: int, n_muscles: int) -> np.ndarray:
+    """``rows`` ``(r, c, ...)`` widened to ``width`` columns (padding: the inactive muscle
+    ``n_muscles`` in integer arrays, 0 in the others); 1-d arrays as they are.
+    """
+    if rows.ndim < 2 or rows.shape[1] == width:
+        return rows
+    fill = n_muscles if rows.dtype.kind == "i" else 0.0
+    out = np.full((len(rows), width, *rows.shape[2:]), fill, rows.dtype)
+    out[:, :rows.shape[1]] = rows
+    return out
+
+
 class _Dynamic:
     """One frame's values on the hierarchy's vertices, computed where asked.
 
@@ -176,7 +254,7 @@ class _Dynamic:
 
     def __init__(self, hier: Hierarchy, asm: _Assembly, root, a: np.ndarray, buffers=None,
                  root_influenced: np.ndarray | None = None):
-        self.hier, self.asm, self.a = hier, asm, a
+        self.hier, self.asm, self.a, self.face = hier, asm, a, root.face
         asm.set_root_periods(root.face)
         self.a_padded = np.append(a, 0.0)  # the padding muscle does not act
         n, n0 = hier.n_points, hier.n_root
@@ -202,6 +280,25 @@ class _Dynamic:
         self._influenced = asm.influenced.copy()
         self._influenced[:n0] = (_moved_or_wrinkled(root) if root_influenced is None
                                  else root_influenced)
+
+    def grow(self, asm: _Assembly) -> None:
+        """Take in the vertices the hierarchy built since (``asm``: the assembly brought up
+        to date): they start at rest, not evaluated; what was evaluated keeps its values
+        (a vertex's values depend on its own data alone).
+        """
+        n_old, n = self.W.shape[0], self.hier.n_points
+        if n == n_old and asm is self.asm:
+            return
+        self.asm = asm
+        asm.set_root_periods(self.face)
+        more = np.ascontiguousarray(self.hier.rest[n_old:].T)
+        b = self.buffers
+        b["deformed"] = self.deformed = np.concatenate([self.deformed, more], axis=1)
+        b["points"] = self.points = np.concatenate([self.points, more], axis=1)
+        b["W"] = self.W = np.append(self.W, np.zeros(n - n_old))
+        b["evaluated"] = self.evaluated = np.append(self.evaluated, np.zeros(n - n_old, bool))
+        b["computed"] = self.computed = np.append(self.computed, np.zeros(n - n_old, bool))
+        self._influenced = np.append(self._influenced, asm.influenced[n_old:])
 
     def _slot(self, n: int) -> np.ndarray:
         slot = self.buffers.get("slot")
@@ -373,7 +470,8 @@ class RefinedEngine:
         asm = self.cache.get(key, lambda: self._current.get(key) or _Assembly(self.hier,
                                                                               levels))
         if asm.version != (self.hier.version, self.hier.n_points):
-            asm = _Assembly(self.hier, levels)
+            if not asm.extend(self.hier, levels):
+                asm = _Assembly(self.hier, levels)
             self.cache.put(key, asm)
         self._current = {key: asm, **{("muscle", m): lv for m, lv in zip(muscles, levels,
                                                                          strict=True)}}
@@ -413,9 +511,7 @@ class RefinedEngine:
                 break
             split, _ = refined_topology(hier, split, distinct(nodes[marked], hier.scratch()))
             if dyn.asm.version != (hier.version, hier.n_points):  # the hierarchy grew
-                old = np.flatnonzero(dyn.evaluated[hier.n_root:]) + hier.n_root
-                dyn = _Dynamic(hier, self.assembly(muscles), root, a, None, influenced)
-                dyn.evaluate(old)
+                dyn.grow(self.assembly(muscles))
             tris, nodes, present = conforming_triangles(hier, split, zone)
             dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))
         tris = self._whole(split, zone, tris, dyn)
