@@ -87,6 +87,11 @@ class _Assembly:
         and :math:`H\,At` (0 outside the wrinkling region and in padding).
     coef, area : (r, c, 6, 2), (r, c, 6) float
         The ``"gradient"`` option's ring triangle data (only if a muscle has it).
+    width : int
+        Columns a row holds (rows of new vertices that need more make a new assembly).
+    unfinished : (u,) int
+        Vertices among ``moved`` whose rings are not complete yet (their ring weights come
+        when they are, :meth:`extend`).
     half_period : (v,) float
         At every vertex, the smallest half period :math:`u` (Eq. 6) of the muscles whose
         wrinkling region holds it (``inf``: none); the skin's vertices once
