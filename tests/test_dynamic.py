@@ -152,15 +152,15 @@ def test_the_hierarchy_grows_only_around_what_frames_split():
     face = wv.datasets.load_face(n_triangles=2000)
     engine = face._rest.engine(3)
     hier = engine.hier
-    ever = np.zeros(0, bool)
+    splits = []
     for name in ("surprise", "frown", "fear"):
         for t in np.linspace(0.1, 1.0, 4):
             face.evaluate(name, t, refine=True)
-            split = np.unpackbits(np.frombuffer(engine.last[0][1], np.uint8)).astype(bool)
-            ever = np.resize(ever, len(split)) & (np.arange(len(split)) < len(ever))
-            ever |= split[:len(split)]
+            splits.append(np.unpackbits(np.frombuffer(engine.last[0][1], np.uint8)))
     n = len(hier.node_tri)
-    ever = np.resize(ever, n) & (np.arange(n) < len(ever))
+    ever = np.zeros(n, bool)  # split in some frame (a frame's set covers its nodes then)
+    for split in splits:
+        ever[np.flatnonzero(split[:n])] = True
     allowed = ever.copy()
     nbr = hier.node_nbr[ever].ravel()
     allowed[nbr[nbr >= 0]] = True
@@ -251,15 +251,21 @@ def test_node_bend_and_edge_are_their_triangles():
     assert len(hier.node_tri) > 20 * s.n_triangles // 3
 
 
-def test_the_muscles_rows_extended_as_the_hierarchy_grows_are_those_built_at_once():
+def test_the_muscles_rows_extended_as_the_hierarchy_grows_are_those_built_at_once(
+        monkeypatch):
     """Frames of several expressions grow the hierarchy; each active set's rows, extended
     with every growth, equal the rows built in one go from the muscles' data."""
     from wrinkle_vis.core.refined import _Assembly
 
+    extended = []
+    extend = _Assembly.extend
+    monkeypatch.setattr(_Assembly, "extend",
+                        lambda self, *a: extended.append(extend(self, *a)) or extended[-1])
     face = wv.datasets.load_face(n_triangles=2000)
     for name, t in (("frown", 0.3), ("fear", 0.5), ("surprise", 0.4), ("frown", 1.0),
                     ("surprise", 1.0)):
         face.evaluate(name, t, refine=True)
+    assert sum(extended) >= 5  # rows were extended in place, not only built anew
     engine = face._rest.engine(3)
     keys = [k for k in engine.cache._entries if k[0] == "assembly"]
     assert len(keys) >= 2

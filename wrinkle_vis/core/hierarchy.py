@@ -224,8 +224,8 @@ class Hierarchy:
             return False
         nodes = np.unique(nodes)
         if (self.node_level[nodes] >= self.depth).any():
-            raise ValueError(f"a node of the deepest level ({self.depth}) cannot split; "
-                             "ask for more levels")
+            raise ValueError(f"a node of the deepest level ({self.depth}) cannot split: "
+                             "the hierarchy holds no level below it")
         self._prepare(nodes)  # their neighbours of their level exist from now on
         nbrs = self.node_nbr[nodes].ravel()
         self._expand(np.concatenate([nodes, nbrs[nbrs >= 0]]))

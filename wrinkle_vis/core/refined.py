@@ -87,8 +87,6 @@ class _Assembly:
         and :math:`H\,At` (0 outside the wrinkling region and in padding).
     coef, area : (r, c, 6, 2), (r, c, 6) float
         The ``"gradient"`` option's ring triangle data (only if a muscle has it).
-    width : int
-        Columns a row holds (rows of new vertices that need more make a new assembly).
     unfinished : (u,) int
         Vertices among ``moved`` whose rings are not complete yet (their ring weights come
         when they are, :meth:`extend`).
@@ -102,7 +100,6 @@ class _Assembly:
         self.muscles = [m.muscle for m in levels]
         self.has_grad = any(m.muscle.compression == "gradient" for m in levels)
         rows = _stacked_rows(levels, 0)
-        self.width = rows["muscle"].shape[1]
         for name in _ROW_FIELDS:
             if name in rows:
                 setattr(self, name, rows[name])
@@ -122,12 +119,13 @@ class _Assembly:
         """
         start = self.version[1]
         rows = _stacked_rows(levels, start)
-        if rows["muscle"].shape[1] > self.width:
+        width = self.muscle.shape[1]
+        if rows["muscle"].shape[1] > width:
             return False
         k = len(rows["moved"])
         for name in _ROW_FIELDS:
             if name in rows:
-                setattr(self, name, _grow(getattr(self, name), _padded(rows[name], self.width,
+                setattr(self, name, _grow(getattr(self, name), _padded(rows[name], width,
                                                                      len(levels))))
         n = hier.n_points
         slot = np.full(n - start, -1, np.int64)
@@ -137,9 +135,9 @@ class _Assembly:
         half = np.full(n - start, np.inf)
         half[rows["moved"] - start] = rows["u"].min(axis=1)
         self.half_period = _grow(self.half_period, half)
-        done = self.unfinished[hier.final[self.unfinished]]
-        self._refresh_rings(levels, done)
-        self.unfinished = np.concatenate([self.unfinished[~hier.final[self.unfinished]],
+        done = hier.final[self.unfinished]
+        self._refresh_rings(levels, self.unfinished[done])
+        self.unfinished = np.concatenate([self.unfinished[~done],
                                           rows["moved"][~hier.final[rows["moved"]]]])
         self.version = hier.version, n
         return True
