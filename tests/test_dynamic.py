@@ -14,6 +14,7 @@ from wrinkle_vis.core.hierarchy import (
     longest_edge,
     refined_topology,
 )
+from wrinkle_vis.core import refined
 from wrinkle_vis.core.refined import bent
 
 
@@ -120,6 +121,41 @@ def test_the_same_frame_gives_the_same_arrays_whatever_came_before(face):
     b = fresh.evaluate("frown", 0.6, refine=True)
     np.testing.assert_array_equal(a.triangles, b.triangles)
     np.testing.assert_array_equal(a.points, b.points)
+
+
+@pytest.mark.parametrize("rings", [1, 2])
+def test_a_frame_is_the_whole_skins_conforming_mesh_whatever_its_zone(monkeypatch, rings):
+    """The engine assembles the zone around what the muscles influence, and assembles it
+    again, wider, when the closure leaves it (with one ring it does, on most frames of
+    surprise): either way the frame's triangles are those of the whole skin's closure."""
+    monkeypatch.setattr(refined, "ZONE_RINGS", rings)
+    face = wv.datasets.load_face()
+    engine = face._rest.engine(3)
+    calls, again = [], []  # conforming_triangles calls; those in _whole (assembled again)
+    original = engine._whole
+
+    def whole(*args):
+        before = len(calls)
+        out = original(*args)
+        again.append(len(calls) - before)
+        return out
+
+    def counted(*args):
+        calls.append(args)
+        return conforming_triangles(*args)
+
+    monkeypatch.setattr(engine, "_whole", whole)
+    monkeypatch.setattr(refined, "conforming_triangles", counted)
+    for t in (0.4, 0.7, 1.0):
+        root = face.evaluate("surprise", t)
+        active = tuple(m for m in face.muscles if root.activations[m.name] > 0)
+        a = np.array([root.activations[m.name] for m in active])
+        dyn, tris, split = engine.frame(root, active, a, 3.0, 3)
+        whole, _, present = conforming_triangles(engine.hier, split)
+        assert sorted(map(tuple, np.sort(tris, axis=1))) == \
+            sorted(map(tuple, np.sort(whole, axis=1)))
+        assert dyn.evaluated[present].all()
+    assert any(again) == (rings == 1)
 
 
 def test_fields_at_new_vertices_add_up_to_the_frame(face):

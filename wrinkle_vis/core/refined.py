@@ -38,6 +38,12 @@ __all__ = ["RefinedEngine", "bent", "slide_bend"]
 #: times shorter than the muscle's half period u (Eq. 6).
 EDGES_PER_HALF_PERIOD = 2.0
 
+#: A frame assembles its refined mesh over the root triangles within this many rings of
+#: those an active muscle influences: the closure's level rule can spread a split that far
+#: beyond them (one ring for each level below the first, as far as it reaches at depth 3),
+#: and a closure that reaches past the zone makes the frame assemble it again.
+ZONE_RINGS = 2
+
 
 def bent(triangles: np.ndarray, points: np.ndarray, angle_deg: float,
          candidates: np.ndarray, rest_bend: np.ndarray | None = None) -> np.ndarray:
@@ -385,6 +391,20 @@ class _Dynamic:
         return (levels.weights[rows] * tau).sum(axis=1)
 
 
+def _around(triangles: np.ndarray, ids: np.ndarray, rings: int, n_points: int) -> np.ndarray:
+    """``(z,)``, increasing: the ``triangles`` ``(T, 3)`` (on ``n_points`` vertices) within
+    ``rings`` rings of those numbered ``ids`` (sharing a vertex with them, then with those,
+    and so on).
+    """
+    keep = np.zeros(len(triangles), bool)
+    keep[ids] = True
+    corner = np.zeros(n_points, bool)
+    for _ in range(rings):
+        corner[triangles[keep]] = True
+        keep = corner[triangles].any(axis=1)
+    return np.flatnonzero(keep)
+
+
 def _moved_or_wrinkled(root) -> np.ndarray:
     """``(n,) bool``: the skin's vertices that the unrefined frame ``root`` moved or
     wrinkled (the influenced ones).
@@ -500,9 +520,7 @@ class RefinedEngine:
         cand = np.flatnonzero(influenced[tris].any(axis=1))
         dyn = _Dynamic(hier, self.assembly(muscles), root, a, self.buffers, influenced)
         split = np.zeros(len(hier.node_tri), bool)
-        corner = np.zeros(hier.n_root, bool)
-        corner[tris[cand]] = True
-        zone = np.flatnonzero(corner[tris].any(axis=1))  # what the levels look at
+        zone = _around(tris, cand, ZONE_RINGS, hier.n_root)  # what the levels look at
         tris, nodes = tris[zone], zone
         for _ in range(n_levels):
             cand = (dyn.influenced()[tris].any(axis=1)
