@@ -6,7 +6,7 @@ import pytest
 from meshes import sphere as make_sphere
 
 import wrinkle_vis as wv
-from wrinkle_vis.core import mesh
+from wrinkle_vis.core import mesh, refined
 from wrinkle_vis.core.hierarchy import (
     Hierarchy,
     conforming_triangles,
@@ -14,7 +14,6 @@ from wrinkle_vis.core.hierarchy import (
     longest_edge,
     refined_topology,
 )
-from wrinkle_vis.core import refined
 from wrinkle_vis.core.refined import bent
 
 
