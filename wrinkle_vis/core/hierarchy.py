@@ -555,7 +555,8 @@ def _closure_round(hier: Hierarchy, ext: np.ndarray, frontier: np.ndarray) -> np
     near = np.concatenate([hier.node_nbr[frontier].ravel(), kids])
     near = distinct(near[near >= 0], mark)
     near = near[~ext[near]]
-    crowded = ext[hier.node_nbr[near]].sum(axis=1) >= 2
+    e0, e1, e2 = ext[np.take(hier.node_nbr, near, axis=0)].T
+    crowded = (e0 & (e1 | e2)) | (e1 & e2)  # two or three neighbours split
     cand = np.concatenate([hier.node_across[frontier].ravel(), near[crowded]])
     cand = distinct(cand[cand >= 0], mark)
     return cand[~ext[cand] & (hier.node_level[cand] < hier.depth)]
@@ -621,9 +622,12 @@ def first_seen(ids: np.ndarray, slot: np.ndarray) -> np.ndarray:
 
 
 def _present(hier: Hierarchy, split_ids: np.ndarray) -> np.ndarray:
-    present = np.zeros(hier.n_points, bool)
+    """``(n_points + 1,) bool``: the vertices of the mesh of ``split_ids``, then False (what
+    a missing midpoint, -1, reads).
+    """
+    present = np.zeros(hier.n_points + 1, bool)
     present[:hier.n_root] = True
-    present[hier.node_mid[split_ids].ravel()] = True
+    present[np.take(hier.node_mid, split_ids, axis=0).ravel()] = True
     return present
 
 
@@ -645,15 +649,17 @@ def conforming_triangles(hier: Hierarchy, split: np.ndarray, roots: np.ndarray |
     """
     split_ids, leaf = split_in_order(hier, split, roots)
     present = _present(hier, split_ids)
-    tri = hier.node_tri[leaf]
-    mids = hier.node_mid[leaf]
-    has = (mids >= 0) & present[np.maximum(mids, 0)]
-    count = has.sum(axis=1)
-    whole = count == 0
-    g = np.flatnonzero(count == 1)
-    k = np.argmax(has[g], axis=1)
-    vk, vk1, vk2 = tri[g, k], tri[g, (k + 1) % 3], tri[g, (k + 2) % 3]
-    m = mids[g, k]
-    triangles = np.concatenate([tri[whole], np.c_[vk, m, vk2], np.c_[m, vk1, vk2]])
-    nodes = np.concatenate([leaf[whole], leaf[g], leaf[g]])
-    return triangles, nodes, present
+    tri = np.take(hier.node_tri, leaf, axis=0)
+    mids = np.take(hier.node_mid, leaf, axis=0)
+    h0, h1, h2 = present[mids].T  # a closed set's leaf has at most one midpoint
+    cut = h0 | h1 | h2
+    whole = np.flatnonzero(~cut)
+    g = np.flatnonzero(cut)
+    at = 3 * g + h1[g] + 2 * h2[g]  # the cut edge's first corner k, in tri.ravel()
+    nxt = at + np.where(h2[g], -2, 1)  # corner k + 1
+    vk, vk1, vk2 = (np.take(tri, i) for i in (at, nxt, 9 * g + 3 - at - nxt))
+    m = np.take(mids, at)
+    triangles = np.concatenate([np.take(tri, whole, axis=0), np.stack([vk, m, vk2], axis=1),
+                                np.stack([m, vk1, vk2], axis=1)])
+    nodes = np.concatenate([np.take(leaf, whole), np.take(leaf, g), np.take(leaf, g)])
+    return triangles, nodes, present[:-1]

@@ -58,9 +58,10 @@ def bent(triangles: np.ndarray, points: np.ndarray, angle_deg: float,
     ux, uy, uz = (np.take(p, t1) - a for p, a in zip(points, (ax, ay, az), strict=True))
     vx, vy, vz = (np.take(p, t2) - a for p, a in zip(points, (ax, ay, az), strict=True))
     fn = (uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx)
-    vn = [np.bincount(t0, f, n) + np.bincount(t1, f, n) + np.bincount(t2, f, n) for f in fn]
+    vn = _unit(*(np.bincount(t0, f, n) + np.bincount(t1, f, n) + np.bincount(t2, f, n)
+                 for f in fn))  # (3, n)
     c = np.flatnonzero(candidates)
-    corner = [_unit(*(np.take(v, t[c]) for v in vn)) for t in (t0, t1, t2)]  # (3, k) each
+    corner = [np.take(vn, t[c], axis=1) for t in (t0, t1, t2)]  # (3, k) each
     cos = np.minimum.reduce([(corner[i] * corner[(i + 1) % 3]).sum(axis=0) for i in range(3)])
     limit = np.radians(angle_deg)
     if rest_bend is not None:
@@ -350,9 +351,10 @@ class _Dynamic:
         if not len(v):
             return
         hier, asm = self.hier, self.asm
-        dx, dy, dz = self.ring_deltas(v)  # (k, 6) each
+        deltas = self.ring_deltas(v)  # (3, k, 6)
+        dx, dy, dz = deltas
         tau = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / np.take(hier.ring_len, v, axis=0)
-        normal = _ring_normal(dx, dy, dz)
+        normal = _ring_normal(deltas)
         normal /= np.maximum(np.sqrt((normal * normal).sum(axis=0)), 1e-300)
         p = asm.slot[v]
         has = np.flatnonzero(p >= 0)
@@ -368,8 +370,8 @@ class _Dynamic:
         self.evaluated[v] = True
         self._touched.append(v)
 
-    def ring_deltas(self, v: np.ndarray):
-        """``((k, 6),) * 3``: x, y and z of the deformed ring edges of vertices ``v`` (zero
+    def ring_deltas(self, v: np.ndarray) -> np.ndarray:
+        """``(3, k, 6)``: x, y and z of the deformed ring edges of vertices ``v`` (zero
         where there is no neighbour).
         """
         ring = self.hier.safe_ring(v)
@@ -377,7 +379,7 @@ class _Dynamic:
         need = need[~self.computed[need]]
         self._deform(distinct(need, self._slot(len(self.W))))
         d = self.deformed
-        return tuple(np.take(d[c], ring) - np.take(d[c], v)[:, None] for c in range(3))
+        return np.take(d, ring, axis=1) - np.take(d, v, axis=1)[:, :, None]
 
     def compression(self, levels: MuscleLevels, rows: np.ndarray) -> np.ndarray:
         r"""``(k,)``: one muscle's :math:`\varepsilon` at its rows ``rows`` (present
@@ -423,16 +425,13 @@ def _stretch_mean(coef, area, dx, dy, dz) -> np.ndarray:
     return (area * (1.0 - stretch)).sum(axis=-1)
 
 
-def _ring_normal(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
-    r"""``(3, k)``: :math:`\sum_j e_j \times e_{j+1}` over the ring edges (x, y, z each
-    ``(k, 6)``), cyclically: twice the area-weighted normal of the ring's triangles.
+def _ring_normal(e: np.ndarray) -> np.ndarray:
+    r"""``(3, k)``: :math:`\sum_j e_j \times e_{j+1}` over the ring edges ``e``
+    ``(3, k, 6)``, cyclically: twice the area-weighted normal of the ring's triangles.
     """
-
-    def wedge(a, b):  # sum_j a_j b_{j+1} - b_j a_{j+1}, j cyclic
-        return ((a[:, :-1] * b[:, 1:] - b[:, :-1] * a[:, 1:]).sum(axis=1)
-                + a[:, -1] * b[:, 0] - b[:, -1] * a[:, 0])
-
-    return np.stack([wedge(y, z), wedge(z, x), wedge(x, y)])
+    a, b = e[[1, 2, 0]], e[[2, 0, 1]]  # the components' pairs (y, z), (z, x), (x, y)
+    return ((a[..., :-1] * b[..., 1:] - b[..., :-1] * a[..., 1:]).sum(axis=2)
+            + a[..., -1] * b[..., 0] - b[..., -1] * a[..., 0])
 
 
 def slide_bend(d: np.ndarray, s: np.ndarray) -> np.ndarray:
