@@ -351,17 +351,17 @@ class _Dynamic:
         if not len(v):
             return
         hier, asm = self.hier, self.asm
-        deltas = self.ring_deltas(v)  # (3, k, 6)
+        deltas = self.ring_deltas(v)  # (3, 6, k)
         dx, dy, dz = deltas
-        tau = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / np.take(hier.ring_len, v, axis=0)
+        tau = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / np.take(hier.ring_len, v, axis=0).T
         normal = _ring_normal(deltas)
         normal /= np.maximum(np.sqrt((normal * normal).sum(axis=0)), 1e-300)
         p = asm.slot[v]
         has = np.flatnonzero(p >= 0)
         p = p[has]
-        eps = np.einsum("kcj,kj->kc", np.take(asm.weights, p, axis=0), tau[has])  # (k, c)
+        eps = np.einsum("kcj,jk->kc", np.take(asm.weights, p, axis=0), tau[:, has])  # (k, c)
         if asm.has_grad:
-            eps += _stretch_mean(asm.coef[p], asm.area[p], *(e[has, None] for e in
+            eps += _stretch_mean(asm.coef[p], asm.area[p], *(e[:, has].T[:, None] for e in
                                                              (dx, dy, dz)))
         w = np.zeros(len(v))
         w[has] = (np.take(asm.hat, p, axis=0) * anisotropy(eps)).sum(axis=1)
@@ -371,22 +371,23 @@ class _Dynamic:
         self._touched.append(v)
 
     def ring_deltas(self, v: np.ndarray) -> np.ndarray:
-        """``(3, k, 6)``: x, y and z of the deformed ring edges of vertices ``v`` (zero
-        where there is no neighbour).
+        """``(3, 6, k)``: x, y and z of the deformed ring edges of vertices ``v`` ``(k,)``
+        (zero where there is no neighbour); ring-major, so a ring position's values are
+        contiguous.
         """
         ring = self.hier.safe_ring(v)
         need = np.concatenate([v, ring.ravel()])
         need = need[~self.computed[need]]
         self._deform(distinct(need, self._slot(len(self.W))))
         d = self.deformed
-        return np.take(d, ring, axis=1) - np.take(d, v, axis=1)[:, :, None]
+        return np.take(d, ring.T, axis=1) - np.take(d, v, axis=1)[:, None, :]
 
     def compression(self, levels: MuscleLevels, rows: np.ndarray) -> np.ndarray:
         r"""``(k,)``: one muscle's :math:`\varepsilon` at its rows ``rows`` (present
         vertices), from this frame's deformed points.
         """
         v = levels.ids[rows]
-        dx, dy, dz = self.ring_deltas(v)
+        dx, dy, dz = self.ring_deltas(v).transpose(0, 2, 1)  # (k, 6) each
         if levels.muscle.compression == "gradient":
             return _stretch_mean(levels.coef[rows], levels.area[rows], dx, dy, dz)
         tau = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / self.hier.ring_len[v]
@@ -427,11 +428,11 @@ def _stretch_mean(coef, area, dx, dy, dz) -> np.ndarray:
 
 def _ring_normal(e: np.ndarray) -> np.ndarray:
     r"""``(3, k)``: :math:`\sum_j e_j \times e_{j+1}` over the ring edges ``e``
-    ``(3, k, 6)``, cyclically: twice the area-weighted normal of the ring's triangles.
+    ``(3, 6, k)``, cyclically: twice the area-weighted normal of the ring's triangles.
     """
     a, b = e[[1, 2, 0]], e[[2, 0, 1]]  # the components' pairs (y, z), (z, x), (x, y)
-    return ((a[..., :-1] * b[..., 1:] - b[..., :-1] * a[..., 1:]).sum(axis=2)
-            + a[..., -1] * b[..., 0] - b[..., -1] * a[..., 0])
+    return ((a[:, :-1] * b[:, 1:] - b[:, :-1] * a[:, 1:]).sum(axis=1)
+            + a[:, -1] * b[:, 0] - b[:, -1] * a[:, 0])
 
 
 def slide_bend(d: np.ndarray, s: np.ndarray) -> np.ndarray:
