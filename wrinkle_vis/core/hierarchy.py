@@ -435,6 +435,10 @@ class MuscleLevels:
         return cls(muscle, np.zeros(0, np.int64), z, z, z, z, z, z, np.zeros((0, 3)),
                    np.zeros((0, 3)), np.zeros((0, 6)), np.zeros((0, 6, 2)), np.zeros((0, 6)))
 
+    def arrays(self) -> list[np.ndarray]:
+        """The arrays it holds (what it weighs; not its muscle's own caches)."""
+        return [v for v in vars(self).values() if isinstance(v, np.ndarray)]
+
     def update(self, hier: Hierarchy, tangential) -> bool:
         """Add the vertices built since the last call; fill ring data that became complete.
         Returns whether anything changed.

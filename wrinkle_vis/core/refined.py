@@ -479,7 +479,7 @@ class RefinedEngine:
         key = ("muscle", muscle)
         lv = self.cache.get(key, lambda: self._current.get(key) or MuscleLevels.empty(muscle))
         if lv.update(self.hier, self._tangential):
-            self.cache.reweigh(key)
+            self.cache.reweigh(key, lv.arrays())
         return lv
 
     def assembly(self, muscles) -> _Assembly:
