@@ -613,8 +613,8 @@ def canonical_order(hier: Hierarchy, split: np.ndarray) -> np.ndarray:
     does not depend on the order the hierarchy was built in: the skin's vertices, then the
     midpoints of the split nodes as :func:`split_in_order` meets them.
     """
-    split_ids, _ = split_in_order(hier, split)
-    mids = hier.node_mid[split_ids].ravel()
+    split_ids, _ = split_in_order(hier, split, np.flatnonzero(split[:hier.n_roots]))
+    mids = np.take(hier.node_mid, split_ids, axis=0).ravel()
     return np.concatenate([np.arange(hier.n_root), first_seen(mids, hier.point_scratch())])
 
 

@@ -270,12 +270,13 @@ class _Dynamic:
         n, n0 = hier.n_points, hier.n_root
         if buffers is None or buffers["deformed"].shape[1] != n:
             rest = np.ascontiguousarray(hier.rest.T)
-            buffers = {"deformed": rest.copy(), "points": rest.copy(), "W": np.zeros(n),
+            buffers = {"rest": rest, "deformed": rest.copy(), "points": rest.copy(),
+                       "W": np.zeros(n),
                        "evaluated": np.zeros(n, bool), "computed": np.zeros(n, bool),
                        "moved": np.zeros(0, np.int64), "touched": np.zeros(0, np.int64)}
         self.buffers = buffers
         d, moved, touched = buffers["deformed"], buffers["moved"], buffers["touched"]
-        d[:, moved] = hier.rest[moved].T  # undo the last frame
+        d[:, moved] = np.take(buffers["rest"], moved, axis=1)  # undo the last frame
         buffers["computed"][moved] = False
         buffers["evaluated"][touched] = False
         buffers["W"][touched] = 0.0
@@ -303,6 +304,7 @@ class _Dynamic:
         asm.set_root_periods(self.face)
         more = np.ascontiguousarray(self.hier.rest[n_old:].T)
         b = self.buffers
+        b["rest"] = np.concatenate([b["rest"], more], axis=1)
         b["deformed"] = self.deformed = np.concatenate([self.deformed, more], axis=1)
         b["points"] = self.points = np.concatenate([self.points, more], axis=1)
         b["W"] = self.W = np.append(self.W, np.zeros(n - n_old))
@@ -394,6 +396,12 @@ class _Dynamic:
         return (levels.weights[rows] * tau).sum(axis=1)
 
 
+def _any_corner(flag: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """``(t,) bool``: the ``triangles`` ``(t, 3)`` with a corner where ``flag`` ``(v,)``."""
+    a, b, c = np.take(flag, triangles).T
+    return a | b | c
+
+
 def _around(triangles: np.ndarray, ids: np.ndarray, rings: int, n_points: int) -> np.ndarray:
     """``(z,)``, increasing: the ``triangles`` ``(T, 3)`` (on ``n_points`` vertices) within
     ``rings`` rings of those numbered ``ids`` (sharing a vertex with them, then with those,
@@ -404,7 +412,7 @@ def _around(triangles: np.ndarray, ids: np.ndarray, rings: int, n_points: int) -
     corner = np.zeros(n_points, bool)
     for _ in range(rings):
         corner[triangles[keep]] = True
-        keep = corner[triangles].any(axis=1)
+        keep = _any_corner(corner, triangles)
     return np.flatnonzero(keep)
 
 
@@ -517,14 +525,13 @@ class RefinedEngine:
         hier = self.hier
         tris = hier.skin.triangles
         influenced = _moved_or_wrinkled(root)
-        cand = np.flatnonzero(influenced[tris].any(axis=1))
+        cand = np.flatnonzero(_any_corner(influenced, tris))
         dyn = _Dynamic(hier, self.assembly(muscles), root, a, self.buffers, influenced)
         split = np.zeros(len(hier.node_tri), bool)
         zone = _around(tris, cand, ZONE_RINGS, hier.n_root)  # what the levels look at
         tris, nodes = tris[zone], zone
         for _ in range(n_levels):
-            cand = (dyn.influenced()[tris].any(axis=1)
-                    & (hier.node_level[nodes] < hier.depth))
+            cand = _any_corner(dyn.influenced(), tris) & (hier.node_level[nodes] < hier.depth)
             marked = bent(tris, dyn.points, angle_deg, cand, hier.node_bend[nodes])
             marked |= cand & dyn.asm.undersampled(hier, tris, nodes, dyn.W,
                                                     np.radians(angle_deg))
