@@ -396,6 +396,16 @@ class _Dynamic:
         return (levels.weights[rows] * tau).sum(axis=1)
 
 
+def _renumbered(triangles: np.ndarray, used: np.ndarray, slot: np.ndarray) -> np.ndarray:
+    """``(t, 3)``: ``triangles`` on the vertices ``used`` ``(u,)``, renumbered by their
+    place in it (``slot`` ``(v,) int``: all -1 before and after).
+    """
+    slot[used] = np.arange(len(used))
+    out = slot.take(triangles)
+    slot[used] = -1
+    return out
+
+
 def _any_corner(flag: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """``(t,) bool``: the ``triangles`` ``(t, 3)`` with a corner where ``flag`` ``(v,)``."""
     a, b, c = np.take(flag, triangles).T
@@ -530,9 +540,10 @@ class RefinedEngine:
         split = np.zeros(len(hier.node_tri), bool)
         zone = _around(tris, cand, ZONE_RINGS, hier.n_root)  # what the levels look at
         tris, nodes = tris[zone], zone
+        local, used = tris, slice(0, hier.n_root)  # the mesh on its own vertices (for bent)
         for _ in range(n_levels):
             cand = _any_corner(dyn.influenced(), tris) & (hier.node_level[nodes] < hier.depth)
-            marked = bent(tris, dyn.points, angle_deg, cand, hier.node_bend[nodes])
+            marked = bent(local, dyn.points[:, used], angle_deg, cand, hier.node_bend[nodes])
             marked |= cand & dyn.asm.undersampled(hier, tris, nodes, dyn.W,
                                                     np.radians(angle_deg))
             if not marked.any():
@@ -542,6 +553,8 @@ class RefinedEngine:
                 dyn.grow(self.assembly(muscles))
             tris, nodes, present = conforming_triangles(hier, split, zone)
             dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))
+            used = np.flatnonzero(present)
+            local = _renumbered(tris, used, hier.point_scratch())
         tris = self._whole(split, zone, tris, dyn)
         dyn.finish()
         self.buffers = dyn.buffers
