@@ -39,9 +39,10 @@ __all__ = ["RefinedEngine", "bent", "slide_bend"]
 EDGES_PER_HALF_PERIOD = 2.0
 
 #: A frame assembles its refined mesh over the root triangles within this many rings of
-#: those an active muscle influences: the closure's level rule can spread a split that far
-#: beyond them (one ring for each level below the first, as far as it reaches at depth 3),
-#: and a closure that reaches past the zone makes the frame assemble it again.
+#: those an active muscle influences (the zone). The closure's level rule carries splits
+#: past the influenced triangles, and a closure that leaves the zone makes the frame
+#: assemble it again, wider: with one ring that happened on 20 of the 31 frames of
+#: surprise's ramp at three levels, with two on none of six expressions' ramps.
 ZONE_RINGS = 2
 
 
@@ -541,7 +542,11 @@ class RefinedEngine:
         zone = _around(tris, cand, ZONE_RINGS, hier.n_root)  # what the levels look at
         tris, nodes = tris[zone], zone
         local, used = tris, slice(0, hier.n_root)  # the mesh on its own vertices (for bent)
+        present = None  # the mesh's vertices, once it has new ones
         for _ in range(n_levels):
+            if present is not None:
+                used = np.flatnonzero(present)
+                local = _renumbered(tris, used, hier.point_scratch())
             cand = _any_corner(dyn.influenced(), tris) & (hier.node_level[nodes] < hier.depth)
             marked = bent(local, dyn.points[:, used], angle_deg, cand, hier.node_bend[nodes])
             marked |= cand & dyn.asm.undersampled(hier, tris, nodes, dyn.W,
@@ -553,8 +558,6 @@ class RefinedEngine:
                 dyn.grow(self.assembly(muscles))
             tris, nodes, present = conforming_triangles(hier, split, zone)
             dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))
-            used = np.flatnonzero(present)
-            local = _renumbered(tris, used, hier.point_scratch())
         tris = self._whole(split, zone, tris, dyn)
         dyn.finish()
         self.buffers = dyn.buffers
