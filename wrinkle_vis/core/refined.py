@@ -507,8 +507,11 @@ class RefinedEngine:
         The latest active set's data is also held outside the cache, so a working set
         larger than the budget is not rebuilt every frame (the budget then holds the rest).
         """
-        levels = [self.levels(m) for m in muscles]
         key = ("assembly", tuple(muscles))
+        asm = self._current.get(key)
+        if asm is not None and asm.version == (self.hier.version, self.hier.n_points):
+            return asm  # its muscles' data were brought up to date with it
+        levels = [self.levels(m) for m in muscles]
         asm = self.cache.get(key, lambda: self._current.get(key) or _Assembly(self.hier,
                                                                               levels))
         if asm.version != (self.hier.version, self.hier.n_points):
