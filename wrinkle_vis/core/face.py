@@ -636,7 +636,8 @@ class FaceModel:
         order = canonical_order(hier, split)
         remap = np.full(hier.n_points, -1, np.int64)
         remap[order] = np.arange(len(order))
-        surface = TriangleSurface(np.take(hier.rest, order, axis=0), np.take(remap, tris))
+        surface = TriangleSurface._derived(np.take(hier.rest, order, axis=0),
+                                           np.take(remap, tris))
         rest = _RestFrame(surface, np.take(hier.normal, order, axis=0), self._rest.radius)
         rest.slide_normals = np.take(hier.slide, order, axis=0)
         rest.shape6 = np.take(hier.shape6, order, axis=0)

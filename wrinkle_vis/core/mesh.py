@@ -139,6 +139,18 @@ class TriangleSurface:
         object.__setattr__(self, "points", pts)
         object.__setattr__(self, "triangles", _as_triangles(self.triangles, len(pts)))
 
+    @classmethod
+    def _derived(cls, points: np.ndarray, triangles: np.ndarray) -> TriangleSurface:
+        """A surface the library derived from a valid one (finite float ``(n, 3)``
+        ``points``, int64 ``(m, 3)`` ``triangles`` indexing them), taken as it is, without
+        the checks and copies of the constructor; the arrays become read-only.
+        """
+        surface = object.__new__(cls)
+        for name, value in (("points", points), ("triangles", triangles)):
+            value.setflags(write=False)
+            object.__setattr__(surface, name, value)
+        return surface
+
     @property
     def n_points(self) -> int:
         """Number of vertices."""

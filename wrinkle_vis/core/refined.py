@@ -19,6 +19,8 @@ The skin's own vertices keep the unrefined frame's values exactly.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from .cache import ByteBudgetCache
@@ -397,6 +399,16 @@ class _Dynamic:
         return (levels.weights[rows] * tau).sum(axis=1)
 
 
+class _Zone(NamedTuple):
+    """The root triangles a frame's levels look at (:meth:`RefinedEngine.zone`)."""
+
+    influenced: np.ndarray  # (n,) bool: the skin vertices it was made for
+    ids: np.ndarray  # (z,) increasing: its root triangles
+    inside: np.ndarray  # (T,) bool: the same, as a mask
+    triangles: np.ndarray  # (z, 3): theirs
+    outside: np.ndarray  # (T - z, 3): the skin's others, in order
+
+
 def _renumbered(triangles: np.ndarray, used: np.ndarray, slot: np.ndarray) -> np.ndarray:
     """``(t, 3)``: ``triangles`` on the vertices ``used`` ``(u,)``, renumbered by their
     place in it (``slot`` ``(v,) int``: all -1 before and after).
@@ -480,7 +492,8 @@ class RefinedEngine:
     budget : int
         Bytes the muscles' data and stacked rows may hold together (least recently used
         first out); the hierarchy itself is bounded by the skin: at most the uniform
-        subdivision of the triangles the muscles can influence.
+        subdivision of the triangles the muscles can influence (and the latest zone, kept
+        outside the budget, by its triangles).
     tangential : callable
         ``tangential(vectors, normals)``, the face's tangent projection of pulls.
     """
@@ -492,6 +505,7 @@ class RefinedEngine:
         self.last = None  # (key, face, order) of the latest split set
         self.buffers = None  # the frame arrays, reused
         self._current: dict = {}  # the latest active set's data, whatever the budget
+        self._zone: _Zone | None = None  # the latest frame's
 
     def levels(self, muscle) -> MuscleLevels:
         """``muscle``'s data on the hierarchy, brought up to date."""
@@ -537,13 +551,11 @@ class RefinedEngine:
             The split nodes.
         """
         hier = self.hier
-        tris = hier.skin.triangles
         influenced = _moved_or_wrinkled(root)
-        cand = np.flatnonzero(_any_corner(influenced, tris))
+        zone = self.zone(influenced)
         dyn = _Dynamic(hier, self.assembly(muscles), root, a, self.buffers, influenced)
         split = np.zeros(len(hier.node_tri), bool)
-        zone = _around(tris, cand, ZONE_RINGS, hier.n_root)  # what the levels look at
-        tris, nodes = tris[zone], zone
+        tris, nodes = zone.triangles, zone.ids
         local, used = tris, slice(0, hier.n_root)  # the mesh on its own vertices (for bent)
         present = None  # the mesh's vertices, once it has new ones
         for _ in range(n_levels):
@@ -559,14 +571,31 @@ class RefinedEngine:
             split, _ = refined_topology(hier, split, distinct(nodes[marked], hier.scratch()))
             if dyn.asm.version != (hier.version, hier.n_points):  # the hierarchy grew
                 dyn.grow(self.assembly(muscles))
-            tris, nodes, present = conforming_triangles(hier, split, zone)
+            tris, nodes, present = conforming_triangles(hier, split, zone.ids)
             dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))
         tris = self._whole(split, zone, tris, dyn)
         dyn.finish()
         self.buffers = dyn.buffers
         return dyn, tris, split
 
-    def _whole(self, split: np.ndarray, zone: np.ndarray, zone_tris: np.ndarray,
+    def zone(self, influenced: np.ndarray) -> _Zone:
+        """The zone of a frame whose skin vertices ``influenced`` ``(n,) bool`` an active
+        muscle moved or wrinkled: the root triangles within :data:`ZONE_RINGS` rings of
+        those with an influenced corner (the latest one is kept: a ramp keeps its
+        influenced vertices from its first moving frame on).
+        """
+        last = self._zone
+        if last is not None and np.array_equal(last.influenced, influenced):
+            return last
+        tris = self.hier.skin.triangles
+        ids = _around(tris, np.flatnonzero(_any_corner(influenced, tris)), ZONE_RINGS,
+                      self.hier.n_root)
+        inside = np.zeros(len(tris), bool)
+        inside[ids] = True
+        self._zone = _Zone(influenced.copy(), ids, inside, tris[ids], tris[~inside])
+        return self._zone
+
+    def _whole(self, split: np.ndarray, zone: _Zone, zone_tris: np.ndarray,
                dyn: _Dynamic) -> np.ndarray:
         """``(t, 3)``: the whole mesh: the zone's, then the root triangles outside it, when
         the split set keeps to the zone and its neighbours are in it (no triangle outside
@@ -576,13 +605,12 @@ class RefinedEngine:
         """
         hier = self.hier
         n_roots = hier.n_roots
-        in_zone = np.zeros(n_roots, bool)
-        in_zone[zone] = True
         roots = np.flatnonzero(split[:n_roots])
         near = hier.root_nbrs[roots]
         near = near[near >= 0]
-        if in_zone[roots].all() and in_zone[near].all():
-            return np.concatenate([zone_tris, hier.skin.triangles[~in_zone]])
+        if zone.inside[roots].all() and zone.inside[near].all():
+            return np.concatenate([zone_tris, zone.outside])
+        in_zone = zone.inside.copy()
         in_zone[roots] = True
         in_zone[near] = True
         tris, _, present = conforming_triangles(hier, split, np.flatnonzero(in_zone))
