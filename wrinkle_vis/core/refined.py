@@ -461,9 +461,12 @@ def _ring_normal(e: np.ndarray) -> np.ndarray:
     r"""``(3, k)``: :math:`\sum_j e_j \times e_{j+1}` over the ring edges ``e``
     ``(3, 6, k)``, cyclically: twice the area-weighted normal of the ring's triangles.
     """
-    a, b = e[[1, 2, 0]], e[[2, 0, 1]]  # the components' pairs (y, z), (z, x), (x, y)
-    return ((a[:, :-1] * b[:, 1:] - b[:, :-1] * a[:, 1:]).sum(axis=1)
-            + a[:, -1] * b[:, 0] - b[:, -1] * a[:, 0])
+    x, y, z = e
+
+    def wedge(a, b):  # sum_j a_j b_{j+1} - b_j a_{j+1}, j cyclic; a, b (6, k)
+        return (a[:-1] * b[1:] - b[:-1] * a[1:]).sum(axis=0) + a[-1] * b[0] - b[-1] * a[0]
+
+    return np.stack([wedge(y, z), wedge(z, x), wedge(x, y)])
 
 
 def slide_bend(d: np.ndarray, s: np.ndarray) -> np.ndarray:
