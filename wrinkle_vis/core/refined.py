@@ -552,7 +552,7 @@ class RefinedEngine:
             The frame's values on the hierarchy.
         triangles : (t, 3) int
             The refined mesh, in hierarchy vertex ids, in an order that depends on the
-            split set alone.
+            split set and the influenced vertices alone (not on earlier frames).
         split : (N,) bool
             The split nodes.
         """
@@ -562,10 +562,12 @@ class RefinedEngine:
         dyn = _Dynamic(hier, self.assembly(muscles), root, a, self.buffers, influenced)
         split = np.zeros(len(hier.node_tri), bool)
         tris, nodes = zone.triangles, zone.ids
-        local, points = tris, dyn.points[:, :hier.n_root]  # the mesh on its own vertices
+        # bent sees the mesh on its own vertices (normal sums as long as those, not as the
+        # whole hierarchy)
+        local, points = tris, dyn.points[:, :hier.n_root]
         present = None  # the mesh's vertices, once it has new ones
         for _ in range(n_levels):
-            if present is not None:  # (bent's normals: sums as long as its vertices)
+            if present is not None:
                 used = np.flatnonzero(present)
                 local = _renumbered(tris, used, hier.point_scratch())
                 points = np.take(dyn.points, used, axis=1)
