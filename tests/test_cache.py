@@ -16,6 +16,20 @@ def test_nbytes_counts_arrays_once_through_containers_and_objects():
     assert nbytes(Box()) == a.nbytes + b.nbytes  # a counted once, the view not at all
 
 
+def test_an_object_that_lists_its_arrays_weighs_those_not_what_it_refers_to():
+    own, shared = np.zeros(50), np.zeros(1000)
+
+    class Rows:
+        def __init__(self):
+            self.own, self.source = own, {"shared": shared}
+
+        def arrays(self):
+            return [self.own]
+
+    assert nbytes(Rows()) == own.nbytes
+    assert nbytes([Rows(), shared]) == own.nbytes + shared.nbytes
+
+
 def test_the_cache_keeps_its_budget_in_bytes_dropping_the_least_recently_used():
     cache = ByteBudgetCache(2500)
     made = []

@@ -22,7 +22,8 @@ def nbytes(*objects) -> int:
     """Bytes held by the numpy arrays and sparse matrices in ``objects``.
 
     Follows dicts, lists, tuples and the ``__dict__`` of plain objects, each object once;
-    anything else (muscles, strings, trees) counts as nothing.
+    an object with an ``arrays()`` method is weighed by the arrays it lists (what it holds,
+    not what it refers to); anything else (muscles, strings, trees) counts as nothing.
     """
     seen: set[int] = set()
     total = 0
@@ -44,6 +45,8 @@ def nbytes(*objects) -> int:
             stack += list(obj.values())
         elif isinstance(obj, (list, tuple)):
             stack += list(obj)
+        elif callable(getattr(obj, "arrays", None)):
+            stack += obj.arrays()
         elif hasattr(obj, "__dict__"):
             stack += list(vars(obj).values())
     return total

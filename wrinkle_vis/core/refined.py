@@ -122,6 +122,10 @@ class _Assembly:
         self.root_periods = False
         self.version = hier.version, hier.n_points
 
+    def arrays(self) -> list[np.ndarray]:
+        """The arrays it holds (what it weighs; not its muscles)."""
+        return [v for v in vars(self).values() if isinstance(v, np.ndarray)]
+
     def extend(self, hier: Hierarchy, levels: list[MuscleLevels]) -> bool:
         """Bring the rows up to date after the hierarchy grew (``levels`` updated): rows
         for the new vertices, and the ring weights of the vertices whose rings were
@@ -518,7 +522,7 @@ class RefinedEngine:
         key = ("muscle", muscle)
         lv = self.cache.get(key, lambda: self._current.get(key) or MuscleLevels.empty(muscle))
         if lv.update(self.hier, self._tangential):
-            self.cache.reweigh(key, lv.arrays())
+            self.cache.reweigh(key)
         return lv
 
     def assembly(self, muscles) -> _Assembly:
