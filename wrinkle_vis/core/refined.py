@@ -277,13 +277,12 @@ class _Dynamic:
         n, n0 = hier.n_points, hier.n_root
         if buffers is None or buffers["deformed"].shape[1] != n:
             rest = np.ascontiguousarray(hier.rest.T)
-            buffers = {"rest": rest, "deformed": rest.copy(), "points": rest.copy(),
-                       "W": np.zeros(n),
+            buffers = {"deformed": rest, "points": rest.copy(), "W": np.zeros(n),
                        "evaluated": np.zeros(n, bool), "computed": np.zeros(n, bool),
                        "moved": np.zeros(0, np.int64), "touched": np.zeros(0, np.int64)}
         self.buffers = buffers
         d, moved, touched = buffers["deformed"], buffers["moved"], buffers["touched"]
-        d[:, moved] = np.take(buffers["rest"], moved, axis=1)  # undo the last frame
+        d[:, moved] = np.take(hier.rest, moved, axis=0).T  # undo the last frame
         buffers["computed"][moved] = False
         buffers["evaluated"][touched] = False
         buffers["W"][touched] = 0.0
@@ -311,7 +310,6 @@ class _Dynamic:
         asm.set_root_periods(self.face)
         more = np.ascontiguousarray(self.hier.rest[n_old:].T)
         b = self.buffers
-        b["rest"] = np.concatenate([b["rest"], more], axis=1)
         b["deformed"] = self.deformed = np.concatenate([self.deformed, more], axis=1)
         b["points"] = self.points = np.concatenate([self.points, more], axis=1)
         b["W"] = self.W = np.append(self.W, np.zeros(n - n_old))
