@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["ByteBudgetCache", "nbytes"]
+__all__ = ["ByteBudgetCache", "HoldsArrays", "nbytes"]
 
 
 def nbytes(*objects) -> int:
@@ -50,6 +50,16 @@ def nbytes(*objects) -> int:
         elif hasattr(obj, "__dict__"):
             stack += list(vars(obj).values())
     return total
+
+
+class HoldsArrays:
+    """Weighed (:func:`nbytes`) by the arrays among its own attributes, not by the objects
+    it refers to (a muscle, the hierarchy).
+    """
+
+    def arrays(self) -> list[np.ndarray]:
+        """The arrays it holds."""
+        return [v for v in vars(self).values() if isinstance(v, np.ndarray)]
 
 
 class ByteBudgetCache:

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .cache import HoldsArrays
 from .equations import stretch_coefficients
 from .mesh import TriangleSurface, phong_midpoints, unit_rows
 from .muscle import Muscle
@@ -404,7 +405,7 @@ def _edge_neighbours(skin: TriangleSurface) -> np.ndarray:
 
 
 @dataclass
-class MuscleLevels:
+class MuscleLevels(HoldsArrays):
     """One muscle's rest data on a :class:`Hierarchy`'s new vertices (rows: its AOI).
 
     Built for the vertices the hierarchy has when :meth:`update` runs; the Eq. 10 weights
@@ -434,10 +435,6 @@ class MuscleLevels:
         z = np.zeros(0)
         return cls(muscle, np.zeros(0, np.int64), z, z, z, z, z, z, np.zeros((0, 3)),
                    np.zeros((0, 3)), np.zeros((0, 6)), np.zeros((0, 6, 2)), np.zeros((0, 6)))
-
-    def arrays(self) -> list[np.ndarray]:
-        """The arrays it holds (what it weighs; not its muscle's own caches)."""
-        return [v for v in vars(self).values() if isinstance(v, np.ndarray)]
 
     def update(self, hier: Hierarchy, tangential) -> bool:
         """Add the vertices built since the last call; fill ring data that became complete.

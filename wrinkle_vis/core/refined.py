@@ -23,7 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .cache import ByteBudgetCache
+from .cache import ByteBudgetCache, HoldsArrays
 from .equations import anisotropy
 from .hierarchy import (
     Hierarchy,
@@ -81,7 +81,7 @@ def _unit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
     return v
 
 
-class _Assembly:
+class _Assembly(HoldsArrays):
     r"""The active muscles' data on the hierarchy's new vertices, one row per vertex that a
     muscle moves and one column per muscle acting there (padded with an inactive one),
     built once per active set and extended as the hierarchy grows.
@@ -121,10 +121,6 @@ class _Assembly:
         self.unfinished = self.moved[~hier.final[self.moved]]  # rings not complete yet
         self.root_periods = False
         self.version = hier.version, hier.n_points
-
-    def arrays(self) -> list[np.ndarray]:
-        """The arrays it holds (what it weighs; not its muscles)."""
-        return [v for v in vars(self).values() if isinstance(v, np.ndarray)]
 
     def extend(self, hier: Hierarchy, levels: list[MuscleLevels]) -> bool:
         """Bring the rows up to date after the hierarchy grew (``levels`` updated): rows
