@@ -44,7 +44,8 @@ EDGES_PER_HALF_PERIOD = 2.0
 #: those an active muscle influences (the zone). The closure's level rule carries splits
 #: past the influenced triangles, and a closure that leaves the zone makes the frame
 #: assemble it again, wider: with one ring that happened on 20 of the 31 frames of
-#: surprise's ramp at three levels, with two on none of six expressions' ramps.
+#: surprise's ramp at three levels (pucker 27, squint 20), with two on none of the ramps
+#: of surprise, fear, frown, smile, pucker and squint.
 ZONE_RINGS = 2
 
 
