@@ -192,6 +192,30 @@ def test_in_place_update_draws_what_a_rebuild_draws(window):
     assert np.abs(window.skin_view.screenshot(return_img=True).astype(int) - rebuilt).max() > 20
 
 
+def test_a_muscle_is_coloured_by_its_activation_without_sending_its_mesh_again(window):
+    import matplotlib
+
+    window.expression_box.setCurrentText("surprise")
+    window.intensity_slider.setValue(40)
+    actor = window.muscle_view.actors["muscle:frontalis_major_L"]
+    mesh = actor.mapper.dataset
+    stamp = mesh.GetMTime()
+    window.intensity_slider.setValue(90)  # a new activation: only the actor's colour
+    a = window.session.state().activations["frontalis_major_L"]
+    assert 0.0 < a < 1.0
+    assert mesh.GetMTime() == stamp and actor.mapper.dataset is mesh
+    want = matplotlib.colormaps["Reds"](a)[:3]  # the colour map the scalar bar shows
+    np.testing.assert_allclose(actor.GetProperty().GetColor(), want, atol=1.5 / 255)
+    in_place = window.muscle_view.screenshot(return_img=True).astype(int)
+    window.views.invalidate()
+    window.refresh()  # from scratch
+    rebuilt = window.muscle_view.screenshot(return_img=True).astype(int)
+    assert np.abs(in_place - rebuilt).max() <= 2
+    window.intensity_slider.setValue(20)
+    assert np.abs(window.muscle_view.screenshot(return_img=True).astype(int)
+                  - rebuilt).max() > 20
+
+
 def test_a_closed_window_and_its_plotters_are_collected(wv_face, settings, recovery, qtbot,
                                                        tmp_path):
     """Quit (the menu's action) frees the window and everything it drew, with no deferred
