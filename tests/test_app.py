@@ -183,13 +183,7 @@ def test_in_place_update_draws_what_a_rebuild_draws(window):
     window.muscle_box.setCurrentText("frontalis_major_L")
     window.field_box.setCurrentText("eps")
     window.intensity_slider.setValue(60)  # activations only: updated in place
-    in_place = window.skin_view.screenshot(return_img=True).astype(int)
-    window.views.invalidate()
-    window.refresh()  # from scratch
-    rebuilt = window.skin_view.screenshot(return_img=True).astype(int)
-    assert np.abs(in_place - rebuilt).max() <= 2
-    window.intensity_slider.setValue(100)
-    assert np.abs(window.skin_view.screenshot(return_img=True).astype(int) - rebuilt).max() > 20
+    _drawn_in_place_as_rebuilt(window, window.skin_view, 100)
 
 
 def test_a_muscle_is_coloured_by_its_activation_without_sending_its_mesh_again(window):
@@ -206,14 +200,20 @@ def test_a_muscle_is_coloured_by_its_activation_without_sending_its_mesh_again(w
     assert mesh.GetMTime() == stamp and actor.mapper.dataset is mesh
     want = matplotlib.colormaps["Reds"](a)[:3]  # the colour map the scalar bar shows
     np.testing.assert_allclose(actor.GetProperty().GetColor(), want, atol=1.5 / 255)
-    in_place = window.muscle_view.screenshot(return_img=True).astype(int)
+    _drawn_in_place_as_rebuilt(window, window.muscle_view, 20)
+
+
+def _drawn_in_place_as_rebuilt(window, view, other_intensity: int) -> None:
+    """``view`` as drawn in place equals it rebuilt from scratch (within 2 levels), and
+    differs at intensity ``other_intensity`` (the comparison can tell frames apart).
+    """
+    in_place = view.screenshot(return_img=True).astype(int)
     window.views.invalidate()
     window.refresh()  # from scratch
-    rebuilt = window.muscle_view.screenshot(return_img=True).astype(int)
+    rebuilt = view.screenshot(return_img=True).astype(int)
     assert np.abs(in_place - rebuilt).max() <= 2
-    window.intensity_slider.setValue(20)
-    assert np.abs(window.muscle_view.screenshot(return_img=True).astype(int)
-                  - rebuilt).max() > 20
+    window.intensity_slider.setValue(other_intensity)
+    assert np.abs(view.screenshot(return_img=True).astype(int) - rebuilt).max() > 20
 
 
 def test_a_closed_window_and_its_plotters_are_collected(wv_face, settings, recovery, qtbot,
