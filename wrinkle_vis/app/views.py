@@ -458,10 +458,11 @@ def _translucent_shell(plotter: pv.Plotter, actor) -> None:
     back faces culled, blended over the opaque scene in one pass.
 
     The muscles view's skin is its only translucent surface; culling its back faces (the
-    inside of the back of the head, which would show through its top) leaves one layer
-    wherever the camera looks from outside, which plain alpha blending draws as order-
-    independent translucency would, without that technique's extra passes: 19 to 20 ms a
-    render of the 317x739 view in software instead of 24 to 29
+    inside of the back of the head, which would show through its top) leaves one layer over
+    most of the view, which plain alpha blending draws as order-independent translucency
+    would (where the front of the face folds over itself, say the nose seen from the side,
+    two layers blend in drawing order), without that technique's extra passes: 19 to 20 ms
+    a render of the 317x739 view in software instead of 24 to 29
     (``benchmarks/bench_app_playback.py``).
     """
     actor.prop.backface_culling = True
@@ -475,7 +476,7 @@ def _tint(actor, activation: float) -> None:
 
     A new activation then changes one property: no scalars to map, no buffers to send to
     the renderer again (a write into the array re-sent the whole mesh of each muscle whose
-    activation changed: 2 to 3 ms a frame of the playback of surprise in software). The
+    activation changed: 1.5 to 3 ms a render of that view while surprise plays, in software). The
     mesh's ``activation`` array keeps the value the muscle was drawn with.
     """
     mapper = actor.GetMapper()  # VTK's own calls: PyVista's wrappers cost more than this
