@@ -36,7 +36,7 @@ from .mesh import TriangleSurface, phong_midpoints, unit_rows
 from .muscle import Muscle
 
 __all__ = ["Hierarchy", "MuscleLevels", "canonical_order", "conforming_triangles",
-           "corner_angle", "distinct", "first_seen", "longest_edge", "refined_topology",
+           "corner_angle", "distinct", "first_seen", "grown", "longest_edge", "refined_topology",
            "six_entries", "split_in_order"]
 
 _KEY = np.int64(1 << 31)
@@ -86,7 +86,7 @@ def _children_geometry(normals, points, *corners):
     return np.arccos(np.clip(bend, -1.0, 1.0)).ravel(), np.sqrt(edge).ravel()
 
 
-def _grow(a: np.ndarray, more: np.ndarray) -> np.ndarray:
+def grown(a: np.ndarray, more: np.ndarray) -> np.ndarray:
     """``a`` with the rows ``more`` appended, amortized: ``a`` is a prefix of a buffer with
     spare rows (grown by doubling), so appending copies only ``more``.
 
@@ -277,18 +277,18 @@ class Hierarchy:
         self._half_rings(a, b, c, m01, m12, m20)
         across = self.node_nbr[nodes][:, np.maximum(_CHILD_EDGES, 0)]  # (p, 4, 2)
         self._link(nodes, first)
-        self.node_tri = _grow(self.node_tri, kids)
-        self.node_child = _grow(self.node_child, np.full(len(kids), -1))
-        self.node_mid = _grow(self.node_mid, np.full((len(kids), 3), -1))
-        self.node_level = _grow(self.node_level, np.full(len(kids), level))
-        self.node_root = _grow(self.node_root, np.repeat(self.node_root[nodes], 4))
-        self.node_parent = _grow(self.node_parent, np.repeat(nodes, 4))
-        self.node_across = _grow(self.node_across,
+        self.node_tri = grown(self.node_tri, kids)
+        self.node_child = grown(self.node_child, np.full(len(kids), -1))
+        self.node_mid = grown(self.node_mid, np.full((len(kids), 3), -1))
+        self.node_level = grown(self.node_level, np.full(len(kids), level))
+        self.node_root = grown(self.node_root, np.repeat(self.node_root[nodes], 4))
+        self.node_parent = grown(self.node_parent, np.repeat(nodes, 4))
+        self.node_across = grown(self.node_across,
                                  np.where(_CHILD_EDGES >= 0, across, -1).reshape(-1, 2))
-        self.node_ready = _grow(self.node_ready, np.zeros(len(kids), bool))
+        self.node_ready = grown(self.node_ready, np.zeros(len(kids), bool))
         bend, edge = _children_geometry(self.normal, self.rest, a, b, c, m01, m12, m20)
-        self.node_bend = _grow(self.node_bend, bend)
-        self.node_edge = _grow(self.node_edge, edge)
+        self.node_bend = grown(self.node_bend, bend)
+        self.node_edge = grown(self.node_edge, edge)
 
     def _link(self, parents: np.ndarray, first: np.ndarray) -> None:
         """Set the neighbours of the children ``first + 0..3`` of ``parents`` (and of the
@@ -298,7 +298,7 @@ class Hierarchy:
         """
         kids = first[:, None] + np.arange(4)
         nbr = self.node_nbr
-        nbr = _grow(nbr, np.full((4 * len(parents), 3), -1))
+        nbr = grown(nbr, np.full((4 * len(parents), 3), -1))
         c0, c1, c2, c3 = kids.T
         nbr[c3, 0], nbr[c1, 2] = c1, c3
         nbr[c3, 1], nbr[c2, 0] = c2, c3
@@ -348,16 +348,16 @@ class Hierarchy:
     def _add_vertices(self, pairs: np.ndarray, level: int) -> None:
         pairs = np.where(self._before(pairs[:, 0], pairs[:, 1])[:, None], pairs, pairs[:, ::-1])
         mid, mid_normals = phong_midpoints(self.rest, self.normal, pairs)
-        self.rest = _grow(self.rest, mid)
-        self.normal = _grow(self.normal, mid_normals)
-        self.slide = _grow(self.slide, unit_rows(self.slide[pairs].sum(axis=1)))
-        self.shape6 = _grow(self.shape6, self.shape6[pairs].mean(axis=1))
-        self.level = _grow(self.level, np.full(len(pairs), level))
+        self.rest = grown(self.rest, mid)
+        self.normal = grown(self.normal, mid_normals)
+        self.slide = grown(self.slide, unit_rows(self.slide[pairs].sum(axis=1)))
+        self.shape6 = grown(self.shape6, self.shape6[pairs].mean(axis=1))
+        self.level = grown(self.level, np.full(len(pairs), level))
         ring = np.full((len(pairs), 6), -1, np.int64)
         ring[:, 0], ring[:, 3] = pairs[:, 1], pairs[:, 0]  # the later end, the earlier
-        self.ring = _grow(self.ring, ring)
-        self.ring_len = _grow(self.ring_len, np.ones((len(pairs), 6)))
-        self.final = _grow(self.final, np.zeros(len(pairs), bool))
+        self.ring = grown(self.ring, ring)
+        self.ring_len = grown(self.ring_len, np.ones((len(pairs), 6)))
+        self.final = grown(self.final, np.zeros(len(pairs), bool))
 
     def _half_rings(self, a, b, c, m01, m12, m20) -> None:
         """Fill the ring sides that the nodes ``(a, b, c)`` give their edges' midpoints:
@@ -460,16 +460,16 @@ class MuscleLevels(HoldsArrays):
         d = np.nan_to_num(reg["direction"][keep], nan=0.0)
         unit = tangential(self.muscle.unit_displacement(hier.rest[v]), hier.slide[v])
         k = len(v)
-        self.ids = _grow(self.ids, v)
+        self.ids = grown(self.ids, v)
         for name, key in (("lam", "lam"), ("gamma", "gamma"), ("l", "l"), ("at", "At"),
                           ("w", "w"), ("h", "H")):
-            setattr(self, name, _grow(getattr(self, name), reg[key][keep]))
-        self.unit = _grow(self.unit, unit)
-        self.direction = _grow(self.direction, unit_rows(d))
-        self.weights = _grow(self.weights, np.full((k, 6), np.nan))
+            setattr(self, name, grown(getattr(self, name), reg[key][keep]))
+        self.unit = grown(self.unit, unit)
+        self.direction = grown(self.direction, unit_rows(d))
+        self.weights = grown(self.weights, np.full((k, 6), np.nan))
         if self.muscle.compression == "gradient":  # the others need no triangle data
-            self.coef = _grow(self.coef, np.zeros((k, 6, 2)))
-            self.area = _grow(self.area, np.zeros((k, 6)))
+            self.coef = grown(self.coef, np.zeros((k, 6, 2)))
+            self.area = grown(self.area, np.zeros((k, 6)))
 
     def _ring_data(self, hier: Hierarchy, rows: np.ndarray) -> None:
         v = self.ids[rows]

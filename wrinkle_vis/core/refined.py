@@ -28,9 +28,9 @@ from .equations import anisotropy
 from .hierarchy import (
     Hierarchy,
     MuscleLevels,
-    _grow,
     conforming_triangles,
     distinct,
+    grown,
     refined_topology,
 )
 
@@ -136,16 +136,16 @@ class _Assembly(HoldsArrays):
         k = len(rows["moved"])
         for name in _ROW_FIELDS:
             if name in rows:
-                setattr(self, name, _grow(getattr(self, name), _padded(rows[name], width,
+                setattr(self, name, grown(getattr(self, name), _padded(rows[name], width,
                                                                      len(levels))))
         n = hier.n_points
         slot = np.full(n - start, -1, np.int64)
         slot[rows["moved"] - start] = np.arange(len(self.moved) - k, len(self.moved))
-        self.slot = _grow(self.slot, slot)
-        self.influenced = _grow(self.influenced, slot >= 0)
+        self.slot = grown(self.slot, slot)
+        self.influenced = grown(self.influenced, slot >= 0)
         half = np.full(n - start, np.inf)
         half[rows["moved"] - start] = rows["u"].min(axis=1)
-        self.half_period = _grow(self.half_period, half)
+        self.half_period = grown(self.half_period, half)
         done = hier.final[self.unfinished]
         self._refresh_rings(levels, self.unfinished[done])
         self.unfinished = np.concatenate([self.unfinished[~done],
