@@ -32,7 +32,7 @@ import numpy as np
 
 from .cache import HoldsArrays
 from .equations import stretch_coefficients
-from .mesh import TriangleSurface, phong_midpoints, unit_rows
+from .mesh import TriangleSurface, phong_midpoints, unit_rows, vector_lengths
 from .muscle import Muscle
 
 __all__ = ["Hierarchy", "MuscleLevels", "canonical_order", "conforming_triangles",
@@ -270,10 +270,10 @@ class Hierarchy:
         m01, m12, m20 = self._midpoints(np.concatenate([a, b, c]),
                                         np.concatenate([b, c, a]), level).reshape(3, -1)
         first = len(self.node_tri) + 4 * np.arange(len(nodes))
-        kids = np.stack([np.c_[a, m01, m20], np.c_[m01, b, m12], np.c_[m20, m12, c],
-                         np.c_[m01, m12, m20]], axis=1).reshape(-1, 3)
+        kids = np.stack([a, m01, m20, m01, b, m12, m20, m12, c, m01, m12, m20],
+                        axis=1).reshape(-1, 3)  # corner a, b, c and centre children
         self.node_child[nodes] = first
-        self.node_mid[nodes] = np.c_[m01, m12, m20]
+        self.node_mid[nodes] = np.stack([m01, m12, m20], axis=1)
         self._half_rings(a, b, c, m01, m12, m20)
         across = self.node_nbr[nodes][:, np.maximum(_CHILD_EDGES, 0)]  # (p, 4, 2)
         self._link(nodes, first)
@@ -326,7 +326,7 @@ class Hierarchy:
         mids = self.edge_midpoints(lo[first], hi[first])
         new = mids < 0
         if new.any():
-            pairs = np.c_[lo[first][new], hi[first][new]]
+            pairs = np.stack([lo[first][new], hi[first][new]], axis=1)
             ids = self.n_points + np.arange(len(pairs))
             mids[new] = ids
             self._add_vertices(pairs, level)
@@ -350,8 +350,11 @@ class Hierarchy:
         mid, mid_normals = phong_midpoints(self.rest, self.normal, pairs)
         self.rest = grown(self.rest, mid)
         self.normal = grown(self.normal, mid_normals)
-        self.slide = grown(self.slide, unit_rows(self.slide[pairs].sum(axis=1)))
-        self.shape6 = grown(self.shape6, self.shape6[pairs].mean(axis=1))
+        p0, p1 = pairs.T
+        slide = np.take(self.slide, p0, axis=0) + np.take(self.slide, p1, axis=0)
+        shape6 = np.take(self.shape6, p0, axis=0) + np.take(self.shape6, p1, axis=0)
+        self.slide = grown(self.slide, unit_rows(slide))
+        self.shape6 = grown(self.shape6, shape6 / 2)  # their mean
         self.level = grown(self.level, np.full(len(pairs), level))
         ring = np.full((len(pairs), 6), -1, np.int64)
         ring[:, 0], ring[:, 3] = pairs[:, 1], pairs[:, 0]  # the later end, the earlier
@@ -377,10 +380,10 @@ class Hierarchy:
         """
         v = self.node_mid[nodes].ravel()
         v = np.unique(v[~self.final[v]])
-        ring = self.ring[v]
+        ring = np.take(self.ring, v, axis=0)
         safe = np.where(ring >= 0, ring, v[:, None])
-        length = np.linalg.norm(self.rest[safe] - self.rest[v][:, None], axis=2)
-        self.ring_len[v] = np.where(ring >= 0, length, 1.0)
+        edge = np.take(self.rest, safe, axis=0) - np.take(self.rest, v, axis=0)[:, None]
+        self.ring_len[v] = np.where(ring >= 0, vector_lengths(edge), 1.0)
         self.final[v] = True
 
     def safe_ring(self, v: np.ndarray) -> np.ndarray:
@@ -454,11 +457,12 @@ class MuscleLevels(HoldsArrays):
         return changed
 
     def _add(self, hier: Hierarchy, v: np.ndarray, tangential) -> None:
-        reg = self.muscle.region(hier.rest[v])
+        rest = np.take(hier.rest, v, axis=0)
+        reg = self.muscle.region(rest)
         keep = reg["in_aoi"]
         v = v[keep]
         d = np.nan_to_num(reg["direction"][keep], nan=0.0)
-        unit = tangential(self.muscle.unit_displacement(hier.rest[v]), hier.slide[v])
+        unit = tangential(self.muscle.unit_displacement(rest[keep]), np.take(hier.slide, v, axis=0))
         k = len(v)
         self.ids = grown(self.ids, v)
         for name, key in (("lam", "lam"), ("gamma", "gamma"), ("l", "l"), ("at", "At"),
@@ -474,9 +478,9 @@ class MuscleLevels(HoldsArrays):
     def _ring_data(self, hier: Hierarchy, rows: np.ndarray) -> None:
         v = self.ids[rows]
         ring = hier.safe_ring(v)
-        edge = hier.rest[ring] - hier.rest[v][:, None]
-        length = np.linalg.norm(edge, axis=2)
-        cos = np.abs(np.einsum("kjc,kc->kj", edge, self.direction[rows]))
+        edge = np.take(hier.rest, ring, axis=0) - np.take(hier.rest, v, axis=0)[:, None]
+        length = np.take(hier.ring_len, v, axis=0)  # complete rings: 1 where no neighbour (edge 0)
+        cos = np.abs(np.einsum("kjc,kc->kj", edge, np.take(self.direction, rows, axis=0)))
         cos = np.where(length > 0, cos / np.where(length > 0, length, 1.0), 0.0)
         total = cos.sum(axis=1, keepdims=True)
         self.weights[rows] = np.where(total > 0, cos / np.where(total > 0, total, 1.0), 0.0)

@@ -221,11 +221,12 @@ def _stacked_rows(levels: list[MuscleLevels], start: int) -> dict:
     row = np.repeat(np.arange(len(first)), np.diff(np.append(first, len(ids))))
     col = np.arange(len(ids)) - first[row]
     shape = (len(first), int(col.max()) + 1 if len(col) else 1)
+    at = row * shape[1] + col  # in the rows and columns flattened
 
     def dense(parts, fill=0.0):
-        flat = np.concatenate(parts)[order]
+        flat = np.take(np.concatenate(parts), order, axis=0)
         out = np.full(shape + flat.shape[1:], fill, flat.dtype)
-        out[row, col] = flat
+        out.reshape(-1, *flat.shape[1:])[at] = flat  # a view: out is new, contiguous
         return out
 
     tail = [(m, f, m.muscle.compression == "gradient")
