@@ -77,8 +77,8 @@ def _children_geometry(normals, points, *corners):
     ``p`` nodes, from the ids ``(p,)`` each of their corners a, b, c and midpoints m01,
     m12, m20 (each point gathered once, each shared edge measured once).
     """
-    n = [np.take(normals, v, axis=0) for v in corners]
-    x = [np.take(points, v, axis=0) for v in corners]
+    n = [normals.take(v, axis=0) for v in corners]
+    x = [points.take(v, axis=0) for v in corners]
     cos = [np.einsum("ij,ij->i", n[i], n[j]) for i, j in _PAIRS]
     sq = [np.einsum("ij,ij->i", x[i] - x[j], x[i] - x[j]) for i, j in _PAIRS]
     bend = np.stack([np.minimum.reduce([cos[k] for k in kid]) for kid in _CHILD_PAIRS], axis=1)
@@ -341,7 +341,7 @@ class Hierarchy:
         not depend on the order the vertices were built in (nor then do the rings, nor the
         order their sums run in).
         """
-        pa, pb = np.take(self.rest, a, axis=0), np.take(self.rest, b, axis=0)
+        pa, pb = self.rest.take(a, axis=0), self.rest.take(b, axis=0)
         lt, eq = pa < pb, pa == pb
         return lt[:, 0] | (eq[:, 0] & (lt[:, 1] | (eq[:, 1] & lt[:, 2])))
 
@@ -351,8 +351,8 @@ class Hierarchy:
         self.rest = grown(self.rest, mid)
         self.normal = grown(self.normal, mid_normals)
         p0, p1 = pairs.T
-        slide = np.take(self.slide, p0, axis=0) + np.take(self.slide, p1, axis=0)
-        shape6 = np.take(self.shape6, p0, axis=0) + np.take(self.shape6, p1, axis=0)
+        slide = self.slide.take(p0, axis=0) + self.slide.take(p1, axis=0)
+        shape6 = self.shape6.take(p0, axis=0) + self.shape6.take(p1, axis=0)
         self.slide = grown(self.slide, unit_rows(slide))
         self.shape6 = grown(self.shape6, shape6 / 2)  # their mean
         self.level = grown(self.level, np.full(len(pairs), level))
@@ -380,15 +380,15 @@ class Hierarchy:
         """
         v = self.node_mid[nodes].ravel()
         v = np.unique(v[~self.final[v]])
-        ring = np.take(self.ring, v, axis=0)
+        ring = self.ring.take(v, axis=0)
         safe = np.where(ring >= 0, ring, v[:, None])
-        edge = np.take(self.rest, safe, axis=0) - np.take(self.rest, v, axis=0)[:, None]
+        edge = self.rest.take(safe, axis=0) - self.rest.take(v, axis=0)[:, None]
         self.ring_len[v] = np.where(ring >= 0, vector_lengths(edge), 1.0)
         self.final[v] = True
 
     def safe_ring(self, v: np.ndarray) -> np.ndarray:
         """``(k, 6)``: the rings of vertices ``v``, the vertex itself where none."""
-        ring = np.take(self.ring, v, axis=0)
+        ring = self.ring.take(v, axis=0)
         return np.where(ring >= 0, ring, v[:, None])
 
 
@@ -457,12 +457,12 @@ class MuscleLevels(HoldsArrays):
         return changed
 
     def _add(self, hier: Hierarchy, v: np.ndarray, tangential) -> None:
-        rest = np.take(hier.rest, v, axis=0)
+        rest = hier.rest.take(v, axis=0)
         reg = self.muscle.region(rest)
         keep = reg["in_aoi"]
         v = v[keep]
         d = np.nan_to_num(reg["direction"][keep], nan=0.0)
-        unit = tangential(self.muscle.unit_displacement(rest[keep]), np.take(hier.slide, v, axis=0))
+        unit = tangential(self.muscle.unit_displacement(rest[keep]), hier.slide.take(v, axis=0))
         k = len(v)
         self.ids = grown(self.ids, v)
         for name, key in (("lam", "lam"), ("gamma", "gamma"), ("l", "l"), ("at", "At"),
@@ -478,9 +478,9 @@ class MuscleLevels(HoldsArrays):
     def _ring_data(self, hier: Hierarchy, rows: np.ndarray) -> None:
         v = self.ids[rows]
         ring = hier.safe_ring(v)
-        edge = np.take(hier.rest, ring, axis=0) - np.take(hier.rest, v, axis=0)[:, None]
-        length = np.take(hier.ring_len, v, axis=0)  # complete rings: 1 where no neighbour (edge 0)
-        cos = np.abs(np.einsum("kjc,kc->kj", edge, np.take(self.direction, rows, axis=0)))
+        edge = hier.rest.take(ring, axis=0) - hier.rest.take(v, axis=0)[:, None]
+        length = hier.ring_len.take(v, axis=0)  # complete rings: 1 where no neighbour (edge 0)
+        cos = np.abs(np.einsum("kjc,kc->kj", edge, self.direction.take(rows, axis=0)))
         cos = np.where(length > 0, cos / np.where(length > 0, length, 1.0), 0.0)
         total = cos.sum(axis=1, keepdims=True)
         self.weights[rows] = np.where(total > 0, cos / np.where(total > 0, total, 1.0), 0.0)
@@ -560,7 +560,7 @@ def _closure_round(hier: Hierarchy, ext: np.ndarray, frontier: np.ndarray) -> np
     near = np.concatenate([hier.node_nbr[frontier].ravel(), kids])
     near = distinct(near[near >= 0], mark)
     near = near[~ext[near]]
-    e0, e1, e2 = ext[np.take(hier.node_nbr, near, axis=0)].T
+    e0, e1, e2 = ext[hier.node_nbr.take(near, axis=0)].T
     crowded = (e0 & (e1 | e2)) | (e1 & e2)  # two or three neighbours split
     cand = np.concatenate([hier.node_across[frontier].ravel(), near[crowded]])
     cand = distinct(cand[cand >= 0], mark)
@@ -615,7 +615,7 @@ def canonical_order(hier: Hierarchy, split: np.ndarray) -> np.ndarray:
     midpoints of the split nodes as :func:`split_in_order` meets them.
     """
     split_ids, _ = split_in_order(hier, split, np.flatnonzero(split[:hier.n_roots]))
-    mids = np.take(hier.node_mid, split_ids, axis=0).ravel()
+    mids = hier.node_mid.take(split_ids, axis=0).ravel()
     return np.concatenate([np.arange(hier.n_root), first_seen(mids, hier.point_scratch())])
 
 
@@ -632,7 +632,7 @@ def _present(hier: Hierarchy, split_ids: np.ndarray) -> np.ndarray:
     """
     present = np.zeros(hier.n_points + 1, bool)
     present[:hier.n_root] = True
-    present[np.take(hier.node_mid, split_ids, axis=0).ravel()] = True
+    present[hier.node_mid.take(split_ids, axis=0).ravel()] = True
     return present
 
 
@@ -654,17 +654,17 @@ def conforming_triangles(hier: Hierarchy, split: np.ndarray, roots: np.ndarray |
     """
     split_ids, leaf = split_in_order(hier, split, roots)
     present = _present(hier, split_ids)
-    tri = np.take(hier.node_tri, leaf, axis=0)
-    mids = np.take(hier.node_mid, leaf, axis=0)
+    tri = hier.node_tri.take(leaf, axis=0)
+    mids = hier.node_mid.take(leaf, axis=0)
     h0, h1, h2 = present[mids].T  # a closed set's leaf has at most one midpoint
     cut = h0 | h1 | h2
     whole = np.flatnonzero(~cut)
     g = np.flatnonzero(cut)
     at = 3 * g + h1[g] + 2 * h2[g]  # the cut edge's first corner k, in tri.ravel()
     nxt = at + np.where(h2[g], -2, 1)  # corner k + 1
-    vk, vk1, vk2 = (np.take(tri, i) for i in (at, nxt, 9 * g + 3 - at - nxt))
-    m = np.take(mids, at)
-    triangles = np.concatenate([np.take(tri, whole, axis=0), np.stack([vk, m, vk2], axis=1),
+    vk, vk1, vk2 = (tri.take(i) for i in (at, nxt, 9 * g + 3 - at - nxt))
+    m = mids.take(at)
+    triangles = np.concatenate([tri.take(whole, axis=0), np.stack([vk, m, vk2], axis=1),
                                 np.stack([m, vk1, vk2], axis=1)])
-    nodes = np.concatenate([np.take(leaf, whole), np.take(leaf, g), np.take(leaf, g)])
+    nodes = np.concatenate([leaf.take(whole), leaf.take(g), leaf.take(g)])
     return triangles, nodes, present[:-1]

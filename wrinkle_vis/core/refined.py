@@ -58,14 +58,14 @@ def bent(triangles: np.ndarray, points: np.ndarray, angle_deg: float,
     """
     t0, t1, t2 = triangles.T
     n = points.shape[1]
-    ax, ay, az = (np.take(p, t0) for p in points)
-    ux, uy, uz = (np.take(p, t1) - a for p, a in zip(points, (ax, ay, az), strict=True))
-    vx, vy, vz = (np.take(p, t2) - a for p, a in zip(points, (ax, ay, az), strict=True))
+    ax, ay, az = (p.take(t0) for p in points)
+    ux, uy, uz = (p.take(t1) - a for p, a in zip(points, (ax, ay, az), strict=True))
+    vx, vy, vz = (p.take(t2) - a for p, a in zip(points, (ax, ay, az), strict=True))
     fn = (uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx)
     vn = _unit(*(np.bincount(t0, f, n) + np.bincount(t1, f, n) + np.bincount(t2, f, n)
                  for f in fn))  # (3, n)
     c = np.flatnonzero(candidates)
-    corner = [np.take(vn, t[c], axis=1) for t in (t0, t1, t2)]  # (3, k) each
+    corner = [vn.take(t[c], axis=1) for t in (t0, t1, t2)]  # (3, k) each
     cos = np.minimum.reduce([(corner[i] * corner[(i + 1) % 3]).sum(axis=0) for i in range(3)])
     limit = np.radians(angle_deg)
     if rest_bend is not None:
@@ -195,8 +195,8 @@ class _Assembly(HoldsArrays):
         out = np.zeros(len(triangles), bool)
         for k in range(3):
             v = triangles[:, k]
-            u = np.take(self.half_period, v)
-            depth = np.abs(np.take(W, v))
+            u = self.half_period.take(v)
+            depth = np.abs(W.take(v))
             out |= (h * EDGES_PER_HALF_PERIOD > u) & (depth * np.pi ** 2 * h > angle * u * u)
         return out
 
@@ -280,7 +280,7 @@ class _Dynamic:
                        "moved": np.zeros(0, np.int64), "touched": np.zeros(0, np.int64)}
         self.buffers = buffers
         d, moved, touched = buffers["deformed"], buffers["moved"], buffers["touched"]
-        d[:, moved] = np.take(hier.rest, moved, axis=0).T  # undo the last frame
+        d[:, moved] = hier.rest.take(moved, axis=0).T  # undo the last frame
         buffers["computed"][moved] = False
         buffers["evaluated"][touched] = False
         buffers["W"][touched] = 0.0
@@ -342,12 +342,12 @@ class _Dynamic:
         p = asm.slot[v]
         has = np.flatnonzero(p >= 0)
         p = p[has]
-        scale = np.take(self.a_padded, np.take(asm.muscle, p, axis=0))  # (k, c)
+        scale = self.a_padded.take(asm.muscle.take(p, axis=0))  # (k, c)
         pull = np.zeros((len(v), 3))
-        pull[has] = np.einsum("kc,kcx->kx", scale, np.take(asm.unit, p, axis=0))
-        bend = slide_bend(pull.T, np.take(hier.shape6, v, axis=0).T)
-        self.deformed[:, v] = (np.take(hier.rest, v, axis=0) + pull
-                               - bend[:, None] * np.take(hier.slide, v, axis=0)).T
+        pull[has] = np.einsum("kc,kcx->kx", scale, asm.unit.take(p, axis=0))
+        bend = slide_bend(pull.T, hier.shape6.take(v, axis=0).T)
+        self.deformed[:, v] = (hier.rest.take(v, axis=0) + pull
+                               - bend[:, None] * hier.slide.take(v, axis=0)).T
         self.computed[v] = True
         self._moved.append(v)
 
@@ -358,20 +358,20 @@ class _Dynamic:
         hier, asm = self.hier, self.asm
         deltas = self.ring_deltas(v)  # (3, 6, k)
         dx, dy, dz = deltas
-        tau = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / np.take(hier.ring_len, v, axis=0).T
+        tau = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / hier.ring_len.take(v, axis=0).T
         normal = _ring_normal(deltas)
         normal /= np.maximum(np.sqrt((normal * normal).sum(axis=0)), 1e-300)
         p = asm.slot[v]
         has = np.flatnonzero(p >= 0)
         p = p[has]
-        eps = np.einsum("kcj,jk->kc", np.take(asm.weights, p, axis=0), tau[:, has])  # (k, c)
+        eps = np.einsum("kcj,jk->kc", asm.weights.take(p, axis=0), tau[:, has])  # (k, c)
         if asm.has_grad:
             eps += _stretch_mean(asm.coef[p], asm.area[p], *(e[:, has].T[:, None] for e in
                                                              (dx, dy, dz)))
         w = np.zeros(len(v))
-        w[has] = (np.take(asm.hat, p, axis=0) * anisotropy(eps)).sum(axis=1)
+        w[has] = (asm.hat.take(p, axis=0) * anisotropy(eps)).sum(axis=1)
         self.W[v] = w
-        self.points[:, v] = np.take(self.deformed, v, axis=1) + w * normal
+        self.points[:, v] = self.deformed.take(v, axis=1) + w * normal
         self.evaluated[v] = True
         self._touched.append(v)
 
@@ -424,7 +424,7 @@ def _renumbered(triangles: np.ndarray, used: np.ndarray, slot: np.ndarray) -> np
 
 def _any_corner(flag: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """``(t,) bool``: the ``triangles`` ``(t, 3)`` with a corner where ``flag`` ``(v,)``."""
-    a, b, c = np.take(flag, triangles).T
+    a, b, c = flag.take(triangles).T
     return a | b | c
 
 
@@ -570,7 +570,7 @@ class RefinedEngine:
             if present is not None:
                 used = np.flatnonzero(present)
                 local = _renumbered(tris, used, hier.point_scratch())
-                points = np.take(dyn.points, used, axis=1)
+                points = dyn.points.take(used, axis=1)
             cand = _any_corner(dyn.influenced(), tris) & (hier.node_level[nodes] < hier.depth)
             marked = bent(local, points, angle_deg, cand, hier.node_bend[nodes])
             marked |= cand & dyn.asm.undersampled(hier, tris, nodes, dyn.W,
