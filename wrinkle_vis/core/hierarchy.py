@@ -228,7 +228,7 @@ class Hierarchy:
             raise ValueError(f"a node of the deepest level ({self.depth}) cannot split: "
                              "the hierarchy holds no level below it")
         self._prepare(nodes)  # their neighbours of their level exist from now on
-        nbrs = self.node_nbr[nodes].ravel()
+        nbrs = self.node_nbr.take(nodes, axis=0).ravel()
         self._expand(np.concatenate([nodes, nbrs[nbrs >= 0]]))
         self._finalize(nodes)
         self.node_ready[nodes] = True
@@ -261,12 +261,12 @@ class Hierarchy:
     def _prepare(self, nodes: np.ndarray) -> None:
         """Give children to the nodes across the edges of ``nodes``' parents."""
         parents = self.node_parent[nodes]
-        up = self.node_nbr[parents[parents >= 0]].ravel()
+        up = self.node_nbr.take(parents[parents >= 0], axis=0).ravel()
         self._expand(up[up >= 0])
 
     def _children(self, nodes: np.ndarray, level: int) -> None:
         """Build the four children of each of ``nodes`` ``(p,)`` (of ``level - 1``)."""
-        a, b, c = self.node_tri[nodes].T
+        a, b, c = self.node_tri.take(nodes, axis=0).T
         m01, m12, m20 = self._midpoints(np.concatenate([a, b, c]),
                                         np.concatenate([b, c, a]), level).reshape(3, -1)
         first = len(self.node_tri) + 4 * np.arange(len(nodes))
@@ -275,7 +275,7 @@ class Hierarchy:
         self.node_child[nodes] = first
         self.node_mid[nodes] = np.stack([m01, m12, m20], axis=1)
         self._half_rings(a, b, c, m01, m12, m20)
-        across = self.node_nbr[nodes][:, np.maximum(_CHILD_EDGES, 0)]  # (p, 4, 2)
+        across = self.node_nbr.take(nodes, axis=0)[:, np.maximum(_CHILD_EDGES, 0)]  # (p, 4, 2)
         self._link(nodes, first)
         self.node_tri = grown(self.node_tri, kids)
         self.node_child = grown(self.node_child, np.full(len(kids), -1))
@@ -378,7 +378,7 @@ class Hierarchy:
         """Complete the rings of the midpoints of ``nodes`` (they and the nodes across their
         edges have children): their rest lengths.
         """
-        v = self.node_mid[nodes].ravel()
+        v = self.node_mid.take(nodes, axis=0).ravel()
         v = np.unique(v[~self.final[v]])
         ring = self.ring.take(v, axis=0)
         safe = np.where(ring >= 0, ring, v[:, None])
@@ -557,12 +557,12 @@ def _closure_round(hier: Hierarchy, ext: np.ndarray, frontier: np.ndarray) -> np
     mark = hier.scratch()  # dedupes without sorting
     kids = hier.node_child[frontier]
     kids = (kids[kids >= 0][:, None] + np.arange(4)).ravel()
-    near = np.concatenate([hier.node_nbr[frontier].ravel(), kids])
+    near = np.concatenate([hier.node_nbr.take(frontier, axis=0).ravel(), kids])
     near = distinct(near[near >= 0], mark)
     near = near[~ext[near]]
     e0, e1, e2 = ext[hier.node_nbr.take(near, axis=0)].T
     crowded = (e0 & (e1 | e2)) | (e1 & e2)  # two or three neighbours split
-    cand = np.concatenate([hier.node_across[frontier].ravel(), near[crowded]])
+    cand = np.concatenate([hier.node_across.take(frontier, axis=0).ravel(), near[crowded]])
     cand = distinct(cand[cand >= 0], mark)
     return cand[~ext[cand] & (hier.node_level[cand] < hier.depth)]
 
