@@ -86,6 +86,28 @@ def test_the_closure_is_conforming_for_any_split_set(built):
         assert hier.final[present[hier.n_root:].nonzero()[0] + hier.n_root].all()
 
 
+def test_a_split_set_that_is_not_closed_is_refused_not_assembled_into_garbage():
+    """Two split neighbours of one leaf (which the closure would split) or a split node
+    with no children: a clear error, not triangles indexed past their corners."""
+    sphere = make_sphere(1)
+    hier = _hierarchy(sphere)
+    leaf = 0
+    a, b = hier.node_nbr[leaf, :2]
+    split = np.zeros(len(hier.node_tri), bool)
+    split[[a, b]] = True
+    with pytest.raises(ValueError, match="not closed.*two or three split neighbours"):
+        conforming_triangles(hier, split)
+    closed, _ = refined_topology(hier, np.zeros(len(hier.node_tri), bool), np.array([a, b]))
+    assert closed[leaf]
+    conforming_triangles(hier, closed)  # what the closure makes is taken
+
+    bare = _hierarchy(sphere, built=False)
+    split = np.zeros(len(bare.node_tri), bool)
+    split[5] = True
+    with pytest.raises(ValueError, match="split node 5 has no children.*refined_topology"):
+        conforming_triangles(bare, split)
+
+
 def test_skin_vertices_keep_the_unrefined_values_exactly(face):
     for name in ("surprise", "frown", "fear"):
         base = face.evaluate(name, 1.0)

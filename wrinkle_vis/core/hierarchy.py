@@ -605,7 +605,12 @@ def split_in_order(hier: Hierarchy, split: np.ndarray, roots: np.ndarray | None 
         leaves.append(nodes[~s])
         nodes = nodes[s]
         splits.append(nodes)
-        nodes = (hier.node_child[nodes][:, None] + np.arange(4)).ravel()
+        first = hier.node_child[nodes]
+        if len(first) and first.min() < 0:
+            raise ValueError(f"split node {int(nodes[first.argmin()])} has no children in "
+                             "the hierarchy: close the split set with refined_topology "
+                             "(it builds what splits) before assembling its mesh")
+        nodes = (first[:, None] + np.arange(4)).ravel()
     return np.concatenate(splits), np.concatenate(leaves)
 
 
@@ -641,6 +646,10 @@ def conforming_triangles(hier: Hierarchy, split: np.ndarray, roots: np.ndarray |
     (of ``roots``' subtrees only, if given: then a leaf is bisected where a node among them
     split).
 
+    A set :func:`refined_topology` did not close is refused (``ValueError``) where a split
+    node has no children or a leaf has more than one split neighbour; the level rule
+    (neighbours differ by one level at most) is not checked here.
+
     Returns
     -------
     triangles : (t, 3) int
@@ -660,6 +669,10 @@ def conforming_triangles(hier: Hierarchy, split: np.ndarray, roots: np.ndarray |
     cut = h0 | h1 | h2
     whole = np.flatnonzero(~cut)
     g = np.flatnonzero(cut)
+    if np.count_nonzero(h0) + np.count_nonzero(h1) + np.count_nonzero(h2) != len(g):
+        raise ValueError("the split set is not closed: a leaf has two or three split "
+                         "neighbours (a green bisection closes one); close it with "
+                         "refined_topology before assembling its mesh")
     at = 3 * g + h1[g] + 2 * h2[g]  # the cut edge's first corner k, in tri.ravel()
     nxt = at + np.where(h2[g], -2, 1)  # corner k + 1
     vk, vk1, vk2 = (tri.take(i) for i in (at, nxt, 9 * g + 3 - at - nxt))
