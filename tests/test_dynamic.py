@@ -9,6 +9,7 @@ import wrinkle_vis as wv
 from wrinkle_vis.core import mesh, refined
 from wrinkle_vis.core.hierarchy import (
     Hierarchy,
+    canonical_order,
     conforming_triangles,
     corner_angle,
     longest_edge,
@@ -76,7 +77,7 @@ def test_the_closure_is_conforming_for_any_split_set(built):
             split, added = refined_topology(hier, split, pick)
             np.testing.assert_array_equal(added[:len(pick)], pick)
             assert split[added].all()
-            tris, nodes, present = conforming_triangles(hier, split)
+            tris, nodes, present, split_ids = conforming_triangles(hier, split)
             alive = nodes
         rep = mesh.TriangleSurface(hier.rest, tris).report()
         assert len(rep.boundary_edges) == 0 and len(rep.non_manifold_edges) == 0
@@ -84,6 +85,9 @@ def test_the_closure_is_conforming_for_any_split_set(built):
         assert np.isclose(mesh.TriangleSurface(hier.rest, tris).triangle_areas().sum(),
                           area.sum(), rtol=0.05)
         assert hier.final[present[hier.n_root:].nonzero()[0] + hier.n_root].all()
+        # the walk from every root meets the split nodes as the walk from the split roots
+        np.testing.assert_array_equal(canonical_order(hier, split, split_ids),
+                                      canonical_order(hier, split))
 
 
 def test_a_split_set_that_is_not_closed_is_refused_not_assembled_into_garbage():
@@ -171,8 +175,9 @@ def test_a_frame_is_the_whole_skins_conforming_mesh_whatever_its_zone(monkeypatc
         root = face.evaluate("surprise", t)
         active = tuple(m for m in face.muscles if root.activations[m.name] > 0)
         a = np.array([root.activations[m.name] for m in active])
-        dyn, tris, split = engine.frame(root, active, a, 3.0, 3)
-        whole, _, present = conforming_triangles(engine.hier, split)
+        dyn, tris, split, split_ids = engine.frame(root, active, a, 3.0, 3)
+        whole, _, present, walked = conforming_triangles(engine.hier, split)
+        np.testing.assert_array_equal(split_ids, walked)  # the zone's walk is the whole's
         assert sorted(map(tuple, np.sort(tris, axis=1))) == \
             sorted(map(tuple, np.sort(whole, axis=1)))
         assert dyn.evaluated[present].all()

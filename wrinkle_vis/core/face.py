@@ -614,17 +614,17 @@ class FaceModel:
             return root
         engine = self._rest.engine(levels)
         a = np.array([acts[m.name] for m in active])
-        dyn, tris, split = engine.frame(root, tuple(active), a, angle_deg, levels)
+        dyn, tris, split, split_ids = engine.frame(root, tuple(active), a, angle_deg, levels)
         if not split.any():
             return root
-        face, order = self._refined_face(engine, split, tris)
+        face, order = self._refined_face(engine, split, split_ids, tris)
         source = _RefinedSource(root, engine, (tuple(active), a), order)
         deformed = np.ascontiguousarray(np.take(dyn.deformed, order, axis=1).T)
         points = np.ascontiguousarray(np.take(dyn.points, order, axis=1).T)
         return FaceState(face, acts, deformed, points,
                          dyn.W[order], None, {}, source)
 
-    def _refined_face(self, engine: RefinedEngine, split, tris):
+    def _refined_face(self, engine: RefinedEngine, split, split_ids, tris):
         """The face on the refined skin of a split set (the latest one is kept, so frames
         with the same split set share their face, triangles and rest skin).
         """
@@ -633,7 +633,7 @@ class FaceModel:
         if last is not None and last[0] == key:
             return last[1], last[2]
         hier = engine.hier
-        order = canonical_order(hier, split)
+        order = canonical_order(hier, split, split_ids)
         remap = np.full(hier.n_points, -1, np.int64)
         remap[order] = np.arange(len(order))
         surface = TriangleSurface._derived(np.take(hier.rest, order, axis=0),

@@ -614,12 +614,16 @@ def split_in_order(hier: Hierarchy, split: np.ndarray, roots: np.ndarray | None 
     return np.concatenate(splits), np.concatenate(leaves)
 
 
-def canonical_order(hier: Hierarchy, split: np.ndarray) -> np.ndarray:
+def canonical_order(hier: Hierarchy, split: np.ndarray,
+                    split_ids: np.ndarray | None = None) -> np.ndarray:
     """``(v,)``: the vertices of the mesh of the closed split set ``split`` in an order that
     does not depend on the order the hierarchy was built in: the skin's vertices, then the
-    midpoints of the split nodes as :func:`split_in_order` meets them.
+    midpoints of the split nodes as :func:`split_in_order` meets them (``split_ids``, if
+    given: those of a walk from roots that hold every split root, as
+    :func:`conforming_triangles` returns them; the walk is not made again).
     """
-    split_ids, _ = split_in_order(hier, split, np.flatnonzero(split[:hier.n_roots]))
+    if split_ids is None:
+        split_ids, _ = split_in_order(hier, split, np.flatnonzero(split[:hier.n_roots]))
     mids = hier.node_mid.take(split_ids, axis=0).ravel()
     return np.concatenate([np.arange(hier.n_root), first_seen(mids, hier.point_scratch())])
 
@@ -660,6 +664,8 @@ def conforming_triangles(hier: Hierarchy, split: np.ndarray, roots: np.ndarray |
         The node each triangle lies in.
     present : (v,) bool
         The vertices the mesh uses.
+    split_ids : (s,) int
+        The split nodes under those roots, as :func:`split_in_order` walks them.
     """
     split_ids, leaf = split_in_order(hier, split, roots)
     present = _present(hier, split_ids)
@@ -680,4 +686,4 @@ def conforming_triangles(hier: Hierarchy, split: np.ndarray, roots: np.ndarray |
     triangles = np.concatenate([tri.take(whole, axis=0), np.stack([vk, m, vk2], axis=1),
                                 np.stack([m, vk1, vk2], axis=1)])
     nodes = np.concatenate([leaf.take(whole), leaf.take(g), leaf.take(g)])
-    return triangles, nodes, present[:-1]
+    return triangles, nodes, present[:-1], split_ids

@@ -555,12 +555,16 @@ class RefinedEngine:
             split set and the influenced vertices alone (not on earlier frames).
         split : (N,) bool
             The split nodes.
+        split_ids : (s,) int
+            The same, as :func:`~wrinkle_vis.core.hierarchy.split_in_order` walks them
+            (for :func:`~wrinkle_vis.core.hierarchy.canonical_order`).
         """
         hier = self.hier
         influenced = _moved_or_wrinkled(root)
         zone = self.zone(influenced)
         dyn = _Dynamic(hier, self.assembly(muscles), root, a, self.buffers, influenced)
         split = np.zeros(len(hier.node_tri), bool)
+        split_ids = np.zeros(0, np.int64)
         tris, nodes = zone.triangles, zone.ids
         # bent sees the mesh on its own vertices (normal sums as long as those, not as the
         # whole hierarchy)
@@ -580,12 +584,12 @@ class RefinedEngine:
             split, _ = refined_topology(hier, split, distinct(nodes[marked], hier.scratch()))
             if dyn.asm.version != (hier.version, hier.n_points):  # the hierarchy grew
                 dyn.grow(self.assembly(muscles))
-            tris, nodes, present = conforming_triangles(hier, split, zone.ids)
+            tris, nodes, present, split_ids = conforming_triangles(hier, split, zone.ids)
             dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))
         tris = self._whole(split, zone, tris, dyn)
         dyn.finish()
         self.buffers = dyn.buffers
-        return dyn, tris, split
+        return dyn, tris, split, split_ids
 
     def zone(self, influenced: np.ndarray) -> _Zone:
         """The zone of a frame whose skin vertices ``influenced`` ``(n,) bool`` an active
@@ -622,7 +626,7 @@ class RefinedEngine:
         in_zone = zone.inside.copy()
         in_zone[roots] = True
         in_zone[near] = True
-        tris, _, present = conforming_triangles(hier, split, np.flatnonzero(in_zone))
+        tris, _, present, _ = conforming_triangles(hier, split, np.flatnonzero(in_zone))
         dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))
         return np.concatenate([tris, hier.skin.triangles[~in_zone]])
 
