@@ -586,7 +586,7 @@ class RefinedEngine:
                 dyn.grow(self.assembly(muscles))
             tris, nodes, present, split_ids = conforming_triangles(hier, split, zone.ids)
             dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))
-        tris = self._whole(split, zone, tris, dyn)
+        tris, split_ids = self._whole(split, split_ids, zone, tris, dyn)
         dyn.finish()
         self.buffers = dyn.buffers
         return dyn, tris, split, split_ids
@@ -608,13 +608,15 @@ class RefinedEngine:
         self._zone = _Zone(influenced.copy(), ids, inside, tris[ids], tris[~inside])
         return self._zone
 
-    def _whole(self, split: np.ndarray, zone: _Zone, zone_tris: np.ndarray,
-               dyn: _Dynamic) -> np.ndarray:
+    def _whole(self, split: np.ndarray, split_ids: np.ndarray, zone: _Zone,
+               zone_tris: np.ndarray, dyn: _Dynamic) -> tuple[np.ndarray, np.ndarray]:
         """``(t, 3)``: the whole mesh: the zone's, then the root triangles outside it, when
         the split set keeps to the zone and its neighbours are in it (no triangle outside
         is bisected); else the zone grows by the split root triangles outside it and their
         neighbours, is assembled anew (its new vertices evaluated), and the root triangles
-        outside it follow (none of them borders a split one).
+        outside it follow (none of them borders a split one). Also ``(s,)``: the split
+        nodes as that mesh's walk met them (``split_ids``, the zone's walk, where it kept
+        to the zone).
         """
         hier = self.hier
         n_roots = hier.n_roots
@@ -622,13 +624,14 @@ class RefinedEngine:
         near = hier.root_nbrs[roots]
         near = near[near >= 0]
         if zone.inside[roots].all() and zone.inside[near].all():
-            return np.concatenate([zone_tris, zone.outside])
+            return np.concatenate([zone_tris, zone.outside]), split_ids
         in_zone = zone.inside.copy()
         in_zone[roots] = True
         in_zone[near] = True
-        tris, _, present, _ = conforming_triangles(hier, split, np.flatnonzero(in_zone))
+        tris, _, present, split_ids = conforming_triangles(hier, split,
+                                                           np.flatnonzero(in_zone))
         dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))
-        return np.concatenate([tris, hier.skin.triangles[~in_zone]])
+        return np.concatenate([tris, hier.skin.triangles[~in_zone]]), split_ids
 
     def dynamic(self, root, muscles, a: np.ndarray) -> _Dynamic:
         """A frame's values in arrays of their own, computed where asked (for a state's
