@@ -112,6 +112,30 @@ def test_a_split_set_that_is_not_closed_is_refused_not_assembled_into_garbage():
         conforming_triangles(bare, split)
 
 
+def test_a_split_set_that_breaks_the_level_rule_is_refused_not_assembled_with_a_crack():
+    """A corner child of a split root splits while the roots across its parent's edges do
+    not: its edge midpoint would hang on their (twice as long) edge. No leaf has two split
+    neighbours, so only the level rule sees it; the closure splits those roots."""
+    sphere = make_sphere(1)
+    hier = _hierarchy(sphere)
+    root = 0
+    split, _ = refined_topology(hier, np.zeros(len(hier.node_tri), bool), np.array([root]))
+    conforming_triangles(hier, split)  # closed: taken
+    corner = int(hier.node_child[root])  # the child at corner a: on edges 01 and 20
+    across = hier.node_across[corner]
+    assert (across >= 0).all() and not split[across].any()
+    broken = split.copy()
+    broken[corner] = True
+    with pytest.raises(ValueError, match=f"not closed: node {corner} split but node "
+                                         f"{across[0]}.*level rule.*refined_topology"):
+        conforming_triangles(hier, broken)
+    closed, _ = refined_topology(hier, split, np.array([corner]))
+    assert closed[across].all()
+    tris, *_ = conforming_triangles(hier, closed)
+    rep = mesh.TriangleSurface(hier.rest, tris).report()
+    assert len(rep.boundary_edges) == 0 and len(rep.non_manifold_edges) == 0
+
+
 def test_skin_vertices_keep_the_unrefined_values_exactly(face):
     for name in ("surprise", "frown", "fear"):
         base = face.evaluate(name, 1.0)

@@ -645,14 +645,30 @@ def _present(hier: Hierarchy, split_ids: np.ndarray) -> np.ndarray:
     return present
 
 
+def _check_level_rule(hier: Hierarchy, split: np.ndarray, split_ids: np.ndarray) -> None:
+    """Refuse (``ValueError``) split nodes ``split_ids`` ``(s,)`` whose parent's neighbour
+    across an edge they lie on (``node_across``) is not in ``split`` ``(N,) bool``.
+    """
+    across = hier.node_across.take(split_ids, axis=0).ravel()
+    ok = split.take(np.maximum(across, 0)) | (across < 0)
+    if not ok.all():
+        bad = int(np.flatnonzero(~ok)[0])
+        raise ValueError(f"the split set is not closed: node {int(split_ids[bad // 2])} "
+                         f"split but node {int(across[bad])}, across its parent's edge, did "
+                         "not (the level rule); close it with refined_topology before "
+                         "assembling its mesh")
+
+
 def conforming_triangles(hier: Hierarchy, split: np.ndarray, roots: np.ndarray | None = None):
     """The mesh of a closed split set: every leaf, bisected where one edge has a midpoint
     (of ``roots``' subtrees only, if given: then a leaf is bisected where a node among them
     split).
 
     A set :func:`refined_topology` did not close is refused (``ValueError``) where a split
-    node has no children or a leaf has more than one split neighbour; the level rule
-    (neighbours differ by one level at most) is not checked here.
+    node has no children, where one breaks the level rule (a split node's parent has a
+    neighbour across an edge the node lies on that did not split: neighbours would differ
+    by two levels, and the finer side's vertex would hang on the coarser side's edge) or
+    where a leaf has more than one split neighbour.
 
     Returns
     -------
@@ -668,6 +684,7 @@ def conforming_triangles(hier: Hierarchy, split: np.ndarray, roots: np.ndarray |
         The split nodes under those roots, as :func:`split_in_order` walks them.
     """
     split_ids, leaf = split_in_order(hier, split, roots)
+    _check_level_rule(hier, split, split_ids)
     present = _present(hier, split_ids)
     tri = hier.node_tri.take(leaf, axis=0)
     mids = hier.node_mid.take(leaf, axis=0)
