@@ -321,6 +321,26 @@ def test_views_are_native_windows_that_render_once_a_frame(window):
     assert renders == [1, 1, 0]  # skin and muscles changed, the skull did not
 
 
+def test_a_view_initializes_its_plotter_once_with_its_arguments(qapp, monkeypatch):
+    """Qt's ``QWidget.__init__`` continues the ``super().__init__`` chain past the Qt classes;
+    a view ends it there, so ``BasePlotter.__init__`` runs once, with the view's arguments
+    (not first with none, which fails), and nothing is patched while it builds."""
+    from pyvista.plotting.plotter import BasePlotter
+
+    from wrinkle_vis.app.viewwidget import NativeView
+
+    calls = []
+    init = BasePlotter.__init__
+    monkeypatch.setattr(BasePlotter, "__init__",
+                        lambda self, *a, **k: (calls.append((a, k)), init(self, *a, **k))[1])
+    view = NativeView(None, border=False)
+    try:
+        assert calls == [((), {"border": False})]
+        assert BasePlotter.__init__ is not init and view.renderer is not None
+    finally:
+        view.close()
+
+
 def shown_pixels(view) -> np.ndarray:
     """``(h, w, 3)`` uint8: what the screen shows of a view (a native window: grabbed from
     the X server; a QOpenGLWidget: its framebuffer, which Qt composes as it is)."""

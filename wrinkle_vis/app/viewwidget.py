@@ -117,18 +117,16 @@ def _window_for_platform():
     return vtkRenderWindow()
 
 
-@contextlib.contextmanager
-def _no_base_plotter_init():
-    """Qt's ``QWidget.__init__`` continues the cooperative ``super()`` chain into
-    ``BasePlotter.__init__`` (with no arguments); hold that call off (pyvistaqt does the
-    same for its widget).
+class _EndOfQtInit:
+    """Ends the cooperative ``super().__init__`` chain that Qt's ``QWidget.__init__``
+    continues after the Qt classes: placed before ``BasePlotter`` in a view's bases, it
+    takes that call (which has none of the plotter's arguments), so the view calls
+    ``BasePlotter.__init__`` itself, once, with them. (pyvistaqt swaps
+    ``BasePlotter.__init__`` for a no-op while the Qt base initializes instead.)
     """
-    init = BasePlotter.__init__
-    BasePlotter.__init__ = lambda *args, **kwargs: None
-    try:
-        yield
-    finally:
-        BasePlotter.__init__ = init
+
+    def __init__(self, *args, **kwargs):
+        pass
 
 
 class _NoEvents:
@@ -141,7 +139,7 @@ class _NoEvents:
 _NativeBase = _native_base()
 
 
-class NativeView(_NativeBase, BasePlotter):
+class NativeView(_NativeBase, _EndOfQtInit, BasePlotter):
     """A PyVista plotter in a native child window that VTK renders into directly.
 
     Mouse and key events reach VTK's interactor as in pyvistaqt (through
@@ -151,8 +149,7 @@ class NativeView(_NativeBase, BasePlotter):
     """
 
     def __init__(self, parent: QtWidgets.QWidget | None = None, **kwargs):
-        with _no_base_plotter_init():
-            _NativeBase.__init__(self, parent, rw=_window_for_platform())
+        _NativeBase.__init__(self, parent, rw=_window_for_platform())
         BasePlotter.__init__(self, **kwargs)
         self.interactor = self
         self.ren_win = self.GetRenderWindow()
