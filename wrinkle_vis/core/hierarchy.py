@@ -659,16 +659,19 @@ def _check_level_rule(hier: Hierarchy, split: np.ndarray, split_ids: np.ndarray)
                          "assembling its mesh")
 
 
-def conforming_triangles(hier: Hierarchy, split: np.ndarray, roots: np.ndarray | None = None):
+def conforming_triangles(hier: Hierarchy, split: np.ndarray, roots: np.ndarray | None = None,
+                         *, check: bool = True):
     """The mesh of a closed split set: every leaf, bisected where one edge has a midpoint
     (of ``roots``' subtrees only, if given: then a leaf is bisected where a node among them
     split).
 
-    A set :func:`refined_topology` did not close is refused (``ValueError``) where a split
-    node has no children, where one breaks the level rule (a split node's parent has a
-    neighbour across an edge the node lies on that did not split: neighbours would differ
-    by two levels, and the finer side's vertex would hang on the coarser side's edge) or
-    where a leaf has more than one split neighbour.
+    A split node without children is refused (``ValueError``). With ``check``, so is a set
+    that :func:`refined_topology` did not close otherwise: where a node breaks the level
+    rule (a split node's parent has a neighbour across an edge the node lies on that did
+    not split: neighbours would differ by two levels, and the finer side's vertex would
+    hang on the coarser side's edge) or a leaf has more than one split neighbour. The
+    refinement engine, whose sets come from :func:`refined_topology`, leaves ``check`` off
+    in its frame loop.
 
     Returns
     -------
@@ -684,7 +687,8 @@ def conforming_triangles(hier: Hierarchy, split: np.ndarray, roots: np.ndarray |
         The split nodes under those roots, as :func:`split_in_order` walks them.
     """
     split_ids, leaf = split_in_order(hier, split, roots)
-    _check_level_rule(hier, split, split_ids)
+    if check:
+        _check_level_rule(hier, split, split_ids)
     present = _present(hier, split_ids)
     tri = hier.node_tri.take(leaf, axis=0)
     mids = hier.node_mid.take(leaf, axis=0)
@@ -692,7 +696,8 @@ def conforming_triangles(hier: Hierarchy, split: np.ndarray, roots: np.ndarray |
     cut = h0 | h1 | h2
     whole = np.flatnonzero(~cut)
     g = np.flatnonzero(cut)
-    if np.count_nonzero(h0) + np.count_nonzero(h1) + np.count_nonzero(h2) != len(g):
+    if check and (np.count_nonzero(h0) + np.count_nonzero(h1) + np.count_nonzero(h2)
+                  != len(g)):
         raise ValueError("the split set is not closed: a leaf has two or three split "
                          "neighbours (a green bisection closes one); close it with "
                          "refined_topology before assembling its mesh")

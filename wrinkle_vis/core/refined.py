@@ -584,7 +584,8 @@ class RefinedEngine:
             split, _ = refined_topology(hier, split, distinct(nodes[marked], hier.scratch()))
             if dyn.asm.version != (hier.version, hier.n_points):  # the hierarchy grew
                 dyn.grow(self.assembly(muscles))
-            tris, nodes, present, split_ids = conforming_triangles(hier, split, zone.ids)
+            tris, nodes, present, split_ids = conforming_triangles(hier, split, zone.ids,
+                                                                   check=False)  # closed
             dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))
         tris, split_ids = self._whole(split, split_ids, zone, tris, dyn)
         dyn.finish()
@@ -629,7 +630,8 @@ class RefinedEngine:
         in_zone[roots] = True
         in_zone[near] = True
         tris, _, present, split_ids = conforming_triangles(hier, split,
-                                                           np.flatnonzero(in_zone))
+                                                           np.flatnonzero(in_zone),
+                                                           check=False)  # closed
         dyn.evaluate(np.flatnonzero(present & ~dyn.evaluated))
         return np.concatenate([tris, hier.skin.triangles[~in_zone]]), split_ids
 
