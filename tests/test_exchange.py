@@ -4,6 +4,7 @@ the expressions as glTF morph targets, each read back by another library.
 
 import json
 import struct
+from pathlib import Path
 
 import meshio
 import numpy as np
@@ -27,6 +28,13 @@ def _read_step(reader, k: int) -> pv.PolyData:
     return mesh[0] if isinstance(mesh, pv.MultiBlock) else mesh
 
 
+def _frames_in(folder):
+    """The files in ``folder``'s one version folder (``v<pid>-<hex>``)."""
+    (version,) = folder.iterdir()
+    assert version.is_dir() and version.name.startswith("v")
+    return sorted(p.name for p in version.iterdir())
+
+
 # ---------------------------------------------------------------------- ParaView series
 def test_pvd_opens_in_pyvista_with_every_field_on_every_step(tmp_path, face, capsys):
     out = tmp_path / "ramp.pvd"
@@ -37,8 +45,7 @@ def test_pvd_opens_in_pyvista_with_every_field_on_every_step(tmp_path, face, cap
     reader = pv.get_reader(str(out))
     assert reader.number_time_points == 13
     np.testing.assert_allclose(reader.time_values, times, rtol=0, atol=1e-12)
-    assert sorted(p.name for p in (tmp_path / "ramp").iterdir()) == \
-        [f"ramp_{i:04d}.vtp" for i in range(13)]
+    assert _frames_in(tmp_path / "ramp") == [f"ramp_{i:04d}.vtp" for i in range(13)]
     for k, t in enumerate(times):
         mesh = _read_step(reader, k)
         state = face.evaluate(expression.at(t))
@@ -55,10 +62,9 @@ def test_pvd_opens_in_pyvista_with_every_field_on_every_step(tmp_path, face, cap
 def test_pvd_replaces_its_frame_folder_whole(tmp_path):
     out = tmp_path / "s.pvd"
     assert main(["export", "--sequence", "--fps", "4", "-o", str(out)]) == 0
-    assert len(list((tmp_path / "s").iterdir())) == 13
+    assert len(_frames_in(tmp_path / "s")) == 13
     assert main(["export", "--sequence", "--fps", "1", "-o", str(out)]) == 0
-    assert sorted(p.name for p in (tmp_path / "s").iterdir()) == \
-        [f"s_{i:04d}.vtp" for i in range(4)]
+    assert _frames_in(tmp_path / "s") == [f"s_{i:04d}.vtp" for i in range(4)]  # old gone
     assert pv.get_reader(str(out)).number_time_points == 4
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s", "s.pvd"]  # nothing left over
 
@@ -111,16 +117,18 @@ def test_numbered_paths():
     assert numbered_path("f_##.ply", 3, 200).name == "f_003.ply"  # widened to fit
     assert numbered_path("take#2_###.obj", 5, 10).name == "take#2_005.obj"  # the last run
     assert numbered_path("walk.obj", 12, 13).name == "walk_0012.obj"
+    assert numbered_path("a/f_####.obj", 7, 10) == Path("a/f/f_0007.obj")  # in f/
+    assert numbered_path("####.ply", 1, 2) == Path("frames/0001.ply")
 
 
 @pytest.mark.parametrize("suffix", [".obj", ".ply"])
 def test_numbered_sequence_counts_and_round_trips(tmp_path, face, suffix):
     (tmp_path / "f_notes.txt").write_text("mine")
-    (tmp_path / "f_12345.obj").write_text("another width: not ours")
+    (tmp_path / "f_0001.obj").write_text("beside the pattern: not ours")
     pattern = tmp_path / f"f_####{suffix}"
     assert main(["export", "--sequence", "-e", "frown", "--fps", "2", "-o",
                  str(pattern)]) == 0
-    frames = sorted(tmp_path.glob(f"f_????{suffix}"))
+    frames = sorted((tmp_path / "f").iterdir())  # in a folder of their own
     assert [p.name for p in frames] == [f"f_{i:04d}{suffix}" for i in range(7)]
     state = face.evaluate(face.expressions["frown"].at(1.5))  # frame 3 at 2 fps
     if suffix == ".obj":
@@ -137,11 +145,22 @@ def test_numbered_sequence_counts_and_round_trips(tmp_path, face, suffix):
             np.testing.assert_array_equal(back.point_data[name], expected[name])
         np.testing.assert_array_equal(back.point_data["deformation_y"],
                                       expected["deformation"][:, 1])
-    # a shorter sequence of the same name removes the frames it does not replace
+    # a shorter sequence of the same name replaces the folder whole
     assert main(["export", "--sequence", "-e", "frown", "--fps", "1", "-o",
                  str(pattern)]) == 0
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
-        [f"f_{i:04d}{suffix}" for i in range(4)] + ["f_notes.txt", "f_12345.obj"])
+    assert sorted(p.name for p in (tmp_path / "f").iterdir()) == \
+        [f"f_{i:04d}{suffix}" for i in range(4)]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f", "f_0001.obj", "f_notes.txt"]
+    assert (tmp_path / "f_0001.obj").read_text() == "beside the pattern: not ours"
+
+
+def test_numbered_sequence_refuses_a_frame_folder_with_other_files(tmp_path, capsys):
+    (tmp_path / "f").mkdir()
+    (tmp_path / "f" / "notes.txt").write_text("mine")
+    assert main(["export", "--sequence", "-o", str(tmp_path / "f_####.ply")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "holds other files (notes.txt)" in err
+    assert (tmp_path / "f" / "notes.txt").read_text() == "mine"
 
 
 # ---------------------------------------------------------------------- glTF

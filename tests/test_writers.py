@@ -41,6 +41,13 @@ def _leftovers(folder: Path, keep=()) -> list[str]:
     return sorted(p.name for p in folder.iterdir() if p.name not in keep)
 
 
+def _pieces(folder: Path) -> list[str]:
+    """The files in ``folder``'s one version folder (``v<pid>-<hex>``)."""
+    (version,) = folder.iterdir()
+    assert version.is_dir() and version.name.startswith("v")
+    return sorted(p.name for p in version.iterdir())
+
+
 def _sphere() -> pv.PolyData:
     mesh = pv.Sphere(theta_resolution=12, phi_resolution=12)
     mesh.point_data.clear()
@@ -271,10 +278,9 @@ def test_vtm_replaces_its_pieces_folder_as_a_whole(tmp_path):
     blocks = pv.MultiBlock({"skin": _sphere(), "muscles": pv.MultiBlock(
         {"a": pv.Cube(), "b": pv.Cone(), "c": pv.Sphere()})})
     save_mesh(blocks, tmp_path / "f.vtm")
-    assert sorted(p.name for p in (tmp_path / "f").iterdir()) == [
-        "f_0.vtp", "f_1.vtp", "f_2.vtp", "f_3.vtp"]
+    assert _pieces(tmp_path / "f") == ["f_0.vtp", "f_1.vtp", "f_2.vtp", "f_3.vtp"]
     save_mesh(pv.MultiBlock({"skin": _sphere()}), tmp_path / "f.vtm")
-    assert [p.name for p in (tmp_path / "f").iterdir()] == ["f_0.vtp"]  # no stale pieces
+    assert _pieces(tmp_path / "f") == ["f_0.vtp"]  # the old version is gone
     back = pv.read(tmp_path / "f.vtm")
     assert back.keys() == ["skin"] and _leftovers(tmp_path) == ["f", "f.vtm"]
 

@@ -4,8 +4,19 @@ A file is written to a temporary file beside its target (same folder, so the ren
 cross a file system), flushed to disk, checked (not empty; a caller may re-read it), given
 the permissions of the file it replaces (or the umask's for a new file) and renamed over the
 target with :func:`os.replace`. On any failure the temporary file is removed and the old
-target is left as it was. A target that is a symbolic link is written through: the link's
-target is replaced and the link kept.
+target is left as it was. A target that is a symbolic link is written through (the link's
+target is replaced and the link kept) only if the link belongs to the current user or to
+the owner of the folder it lies in; any other link on the way is refused
+(:func:`check_output`), so a link planted in a shared folder cannot redirect a write.
+
+Temporary files and folders are named ``.NAME.<pid>.<random>.tmp...``; those of processes
+that are gone (killed) are removed by the next write into the same folder
+(:func:`clean_stale`), and a folder moved aside (``.NAME.old.<pid>.<random>``) by a killed
+:func:`replace_folder` is put back if its place is empty. Outputs of several files are
+replaced as a whole: a folder by one exchange of two names (:func:`replace_folder`), an index
+and its folder of pieces by renaming a new version folder in and then the index over the
+old one (:func:`replace_indexed`); a kill at any point leaves the old output or the new
+one, never a mix.
 
 Errors are one line each, naming the problem and the way out: :class:`OutputPathError` for
 a target that cannot be written at all (a folder, a missing or read-only folder, an
@@ -16,16 +27,25 @@ read back).
 
 from __future__ import annotations
 
+import ctypes
 import errno
 import os
+import re
+import secrets
+import shutil
+import signal
 import stat
 import tempfile
+import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
 __all__ = ["OutputPathError", "WriteError", "atomic_output", "atomic_write_bytes",
-           "atomic_write_text", "check_output", "replace_permissions", "write_error"]
+           "atomic_write_text", "check_output", "clean_stale", "commits", "deferred_signals",
+           "exchange", "indexed_entries", "new_version", "replace_folder", "replace_indexed",
+           "replace_permissions", "resolve_output", "temp_folder", "temp_prefix",
+           "tidy_versions", "write_error"]
 
 
 class OutputPathError(ValueError):
@@ -56,13 +76,15 @@ def check_output(path: str | os.PathLike, suffixes: Sequence[str] | None = None)
     -------
     Path
         The file to replace: ``path`` with symbolic links resolved (the link is kept and
-        its target written).
+        its target written). A link owned neither by the current user nor by the owner
+        of the folder holding it is not followed (:func:`resolve_output`).
 
     Raises
     ------
     OutputPathError
         For an unsupported or missing extension, a path that is a folder, a folder that does
-        not exist, is not a folder or is not writable.
+        not exist, is not a folder or is not writable, or a symbolic link on the way that
+        another user planted.
     """
     given = Path(path).expanduser()
     if given.is_dir():
@@ -80,7 +102,7 @@ def check_output(path: str | os.PathLike, suffixes: Sequence[str] | None = None)
     if str(given) in ("", "."):
         raise OutputPathError("no output file given; name one, e.g. 'out"
                               f"{suffixes[0] if suffixes else '.txt'}'")
-    real = Path(os.path.realpath(given))
+    real = resolve_output(given)
     if real.is_dir():
         example = real / f"out{suffixes[0] if suffixes else ''}"
         raise OutputPathError(f"{str(given)!r} is a folder; give a file name inside it, "
@@ -105,6 +127,384 @@ def _read_only_fs(folder: Path) -> bool:
         return False
 
 
+_MAX_LINKS = 40  # as the kernel's limit on links followed in one path
+
+
+def resolve_output(path: str | os.PathLike) -> Path:
+    """``path`` made absolute with its symbolic links resolved, as the kernel would, except
+    that a link is followed only if it belongs to the current user or to the owner of the
+    folder it lies in.
+
+    That is the kernel's ``fs.protected_symlinks`` rule for sticky world-writable folders
+    (``/tmp``), applied to every folder: a writer renames its temporary file onto the
+    resolved path, which the kernel's rule never sees, so the rule is applied here. A link
+    that someone else planted in a shared folder would otherwise redirect the write onto a
+    file of theirs choosing (as root: any file).
+
+    Raises
+    ------
+    OutputPathError
+        For such a link (naming it, its owner and the way out), or a loop of links.
+    """
+    pending = list(reversed(os.path.abspath(os.fspath(path)).split(os.sep)))
+    done, hops = os.sep, 0
+    while pending:
+        part = pending.pop()
+        if part in ("", "."):
+            continue
+        if part == "..":
+            done = os.path.dirname(done)
+            continue
+        here = os.path.join(done, part)
+        try:
+            st = os.lstat(here)
+        except OSError:  # missing (the new file), or not a folder: the caller says which
+            done = here
+            continue
+        if not stat.S_ISLNK(st.st_mode):
+            done = here
+            continue
+        hops += 1
+        if hops > _MAX_LINKS:
+            raise OutputPathError(f"{os.fspath(path)!r}: too many symbolic links (a loop?); "
+                                  "write somewhere else")
+        _check_link_owner(here, st, done, path)
+        target = os.readlink(here)
+        if os.path.isabs(target):
+            done = os.sep
+        pending += reversed(target.split(os.sep))
+    return Path(done)
+
+
+def _check_link_owner(link: str, st: os.stat_result, folder: str,
+                      given: str | os.PathLike) -> None:
+    """Refuse ``link`` (lstat ``st``, in ``folder``) unless it belongs to the current user or
+    to the folder's owner.
+    """
+    if not hasattr(os, "geteuid"):
+        return
+    try:
+        owner = os.stat(folder).st_uid
+    except OSError:
+        return
+    if st.st_uid in (os.geteuid(), owner):
+        return
+    raise OutputPathError(
+        f"{os.fspath(given)!r}: the symbolic link {link!r} belongs to another user "
+        f"(uid {st.st_uid}) than you or the owner of {folder!r}, so it is not written "
+        "through; remove the link or write somewhere else")
+
+
+# ---------------------------------------------------------------------- temporaries
+_TEMP = re.compile(r"\.(?P<name>.+)\.(?P<pid>\d+)\.[A-Za-z0-9_]{8}\.tmp(\..*)?")
+_OLD = re.compile(r"\.(?P<name>.+)\.old\.(?P<pid>\d+)\.[A-Za-z0-9_]{8}")
+# names of versions before the pid was in them: stale once they are this old (seconds)
+_LEGACY = (re.compile(r"\.(?P<name>.+)\.[A-Za-z0-9_]{8}\.tmp(\..*)?"),
+           re.compile(r"\.(?P<name>.+)\.old\.[A-Za-z0-9_]{8}"))
+LEGACY_AGE_S = 600.0
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` exists (this process counts)."""
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):  # someone else's, or not a pid
+        return True
+    return True
+
+
+def _stale_match(entry: os.DirEntry, now: float) -> re.Match | None:
+    """The name's match if ``entry`` is a temporary of a process that is gone."""
+    for pattern in (_TEMP, _OLD):
+        m = pattern.fullmatch(entry.name)
+        if m:
+            return None if _alive(int(m.group("pid"))) else m
+    for pattern in _LEGACY:
+        m = pattern.fullmatch(entry.name)
+        if m:
+            try:
+                age = now - entry.stat(follow_symlinks=False).st_mtime
+            except OSError:
+                return None
+            return m if age > LEGACY_AGE_S else None
+    return None
+
+
+def _remove_any(path: str | os.PathLike) -> None:
+    """Remove a file, link or folder (a link itself, never what it points to)."""
+    try:
+        if os.path.isdir(path) and not os.path.islink(path):
+            shutil.rmtree(path, ignore_errors=True)
+        else:
+            os.unlink(path)
+    except OSError:
+        pass
+
+
+def clean_stale(folder: str | os.PathLike) -> list[str]:
+    """Remove from ``folder`` the temporaries of writers that were killed; return their names.
+
+    A temporary is stale when the process named in it (``.NAME.<pid>.<random>.tmp...``) is
+    gone; names written before the pid was in them, when older than
+    :data:`LEGACY_AGE_S`. A folder moved aside by a killed :func:`replace_folder`
+    (``.NAME.old.<pid>.<random>/NAME``) is put back first if ``NAME`` is missing. Only hidden
+    names of these shapes are touched; errors are ignored (a folder that cannot be listed
+    or written is left as it is).
+    """
+    removed: list[str] = []
+    now = time.time()
+    try:
+        entries = [e for e in os.scandir(folder) if e.name.startswith(".")]
+    except OSError:
+        return removed
+    for entry in entries:
+        m = _stale_match(entry, now)
+        if m is None:
+            continue
+        if ".old." in entry.name and entry.is_dir(follow_symlinks=False):
+            name = m.group("name")
+            kept, place = os.path.join(entry.path, name), os.path.join(folder, name)
+            if os.path.isdir(kept) and not os.path.lexists(place):
+                try:
+                    os.rename(kept, place)  # the old output, put back
+                except OSError:
+                    continue
+        _remove_any(entry.path)
+        removed.append(entry.name)
+    return removed
+
+
+def temp_prefix(name: str) -> str:
+    """The start of a temporary's name for the output ``name``: ``.NAME.<pid>.``."""
+    return f".{name}.{os.getpid()}."
+
+
+def temp_folder(parent: str | os.PathLike, name: str) -> Path:
+    """A new hidden temporary folder in ``parent`` for the output ``name``, after removing
+    what killed writers left there (:func:`clean_stale`).
+    """
+    clean_stale(parent)
+    return Path(tempfile.mkdtemp(prefix=temp_prefix(name), suffix=".tmp", dir=parent))
+
+
+# ---------------------------------------------------------------------- commits
+_COMMITS = 0
+_DEFERRED = (getattr(signal, "SIGINT", None), getattr(signal, "SIGTERM", None),
+             getattr(signal, "SIGHUP", None))
+
+
+def commits() -> int:
+    """How many outputs this process has put in place (a count that only grows): a signal
+    handler tells by it whether an interrupted command had changed anything.
+    """
+    return _COMMITS
+
+
+def _committed() -> None:
+    global _COMMITS
+    _COMMITS += 1
+
+
+@contextmanager
+def deferred_signals() -> Iterator[None]:
+    """Hold SIGINT, SIGTERM and SIGHUP back during the block (the renames that put an
+    output in place), so a handler runs before or after them, not between (POSIX only).
+    """
+    sigs = {s for s in _DEFERRED if s is not None}
+    if not sigs or not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, sigs)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+_AT_FDCWD, _RENAME_EXCHANGE = -100, 2
+_UNSUPPORTED = {errno.ENOSYS, errno.EINVAL, errno.ENOTSUP, errno.EOPNOTSUPP, errno.EPERM}
+
+
+def _renameat2():
+    try:
+        fn = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError):
+        return None
+    fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p,
+                   ctypes.c_uint]
+    fn.restype = ctypes.c_int
+    return fn
+
+
+_RENAMEAT2 = _renameat2() if os.name == "posix" else None
+
+
+def exchange(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    """Swap the names ``a`` and ``b`` (both must exist) in one step: Linux's
+    ``renameat2(RENAME_EXCHANGE)``. Returns False where that is not supported (another
+    system, an old kernel or C library, a file system without it), and the caller falls
+    back.
+
+    Raises
+    ------
+    OSError
+        If the swap is supported but failed.
+    """
+    if _RENAMEAT2 is None:
+        return False
+    if _RENAMEAT2(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b),
+                  _RENAME_EXCHANGE) == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in _UNSUPPORTED:
+        return False
+    raise OSError(err, os.strerror(err), os.fspath(b))
+
+
+def replace_folder(new: Path, folder: Path, then: Callable[[], None] | None = None) -> None:
+    """Put the folder ``new`` in the place of ``folder``, replacing an old ``folder`` whole,
+    then run ``then()``.
+
+    ``new`` gets the old folder's permissions (or the umask's for a new one) and must lie on
+    the same file system, in a temporary folder (:func:`temp_folder`) that the caller
+    removes: after an exchange it holds the old folder. An old folder is swapped with the
+    new in one step (:func:`exchange`), so a kill leaves one or the other. Where that is not
+    supported, the old folder is first moved aside to ``.NAME.old.<pid>.<random>``, which
+    the next write into the same folder puts back if the kill came before the new one was
+    in place (:func:`clean_stale`). If ``then()`` fails, the old folder is put back.
+
+    Raises
+    ------
+    OSError
+        If a rename failed; ``folder`` is then as it was.
+    """
+    old_dir = None
+    is_old = folder.is_dir() and not folder.is_symlink()
+    os.chmod(new, folder.stat().st_mode & 0o7777 if is_old else 0o777 & ~umask())
+    with deferred_signals():
+        if is_old and exchange(new, folder):
+            try:
+                if then is not None:
+                    then()
+            except BaseException:
+                exchange(new, folder)
+                raise
+            _committed()
+            return
+        try:
+            if is_old:
+                old_dir = Path(tempfile.mkdtemp(prefix=f".{folder.name}.old.{os.getpid()}.",
+                                                dir=folder.parent))
+                os.rename(folder, old_dir / folder.name)
+            os.rename(new, folder)
+            if then is not None:
+                then()
+            _committed()
+        except BaseException:
+            if old_dir is not None and (old_dir / folder.name).exists():  # put it back
+                if folder.exists():
+                    os.rename(folder, new)
+                os.rename(old_dir / folder.name, folder)
+            raise
+        finally:
+            if old_dir is not None:
+                shutil.rmtree(old_dir, ignore_errors=True)
+
+
+_VERSION = re.compile(r"v(?P<pid>\d+)-[0-9a-f]{8}")
+_FILE_ATTR = re.compile(r"""\sfile=(["'])(.*?)\1""")
+
+
+_WRITING: set[str] = set()  # this process's versions not yet committed or given up
+
+
+def new_version() -> str:
+    """A fresh name for a version folder of :func:`replace_indexed`: ``v<pid>-<8 hex>``."""
+    name = f"v{os.getpid()}-{secrets.token_hex(4)}"
+    _WRITING.add(name)
+    return name
+
+
+def indexed_entries(index: Path, folder_name: str) -> set[str]:
+    """The names in the folder ``folder_name`` that the XML index ``index`` refers to (the
+    first part after ``folder_name/`` of each ``file="..."``); empty if it cannot be read.
+    """
+    from xml.sax.saxutils import unescape
+
+    try:
+        text = index.read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return set()
+    names = set()
+    for _, value in _FILE_ATTR.findall(text):
+        parts = unescape(value, {"&quot;": '"', "&apos;": "'"}).split("/")
+        if len(parts) >= 2 and parts[0] == folder_name:
+            names.add(parts[1])
+    return names
+
+
+def replace_indexed(version: Path, folder: Path, index_tmp: Path, index: Path) -> None:
+    """Put a new version of an index file and the pieces it refers to in place as a whole.
+
+    ``version`` (a folder named by :func:`new_version`, holding the pieces) is renamed into
+    ``folder`` (made if missing), then ``index_tmp``, which refers to the pieces as
+    ``FOLDER/VERSION/...``, over ``index``: that rename is the commit. Only then are the old
+    version (or, written before versions, the old pieces) and the versions of killed
+    writers removed. A kill before the commit leaves the old index over its own pieces,
+    after it the new one; leftovers go at the next write (:meth:`_tidy_versions`).
+
+    Raises
+    ------
+    OSError
+        If a rename failed; the index and its pieces are then as they were.
+    """
+    old = indexed_entries(index, folder.name)
+    placed = folder / version.name
+    try:
+        with deferred_signals():
+            if not folder.is_dir():
+                folder.mkdir()
+            os.rename(version, placed)
+            try:
+                replace_permissions(index_tmp, index)
+                os.replace(index_tmp, index)
+            except BaseException:
+                shutil.rmtree(placed, ignore_errors=True)
+                raise
+            _committed()
+    finally:
+        _WRITING.discard(version.name)
+    tidy_versions(folder, index, old - {version.name})
+
+
+def tidy_versions(folder: Path, index: Path, old: set[str] = frozenset()) -> None:
+    """Remove from ``folder`` the entries ``old`` (an index's former pieces) unless the
+    ``index`` now refers to them, and the version folders it does not refer to that no
+    writer is working on (of processes that are gone, or of this one and not being written).
+    """
+    current = indexed_entries(index, folder.name)
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return
+    for entry in entries:
+        if entry.name in current:
+            continue
+        m = _VERSION.fullmatch(entry.name)
+        if entry.name in old or (m and _abandoned(entry.name, int(m.group("pid")))):
+            _remove_any(entry.path)
+
+
+def _abandoned(version: str, pid: int) -> bool:
+    if pid == os.getpid():
+        return version not in _WRITING
+    return not _alive(pid)
+
+
 def umask() -> int:
     """The process's umask (read without changing it for long)."""
     mask = os.umask(0)
@@ -112,14 +512,15 @@ def umask() -> int:
     return mask
 
 
-def replace_permissions(tmp: str | os.PathLike, target: str | os.PathLike) -> None:
-    """Give ``tmp`` the mode (and, as root, the owner) of ``target``, or for a new file the
-    mode an ordinary ``open`` would give (``0o666`` less the umask).
+def replace_permissions(tmp: str | os.PathLike, target: str | os.PathLike,
+                        mode: int | None = None) -> None:
+    """Give ``tmp`` the mode (and, as root, the owner) of ``target``, or for a new file
+    ``mode`` (default: what an ordinary ``open`` would give, ``0o666`` less the umask).
     """
     try:
         st = os.stat(target)
     except FileNotFoundError:
-        os.chmod(tmp, 0o666 & ~umask())
+        os.chmod(tmp, (0o666 if mode is None else mode) & ~umask())
         return
     os.chmod(tmp, stat.S_IMODE(st.st_mode))
     if hasattr(os, "geteuid") and os.geteuid() == 0:
@@ -163,7 +564,8 @@ def _remove(path: str | os.PathLike) -> None:
 
 @contextmanager
 def atomic_output(path: str | os.PathLike, *, suffixes: Sequence[str] | None = None,
-                  check: Callable[[Path], None] | None = None) -> Iterator[Path]:
+                  check: Callable[[Path], None] | None = None,
+                  mode: int | None = None) -> Iterator[Path]:
     """Write a file atomically through a temporary path, for writers that take a file name.
 
     Use as ``with atomic_output("out.mp4") as tmp: writer(tmp)``. The temporary file lies
@@ -171,7 +573,9 @@ def atomic_output(path: str | os.PathLike, *, suffixes: Sequence[str] | None = N
     extension still work). On leaving the block it is synced, checked (not empty, then
     ``check(tmp)``, which raises to reject it), given the target's permissions and renamed
     over the target. If the block or a check fails, the temporary file is removed and the
-    target left as it was.
+    target left as it was. A new file gets ``mode`` less the umask (default ``0o666``).
+    Temporaries that killed writers left beside the target are removed first
+    (:func:`clean_stale`).
 
     Raises
     ------
@@ -183,8 +587,9 @@ def atomic_output(path: str | os.PathLike, *, suffixes: Sequence[str] | None = N
         after the clean-up.
     """
     real = check_output(path, suffixes)
+    clean_stale(real.parent)
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{real.name}.", suffix=f".tmp{real.suffix}",
+        fd, tmp = tempfile.mkstemp(prefix=temp_prefix(real.name), suffix=f".tmp{real.suffix}",
                                    dir=real.parent)
     except OSError as exc:
         raise write_error(real, exc) from exc
@@ -210,8 +615,10 @@ def atomic_output(path: str | os.PathLike, *, suffixes: Sequence[str] | None = N
                     raise WriteError(f"could not write {str(real)!r}: the written file does "
                                      f"not read back ({why}); nothing was changed there"
                                      ) from exc
-            replace_permissions(tmp, real)
-            os.replace(tmp, real)
+            replace_permissions(tmp, real, mode)
+            with deferred_signals():
+                os.replace(tmp, real)
+                _committed()
         except WriteError:
             raise
         except OSError as exc:
@@ -223,12 +630,14 @@ def atomic_output(path: str | os.PathLike, *, suffixes: Sequence[str] | None = N
 
 def atomic_write_bytes(path: str | os.PathLike, data: bytes | Callable, *,
                        suffixes: Sequence[str] | None = None,
-                       check: Callable[[Path], None] | None = None) -> Path:
+                       check: Callable[[Path], None] | None = None,
+                       mode: int | None = None) -> Path:
     """Write ``data`` (bytes, or a function that writes into a binary file object) to
-    ``path`` atomically (:func:`atomic_output`); returns the file written (links resolved).
+    ``path`` atomically (:func:`atomic_output`; ``mode`` for a new file); returns the file
+    written (links resolved).
     """
     real = check_output(path, suffixes)
-    with atomic_output(real, check=check) as tmp:
+    with atomic_output(real, check=check, mode=mode) as tmp:
         with open(tmp, "wb") as fh:
             if callable(data):
                 data(fh)
@@ -237,6 +646,8 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes | Callable, *,
     return real
 
 
-def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
-    """Write ``text`` as UTF-8 to ``path`` atomically (:func:`atomic_output`)."""
-    return atomic_write_bytes(path, text.encode("utf-8"))
+def atomic_write_text(path: str | os.PathLike, text: str, *, mode: int | None = None) -> Path:
+    """Write ``text`` as UTF-8 to ``path`` atomically (:func:`atomic_output`; ``mode`` for a
+    new file).
+    """
+    return atomic_write_bytes(path, text.encode("utf-8"), mode=mode)

@@ -34,7 +34,6 @@ import json
 import os
 import re
 import shutil
-import tempfile
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from io import BytesIO
@@ -44,7 +43,14 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..core.face import FaceState
-from ..core.files import OutputPathError, WriteError, umask, write_error
+from ..core.files import (
+    OutputPathError,
+    WriteError,
+    resolve_output,
+    temp_folder,
+    umask,
+    write_error,
+)
 from ..core.mesh import MeshError, TriangleSurface, unit_rows
 from .fields import NAN_COLOR, field_info, field_range
 from .polydata import field_array_name
@@ -534,7 +540,7 @@ def check_bake_folder(path: str | os.PathLike) -> Path:
     if given.is_symlink() or (given.exists() and not given.is_dir()):
         raise OutputPathError(f"{str(given)!r} is not a folder; the maps go in a folder of "
                               "that name: move it or choose another name")
-    real = Path(os.path.realpath(given.parent)) / given.name
+    real = resolve_output(given.parent) / given.name  # not through others' links
     parent = real.parent
     if not parent.is_dir():
         raise OutputPathError(f"folder {str(parent)!r} does not exist; create it first "
@@ -582,7 +588,7 @@ def save_bake(maps: BakedMaps, folder: str | os.PathLike) -> Written:
     """
     real = check_bake_folder(folder)
     try:
-        work = Path(tempfile.mkdtemp(prefix=f".{real.name}.", suffix=".tmp", dir=real.parent))
+        work = temp_folder(real.parent, real.name)
     except OSError as exc:
         raise write_error(real, exc) from exc
     try:

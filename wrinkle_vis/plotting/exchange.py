@@ -4,13 +4,18 @@ morph targets (no Qt).
 Formats
 -------
 ``NAME.pvd``
-    A ParaView time series: the collection file indexes one ``.vtp`` per frame in the
-    folder ``NAME/`` beside it (``NAME/NAME_0000.vtp``, ...), each with every field as a
-    point array (:func:`~wrinkle_vis.plotting.to_polydata`) and its time as the field
-    array ``TimeValue``. The folder is replaced as a whole.
+    A ParaView time series: the collection file indexes one ``.vtp`` per frame in a version
+    folder inside the folder ``NAME/`` beside it (``NAME/v<pid>-<hex>/NAME_0000.vtp``, ...),
+    each with every field as a point array (:func:`~wrinkle_vis.plotting.to_polydata`) and
+    its time as the field array ``TimeValue``. The new version goes in, the collection file
+    is renamed over the old one, then the old version goes: a kill at any point leaves a
+    collection over its own frames (:func:`~wrinkle_vis.core.files.replace_indexed`).
 ``NAME_####.obj``, ``NAME_####.ply``
-    One numbered file per frame (the run of ``#`` is the frame number, zero-padded; a name
-    without ``#`` gets ``_####``). OBJ holds the positions, vertex normals and triangles;
+    One numbered file per frame, in the folder ``NAME/`` beside the pattern
+    (:func:`sequence_folder`), which is replaced whole in one step
+    (:func:`~wrinkle_vis.core.files.replace_folder`), so a kill never leaves frames of two
+    runs mixed (the run of ``#`` is the frame number, zero-padded; a name without ``#``
+    gets ``_####``). OBJ holds the positions, vertex normals and triangles;
     PLY every field as vertex properties (as :func:`~wrinkle_vis.plotting.writers.save_mesh`
     writes it).
 ``NAME.glb``
@@ -32,7 +37,6 @@ import json
 import os
 import re
 import shutil
-import tempfile
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
@@ -42,10 +46,13 @@ import pyvista as pv
 
 from ..core.face import FaceModel, FaceState
 from ..core.files import (
+    OutputPathError,
     WriteError,
     atomic_write_bytes,
     check_output,
-    replace_permissions,
+    new_version,
+    replace_indexed,
+    temp_folder,
     write_error,
 )
 from ..core.units import LENGTH_UNITS, face_unit
@@ -61,7 +68,7 @@ from .writers import (
 
 __all__ = ["GLTF_SUFFIXES", "METRES_PER_UNIT", "SEQUENCE_SUFFIXES", "check_sequence_target",
            "face_unit", "gltf_bytes", "numbered_path", "read_glb", "save_gltf",
-           "save_sequence", "sequence_states"]
+           "save_sequence", "sequence_folder", "sequence_states"]
 
 #: Formats :func:`save_sequence` writes.
 SEQUENCE_SUFFIXES = (".pvd", ".obj", ".ply")
@@ -93,43 +100,68 @@ def _numbered_parts(path: Path, count: int) -> tuple[str, int, str]:
     return stem[:run.start()], width, stem[run.end():] + suffix
 
 
+def sequence_folder(path: str | os.PathLike) -> Path:
+    """The folder the frames of a pattern such as ``NAME_####.obj`` go in: ``NAME/`` beside
+    it (the name before the frame number, without a trailing ``_``, ``-`` or ``.``;
+    ``frames`` if that leaves nothing).
+    """
+    path = Path(path)
+    head, _, tail = _numbered_parts(path, 1)
+    rest = tail[:len(tail) - len(path.suffix)]
+    name = head.rstrip("_-. ") or rest.strip("_-. ") or "frames"
+    return path.with_name(name)
+
+
 def numbered_path(path: str | os.PathLike, index: int, count: int) -> Path:
     """The file of frame ``index`` of ``count`` for a pattern such as ``NAME_####.obj``.
 
     The last run of ``#`` in the file name becomes the frame number, zero-padded to the
     run's length (or more digits when ``count`` needs them); a name without ``#`` gets
-    ``_`` and four digits before its extension.
+    ``_`` and four digits before its extension. The file lies in :func:`sequence_folder`.
     """
     path = Path(path)
     head, width, tail = _numbered_parts(path, count)
-    return path.with_name(f"{head}{index:0{width}d}{tail}")
-
-
-def _frame_pattern(path: Path, count: int) -> re.Pattern:
-    """Matches every file name :func:`numbered_path` gives for ``path`` (any number of
-    the same width).
-    """
-    head, width, tail = _numbered_parts(path, count)
-    return re.compile(f"{re.escape(head)}[0-9]{{{width}}}{re.escape(tail)}")
+    return sequence_folder(path) / f"{head}{index:0{width}d}{tail}"
 
 
 def check_sequence_target(path: str | os.PathLike) -> Path:
     """Check a sequence's target before any work (:data:`SEQUENCE_SUFFIXES`; for ``.pvd``
-    also its frames' folder, see :func:`~wrinkle_vis.plotting.writers.check_target`).
+    also its frames' folder, see :func:`~wrinkle_vis.plotting.writers.check_target`; for
+    numbered files that their folder holds nothing else).
     """
-    return check_target(path, SEQUENCE_SUFFIXES)
+    real = check_target(path, SEQUENCE_SUFFIXES)
+    if real.suffix.lower() != ".pvd":
+        _check_frame_folder(real)
+    return real
+
+
+def _check_frame_folder(real: Path) -> None:
+    folder = sequence_folder(real)
+    if folder.is_symlink() or (folder.exists() and not folder.is_dir()):
+        raise OutputPathError(f"{str(folder)!r} is in the way of the frames (they go in a "
+                              "folder of that name); move it or choose another name")
+    if folder.is_dir():
+        head, _, tail = _numbered_parts(real, 1)
+        frame = re.compile(f"{re.escape(head)}[0-9]+{re.escape(tail)}")
+        others = [p.name for p in folder.iterdir()
+                  if p.is_symlink() or not (p.is_file() and frame.fullmatch(p.name))]
+        if others:
+            raise OutputPathError(
+                f"folder {str(folder)!r}, where the frames go, holds other files "
+                f"({', '.join(sorted(others)[:3])}); the frames replace it whole: choose "
+                "another name")
 
 
 def save_sequence(states: Iterable[FaceState], times: Sequence[float],
                   path: str | os.PathLike) -> Written:
     """Write the frames ``states`` (one per time of ``times``, seconds) as a time series.
 
-    ``.pvd``: a ParaView collection and a folder of ``.vtp`` frames beside it, the folder
-    replaced whole; ``.obj``, ``.ply``: one numbered file per frame
-    (:func:`numbered_path`). Frames are written as they come (none is kept in memory), to
-    a hidden folder beside the target, read back, and only then moved into place. Frame
-    files of an earlier, longer sequence of the same name are removed, so a tool that reads
-    the numbered files finds this sequence only.
+    ``.pvd``: a ParaView collection and a folder of ``.vtp`` frames beside it; ``.obj``,
+    ``.ply``: one numbered file per frame (:func:`numbered_path`) in a folder of their own
+    (:func:`sequence_folder`). Frames are written as they come (none is kept in memory), to
+    a hidden folder beside the target, read back, and only then put in place, the old
+    sequence replaced as a whole (a kill at any point leaves the old one or the new one),
+    so a tool that reads the numbered files finds this sequence only.
 
     Parameters
     ----------
@@ -159,7 +191,7 @@ def save_sequence(states: Iterable[FaceState], times: Sequence[float],
         raise ValueError("no frames to write")
     suffix = real.suffix.lower()
     try:
-        work = Path(tempfile.mkdtemp(prefix=f".{real.stem}.", suffix=".tmp", dir=real.parent))
+        work = temp_folder(real.parent, real.stem)
     except OSError as exc:
         raise write_error(real, exc) from exc
     try:
@@ -179,12 +211,12 @@ def _frames(states: Iterable[FaceState], times: list[float]):
 
 
 def _save_pvd(states, times: list[float], real: Path, work: Path) -> Written:
-    stem, folder = real.stem, real.with_suffix("")
+    stem, folder, version = real.stem, real.with_suffix(""), new_version()
     width = max(4, len(str(len(times) - 1)))
-    rel = [f"{stem}/{stem}_{i:0{width}d}.vtp" for i in range(len(times))]
+    rel = [f"{stem}/{version}/{stem}_{i:0{width}d}.vtp" for i in range(len(times))]
     first = None
     try:
-        (work / stem).mkdir()
+        (work / stem / version).mkdir(parents=True)
         for i, t, state in _frames(states, times):
             mesh = to_polydata(state)
             mesh.field_data["TimeValue"] = np.array([t])
@@ -207,12 +239,11 @@ def _save_pvd(states, times: list[float], real: Path, work: Path) -> Written:
         raise WriteError(f"could not write {str(real)!r}: the written series does not read "
                          f"back ({why}); nothing was changed there") from exc
     try:
-        replace_permissions(work / real.name, real)
-        replace_folder(work / stem, folder, then=lambda: os.replace(work / real.name, real))
+        replace_indexed(work / stem / version, folder, work / real.name, real)
     except OSError as exc:
         raise write_error(real, exc) from exc
     return Written(real, f"{len(times)} frames from t = {times[0]:g} to {times[-1]:g} s in "
-                         f"{folder.name}/, {first[0]} points, {first[1]} triangles, "
+                         f"{folder.name}/{version}/, {first[0]} points, {first[1]} triangles, "
                          f"{len(first[2])} point arrays each")
 
 
@@ -248,9 +279,12 @@ def _obj_bytes(state: FaceState, t: float) -> bytes:
 def _save_numbered(states, times: list[float], real: Path, work: Path) -> Written:
     n = len(times)
     targets = [numbered_path(real, i, n) for i in range(n)]
+    folder = targets[0].parent
+    new = work / folder.name
     ply = real.suffix.lower() == ".ply"
     first = None
     try:
+        new.mkdir()
         for i, t, state in _frames(states, times):
             if ply:
                 mesh = to_polydata(state)
@@ -259,12 +293,12 @@ def _save_numbered(states, times: list[float], real: Path, work: Path) -> Writte
             else:
                 data = _obj_bytes(state, t)
                 first = first or (state.n_points, state.face.skin.n_triangles, 0)
-            _write_synced(work / targets[i].name, data)
+            _write_synced(new / targets[i].name, data)
     except OSError as exc:
         raise write_error(real, exc) from exc
     for k in {0, n - 1}:  # read back the first and the last frame
         try:
-            back = pv.read(work / targets[k].name)
+            back = pv.read(new / targets[k].name)
             if (back.n_points, back.n_cells) != first[:2]:
                 raise ValueError(f"{back.n_points} points and {back.n_cells} cells instead "
                                  f"of {first[0]} and {first[1]}")
@@ -272,20 +306,14 @@ def _save_numbered(states, times: list[float], real: Path, work: Path) -> Writte
             why = " ".join(str(exc).split()) or type(exc).__name__
             raise WriteError(f"could not write {str(targets[k])!r}: the written file does "
                              f"not read back ({why}); nothing was changed there") from exc
-    pattern = _frame_pattern(real, n)
-    keep = {p.name for p in targets}
     try:
-        for target in targets:
-            replace_permissions(work / target.name, target)
-            os.replace(work / target.name, target)
-        for stale in real.parent.iterdir():  # frames of a longer, older sequence
-            if stale.name not in keep and pattern.fullmatch(stale.name) and stale.is_file():
-                stale.unlink()
+        replace_folder(new, folder)
     except OSError as exc:
         raise write_error(real, exc) from exc
     what = (f"{first[2]} point arrays as vertex properties" if ply
             else "positions, normals and triangles")
-    return Written(targets[0], f"{n} frames, {targets[0].name} to {targets[-1].name}, "
+    return Written(targets[0], f"{n} frames in {folder.name}/, {targets[0].name} to "
+                               f"{targets[-1].name}, "
                                f"{first[0]} points, {first[1]} triangles, {what} each")
 
 

@@ -20,7 +20,10 @@ Formats
     and the triangles as ``vertex_indices``. (VTK's PLY writer drops arbitrary arrays.)
 ``.vtm``
     A multiblock: ``name.vtm`` indexes the pieces written to the folder ``name/`` beside it,
-    as ParaView expects. The folder is replaced as a whole.
+    as ParaView expects, in a version folder of their own (``name/v<pid>-<hex>/name_0.vtp``,
+    ...): the new version goes in, then the index is renamed over the old one, then the old
+    version goes, so a kill at any point leaves an index over its own pieces
+    (:func:`~wrinkle_vis.core.files.replace_indexed`).
 ``.png``
     Images; ``.gif`` and ``.mp4`` animations, streamed frame by frame.
 """
@@ -46,13 +49,16 @@ from ..core.files import (
     atomic_output,
     atomic_write_bytes,
     check_output,
-    replace_permissions,
-    umask,
+    new_version,
+    replace_folder,
+    replace_indexed,
+    temp_folder,
+    tidy_versions,
     write_error,
 )
 
 __all__ = ["ANIMATION_SUFFIXES", "IMAGE_SUFFIXES", "MESH_SUFFIXES", "Written",
-           "check_target", "save_animation", "save_image", "save_mesh"]
+           "check_target", "replace_folder", "save_animation", "save_image", "save_mesh"]
 
 #: Mesh formats :func:`save_mesh` writes (``.vtm`` for a ``MultiBlock``, the others for one
 #: ``PolyData``).
@@ -236,6 +242,17 @@ def _check_ply(tmp: Path, mesh: pv.PolyData) -> None:
 
 # ---------------------------------------------------------------------- multiblocks
 _PIECE = re.compile(r".+_\d+\.vt[a-z]$")
+_VERSION_DIR = re.compile(r"v\d+-[0-9a-f]{8}")
+
+
+def _is_piece(path: Path) -> bool:
+    """A piece file, or a version folder holding only pieces."""
+    if path.is_symlink():
+        return False
+    if path.is_dir() and _VERSION_DIR.fullmatch(path.name):
+        return all(p.is_file() and not p.is_symlink() and _PIECE.match(p.name)
+                   for p in path.iterdir())
+    return path.is_file() and bool(_PIECE.match(path.name))
 
 
 def _check_piece_folder(real: Path) -> None:
@@ -244,16 +261,16 @@ def _check_piece_folder(real: Path) -> None:
         raise OutputPathError(f"{str(folder)!r} is in the way of the .vtm's pieces (they go "
                               "in a folder of that name); move it or choose another name")
     if folder.is_dir():
-        others = [p.name for p in folder.iterdir()
-                  if not (p.is_file() and _PIECE.match(p.name))]
+        tidy_versions(folder, real)  # versions that killed writers left
+        others = [p.name for p in folder.iterdir() if not _is_piece(p)]
         if others:
             raise OutputPathError(
                 f"folder {str(folder)!r}, where the .vtm's pieces go, holds other files "
                 f"({', '.join(sorted(others)[:3])}); choose another name")
 
 
-def _vtm_index(blocks: pv.MultiBlock, stem: str) -> tuple[str, list[tuple[str, bytes]],
-                                                            list[tuple[str, int]]]:
+def _vtm_index(blocks: pv.MultiBlock, stem: str, version: str
+               ) -> tuple[str, list[tuple[str, bytes]], list[tuple[str, int]]]:
     pieces: list[tuple[str, bytes]] = []
     counts: list[tuple[str, int]] = []
     lines = ['<?xml version="1.0"?>',
@@ -273,7 +290,7 @@ def _vtm_index(blocks: pv.MultiBlock, stem: str) -> tuple[str, list[tuple[str, b
                 lines.append(f"{indent}<DataSet index=\"{i}\" name={quoteattr(name)}/>")
             else:
                 _, ext = _xml_writer(child)
-                rel = f"{stem}/{stem}_{len(pieces)}{ext}"
+                rel = f"{stem}/{version}/{stem}_{len(pieces)}{ext}"
                 pieces.append((rel, _xml_bytes(child)))
                 counts.append((label, child.n_points))
                 lines.append(f"{indent}<DataSet index=\"{i}\" name={quoteattr(name)} "
@@ -298,14 +315,15 @@ def _flatten(blocks, where: str = "") -> list[tuple[str, int]]:
 def _save_multiblock(blocks: pv.MultiBlock, real: Path) -> Written:
     stem = real.stem
     folder = real.with_suffix("")
-    index, pieces, counts = _vtm_index(blocks, stem)
+    version = new_version()
+    index, pieces, counts = _vtm_index(blocks, stem, version)
     try:
-        work = Path(tempfile.mkdtemp(prefix=f".{stem}.", suffix=".tmp", dir=real.parent))
+        work = temp_folder(real.parent, stem)
     except OSError as exc:
         raise write_error(real, exc) from exc
     try:
         try:
-            (work / stem).mkdir()
+            (work / stem / version).mkdir(parents=True)
             for rel, data in pieces:
                 _write_synced(work / rel, data)
             _write_synced(work / real.name, index.encode("utf-8"))
@@ -316,47 +334,14 @@ def _save_multiblock(blocks: pv.MultiBlock, real: Path) -> Written:
             raise WriteError(f"could not write {str(real)!r}: the written file does not read "
                              "back; nothing was changed there")
         try:
-            replace_permissions(work / real.name, real)
-            replace_folder(work / stem, folder,
-                           then=lambda: os.replace(work / real.name, real))
+            replace_indexed(work / stem / version, folder, work / real.name, real)
         except OSError as exc:
             raise write_error(real, exc) from exc
     finally:
         shutil.rmtree(work, ignore_errors=True)
     names = [blocks.get_block_name(i) for i in range(len(blocks))]
-    return Written(real, f"{', '.join(names)} ({len(pieces)} pieces in {folder.name}/)")
-
-
-def replace_folder(new: Path, folder: Path, then=None) -> None:
-    """Rename the folder ``new`` to ``folder``, replacing an old ``folder`` whole, then run
-    ``then()`` (e.g. the index file's :func:`os.replace`).
-
-    ``new`` gets the old folder's permissions (or the umask's for a new one). The old folder
-    is moved aside (a hidden folder beside it) until the new one is in place, put back if
-    a rename fails, and removed at the end. ``new`` must lie on the same file system.
-
-    Raises
-    ------
-    OSError
-        If a rename failed; ``folder`` is then as it was, unless ``then()`` failed after
-        the new folder was in place.
-    """
-    old = None
-    try:
-        os.chmod(new, folder.stat().st_mode & 0o7777 if folder.is_dir() else 0o777 & ~umask())
-        if folder.is_dir():
-            old = Path(tempfile.mkdtemp(prefix=f".{folder.name}.old.", dir=folder.parent))
-            os.rename(folder, old / folder.name)
-        os.rename(new, folder)
-        if then is not None:
-            then()
-    except OSError:
-        if old is not None and not folder.exists():  # put the old folder back
-            os.rename(old / folder.name, folder)
-        raise
-    finally:
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+    return Written(real, f"{', '.join(names)} ({len(pieces)} pieces in "
+                         f"{folder.name}/{version}/)")
 
 
 def _write_synced(path: Path, data: bytes) -> None:
@@ -443,7 +428,8 @@ def _write_mp4(frames: Iterable[np.ndarray], tmp: Path, fps: float) -> int:
                      "-r", f"{fps:g}", "-i", "-", "-an", "-vcodec", "libx264",
                      "-pix_fmt", "yuv420p", "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2",
                      "-f", "mp4", str(tmp)],
-                    stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=log)
+                    stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=log,
+                    preexec_fn=_die_with_parent())
             elif frame.shape[1::-1] != size:
                 raise ValueError(f"frame {count} is {frame.shape[1::-1]}, the first {size}")
             try:
@@ -469,6 +455,27 @@ def _write_mp4(frames: Iterable[np.ndarray], tmp: Path, fps: float) -> int:
             proc.wait()
         log.close()
     return count
+
+
+def _die_with_parent():
+    """A ``preexec_fn`` that has the child killed when this process dies (Linux
+    ``PR_SET_PDEATHSIG``), so a killed ``animate`` leaves no ffmpeg running; None elsewhere.
+    """
+    import ctypes
+    import signal
+    import sys
+
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        prctl = ctypes.CDLL(None, use_errno=True).prctl  # looked up before the fork
+    except (OSError, AttributeError):
+        return None
+
+    def set_death_signal() -> None:
+        prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
+
+    return set_death_signal
 
 
 class _GifStream:

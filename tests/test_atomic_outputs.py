@@ -1,0 +1,234 @@
+"""Outputs of several files are replaced as a whole, even by a kill.
+
+A writer runs in a forked child that SIGKILLs itself just before its n-th rename, exchange,
+unlink or rmdir, for every n until it runs to the end; after each kill the output must be
+the old one or the new one entirely (never mixed, never missing), and the next write must
+leave nothing of the killed one behind.
+"""
+
+import json
+import os
+import re
+import signal
+from pathlib import Path
+
+import numpy as np
+import pytest
+import pyvista as pv
+
+import wrinkle_vis as wv
+import wrinkle_vis.core.files as files
+from wrinkle_vis.plotting.bake import BakedMaps, save_bake
+from wrinkle_vis.plotting.exchange import save_sequence
+from wrinkle_vis.plotting.writers import save_mesh
+
+pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+OPS = ("rename", "replace", "unlink", "rmdir")
+
+
+def _killed_at(n: int, write) -> bool:
+    """Run ``write()`` in a forked child killed (SIGKILL) just before its ``n``-th file
+    operation; True if it was killed, False if it ran to the end.
+    """
+    pid = os.fork()
+    if pid == 0:  # the child: never returns into pytest
+        try:
+            count = [0]
+
+            def hook(fn):
+                def counted(*args, **kwargs):
+                    count[0] += 1
+                    if count[0] == n:
+                        os.kill(os.getpid(), signal.SIGKILL)
+                    return fn(*args, **kwargs)
+                return counted
+
+            for name in OPS:
+                setattr(os, name, hook(getattr(os, name)))
+            if hasattr(files, "exchange"):
+                files.exchange = hook(files.exchange)
+            write()
+            os._exit(0)
+        except BaseException:
+            os._exit(3)
+    _, status = os.waitpid(pid, 0)
+    if os.WIFEXITED(status):
+        assert os.WEXITSTATUS(status) == 0, "the writer failed in the child"
+        return False
+    assert os.WTERMSIG(status) == signal.SIGKILL
+    return True
+
+
+def _every_kill(tmp_path, write_old, write_new, state, cleaned_up, limit=200):
+    """Kill ``write_new`` at each point in turn (``write_old`` first each time): ``state()``
+    must say "old" or "new" after every kill, and after the next write the folder holds
+    only ``cleaned_up()``. Returns the states seen.
+    """
+    seen = []
+    for n in range(1, limit):
+        write_old()
+        killed = _killed_at(n, write_new)
+        seen.append(state())
+        write_new()  # the next run
+        assert state() == "new"
+        assert cleaned_up(), sorted(p.name for p in tmp_path.iterdir())
+        if not killed:
+            break
+    else:
+        pytest.fail("the writer was still being killed after {limit} points")
+    assert set(seen) <= {"old", "new"}, seen
+    assert seen[0] == "old" and seen[-1] == "new"
+    return seen
+
+
+@pytest.fixture(scope="module")
+def states():
+    face = wv.datasets.load_face(n_triangles=500)
+    ramp = face.expressions["frown"]
+    return {t: face.evaluate(ramp.at(t)) for t in (0.5, 1.0, 2.0)}
+
+
+def _pvd_state(index: Path, old: list[float], new: list[float]) -> str:
+    text = index.read_text()
+    entries = re.findall(r'timestep="([^"]+)".*?file="([^"]+)"', text)
+    times = [float(t) for t, _ in entries]
+    for t, rel in entries:  # every frame the index names is there, with its time
+        mesh = pv.read(index.parent / rel)
+        assert mesh.field_data["TimeValue"][0] == float(t)
+    return {tuple(old): "old", tuple(new): "new"}[tuple(times)]
+
+
+def test_a_pvd_series_is_old_or_new_after_a_kill_at_any_point(tmp_path, states):
+    out, old, new = tmp_path / "r.pvd", [0.5, 1.0], [2.0]
+    seen = _every_kill(
+        tmp_path,
+        lambda: save_sequence([states[t] for t in old], old, out),
+        lambda: save_sequence([states[t] for t in new], new, out),
+        lambda: _pvd_state(out, old, new),
+        lambda: sorted(p.name for p in tmp_path.iterdir()) == ["r", "r.pvd"]
+        and len(list((tmp_path / "r").iterdir())) == 1)
+    assert len(seen) > 5, len(seen)  # the rename points, and those of the tidying
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".ply"])
+def test_numbered_frames_are_old_or_new_after_a_kill_at_any_point(tmp_path, states,
+                                                                  suffix):
+    out, old, new = tmp_path / f"f_####{suffix}", [0.5, 1.0], [2.0]
+
+    def state() -> str:
+        frames = sorted((tmp_path / "f").glob("f_*")) or sorted(tmp_path.glob("f_????.*"))
+        n = len(frames)
+        assert [p.name for p in frames] == [f"f_{i:04d}{suffix}" for i in range(n)]
+        times = old if n == 2 else new
+        for frame, t in zip(frames, times, strict=True):  # each frame of that run
+            np.testing.assert_allclose(pv.read(frame).points, states[t].points, atol=1e-6)
+        return {2: "old", 1: "new"}[n]
+
+    _every_kill(tmp_path,
+                lambda: save_sequence([states[t] for t in old], old, out),
+                lambda: save_sequence([states[t] for t in new], new, out),
+                state,
+                lambda: sorted(p.name for p in tmp_path.iterdir()) == ["f"])
+
+
+def test_a_vtm_is_old_or_new_after_a_kill_at_any_point(tmp_path):
+    out = tmp_path / "m.vtm"
+    old = pv.MultiBlock({"a": pv.Sphere(), "b": pv.Cube()})
+    new = pv.MultiBlock({"c": pv.Cone()})
+
+    def state() -> str:
+        text = out.read_text()
+        for rel in re.findall(r'file="([^"]+)"', text):
+            assert (tmp_path / rel).is_file(), rel
+        keys = pv.read(out).keys()
+        return {("a", "b"): "old", ("c",): "new"}[tuple(keys)]
+
+    _every_kill(tmp_path, lambda: save_mesh(old, out), lambda: save_mesh(new, out), state,
+                lambda: sorted(p.name for p in tmp_path.iterdir()) == ["m", "m.vtm"]
+                and len(list((tmp_path / "m").iterdir())) == 1)
+
+
+def _maps(value: int, fields: tuple[str, ...]) -> BakedMaps:
+    images = {"displacement.png": np.full((4, 4), value, np.uint16)}
+    images.update({f"field_{f}.png": np.full((4, 4, 4), value % 256, np.uint8)
+                   for f in fields})
+    return BakedMaps(images, {"displacement.json": {"value": value}})
+
+
+def _bake_state(out: Path) -> str:
+    names = sorted(p.name for p in out.iterdir())
+    value = json.loads((out / "displacement.json").read_text())["value"]
+    expected = {1: ["displacement.json", "displacement.png", "field_W.png", "field_x.png"],
+                2: ["displacement.json", "displacement.png", "field_y.png"]}[value]
+    assert names == expected
+    from PIL import Image
+
+    with Image.open(out / "displacement.png") as im:
+        assert np.asarray(im).max() == value
+    return {1: "old", 2: "new"}[value]
+
+
+def test_bake_is_old_or_new_after_a_kill_at_any_point(tmp_path):
+    out = tmp_path / "maps"
+    _every_kill(tmp_path, lambda: save_bake(_maps(1, ("W", "x")), out),
+                lambda: save_bake(_maps(2, ("y",)), out), lambda: _bake_state(out),
+                lambda: sorted(p.name for p in tmp_path.iterdir()) == ["maps"])
+
+
+def test_without_an_exchange_a_killed_swap_is_put_right_by_the_next_run(tmp_path,
+                                                                       monkeypatch):
+    """Where renameat2 is missing the old folder is moved aside first: a kill then can
+    leave the place empty, and the next write puts the old folder back before its own.
+    """
+    monkeypatch.setattr(files, "_RENAMEAT2", None)
+    out = tmp_path / "maps"
+    seen = []
+    for n in range(1, 100):
+        save_bake(_maps(1, ("W", "x")), out)
+        killed = _killed_at(n, lambda: save_bake(_maps(2, ("y",)), out))
+        files.clean_stale(tmp_path)  # what the next run does first
+        seen.append(_bake_state(out))
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["maps"]
+        if not killed:
+            break
+    assert seen[0] == "old" and seen[-1] == "new" and set(seen) == {"old", "new"}
+
+
+def test_stale_temporaries_of_dead_processes_go_and_live_ones_stay(tmp_path):
+    dead = os.fork()
+    if dead == 0:
+        os._exit(0)
+    os.waitpid(dead, 0)
+    live = os.getppid()
+    names = {f".a.gif.{dead}.abcd_123.tmp.gif": "dead", f".r.{dead}.x1y2z3w4.tmp": "dead",
+             f".a.gif.{live}.abcd_123.tmp.gif": "live", f".maps.old.{live}.q1w2e3r4": "live",
+             ".notes.txt": "not ours", "a.gif": "not ours"}
+    for name in names:
+        (tmp_path / name).mkdir() if "." not in name[3:] or ".r." in name \
+            else (tmp_path / name).write_text("x")
+    files.clean_stale(tmp_path)
+    left = {p.name for p in tmp_path.iterdir()}
+    assert left == {n for n, why in names.items() if why != "dead"}
+
+
+def test_a_killed_move_aside_is_put_back_when_its_place_is_empty(tmp_path):
+    dead = os.fork()
+    if dead == 0:
+        os._exit(0)
+    os.waitpid(dead, 0)
+    aside = tmp_path / f".maps.old.{dead}.a1b2c3d4" / "maps"
+    aside.mkdir(parents=True)
+    (aside / "displacement.png").write_bytes(b"old")
+    assert files.clean_stale(tmp_path) == [aside.parent.name]
+    assert (tmp_path / "maps" / "displacement.png").read_bytes() == b"old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["maps"]
+
+
+def test_temporaries_from_before_the_pid_was_in_their_names_go_when_old(tmp_path):
+    fresh, old = tmp_path / ".r.abcd1234.tmp", tmp_path / ".a.gif.wxyz9876.tmp.gif"
+    fresh.mkdir()
+    old.write_text("x")
+    hour_ago = os.path.getmtime(old) - 3600
+    os.utime(old, (hour_ago, hour_ago))
+    files.clean_stale(tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [fresh.name]
