@@ -146,7 +146,10 @@ def resolve_output(path: str | os.PathLike) -> Path:
     OutputPathError
         For such a link (naming it, its owner and the way out), or a loop of links.
     """
-    pending = list(reversed(os.path.abspath(os.fspath(path)).split(os.sep)))
+    full = os.fspath(path)
+    if not os.path.isabs(full):  # not abspath: ".." after a link is the link target's parent
+        full = os.path.join(os.getcwd(), full)
+    pending = list(reversed(full.split(os.sep)))
     done, hops = os.sep, 0
     while pending:
         part = pending.pop()
