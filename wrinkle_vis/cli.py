@@ -2,15 +2,19 @@
 
 Every error is one line on stderr that names the problem and the way out, with exit status
 2 and no traceback; outputs are checked (extension, folder) before any work and written
-atomically, so a failed write leaves the old file as it was.
+atomically, so a failed write leaves the old file as it was. Ctrl-C, SIGTERM and SIGHUP
+stop a command with one line, exit status 128 + the signal's number (130, 143, 129), its
+temporaries removed and a running ffmpeg stopped.
 """
 
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 import time
 import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
 CAMERA_CHOICES = ("front", "three_quarter", "side", "forehead", "upper_face")
@@ -41,6 +45,43 @@ MAX_REFINE_LEVELS = 5
 
 class CliError(Exception):
     """A bad argument the parser could not see; printed without a traceback."""
+
+
+class Interrupted(BaseException):
+    """SIGTERM or SIGHUP, raised where the command is (as Ctrl-C raises KeyboardInterrupt),
+    so the writers' clean-ups run.
+    """
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+@contextmanager
+def _signals_raise(received: list[int]):
+    """While the block runs, SIGINT raises KeyboardInterrupt and SIGTERM and SIGHUP
+    :class:`Interrupted`; each signal's number is appended to ``received`` (an exception
+    raised inside VTK can come out as another error, or not at all).
+    """
+    def stop(signum, frame):
+        received.append(signum)
+        if signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        raise Interrupted(signum)
+
+    old = {}
+    for name in ("SIGINT", "SIGTERM", "SIGHUP"):
+        sig = getattr(signal, name, None)
+        if sig is not None:
+            try:
+                old[sig] = signal.signal(sig, stop)
+            except ValueError:  # not the main thread: the default stays
+                pass
+    try:
+        yield
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -137,7 +178,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--sequence", action="store_true",
                    help="write the expression's onset, hold and release, one frame every "
                         "1/fps s: NAME.pvd (ParaView time series, frames in NAME/), "
-                        "NAME_####.obj or NAME_####.ply (one numbered file per frame)")
+                        "NAME_####.obj or NAME_####.ply (one numbered file per frame, "
+                        "in NAME/)")
     p.add_argument("--fps", type=int, default=None,
                    help=f"frames per second of --sequence (1 to {MAX_FPS}; default 12; at "
                         f"most {_max_frames():,} frames in all)")
@@ -773,17 +815,40 @@ def main(argv=None) -> int:
     if getattr(args, "layout", None) is not None and not args.layout.is_file():
         what = "is a folder, not a file" if args.layout.is_dir() else "no such file"
         parser.error(f"--layout {args.layout}: {what}; check the path")
-    from wrinkle_vis.core.files import OutputPathError, WriteError
+    from wrinkle_vis.core.files import OutputPathError, WriteError, commits
     from wrinkle_vis.core.layout import LayoutError
     from wrinkle_vis.core.mesh import MeshError
 
+    before, received = commits(), []
     try:
-        _check_common(args)
-        return COMMANDS[args.command](args)
+        with _signals_raise(received):
+            _check_common(args)
+            status = COMMANDS[args.command](args)
+    except (KeyboardInterrupt, Interrupted) as exc:  # the temporaries are gone by now
+        return _interrupted(args, getattr(exc, "signum", signal.SIGINT), before)
     except (CliError, LayoutError, MeshError, OutputPathError, WriteError) as exc:
+        if received:
+            return _interrupted(args, received[0], before)
         message = " ".join(str(exc).split())  # one line, whatever the message holds
         print(f"wrinkle-vis {args.command}: {message}", file=sys.stderr)
         return 2
+    except Exception:
+        if received:  # the interrupt, come out of VTK as another error
+            return _interrupted(args, received[0], before)
+        raise
+    return _interrupted(args, received[0], before) if received else status
+
+
+def _interrupted(args, signum: int, commits_before: int) -> int:
+    """Say that the command was interrupted, and whether it had put its output in place;
+    the exit status is 128 + the signal's number.
+    """
+    from wrinkle_vis.core.files import commits
+
+    what = "nothing was changed" if commits() == commits_before else \
+        "the output was already in place"
+    print(f"wrinkle-vis {args.command}: interrupted; {what}", file=sys.stderr)
+    return 128 + int(signum)
 
 
 if __name__ == "__main__":
