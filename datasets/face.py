@@ -20,6 +20,7 @@ from wrinkle_vis.core import (
     paper_expressions,
 )
 from wrinkle_vis.core.editing import mirrored, snapped
+from wrinkle_vis.core.files import atomic_write_bytes
 from wrinkle_vis.core.sphincter import SphincterMuscle
 
 from . import anatomy, sdf
@@ -57,12 +58,10 @@ def _cached(name: str, parts: tuple, build):
         except (OSError, ValueError):
             pass  # a damaged cache entry is rebuilt
     arrays = build()
-    try:
+    try:  # synced before the rename; on a failure (a full disk) no temporary stays
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
-        np.savez(tmp, **arrays)
-        os.replace(tmp, path)
-    except OSError:
+        atomic_write_bytes(path, lambda fh: np.savez(fh, **arrays))
+    except (OSError, ValueError):
         pass  # a read-only home still gets a face, only slower
     return arrays
 

@@ -232,3 +232,57 @@ def test_temporaries_from_before_the_pid_was_in_their_names_go_when_old(tmp_path
     os.utime(old, (hour_ago, hour_ago))
     files.clean_stale(tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == [fresh.name]
+
+
+# ---------------------------------------------------------------------- cache, recovery
+def test_a_full_cache_disk_leaves_no_partial_entry(tmp_path, monkeypatch):
+    import errno
+
+    from wrinkle_vis.datasets import face as builtin
+
+    monkeypatch.setenv("WRINKLE_VIS_CACHE", str(tmp_path / "cache"))
+    def full(file, **arrays):  # part of an entry, then the disk is full
+        if isinstance(file, (str, os.PathLike)):
+            Path(file).write_bytes(b"PK\x03\x04 part")
+        else:
+            file.write(b"PK\x03\x04 part")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(np, "savez", full)
+    arrays = builtin._cached("skin", (1,), lambda: {"a": np.arange(5)})
+    np.testing.assert_array_equal(arrays["a"], np.arange(5))  # still built
+    assert list((tmp_path / "cache").iterdir()) == []
+
+
+def test_a_cache_entry_is_synced_before_it_is_renamed_into_place(tmp_path, monkeypatch):
+    from wrinkle_vis.datasets import face as builtin
+
+    monkeypatch.setenv("WRINKLE_VIS_CACHE", str(tmp_path / "cache"))
+    synced, real_fsync, real_replace = [], os.fsync, os.replace
+
+    def fsync(fd):
+        synced.append(os.readlink(f"/proc/self/fd/{fd}"))
+        real_fsync(fd)
+
+    def replace(src, dst):
+        assert str(src) in synced, "renamed before it was synced"
+        real_replace(src, dst)
+
+    monkeypatch.setattr(os, "fsync", fsync)
+    monkeypatch.setattr(os, "replace", replace)
+    builtin._cached("skin", (2,), lambda: {"a": np.arange(5)})
+    (entry,) = (tmp_path / "cache").iterdir()
+    with np.load(entry) as data:
+        np.testing.assert_array_equal(data["a"], np.arange(5))
+
+
+def test_the_recovery_folder_and_files_are_private(tmp_path):
+    from wrinkle_vis.app.recovery import Recovery
+
+    old = os.umask(0o022)
+    try:
+        path = Recovery(tmp_path / "state" / "recovery").save(wv.Layout(), None, 4500)
+    finally:
+        os.umask(old)
+    assert oct(path.parent.stat().st_mode & 0o777) == oct(0o700)
+    assert oct(path.stat().st_mode & 0o777) == oct(0o600)

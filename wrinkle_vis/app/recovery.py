@@ -65,14 +65,14 @@ class Recovery:
         """Write the layout to this process's recovery file (atomically); an orphan of a
         dead process that had this pid is renamed aside first (and offered later).
         """
-        self.directory.mkdir(parents=True, exist_ok=True)
+        self.directory.mkdir(mode=0o700, parents=True, exist_ok=True)  # private: layouts
         if _stale(self.path):
             self.path.replace(self.path.with_name(
                 f"recovery-{os.getpid()}-{self.path.stat().st_mtime_ns}.json"))
         data = {"wrinkle_vis_recovery": VERSION, "pid": os.getpid(), "saved_at": time.time(),
                 "source": str(source) if source else None, "n_triangles": int(n_triangles),
                 "layout": layout.to_dict()}
-        atomic_write_text(self.path, json.dumps(data, indent=1))
+        atomic_write_text(self.path, json.dumps(data, indent=1), mode=0o600)
         return self.path
 
     def discard(self) -> None:
