@@ -286,3 +286,17 @@ def test_the_recovery_folder_and_files_are_private(tmp_path):
         os.umask(old)
     assert oct(path.parent.stat().st_mode & 0o777) == oct(0o700)
     assert oct(path.stat().st_mode & 0o777) == oct(0o600)
+
+
+def test_a_series_written_before_version_folders_is_replaced_whole(tmp_path, states):
+    """An index over pieces directly in its folder (as written before versions)."""
+    out, folder = tmp_path / "r.pvd", tmp_path / "r"
+    folder.mkdir()
+    pv.Sphere().save(folder / "r_0000.vtp")
+    out.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n'
+                   '<Collection>\n<DataSet timestep="0" file="r/r_0000.vtp"/>\n'
+                   '</Collection>\n</VTKFile>\n')
+    save_sequence([states[2.0]], [2.0], out)
+    assert _pvd_state(out, [0.0], [2.0]) == "new"
+    (version,) = folder.iterdir()  # the old piece is gone
+    assert [p.name for p in version.iterdir()] == ["r_0000.vtp"]

@@ -199,11 +199,11 @@ def _check_link_owner(link: str, st: os.stat_result, folder: str,
 
 
 # ---------------------------------------------------------------------- temporaries
-_TEMP = re.compile(r"\.(?P<name>.+)\.(?P<pid>\d+)\.[A-Za-z0-9_]{8}\.tmp(\..*)?")
-_OLD = re.compile(r"\.(?P<name>.+)\.old\.(?P<pid>\d+)\.[A-Za-z0-9_]{8}")
+_TEMP = re.compile(r"\.(?P<name>.+)\.(?P<pid>\d+)\.[a-z0-9_]{8}\.tmp(\..*)?")
+_OLD = re.compile(r"\.(?P<name>.+)\.old\.(?P<pid>\d+)\.[a-z0-9_]{8}")
 # names of versions before the pid was in them: stale once they are this old (seconds)
-_LEGACY = (re.compile(r"\.(?P<name>.+)\.[A-Za-z0-9_]{8}\.tmp(\..*)?"),
-           re.compile(r"\.(?P<name>.+)\.old\.[A-Za-z0-9_]{8}"))
+_LEGACY = (re.compile(r"\.(?P<name>.+)\.[a-z0-9_]{8}\.tmp(\..*)?"),
+           re.compile(r"\.(?P<name>.+)\.old\.[a-z0-9_]{8}"))
 LEGACY_AGE_S = 600.0
 
 
@@ -458,7 +458,7 @@ def replace_indexed(version: Path, folder: Path, index_tmp: Path, index: Path) -
     ``FOLDER/VERSION/...``, over ``index``: that rename is the commit. Only then are the old
     version (or, written before versions, the old pieces) and the versions of killed
     writers removed. A kill before the commit leaves the old index over its own pieces,
-    after it the new one; leftovers go at the next write (:meth:`_tidy_versions`).
+    after it the new one; leftovers go at the next write (:func:`tidy_versions`).
 
     Raises
     ------
