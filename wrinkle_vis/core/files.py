@@ -192,10 +192,12 @@ def _check_link_owner(link: str, st: os.stat_result, folder: str,
         return
     if st.st_uid in (os.geteuid(), owner):
         return
+    what = f"{link!r} is a symbolic link that" if os.path.abspath(given) == link else \
+        f"{os.fspath(given)!r} passes through the symbolic link {link!r}, which"
     raise OutputPathError(
-        f"{os.fspath(given)!r}: the symbolic link {link!r} belongs to another user "
-        f"(uid {st.st_uid}) than you or the owner of {folder!r}, so it is not written "
-        "through; remove the link or write somewhere else")
+        f"{what} belongs to another user (uid {st.st_uid}), not to you or to the owner of "
+        f"the folder {folder!r}, so it is not written through; remove the link or write "
+        "somewhere else")
 
 
 # ---------------------------------------------------------------------- temporaries
