@@ -270,7 +270,7 @@ def clean_stale(folder: str | os.PathLike) -> list[str]:
         m = _stale_match(entry, now)
         if m is None:
             continue
-        if ".old." in entry.name and entry.is_dir(follow_symlinks=False):
+        if m.re in (_OLD, _LEGACY[1]) and entry.is_dir(follow_symlinks=False):
             name = m.group("name")
             kept, place = os.path.join(entry.path, name), os.path.join(folder, name)
             if os.path.isdir(kept) and not os.path.lexists(place):
