@@ -128,3 +128,17 @@ def test_resolution_follows_links_as_the_kernel_does(tmp_path):
     (tmp_path / "loop").symlink_to("loop")
     with pytest.raises(OutputPathError, match="too many symbolic links"):
         resolve_output(tmp_path / "loop")
+
+
+def test_the_app_says_so_when_its_autosave_meets_a_planted_link(shared, make_window,
+                                                                 wv_face):
+    from wrinkle_vis.app.session import Session
+
+    folder, secret = shared
+    w = make_window(Session(wv_face), Recovery(folder))
+    _plant(w.recovery.path, secret)
+    w.session.dirty = True
+    w.autosave()  # no exception out of the Qt slot
+    assert "Autosave failed" in w.statusBar().currentMessage()
+    assert "belongs to another user" in w.statusBar().currentMessage()
+    assert secret.read_bytes() == SECRET

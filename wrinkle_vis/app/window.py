@@ -1277,7 +1277,7 @@ class MainWindow(QtWidgets.QMainWindow):
         try:  # mesh paths relative to the source's folder, else absolute
             self.recovery.save(s.layout(s.layout_path.parent if s.layout_path else None),
                                s.layout_path, s.face.skin.n_triangles)
-        except OSError as exc:
+        except (OSError, ValueError) as exc:  # a full disk; a folder or link refused
             self.statusBar().showMessage(f"Autosave failed: {exc}")
 
     def offer_recovery(self) -> bool:
