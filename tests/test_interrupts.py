@@ -31,6 +31,16 @@ def _interrupt_second_frame(monkeypatch, interrupt) -> None:
     monkeypatch.setattr(exchange, "_write_synced", write)
 
 
+def _last_line(err: str) -> str:
+    """The last line of stderr (after a progress bar, if one came up), which must be the
+    only one apart from the bar's.
+    """
+    lines = [x for x in err.replace("\r", "\n").splitlines() if x.strip()]
+    assert err.endswith("\n") and not any("Traceback" in x for x in lines), err
+    assert all(x.startswith("writing ") for x in lines[:-1]), err
+    return lines[-1]
+
+
 def _raise_keyboard_interrupt():
     raise KeyboardInterrupt
 
@@ -49,7 +59,7 @@ def test_an_interrupted_command_says_so_in_one_line(tmp_path, monkeypatch, capsy
     _interrupt_second_frame(monkeypatch, interrupt)
     assert main(["export", "--sequence", "--fps", "2", "-o", str(out)]) == status
     captured = capsys.readouterr()
-    assert captured.err == "wrinkle-vis export: interrupted; nothing was changed\n"
+    assert _last_line(captured.err) == "wrinkle-vis export: interrupted; nothing was changed"
     assert "wrote" not in captured.out
     after = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
     assert after == before  # the old series, and no temporary
@@ -136,3 +146,26 @@ def test_kill_9_during_an_mp4_takes_ffmpeg_along_and_the_next_write_cleans_up(tm
     assert len(left) == 1 and left[0].startswith(f".a.mp4.{proc.pid}.")
     assert clean_stale(tmp_path) == left  # what the next write does first
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_interrupt_swallowed_on_its_way_still_changes_nothing(tmp_path, monkeypatch,
+                                                                 capsys):
+    """As when VTK catches the exception a signal handler raised inside one of its calls."""
+    out = tmp_path / "r.pvd"
+    assert main(["export", "--sequence", "--fps", "1", "-o", str(out)]) == 0
+    before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    capsys.readouterr()
+
+    def swallowed():
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.1)  # the handler runs here and raises
+        except BaseException:
+            pass
+
+    _interrupt_second_frame(monkeypatch, swallowed)
+    assert main(["export", "--sequence", "--fps", "2", "-o", str(out)]) == 143
+    assert _last_line(capsys.readouterr().err) == \
+        "wrinkle-vis export: interrupted; nothing was changed"
+    assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
+    assert main(["export", "--sequence", "--fps", "2", "-o", str(out)]) == 0  # forgotten

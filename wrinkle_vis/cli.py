@@ -47,27 +47,19 @@ class CliError(Exception):
     """A bad argument the parser could not see; printed without a traceback."""
 
 
-class Interrupted(BaseException):
-    """SIGTERM or SIGHUP, raised where the command is (as Ctrl-C raises KeyboardInterrupt),
-    so the writers' clean-ups run.
-    """
-
-    def __init__(self, signum: int):
-        super().__init__(signum)
-        self.signum = signum
-
-
 @contextmanager
 def _signals_raise(received: list[int]):
     """While the block runs, SIGINT raises KeyboardInterrupt and SIGTERM and SIGHUP
-    :class:`Interrupted`; each signal's number is appended to ``received`` (an exception
-    raised inside VTK can come out as another error, or not at all).
+    :class:`~wrinkle_vis.core.files.Interrupted`; each signal's number is appended to
+    ``received`` and kept by :func:`~wrinkle_vis.core.files.note_interrupt`, so that no
+    output is put in place afterwards even if VTK swallowed the exception.
     """
+    from wrinkle_vis.core import files
+
     def stop(signum, frame):
         received.append(signum)
-        if signum == signal.SIGINT:
-            raise KeyboardInterrupt
-        raise Interrupted(signum)
+        files.note_interrupt(signum)
+        raise files.interrupt_exception(signum)
 
     old = {}
     for name in ("SIGINT", "SIGTERM", "SIGHUP"):
@@ -82,6 +74,7 @@ def _signals_raise(received: list[int]):
     finally:
         for sig, handler in old.items():
             signal.signal(sig, handler)
+        files.note_interrupt(None)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -815,7 +808,7 @@ def main(argv=None) -> int:
     if getattr(args, "layout", None) is not None and not args.layout.is_file():
         what = "is a folder, not a file" if args.layout.is_dir() else "no such file"
         parser.error(f"--layout {args.layout}: {what}; check the path")
-    from wrinkle_vis.core.files import OutputPathError, WriteError, commits
+    from wrinkle_vis.core.files import Interrupted, OutputPathError, WriteError, commits
     from wrinkle_vis.core.layout import LayoutError
     from wrinkle_vis.core.mesh import MeshError
 

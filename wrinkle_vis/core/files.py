@@ -41,11 +41,11 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["OutputPathError", "WriteError", "atomic_output", "atomic_write_bytes",
+__all__ = ["Interrupted", "OutputPathError", "WriteError", "atomic_output", "atomic_write_bytes",
            "atomic_write_text", "check_output", "clean_stale", "commits", "deferred_signals",
-           "exchange", "indexed_entries", "new_version", "replace_folder", "replace_indexed",
-           "replace_permissions", "resolve_output", "temp_folder", "temp_prefix",
-           "tidy_versions", "write_error"]
+           "exchange", "indexed_entries", "interrupt_exception", "new_version", "note_interrupt",
+           "replace_folder", "replace_indexed", "replace_permissions", "resolve_output",
+           "temp_folder", "temp_prefix", "tidy_versions", "write_error"]
 
 
 class OutputPathError(ValueError):
@@ -297,6 +297,35 @@ def temp_folder(parent: str | os.PathLike, name: str) -> Path:
 
 
 # ---------------------------------------------------------------------- commits
+class Interrupted(BaseException):
+    """A SIGTERM or SIGHUP, raised where the program is (as Ctrl-C raises
+    KeyboardInterrupt), so that the writers' clean-ups run.
+    """
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def interrupt_exception(signum: int) -> BaseException:
+    """The exception for signal ``signum``: KeyboardInterrupt for SIGINT, else
+    :class:`Interrupted`.
+    """
+    return KeyboardInterrupt() if signum == getattr(signal, "SIGINT", None) else \
+        Interrupted(signum)
+
+
+_PENDING: list[int] = []
+
+
+def note_interrupt(signum: int | None) -> None:
+    """Record that signal ``signum`` asked the program to stop (a signal handler calls
+    this before raising): from then on no output is put in place, in case the exception
+    was swallowed on its way (inside VTK). ``None`` forgets it.
+    """
+    _PENDING[:] = [] if signum is None else [signum]
+
+
 _COMMITS = 0
 _DEFERRED = (getattr(signal, "SIGINT", None), getattr(signal, "SIGTERM", None),
              getattr(signal, "SIGHUP", None))
@@ -317,8 +346,11 @@ def _committed() -> None:
 @contextmanager
 def deferred_signals() -> Iterator[None]:
     """Hold SIGINT, SIGTERM and SIGHUP back during the block (the renames that put an
-    output in place), so a handler runs before or after them, not between (POSIX only).
+    output in place), so a handler runs before or after them, not between (POSIX only);
+    after an interrupt (:func:`note_interrupt`) raise its exception instead.
     """
+    if _PENDING:  # an interrupt came and its exception was lost: put nothing in place
+        raise interrupt_exception(_PENDING[0])
     sigs = {s for s in _DEFERRED if s is not None}
     if not sigs or not hasattr(signal, "pthread_sigmask"):
         yield
