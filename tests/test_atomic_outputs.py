@@ -10,6 +10,7 @@ import json
 import os
 import re
 import signal
+import time
 from pathlib import Path
 
 import numpy as np
@@ -199,16 +200,23 @@ def test_stale_temporaries_of_dead_processes_go_and_live_ones_stay(tmp_path):
     if dead == 0:
         os._exit(0)
     os.waitpid(dead, 0)
-    live = os.getppid()
-    names = {f".a.gif.{dead}.abcd_123.tmp.gif": "dead", f".r.{dead}.x1y2z3w4.tmp": "dead",
-             f".a.gif.{live}.abcd_123.tmp.gif": "live", f".maps.old.{live}.q1w2e3r4": "live",
-             ".notes.txt": "not ours", "a.gif": "not ours"}
+    live, here = os.getppid(), files.HOST_TAG
+    away = "0" * 6 if here != "0" * 6 else "1" * 6  # another machine or container
+    names = {f".a.gif.{dead}-{here}.abcd_123.tmp.gif": "dead",
+             f".r.{dead}-{here}.x1y2z3w4.tmp": "dead",
+             f".a.gif.{live}-{here}.abcd_123.tmp.gif": "live",
+             f".maps.old.{live}-{here}.q1w2e3r4": "live",
+             f".b.gif.{dead}-{away}.abcd_123.tmp.gif": "elsewhere, fresh",
+             f".c.gif.{dead}-{away}.abcd_123.tmp.gif": "elsewhere, two days old",
+             ".notes.txt": "not ours", "a.gif": "not ours", f".a.gif.{dead}.tmp": "not ours"}
     for name in names:
-        (tmp_path / name).mkdir() if "." not in name[3:] or ".r." in name \
-            else (tmp_path / name).write_text("x")
+        (tmp_path / name).write_text("x")
+    two_days_ago = time.time() - 2 * 86400
+    os.utime(tmp_path / f".c.gif.{dead}-{away}.abcd_123.tmp.gif", (two_days_ago,) * 2)
     files.clean_stale(tmp_path)
     left = {p.name for p in tmp_path.iterdir()}
-    assert left == {n for n, why in names.items() if why != "dead"}
+    assert left == {n for n, why in names.items() if why not in ("dead", "elsewhere, two "
+                                                                 "days old")}
 
 
 def test_a_killed_move_aside_is_put_back_when_its_place_is_empty(tmp_path):
@@ -216,7 +224,7 @@ def test_a_killed_move_aside_is_put_back_when_its_place_is_empty(tmp_path):
     if dead == 0:
         os._exit(0)
     os.waitpid(dead, 0)
-    aside = tmp_path / f".maps.old.{dead}.a1b2c3d4" / "maps"
+    aside = tmp_path / f".maps.old.{dead}-{files.HOST_TAG}.a1b2c3d4" / "maps"
     aside.mkdir(parents=True)
     (aside / "displacement.png").write_bytes(b"old")
     assert files.clean_stale(tmp_path) == [aside.parent.name]

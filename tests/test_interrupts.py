@@ -143,7 +143,7 @@ def test_kill_9_during_an_mp4_takes_ffmpeg_along_and_the_next_write_cleans_up(tm
         for pid in _ffmpeg_of(tmp_path):
             os.kill(pid, signal.SIGKILL)
     left = [p.name for p in tmp_path.iterdir()]
-    assert len(left) == 1 and left[0].startswith(f".a.mp4.{proc.pid}.")
+    assert len(left) == 1 and left[0].startswith(f".a.mp4.{proc.pid}-")
     assert clean_stale(tmp_path) == left  # what the next write does first
     assert list(tmp_path.iterdir()) == []
 

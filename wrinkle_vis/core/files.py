@@ -9,10 +9,10 @@ target is replaced and the link kept) only if the link belongs to the current us
 the owner of the folder it lies in; any other link on the way is refused
 (:func:`check_output`), so a link planted in a shared folder cannot redirect a write.
 
-Temporary files and folders are named ``.NAME.<pid>.<random>.tmp...``; those of processes
-that are gone (killed) are removed by the next write into the same folder
-(:func:`clean_stale`), and a folder moved aside (``.NAME.old.<pid>.<random>``) by a killed
-:func:`replace_folder` is put back if its place is empty. Outputs of several files are
+Temporary files and folders are named ``.NAME.<pid>-<host>.<random>.tmp...``; those of
+processes that are gone (killed) are removed by the next write into the same folder
+(:func:`clean_stale`), and a folder moved aside (``.NAME.old.<pid>-<host>.<random>``) by a
+killed :func:`replace_folder` is put back if its place is empty. Outputs of several files are
 replaced as a whole: a folder by one exchange of two names (:func:`replace_folder`), an index
 and its folder of pieces by renaming a new version folder in and then the index over the
 old one (:func:`replace_indexed`); a kill at any point leaves the old output or the new
@@ -29,11 +29,13 @@ from __future__ import annotations
 
 import ctypes
 import errno
+import hashlib
 import os
 import re
 import secrets
 import shutil
 import signal
+import socket
 import stat
 import tempfile
 import time
@@ -201,12 +203,33 @@ def _check_link_owner(link: str, st: os.stat_result, folder: str,
 
 
 # ---------------------------------------------------------------------- temporaries
-_TEMP = re.compile(r"\.(?P<name>.+)\.(?P<pid>\d+)\.[a-z0-9_]{8}\.tmp(\..*)?")
-_OLD = re.compile(r"\.(?P<name>.+)\.old\.(?P<pid>\d+)\.[a-z0-9_]{8}")
+def _host_tag() -> str:
+    """6 hex digits naming this machine and pid namespace (a container): a pid is only
+    looked up where it means the same process.
+    """
+    try:
+        space = os.stat("/proc/self/ns/pid").st_ino
+    except OSError:
+        space = 0
+    return hashlib.sha1(f"{socket.gethostname()}:{space}".encode()).hexdigest()[:6]
+
+
+#: This machine and pid namespace, in the names of temporaries (``<pid>-<HOST_TAG>``).
+HOST_TAG = _host_tag()
+_WRITER = r"(?P<pid>\d+)-(?P<host>[0-9a-f]{6})"
+_TEMP = re.compile(r"\.(?P<name>.+)\." + _WRITER + r"\.[a-z0-9_]{8}\.tmp(\..*)?")
+_OLD = re.compile(r"\.(?P<name>.+)\.old\." + _WRITER + r"\.[a-z0-9_]{8}")
 # names of versions before the pid was in them: stale once they are this old (seconds)
 _LEGACY = (re.compile(r"\.(?P<name>.+)\.[a-z0-9_]{8}\.tmp(\..*)?"),
            re.compile(r"\.(?P<name>.+)\.old\.[a-z0-9_]{8}"))
 LEGACY_AGE_S = 600.0
+#: Temporaries of another machine or container (whose pids mean nothing here) are stale
+#: once they are this old (seconds).
+FOREIGN_AGE_S = 86400.0
+
+
+def _writer_tag() -> str:
+    return f"{os.getpid()}-{HOST_TAG}"
 
 
 def _alive(pid: int) -> bool:
@@ -222,20 +245,32 @@ def _alive(pid: int) -> bool:
     return True
 
 
+def _older(entry: os.DirEntry, now: float, seconds: float) -> bool:
+    try:
+        return now - entry.stat(follow_symlinks=False).st_mtime > seconds
+    except OSError:
+        return False
+
+
+def _gone(m: re.Match, entry: os.DirEntry, now: float) -> bool:
+    """Whether the writer named in ``m`` (pid and host tag) is gone: here, a pid that no
+    process has; of another machine or container, a name older than a day.
+    """
+    if m.group("host") == HOST_TAG:
+        return not _alive(int(m.group("pid")))
+    return _older(entry, now, FOREIGN_AGE_S)
+
+
 def _stale_match(entry: os.DirEntry, now: float) -> re.Match | None:
     """The name's match if ``entry`` is a temporary of a process that is gone."""
     for pattern in (_TEMP, _OLD):
         m = pattern.fullmatch(entry.name)
         if m:
-            return None if _alive(int(m.group("pid"))) else m
+            return m if _gone(m, entry, now) else None
     for pattern in _LEGACY:
         m = pattern.fullmatch(entry.name)
         if m:
-            try:
-                age = now - entry.stat(follow_symlinks=False).st_mtime
-            except OSError:
-                return None
-            return m if age > LEGACY_AGE_S else None
+            return m if _older(entry, now, LEGACY_AGE_S) else None
     return None
 
 
@@ -253,10 +288,12 @@ def _remove_any(path: str | os.PathLike) -> None:
 def clean_stale(folder: str | os.PathLike) -> list[str]:
     """Remove from ``folder`` the temporaries of writers that were killed; return their names.
 
-    A temporary is stale when the process named in it (``.NAME.<pid>.<random>.tmp...``) is
-    gone; names written before the pid was in them, when older than
+    A temporary is stale when the process named in it
+    (``.NAME.<pid>-<host>.<random>.tmp...``) is gone: ``host`` is :data:`HOST_TAG`, and no
+    process has the pid; a name of another machine or container, when older than
+    :data:`FOREIGN_AGE_S`; names written before the pid was in them, when older than
     :data:`LEGACY_AGE_S`. A folder moved aside by a killed :func:`replace_folder`
-    (``.NAME.old.<pid>.<random>/NAME``) is put back first if ``NAME`` is missing. Only hidden
+    (``.NAME.old.<pid>-<host>.<random>/NAME``) is put back first if ``NAME`` is missing. Only hidden
     names of these shapes are touched; errors are ignored (a folder that cannot be listed
     or written is left as it is).
     """
@@ -284,8 +321,8 @@ def clean_stale(folder: str | os.PathLike) -> list[str]:
 
 
 def temp_prefix(name: str) -> str:
-    """The start of a temporary's name for the output ``name``: ``.NAME.<pid>.``."""
-    return f".{name}.{os.getpid()}."
+    """The start of a temporary's name for the output ``name``: ``.NAME.<pid>-<host>.``."""
+    return f".{name}.{_writer_tag()}."
 
 
 def temp_folder(parent: str | os.PathLike, name: str) -> Path:
@@ -410,7 +447,7 @@ def replace_folder(new: Path, folder: Path, then: Callable[[], None] | None = No
     the same file system, in a temporary folder (:func:`temp_folder`) that the caller
     removes: after an exchange it holds the old folder. An old folder is swapped with the
     new in one step (:func:`exchange`), so a kill leaves one or the other. Where that is not
-    supported, the old folder is first moved aside to ``.NAME.old.<pid>.<random>``, which
+    supported, the old folder is first moved aside to ``.NAME.old.<pid>-<host>.<random>``, which
     the next write into the same folder puts back if the kill came before the new one was
     in place (:func:`clean_stale`). If ``then()`` fails, the old folder is put back.
 
@@ -434,7 +471,7 @@ def replace_folder(new: Path, folder: Path, then: Callable[[], None] | None = No
             return
         try:
             if is_old:
-                old_dir = Path(tempfile.mkdtemp(prefix=f".{folder.name}.old.{os.getpid()}.",
+                old_dir = Path(tempfile.mkdtemp(prefix=f".{folder.name}.old.{_writer_tag()}.",
                                                 dir=folder.parent))
                 os.rename(folder, old_dir / folder.name)
             os.rename(new, folder)
@@ -452,7 +489,7 @@ def replace_folder(new: Path, folder: Path, then: Callable[[], None] | None = No
                 shutil.rmtree(old_dir, ignore_errors=True)
 
 
-_VERSION = re.compile(r"v(?P<pid>\d+)-[0-9a-f]{8}")
+_VERSION = re.compile(r"v" + _WRITER + r"-[0-9a-f]{8}")
 _FILE_ATTR = re.compile(r"""\sfile=(["'])(.*?)\1""")
 
 
@@ -460,8 +497,10 @@ _WRITING: set[str] = set()  # this process's versions not yet committed or given
 
 
 def new_version() -> str:
-    """A fresh name for a version folder of :func:`replace_indexed`: ``v<pid>-<8 hex>``."""
-    name = f"v{os.getpid()}-{secrets.token_hex(4)}"
+    """A fresh name for a version folder of :func:`replace_indexed`:
+    ``v<pid>-<host>-<8 hex>``.
+    """
+    name = f"v{_writer_tag()}-{secrets.token_hex(4)}"
     _WRITING.add(name)
     return name
 
@@ -528,18 +567,20 @@ def tidy_versions(folder: Path, index: Path, old: set[str] = frozenset()) -> Non
         entries = list(os.scandir(folder))
     except OSError:
         return
+    now = time.time()
     for entry in entries:
         if entry.name in current:
             continue
         m = _VERSION.fullmatch(entry.name)
-        if entry.name in old or (m and _abandoned(entry.name, int(m.group("pid")))):
+        if entry.name in old or (m and _abandoned(m, entry, now)):
             _remove_any(entry.path)
 
 
-def _abandoned(version: str, pid: int) -> bool:
-    if pid == os.getpid():
-        return version not in _WRITING
-    return not _alive(pid)
+def _abandoned(m: re.Match, entry: os.DirEntry, now: float) -> bool:
+    """Whether no writer works on the version folder ``entry`` (``m`` its name's match)."""
+    if m.group("host") == HOST_TAG and int(m.group("pid")) == os.getpid():
+        return entry.name not in _WRITING
+    return _gone(m, entry, now)
 
 
 def umask() -> int:

@@ -5,7 +5,7 @@ Formats
 -------
 ``NAME.pvd``
     A ParaView time series: the collection file indexes one ``.vtp`` per frame in a version
-    folder inside the folder ``NAME/`` beside it (``NAME/v<pid>-<hex>/NAME_0000.vtp``, ...),
+    folder inside the folder ``NAME/`` beside it (``NAME/v<pid>-<host>-<hex>/NAME_0000.vtp``, ...),
     each with every field as a point array (:func:`~wrinkle_vis.plotting.to_polydata`) and
     its time as the field array ``TimeValue``. The new version goes in, the collection file
     is renamed over the old one, then the old version goes: a kill at any point leaves a

@@ -20,7 +20,7 @@ Formats
     and the triangles as ``vertex_indices``. (VTK's PLY writer drops arbitrary arrays.)
 ``.vtm``
     A multiblock: ``name.vtm`` indexes the pieces written to the folder ``name/`` beside it,
-    as ParaView expects, in a version folder of their own (``name/v<pid>-<hex>/name_0.vtp``,
+    as ParaView expects, in a version folder of their own (``name/v<pid>-<host>-<hex>/name_0.vtp``,
     ...): the new version goes in, then the index is renamed over the old one, then the old
     version goes, so a kill at any point leaves an index over its own pieces
     (:func:`~wrinkle_vis.core.files.replace_indexed`).
@@ -242,7 +242,7 @@ def _check_ply(tmp: Path, mesh: pv.PolyData) -> None:
 
 # ---------------------------------------------------------------------- multiblocks
 _PIECE = re.compile(r".+_\d+\.vt[a-z]$")
-_VERSION_DIR = re.compile(r"v\d+-[0-9a-f]{8}")
+_VERSION_DIR = re.compile(r"v\d+-[0-9a-f]{6}-[0-9a-f]{8}")
 
 
 def _is_piece(path: Path) -> bool:
