@@ -376,3 +376,15 @@ def test_play_at_a_frame_rate_and_through_a_face_mapping(wv_face):
     perf = performance(track, default_mapping(), wv_face.muscle_names, fps=4)
     assert perf.duration_s == 0.5 and perf.activations["procerus"] == 1.0
     assert perf.at(0.25)["corrugator_R"] == pytest.approx(0.5)
+
+
+@pytest.mark.parametrize("which", ["procedural", "lee_perry_smith"])
+def test_the_procerus_alone_lines_the_root_of_the_nose(wv_face, head, which):
+    """AU4's procerus: furrows across the midline between the brows, where the corrugators'
+    vertical furrows (either side) are not.
+    """
+    face = wv_face if which == "procedural" else head
+    w = face.evaluate({"procerus": 1.0}).W
+    root = _region(face, (0, 6), (6, 26))
+    assert np.abs(w[root]).max() > 0.05 and np.abs(w[root]).max() == np.abs(w).max()
+    assert np.abs(w[_region(face, (0, 60), (35, 200))]).max(initial=0) == 0.0  # not above
