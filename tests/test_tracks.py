@@ -376,6 +376,11 @@ def test_play_at_a_frame_rate_and_through_a_face_mapping(wv_face):
     perf = performance(track, default_mapping(), wv_face.muscle_names, fps=4)
     assert perf.duration_s == 0.5 and perf.activations["procerus"] == 1.0
     assert perf.at(0.25)["corrugator_R"] == pytest.approx(0.5)
+    assert perf.at(0.1)["procerus"] == pytest.approx(0.2)  # linear between frames
+    assert perf.at(-1.0)["procerus"] == 0.0 and perf.at(9.0)["procerus"] == 1.0  # held
+    assert perf.at(0.5, intensity=0.5)["procerus"] == 0.5
+    assert perf == performance(track, default_mapping(), wv_face.muscle_names, fps=4)
+    assert perf != performance(track, default_mapping(), wv_face.muscle_names, fps=8)
 
 
 @pytest.mark.parametrize("which", ["procedural", "lee_perry_smith"])

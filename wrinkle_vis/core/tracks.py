@@ -240,6 +240,7 @@ class Track:
                      self.notes)
 
     def __eq__(self, other) -> bool:
+        """Equal channels, times and values (format, source and notes aside)."""
         return (isinstance(other, Track) and self.channels == other.channels
                 and np.array_equal(self.times, other.times)
                 and np.array_equal(self.values, other.values))
@@ -277,8 +278,9 @@ def read_track(path: str | os.PathLike, format: str | None = None, fps: float | 
     if format is not None and format not in TRACK_FORMATS:
         raise TrackError(f"{name}: unknown track format {format!r}; choose one of "
                          f"{', '.join(TRACK_FORMATS)} or leave it out to recognise it")
-    if fps is not None and not (math.isfinite(float(fps)) and float(fps) > 0):
-        raise TrackError(f"{name}: fps = {fps} must be a positive number of frames a second")
+    if fps is not None and not (isinstance(fps, (int, float)) and math.isfinite(fps)
+                                and fps > 0):
+        raise TrackError(f"{name}: fps = {fps!r} must be a positive number of frames a second")
     header, rows = _read_table(path, max_bytes)
     fmt = format or _recognise(name, header)
     _check_rows(name, header, rows)
@@ -823,24 +825,57 @@ class Performance(Expression):
 
     ``onset_s`` and ``release_s`` are 0 and ``hold_s`` the track's duration, so
     :attr:`duration_s` is the track's.
+
+    Parameters
+    ----------
+    times : (k,) float
+        The frames' times, seconds from the first.
+    table : (k, M) float
+        The activations of ``muscle_order`` at ``times``.
+    muscle_order : tuple of str
+        The ``M`` muscles of ``table``'s columns.
     """
 
-    times: tuple = ()
-    table: tuple = ()  # (k, M) activations, as tuples of floats
+    times: np.ndarray = field(default_factory=lambda: np.zeros(1))
+    table: np.ndarray = field(default_factory=lambda: np.zeros((1, 0)))
     muscle_order: tuple = ()
+
+    def __post_init__(self):
+        super().__post_init__()
+        times = np.array(self.times, float).reshape(-1)
+        table = np.array(self.table, float).reshape(len(times), len(self.muscle_order))
+        times.flags.writeable = table.flags.writeable = False
+        object.__setattr__(self, "times", times)
+        object.__setattr__(self, "table", table)
+        object.__setattr__(self, "muscle_order", tuple(self.muscle_order))
 
     def at(self, t: float, intensity: float = 1.0) -> dict[str, float]:
         """Activations at ``t`` seconds from the first frame (first and last held)."""
         k = float(intensity)
         if not 0.0 <= k <= 1.0:
             raise ValueError(f"intensity = {k:g} is outside [0, 1]")
-        a = np.asarray(self.table, float)
-        row = [float(np.interp(float(t), self.times, a[:, j])) for j in range(a.shape[1])]
-        return {m: k * v for m, v in zip(self.muscle_order, row, strict=True)}
+        t = float(t)
+        i = int(np.clip(np.searchsorted(self.times, t, side="right") - 1, 0,
+                        len(self.times) - 1))
+        if i + 1 < len(self.times) and t > self.times[i]:
+            s = (t - self.times[i]) / (self.times[i + 1] - self.times[i])
+            row = (1.0 - s) * self.table[i] + s * self.table[i + 1]
+        else:
+            row = self.table[i]
+        return {m: k * float(v) for m, v in zip(self.muscle_order, row, strict=True)}
 
     def envelope(self, t: float) -> float:
         """1: the track itself rises and falls."""
         return 1.0
+
+    def __eq__(self, other) -> bool:
+        """The same expression fields, muscles, times and activations."""
+        return (isinstance(other, Performance) and self.to_dict() == other.to_dict()
+                and self.muscle_order == other.muscle_order
+                and np.array_equal(self.times, other.times)
+                and np.array_equal(self.table, other.table))
+
+    __hash__ = None
 
 
 def performance(track: Track, mapping: TrackMapping, muscles: Sequence[str], *,
@@ -853,13 +888,14 @@ def performance(track: Track, mapping: TrackMapping, muscles: Sequence[str], *,
         track = track.resampled(fps, smooth_s)
     elif smooth_s:
         raise ValueError("smoothing needs a frame rate: pass fps=... with smooth_s")
-    acts = mapping.activations(track, tuple(muscles))
+    muscles = tuple(muscles)
+    acts = mapping.activations(track, muscles)
     peak = {m: float(acts[:, j].max()) for j, m in enumerate(muscles) if acts[:, j].max() > 0}
     label = name or (Path(track.source).stem if track.source else "track")
     return Performance(label, peak, onset_s=0.0, hold_s=track.duration_s, release_s=0.0,
                        description=f"{track.format or 'recorded'} track, {track.n_frames} "
-                                   f"frames", times=tuple(map(float, track.times)),
-                       table=tuple(map(tuple, acts.tolist())), muscle_order=tuple(muscles))
+                                   f"frames", times=track.times, table=acts,
+                       muscle_order=muscles)
 
 
 def iter_activations(track: Track, mapping: TrackMapping, muscles: Sequence[str], *,
@@ -867,6 +903,5 @@ def iter_activations(track: Track, mapping: TrackMapping, muscles: Sequence[str]
                      smooth_s: float = 0.0) -> Iterator[tuple[float, dict[str, float]]]:
     """``(t, {muscle: activation})`` for every frame (the track's, or at ``fps``)."""
     perf = performance(track, mapping, muscles, fps=fps, smooth_s=smooth_s)
-    a = np.asarray(perf.table, float).reshape(len(perf.times), len(muscles))
-    for t, row in zip(perf.times, a, strict=True):
-        yield t, dict(zip(muscles, map(float, row), strict=True))
+    for t, row in zip(perf.times, perf.table, strict=True):
+        yield float(t), dict(zip(perf.muscle_order, map(float, row), strict=True))
