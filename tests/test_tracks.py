@@ -393,3 +393,14 @@ def test_the_procerus_alone_lines_the_root_of_the_nose(wv_face, head, which):
     root = _region(face, (0, 6), (6, 26))
     assert np.abs(w[root]).max() > 0.05 and np.abs(w[root]).max() == np.abs(w).max()
     assert np.abs(w[_region(face, (0, 60), (35, 200))]).max(initial=0) == 0.0  # not above
+
+
+def test_a_track_fading_to_a_vanishing_activation_refines_every_frame(wv_face):
+    """sin(pi t)^2 ends at 1.5e-32, not 0: a muscle that active bends no triangle, and the
+    refinement's normals of no triangles were integers (a UFuncTypeError).
+    """
+    t = np.linspace(0.0, 1.0, 3)
+    track = Track(t, ["AU04"], np.sin(np.pi * t)[:, None] ** 2)
+    assert 0.0 < track.values[-1, 0] < 1e-30
+    states = list(wv_face.play(track, refine=True))
+    assert np.abs(states[-1].W).max() < 1e-20 < np.abs(states[1].W).max()
