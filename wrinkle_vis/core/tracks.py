@@ -317,13 +317,30 @@ def _read_table(path: Path, max_bytes: int) -> tuple[list[str], list[tuple[int, 
         line = raw.count(b"\n", 0, exc.start) + 1
         raise TrackError(f"{name}: line {line}: not UTF-8 text (byte 0x{raw[exc.start]:02x}); "
                          "save the track as UTF-8 CSV") from None
+    del raw
     try:
         reader = csv.reader(io.StringIO(text))
         header = [h.strip() for h in next(reader)]
-        rows = [(reader.line_num, r) for r in reader if any(f.strip() for f in r)]
+        used = [i for i, h in enumerate(header) if _MAYBE_USED.fullmatch(h)
+                or h.lower() in _BLEND]
+        rows = [(reader.line_num, _slim(r, used)) for r in reader if any(f.strip() for f in r)]
     except csv.Error as exc:
         raise TrackError(f"{name}: line {reader.line_num}: not CSV ({exc})") from None
     return header, rows
+
+
+#: Columns some reader may read (the others are kept as empty cells, to save memory).
+_MAYBE_USED = re.compile(r"au\d+(_r)?|timestamp(_ms)?|time|frame|success|approx_time|"
+                         r"timecode", re.IGNORECASE)
+
+
+def _slim(row: list[str], used: list[int]) -> list[str]:
+    """``row`` with only the ``used`` cells (the others empty), its length kept."""
+    out = [""] * len(row)
+    for i in used:
+        if i < len(row):
+            out[i] = row[i]
+    return out
 
 
 def _check_rows(name: str, header: list[str], rows) -> None:
