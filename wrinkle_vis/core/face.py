@@ -48,6 +48,7 @@ from .mesh import (
 )
 from .muscle import Muscle, check_activation
 from .refined import RefinedEngine, slide_bend
+from .tracks import Track, TrackMapping, default_mapping, iter_activations
 from .units import check_unit, face_unit
 
 __all__ = ["FIELD_NAMES", "FaceModel", "FaceState"]
@@ -397,8 +398,8 @@ class FaceModel:
 
     def __init__(self, skin: TriangleSurface, skull: TriangleSurface | None = None,
                  muscles: Iterable[Muscle] = (), expressions=None, *, name: str = "face",
-                 landmarks=None, unit: str | None = None, mapping=None, _caches=None,
-                 _rest_normals=None):
+                 landmarks=None, unit: str | None = None,
+                 mapping: TrackMapping | None = None, _caches=None, _rest_normals=None):
         if not isinstance(skin, TriangleSurface):
             raise TypeError(f"skin must be a TriangleSurface; got {type(skin).__name__}")
         if skull is not None and not isinstance(skull, TriangleSurface):
@@ -592,8 +593,8 @@ class FaceModel:
             raise ValueError(f"refine_levels = {refine_levels} must be >= 0")
         return self._refined_frame(state, acts, refine_angle_deg, int(refine_levels))
 
-    def play(self, track, fps: float | None = None, *, smooth_s: float = 0.0, mapping=None,
-             **evaluate_options) -> Iterator[FaceState]:
+    def play(self, track: Track, fps: float | None = None, *, smooth_s: float = 0.0,
+             mapping: TrackMapping | None = None, **evaluate_options) -> Iterator[FaceState]:
         """The states of a recorded track (:class:`~wrinkle_vis.core.tracks.Track`), one a
         frame: at the track's own frames, or at ``fps`` from its start to its end
         (:meth:`~wrinkle_vis.core.tracks.Track.frame_times`, smoothed over ``smooth_s``
@@ -601,8 +602,6 @@ class FaceModel:
         else :func:`~wrinkle_vis.core.tracks.default_mapping`), restricted to this face's
         muscles; ``evaluate_options`` go to :meth:`evaluate` (``refine=True``, ...).
         """
-        from .tracks import default_mapping, iter_activations
-
         chosen = mapping or self.mapping or default_mapping()
         for _, acts in iter_activations(track, chosen, self.muscle_names, fps=fps,
                                         smooth_s=smooth_s):
