@@ -380,11 +380,11 @@ def _action_unit_muscles() -> list:
     """
     llsan = LinearMuscle(
         "levator_labii_superioris_alaeque_nasi_L", _on_skull(9.0, 6.0), _on_skin(13.0, -30.0),
-        radius=42.0, max_angle_deg=28.0, lambda_w=0.15, n_wrinkles=3, k0=2.5, alpha=1.0,
-        strength=5.0)
+        radius=42.0, max_angle_deg=28.0, lambda_w=0.15, n_wrinkles=3, k0=3.5, alpha=1.0,
+        strength=3.5)
     procerus = LinearMuscle(
         "procerus", _on_skull(0.0, -4.0), _on_skin(0.0, 22.0), radius=32.0,
-        max_angle_deg=30.0, lambda_w=0.3, n_wrinkles=2, k0=3.0, alpha=1.0, strength=4.0)
+        max_angle_deg=30.0, lambda_w=0.3, n_wrinkles=2, k0=2.0, alpha=1.0, strength=4.0)
     mentalis = LinearMuscle(
         "mentalis", _on_skull(0.0, -74.0), _on_skin(0.0, -94.0), radius=28.0,
         max_angle_deg=40.0, lambda_w=0.3, n_wrinkles=2, k0=2.5, alpha=1.0, strength=4.0)

@@ -404,3 +404,17 @@ def test_a_track_fading_to_a_vanishing_activation_refines_every_frame(wv_face):
     assert 0.0 < track.values[-1, 0] < 1e-30
     states = list(wv_face.play(track, refine=True))
     assert np.abs(states[-1].W).max() < 1e-20 < np.abs(states[1].W).max()
+
+
+@pytest.mark.parametrize("which", ["procedural", "lee_perry_smith"])
+def test_no_triangle_turns_over_under_the_new_action_units(wv_face, head, which):
+    """AU4, AU9 and AU17 at full intensity, refined: the wrinkled skin keeps every
+    triangle's orientation (the nose wrinkler at strength 5 turned 42 over on the head).
+    """
+    from wrinkle_vis.core.analysis import turned_over
+
+    face = wv_face if which == "procedural" else head
+    for au in ("AU04", "AU09", "AU17"):
+        state = next(face.play(Track([0.0], [au], [[1.0]]), refine=True))
+        skin = state.face.skin
+        assert not turned_over(skin, skin.points, state.points).any(), au
