@@ -89,3 +89,5 @@ def test_the_real_track_imports_and_a_bad_file_is_one_line(window, tmp_path, mon
     window.import_performance_dialog()
     assert len(shown) == 1 and "not a track this reads" in shown[0] and "\n" not in shown[0]
     assert window.session.expression == "openface_test (track)"  # kept
+    window._show_session(Session(window.session.face))  # another layout opened
+    assert not window.track_plot.isVisible() and window.session.performance is None

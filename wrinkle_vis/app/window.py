@@ -1110,6 +1110,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.session = session
         self.undo_stack.clear()
         self.param_error.setText("")
+        if self.track_plot is not None:  # the performance stays with the session it was in
+            self.track_plot.parentWidget().hide()
         self._populate()
         self.refresh(reset_camera=True)
         self.newface.session_changed(session)
