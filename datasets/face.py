@@ -356,10 +356,38 @@ def builtin_muscles() -> list:
     for m in left:
         out += [m, mirrored(m, name=m.name[:-2] + "_R")]
     out.append(_orbicularis_oris())
+    out += _action_unit_muscles()
     # attachments from the skull's level set onto the skull mesh (< 1 mm away); a sheet's
     # lines keep their frame (see _frontalis)
     skull = {"skull": build_skull()}
     return [snapped(m, skull, lines=False) for m in out]
+
+
+def _action_unit_muscles() -> list:
+    """The muscles of the wrinkle-producing action units that the paper's face lacks
+    (FACS, Ekman, Friesen and Hager 2002; Gray's Anatomy for the origins), linear muscles
+    whose furrows lie across their fibres:
+
+    - ``levator_labii_superioris_alaeque_nasi_L``/``_R`` (AU9, nose wrinkler): from the
+      frontal process of the maxilla beside the root of the nose down to the ala and the
+      upper lip; its pull raises the ala and wrinkles the side of the nose across.
+    - ``procerus`` (AU4 with the corrugators, brow lowerer): from the nasal bone up into
+      the skin between the brows; its pull draws that skin down into horizontal lines at
+      the root of the nose.
+    - ``mentalis`` (AU17, chin raiser): from the incisive fossa of the mandible down into
+      the skin of the chin; its pull raises the chin boss and wrinkles it across.
+    """
+    llsan = LinearMuscle(
+        "levator_labii_superioris_alaeque_nasi_L", _on_skull(9.0, 6.0), _on_skin(13.0, -30.0),
+        radius=42.0, max_angle_deg=28.0, lambda_w=0.15, n_wrinkles=3, k0=3.5, alpha=1.0,
+        strength=3.5)
+    procerus = LinearMuscle(
+        "procerus", _on_skull(0.0, -4.0), _on_skin(0.0, 22.0), radius=32.0,
+        max_angle_deg=30.0, lambda_w=0.3, n_wrinkles=2, k0=2.0, alpha=1.0, strength=4.0)
+    mentalis = LinearMuscle(
+        "mentalis", _on_skull(0.0, -74.0), _on_skin(0.0, -94.0), radius=28.0,
+        max_angle_deg=40.0, lambda_w=0.3, n_wrinkles=2, k0=2.5, alpha=1.0, strength=4.0)
+    return [llsan, mirrored(llsan, name=llsan.name[:-2] + "_R"), procerus, mentalis]
 
 
 def _orbicularis_oculi() -> SphincterMuscle:
@@ -471,9 +499,14 @@ def builtin_landmarks() -> dict[str, tuple]:
 
 
 def builtin_layout() -> Layout:
-    """The built-in face's layout, computed from the code (the shipped file is a copy)."""
+    """The built-in face's layout, computed from the code (the shipped file is a copy),
+    with the default track mapping (:func:`~wrinkle_vis.core.tracks.default_mapping`).
+    """
+    from wrinkle_vis.core.tracks import default_mapping
+
     return Layout(name="built-in face", muscles=tuple(builtin_muscles()),
-                  expressions=builtin_expressions(), landmarks=builtin_landmarks())
+                  expressions=builtin_expressions(), landmarks=builtin_landmarks(),
+                  mapping=default_mapping())
 
 
 BUILTIN_LAYOUT = Path(__file__).with_name("builtin_layout.json")
@@ -545,7 +578,7 @@ def load_face(name: str | int | None = None, n_triangles: int | None = None, *, 
     name : str, optional
         A built-in face (:data:`FACES`): ``"procedural"`` (the default), the anatomy-based
         face made by this package's code, or ``"lee_perry_smith"``, a real head scan with
-        17 muscles placed on its anatomy and a closed skull
+        21 muscles placed on its anatomy and a closed skull
         (:mod:`~wrinkle_vis.datasets.lee_perry_smith`; CC BY 3.0, Lee Perry-Smith /
         Infinite Realities). A number here is ``n_triangles`` (as in earlier versions).
     n_triangles : int, optional
@@ -580,9 +613,10 @@ def load_face(name: str | int | None = None, n_triangles: int | None = None, *, 
     Returns
     -------
     FaceModel
-        For the procedural face: skin, skull, 17 muscles (8 pairs and the orbicularis oris)
-        and the expressions ``neutral``, ``surprise``, ``frown``, ``fear`` (the paper's
-        Section 3), ``smile``, ``duchenne_smile``, ``squint``, ``pucker`` and Waters' six
+        For the procedural face: skin, skull, 21 muscles (9 pairs, the orbicularis oris,
+        procerus and mentalis) and the expressions ``neutral``, ``surprise``, ``frown``,
+        ``fear`` (the paper's Section 3), ``smile``, ``duchenne_smile``, ``squint``,
+        ``pucker`` and Waters' six
         (:func:`builtin_expressions`); the Lee Perry-Smith head has the same muscles and
         expressions.
         A skin of your own with neither a layout nor landmarks gets no muscles.
@@ -645,7 +679,7 @@ def load_face(name: str | int | None = None, n_triangles: int | None = None, *, 
         return FaceModel(skin_mesh, _surface(skull) or build_skull(), lay_used.muscles,
                          lay_used.expressions, name=lay_used.name,
                          landmarks=lay_used.landmarks if landmarks is None else landmarks,
-                         unit=unit or lay_used.unit or "mm")
+                         unit=unit or lay_used.unit or "mm", mapping=lay_used.mapping)
     skin_mesh = _surface(skin)
     unit = face_unit_of(skin_mesh, unit or lay_used.unit)
     return _scan_face(skin_mesh, _surface(skull), lay_used, lay is None, landmarks, unit)
@@ -678,4 +712,4 @@ def _scan_face(skin, skull, lay, builtin_layout_used, landmarks, unit):
     else:
         _check_fits(lay, skin, f"layout {lay.name!r}")
     return FaceModel(skin, skull, lay.muscles, lay.expressions, name=lay.name,
-                     landmarks=landmarks or lay.landmarks, unit=unit)
+                     landmarks=landmarks or lay.landmarks, unit=unit, mapping=lay.mapping)

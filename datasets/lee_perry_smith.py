@@ -4,7 +4,7 @@
 its UV seams, in millimetres, in the built-in face's frame (y up, the face towards +z,
 x towards the subject's left, the origin between the eyes), with its UV coordinates
 (:func:`lee_perry_smith_uvs`), a closed skull inside it (the level set of
-:func:`~wrinkle_vis.datasets.skull.scan_skull`) and 17 muscles with the procedural face's
+:func:`~wrinkle_vis.datasets.skull.scan_skull`) and 21 muscles with the procedural face's
 names, moved onto it from nine landmarks (:func:`~wrinkle_vis.datasets.scans.transfer_layout`)
 and fitted to its forehead (``scripts/write_lee_perry_smith.py``).
 
@@ -79,4 +79,4 @@ def load_lee_perry_smith(layout: Layout | None = None,
     lay = load_layout(LAYOUT) if layout is None else layout
     return FaceModel(skin, own_skull if skull is None else skull, lay.muscles,
                      lay.expressions, name=lay.name, landmarks=lay.landmarks,
-                     unit=lay.unit or "mm")
+                     unit=lay.unit or "mm", mapping=lay.mapping)

@@ -221,7 +221,8 @@ def transfer_layout(layout: Layout, target_skin: TriangleSurface, landmarks: dic
         muscles.append(moved.replace(**changes))
     return Layout(name=f"{layout.name} on {target_skin.n_points}-vertex skin",
                   muscles=tuple(muscles), expressions=layout.expressions,
-                  landmarks={k: tuple(map(float, v)) for k, v in landmarks.items()})
+                  landmarks={k: tuple(map(float, v)) for k, v in landmarks.items()},
+                  mapping=layout.mapping)
 
 
 def read_landmarks(path: str | os.PathLike) -> dict[str, tuple]:
@@ -308,4 +309,4 @@ def scan_layout(skin: str | os.PathLike, landmarks: dict, *,
         where = os.path.relpath(skin_path, Path(layout_path).resolve().parent)
     return Layout(name=name or skin_path.stem, muscles=moved.muscles,
                   expressions=moved.expressions, skin=Path(where).as_posix(), skull=None,
-                  landmarks=marks, unit=unit)
+                  landmarks=marks, unit=unit, mapping=moved.mapping)

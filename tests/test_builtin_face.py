@@ -71,7 +71,7 @@ def test_attachments_on_the_skull_and_insertions_on_the_skin(face):
     # points only: a sheet's lines set its frame, shared by the six frontalis (next test)
     points = [(m, p) for m in face.muscles for p in m.point_parameters
               if np.ndim(getattr(m, p)) == 1]
-    assert len(points) == 25  # 8 linear pairs' ends, 3 sphincters' centres and axis ends
+    assert len(points) == 33  # 12 linear muscles' ends, 3 sphincters' centres and axis ends
     for m, p in points:
         pts = np.asarray(getattr(m, p)).reshape(-1, 3)
         surf = face.skull if m.point_surfaces()[p] == "skull" else face.skin

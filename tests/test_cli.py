@@ -41,7 +41,7 @@ def test_export_all_layers(tmp_path):
     assert main(["export", "-e", "fear", "-o", str(out)]) == 0
     blocks = pv.read(out)
     assert set(blocks.keys()) == {"skin", "skull", "muscles"}
-    assert "W" in blocks["skin"].point_data and len(blocks["muscles"]) == 17
+    assert "W" in blocks["skin"].point_data and len(blocks["muscles"]) == 21
     assert blocks["muscles"]["corrugator_L"]["activation"].max() == pytest.approx(0.8)
 
 

@@ -32,7 +32,7 @@ def test_every_subcommand_takes_face_skin_landmarks_and_unit():
 def test_summary_on_the_builtin_head_prints_its_unit(capsys):
     assert main(["summary", "--face", "lee_perry_smith", "-e", "surprise"]) == 0
     out = capsys.readouterr().out
-    assert "Lee Perry-Smith" in out and "17 muscles" in out and "W total (mm)" in out
+    assert "Lee Perry-Smith" in out and "21 muscles" in out and "W total (mm)" in out
 
 
 def test_render_the_builtin_head(tmp_path):

@@ -101,7 +101,7 @@ def test_the_real_head_example_needs_no_scan(tmp_path):
     done = subprocess.run([sys.executable, str(DOCS / "gallery" / "plot_real_head.py")],
                           capture_output=True, text=True, timeout=120, cwd=tmp_path, env=env)
     assert done.returncode == 0, done.stderr
-    assert "8844 vertices, 17 muscles, unit mm" in done.stdout
+    assert "8844 vertices, 21 muscles, unit mm" in done.stdout
 
 
 def test_the_equations_are_typeset_in_a_browser_without_network(site):

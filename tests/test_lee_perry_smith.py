@@ -94,7 +94,7 @@ def test_closed_skull_inside(head):
 def test_muscles_named_as_the_procedural_face_and_placed(head):
     procedural = wv.load_layout(wv.datasets.BUILTIN_LAYOUT)
     assert head.muscle_names == tuple(m.name for m in procedural.muscles)
-    assert len(head.muscles) >= 14  # 17 with the sphincters
+    assert len(head.muscles) >= 14  # 21 with the sphincters and the action-unit muscles
     for m in head.muscles:
         for p in [p for p in m.point_parameters if np.ndim(getattr(m, p)) == 1]:
             pts = np.asarray(getattr(m, p))[None]

@@ -27,6 +27,6 @@ def test_the_scan_example_runs_as_the_readme_writes_it(tmp_path):
     done = subprocess.run([sys.executable, *argv[1:], "--png", str(tmp_path / "s.png")],
                           cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
-    assert "17 muscles" in done.stdout and "unit m" in done.stdout
+    assert "21 muscles" in done.stdout and "unit m" in done.stdout
     assert "surprise  W != 0" in done.stdout and (tmp_path / "s.png").is_file()
     assert "Warning" not in done.stderr and "Traceback" not in done.stderr

@@ -40,7 +40,7 @@ def test_other_scans_load_and_report_boundaries(name):
 @needs_scans
 def test_example_layout_evaluates_on_the_scan():
     face = wv.datasets.load_face(skin=HEAD, layout=EXAMPLE)
-    assert len(face.muscles) == 17
+    assert len(face.muscles) == 17  # the example layout (written before the AU muscles)
     for expression in ("surprise", "frown", "fear"):
         state = face.evaluate(expression)
         assert np.count_nonzero(state.W) > 0

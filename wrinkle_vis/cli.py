@@ -24,6 +24,10 @@ LAYER_CHOICES = ("skin", "muscles", "skull")
 #: The built-in faces (wrinkle_vis.datasets.FACES, without importing it here).
 FACE_CHOICES = ("procedural", "lee_perry_smith")
 UNIT_CHOICES = ("mm", "cm", "m", "um", "in", "ft")
+#: wrinkle_vis.core.tracks.TRACK_FORMATS, without importing it here.
+TRACK_FORMAT_CHOICES = ("openface", "pyfeat", "arkit", "mediapipe")
+#: The frame rate a track is resampled to when --fps is not given.
+TRACK_FPS = 30
 
 
 #: Image sizes: at least this many pixels a side (smaller is unreadable) ...
@@ -125,6 +129,24 @@ def _refine_options(p: argparse.ArgumentParser, what: str = "evaluate with adapt
                         f"{MAX_REFINE_LEVELS} (default 3)")
 
 
+def _track_options(p: argparse.ArgumentParser, what: str) -> None:
+    """``--track`` and its options (a recorded performance instead of an expression)."""
+    p.add_argument("--track", type=Path, metavar="FILE",
+                   help=f"{what} a recorded track (OpenFace, py-feat, ARKit / Live Link Face "
+                        "or MediaPipe CSV) instead of an expression")
+    p.add_argument("--format", choices=TRACK_FORMAT_CHOICES, default=None,
+                   help="the track's format (default: recognised from its header)")
+    p.add_argument("--map", type=Path, metavar="FILE",
+                   help="channels to muscles: a layout file with a \"mapping\", or a JSON "
+                        "object of that mapping (default: the face's, else the FACS default)")
+    p.add_argument("--smooth", type=float, default=0.0, metavar="S",
+                   help="smooth the track over a Gaussian of S seconds (default 0)")
+    p.add_argument("--fps-in", type=float, default=None, metavar="N",
+                   help="the track's frame rate, for py-feat frames and ARKit timecodes")
+    p.add_argument("--max-mb", type=float, default=None, metavar="MB",
+                   help="read a track file larger than 64 MiB")
+
+
 def field_choices() -> tuple[str, ...]:
     """``--field`` choices: the core catalogue's fields
     (:data:`wrinkle_vis.core.fields.FIELDS`, read when the parser is built) and ``none``.
@@ -148,6 +170,7 @@ def _parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("summary", help="evaluate expressions and print their fields")
     _common(p, expression_many=True)
+    _track_options(p, "print the action units or blendshapes of")
 
     p = sub.add_parser("render", help="render a field map to a PNG, off screen")
     _common(p)
@@ -174,8 +197,9 @@ def _parser() -> argparse.ArgumentParser:
                         "NAME_####.obj or NAME_####.ply (one numbered file per frame, "
                         "in NAME/)")
     p.add_argument("--fps", type=int, default=None,
-                   help=f"frames per second of --sequence (1 to {MAX_FPS}; default 12; at "
-                        f"most {_max_frames():,} frames in all)")
+                   help=f"frames per second of --sequence (1 to {MAX_FPS}; default 12, "
+                        f"{TRACK_FPS} with --track; at most {_max_frames():,} frames in all)")
+    _track_options(p, "with --sequence, write")
     p.add_argument("--output", "-o", type=Path, required=True,
                    help="a .vtp (ParaView), .vtk or .ply file for the skin, .vtm for "
                         "skin, skull and muscles, or .glb (glTF: the neutral skin with one "
@@ -193,9 +217,10 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--layers", nargs="+", default=["skin"], choices=LAYER_CHOICES,
                    help="layers to draw (default: skin)")
     p.add_argument("--camera", default="front", choices=CAMERA_CHOICES)
-    p.add_argument("--fps", type=int, default=12,
-                   help=f"frames per second (1 to {MAX_FPS}; default 12; at most "
-                        f"{_max_frames():,} frames in all)")
+    p.add_argument("--fps", type=int, default=None,
+                   help=f"frames per second (1 to {MAX_FPS}; default 12, {TRACK_FPS} with "
+                        f"--track; at most {_max_frames():,} frames in all)")
+    _track_options(p, "render")
     p.add_argument("--size", type=int, nargs=2, default=(480, 480), metavar=("W", "H"),
                    help=f"frame size in pixels ({_SIZES}; "
                         "default 480 480)")
@@ -490,13 +515,109 @@ def _warn_undersampled(args, face, expressions) -> None:
               f"{', '.join(repr(n) for n in names)}: {text}", file=sys.stderr)
 
 
+def _check_track(args) -> None:
+    """One line for track options without ``--track``, or out of range (before any work)."""
+    given = [flag for flag, value in (("--format", args.format), ("--map", args.map),
+                                      ("--fps-in", args.fps_in), ("--max-mb", args.max_mb))
+             if value is not None] + (["--smooth"] if args.smooth else [])
+    if args.track is None:
+        if given:
+            raise CliError(f"{given[0]} is an option of a recorded track; add --track FILE")
+        return
+    if not args.smooth >= 0:
+        raise CliError(f"--smooth {args.smooth:g} must be >= 0 seconds (0: no smoothing)")
+    for flag, value in (("--fps-in", args.fps_in), ("--max-mb", args.max_mb)):
+        if value is not None and not value > 0:
+            raise CliError(f"{flag} {value:g} must be a positive number")
+    if args.map is not None and not args.map.is_file():
+        raise CliError(f"--map {args.map}: no such file; give a layout file or a mapping "
+                       "JSON file")
+
+
+def _read_track(args):
+    """The track of ``--track``; its notes (what was interpolated, dropped, ...) printed."""
+    from wrinkle_vis.core.tracks import MAX_TRACK_BYTES, TrackError, TrackWarning, read_track
+
+    limit = MAX_TRACK_BYTES if args.max_mb is None else int(args.max_mb * 2**20)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", TrackWarning)
+            track = read_track(args.track, args.format, args.fps_in, max_bytes=limit)
+    except (TrackError, FileNotFoundError) as exc:
+        raise CliError(f"--track {exc}") from None
+    args.track_mapping = _read_map(args)
+    for note in track.notes:
+        print(f"wrinkle-vis {args.command}: note: {args.track.name}: {note}", file=sys.stderr)
+    return track
+
+
+def _track_mapping(args, face):
+    """``--map``'s mapping, else the face's, else the FACS default."""
+    from wrinkle_vis.core.tracks import default_mapping
+
+    return getattr(args, "track_mapping", None) or face.mapping or default_mapping()
+
+
+def _read_map(args):
+    """The mapping of ``--map`` (a layout file's, or a mapping JSON file); None without."""
+    import json
+
+    from wrinkle_vis.core.layout import FORMAT, load_layout
+    from wrinkle_vis.core.tracks import TrackMapping
+
+    if args.map is None:
+        return None
+    try:
+        data = json.loads(args.map.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise CliError(f"--map {args.map}: not a JSON file ({exc})") from None
+    if isinstance(data, dict) and data.get("format") == FORMAT:
+        mapping = load_layout(args.map).mapping
+        if mapping is None:
+            raise CliError(f"--map {args.map}: the layout has no \"mapping\"; add one or "
+                           "leave --map out for the default")
+        return mapping
+    try:
+        return TrackMapping.from_dict(data if isinstance(data, dict) else {"$": data})
+    except (TypeError, ValueError) as exc:
+        raise CliError(f"--map {args.map}: {exc}") from None
+
+
+def _performance(args, face, track, fps: float):
+    """The track on ``face`` at ``fps`` (:func:`~wrinkle_vis.core.tracks.performance`)."""
+    from wrinkle_vis.core.tracks import performance
+
+    return performance(track, _track_mapping(args, face), face.muscle_names, fps=fps,
+                       smooth_s=args.smooth, name=args.track.stem)
+
+
+def _summary_track(args, face, track) -> int:
+    """Print the track's channels and the muscles each drives."""
+    mapping = _track_mapping(args, face)
+    print(f"\n== track {args.track.name}: {track.format}, {track.n_frames} frames, "
+          f"{track.duration_s:.3f} s ({track.fps:.4g} frames/s) ==")
+    for j, name in enumerate(track.channels):
+        drives = {m: w for m, w in mapping.drives(name).items() if m in face.muscle_names}
+        text = ", ".join(f"{m} x{w:g}" for m, w in drives.items()) or "drives no muscle"
+        values = track.values[:, j]
+        print(f"{name:>18}  peak {values.max():.3f}  mean {values.mean():.3f}  -> {text}")
+    acts = mapping.activations(track, face.muscle_names)
+    driven = [m for j, m in enumerate(face.muscle_names) if acts[:, j].max() > 0]
+    print(f"muscles driven: {', '.join(driven) or 'none'}")
+    return 0
+
+
 def _summary(args) -> int:
+    _check_track(args)
+    track = _read_track(args) if args.track is not None else None
     t0 = time.perf_counter()
     face = _load(args)
     print(f"loaded {face.name} in {time.perf_counter() - t0:.2f} s: "
           f"{face.skin.n_triangles} skin triangles, "
           f"{face.skull.n_triangles if face.skull else 0} skull triangles, "
           f"{len(face.muscles)} muscles")
+    if track is not None:
+        return _summary_track(args, face, track)
     for name in args.expression or list(face.expressions):
         t0 = time.perf_counter()
         state = face.evaluate(name, intensity=args.intensity)
@@ -546,8 +667,11 @@ def _export(args) -> int:
     from wrinkle_vis.plotting.writers import MESH_SUFFIXES, save_mesh
 
     suffix = args.output.suffix.lower()
+    _check_track(args)
     if args.sequence:
         return _export_sequence(args)
+    if args.track is not None:
+        raise CliError("--track writes the performance as a sequence; add --sequence")
     if suffix in (".pvd", ".obj"):
         raise CliError(f"--output {args.output.name!r}: {suffix} is written as a sequence of "
                        "the expression's ramp; add --sequence")
@@ -588,10 +712,13 @@ def _export_sequence(args) -> int:
     except OutputPathError as exc:
         raise CliError(f"--output {exc}") from None
     args.expression = args.expression or "surprise"
+    track = _read_track(args) if args.track is not None else None
     face = _load(args)
-    expression = face.expressions[args.expression]
+    fps = args.fps or (12 if track is None else TRACK_FPS)
+    expression = face.expressions[args.expression] if track is None else \
+        _performance(args, face, track, fps)
     try:
-        times = frame_times(expression, args.fps or 12)
+        times = frame_times(expression, fps)
     except ValueError as exc:
         raise CliError(str(exc)) from None
     states = sequence_states(face, expression, times, args.intensity)
@@ -710,9 +837,13 @@ def _animate(args) -> int:
     from wrinkle_vis.plotting.writers import ANIMATION_SUFFIXES, save_animation
 
     _output(args, ANIMATION_SUFFIXES)
+    _check_track(args)
     field = _field(args)
+    track = _read_track(args) if args.track is not None else None
     face = _load(args, refine=args.refine)
-    expression = face.expressions[args.expression]
+    args.fps = args.fps or (12 if track is None else TRACK_FPS)
+    expression = face.expressions[args.expression] if track is None else \
+        _performance(args, face, track, args.fps)
     try:
         times = frame_times(expression, args.fps)
     except ValueError as exc:
@@ -721,7 +852,7 @@ def _animate(args) -> int:
         frames = animation_frames(face, expression, times, field=field, muscle=args.muscle,
                                   layers=tuple(args.layers), camera=args.camera,
                                   size=tuple(args.size), intensity=args.intensity,
-                                  label=args.expression, refine=args.refine,
+                                  label=expression.name, refine=args.refine,
                                   **_refinement(args))
         progress = tqdm(frames, total=len(times), desc=f"rendering {args.output.name}",
                         unit="frame")

@@ -5,7 +5,7 @@ The real head
 The Lee Perry-Smith head, built in: ``wv.datasets.load_face("lee_perry_smith")``. A real
 head scan ("Infinite, 3D Head Scan" by Lee Perry-Smith / Infinite Realities, CC BY 3.0,
 shipped in a derived form: welded, in millimetres, in the built-in frame) with the
-procedural face's 17 muscles placed on its anatomy from nine landmarks, and a closed skull
+procedural face's 21 muscles placed on its anatomy from nine landmarks, and a closed skull
 inside it.
 """
 

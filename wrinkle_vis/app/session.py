@@ -10,12 +10,14 @@ from pathlib import Path
 import numpy as np
 
 from ..core.editing import mirror_name, mirrored, snapped, unique_name
+from ..core.expressions import Expression
 from ..core.face import FIELD_NAMES, FaceModel, FaceState
 from ..core.fields import check_field
 from ..core.layout import Layout, load_layout, save_layout
 from ..core.muscle import Muscle
 from ..core.params import Parameter
 from ..core.registry import get_muscle_type
+from ..core.tracks import Performance
 from ..core.units import face_unit
 from ..plotting.fields import field_info, field_range
 
@@ -82,6 +84,7 @@ class Session:
         self.fixed_range: tuple[float, float] | None = None  # colour range (None: automatic)
         self.dirty = False
         self.frame_ms = 0.0  # how long the last evaluation took
+        self.performance: Performance | None = None  # a recorded track, shown by its name
         self._state: FaceState | None = None
 
     # ------------------------------------------------------------------ what to show
@@ -89,10 +92,35 @@ class Session:
         """The activations of the current expression, intensity and time, with the ones set
         by hand (:meth:`set_activation`) in their place.
         """
-        ex = self.face.expressions[self.expression]
-        acts = ex.scaled(self.intensity) if self.time_s is None else ex.at(
-            self.time_s, self.intensity)
-        return {**acts, **self.overrides}
+        return {**self._expression_at(self.time_s), **self.overrides}
+
+    def _expression_at(self, t: float | None) -> dict[str, float]:
+        """The current expression's activations at ``t`` (None: its peak), intensity
+        applied; a muscle removed since a performance's import drives nothing.
+        """
+        ex = self.current_expression()
+        acts = ex.scaled(self.intensity) if t is None else ex.at(t, self.intensity)
+        if ex is self.performance:
+            acts = {m: a for m, a in acts.items() if m in self.face.muscle_names}
+        return acts
+
+    def current_expression(self) -> Expression:
+        """The expression shown: the face's, or the imported performance
+        (:meth:`set_performance`) when it is the one selected.
+        """
+        if self.performance is not None and self.expression == self.performance.name:
+            return self.performance
+        return self.face.expressions[self.expression]
+
+    def set_performance(self, performance: Performance) -> None:
+        """Show a recorded track (:func:`~wrinkle_vis.core.tracks.performance`) from its
+        first frame; it is not part of the layout (saving leaves it out).
+        """
+        self.performance = performance
+        self.expression = performance.name
+        self.time_s = 0.0
+        self.overrides.clear()
+        self._changed()
 
     def set_activation(self, muscle: str, value: float | None) -> None:
         """Set one muscle's activation by hand (None: back to the expression's)."""
@@ -118,7 +146,8 @@ class Session:
 
     def set_expression(self, name: str) -> None:
         """Show expression ``name`` (``KeyError`` lists the face's expressions)."""
-        if name not in self.face.expressions:
+        if name not in self.face.expressions and not (
+                self.performance is not None and name == self.performance.name):
             raise KeyError(f"unknown expression {name!r}; this face has: "
                            f"{', '.join(self.face.expressions)}")
         self.expression = name
@@ -186,10 +215,13 @@ class Session:
         info = field_info(self.field)
         if info.limits is not None:
             return info.limits
-        ex = self.face.expressions[self.expression]
+        ex = self.current_expression()
         lo, hi = np.inf, -np.inf
-        for t in (*np.linspace(0.0, ex.onset_s, samples)[1:], ex.onset_s + 0.5 * ex.hold_s):
-            acts = {**ex.at(float(t), self.intensity), **self.overrides}
+        times = (*np.linspace(0.0, ex.onset_s, samples)[1:], ex.onset_s + 0.5 * ex.hold_s)
+        if ex is self.performance:  # a track has no onset: sample it all
+            times = np.linspace(0.0, ex.duration_s, 2 * samples)
+        for t in times:
+            acts = {**self._expression_at(float(t)), **self.overrides}
             state = self.face.evaluate(acts)
             a, b = field_range(info, self.field_values(state))
             lo, hi = min(lo, a), max(hi, b)
@@ -221,6 +253,9 @@ class Session:
         join an expression or leave it.
         """
         self.face.muscle(muscle)
+        if self.current_expression() is self.performance:
+            raise ValueError(f"{self.expression!r} is a recorded track: its activations come "
+                             "from the track and the mapping; choose an expression to edit")
         ex = self.face.expressions[self.expression]
         acts = dict(ex.activations)
         if value:

@@ -26,6 +26,7 @@ from ..core.face import FIELD_NAMES
 from ..core.layout import Layout, LayoutError, load_layout
 from ..core.muscle import MuscleParameterError
 from ..core.registry import muscle_types
+from ..core.tracks import TrackError, TrackWarning, default_mapping, performance, read_track
 from ..core.units import LENGTH_UNITS
 from ..plotting import set_camera
 from ..plotting.fields import field_info
@@ -34,6 +35,7 @@ from ..widgets.panels import MuscleListPanel
 from .newface_panel import NewFaceFlow
 from .recovery import Recovery
 from .session import TIMELINE_STEPS, Session, editable, load_session, playback_position
+from .trackplot import TrackPlot, track_curves
 from .views import VIEWS, LinkedViews
 from .viewwidget import NativeView, View, make_view
 
@@ -147,6 +149,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._build_views()
         self._build_controls()
         self.newface = NewFaceFlow(self)
+        self.track_plot: TrackPlot | None = None  # made by the first import_performance
         self._build_menus()
         self.timer = QtCore.QTimer(self)  # Play: ticks as fast as 60 a second
         self.timer.setInterval(PLAY_TICK_MS)
@@ -353,6 +356,8 @@ class MainWindow(QtWidgets.QMainWindow):
                      _weak(self.newface.new_face_dialog))
         self._action(file_menu, "&Save layout", "Ctrl+S", self.save)
         self._action(file_menu, "Save layout &as...", "Ctrl+Shift+S", self.save_as_dialog)
+        self._action(file_menu, "&Import performance...", "Ctrl+I",
+                     self.import_performance_dialog)
         self.recent_menu = file_menu.addMenu("Open &recent")
         self._action(file_menu, "&Export screenshot...", "Ctrl+P", self.screenshot_dialog)
         self._action(file_menu, "Save view &image...", "Ctrl+Shift+P", self.image_dialog)
@@ -437,7 +442,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self._updating_controls = True
         try:
             self.expression_box.clear()
-            self.expression_box.addItems(list(s.face.expressions))
+            self.expression_box.addItems(list(s.face.expressions) + (
+                [s.performance.name] if s.performance is not None else []))
             self.expression_box.setCurrentText(s.expression)
             self.intensity_slider.setValue(round(100 * s.intensity))
             self.time_slider.setValue(self._slider_for_time(s.time_s))
@@ -539,7 +545,7 @@ class MainWindow(QtWidgets.QMainWindow):
         s = self.session
         if s.muscle is None or not hasattr(self, "activation_box"):
             return
-        value = s.face.expressions[s.expression].activations.get(s.muscle, 0.0)
+        value = s.current_expression().activations.get(s.muscle, 0.0)
         self.activation_box.blockSignals(True)
         self.activation_box.setValue(value)
         self.activation_box.blockSignals(False)
@@ -557,13 +563,15 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _on_time(self, value: int) -> None:
         if not self._updating_controls:
-            ex = self.session.face.expressions[self.session.expression]
+            ex = self.session.current_expression()
             self.session.set_time(value / TIMELINE_STEPS * ex.duration_s)
+            if self.track_plot is not None:
+                self.track_plot.set_time(self.session.time_s)
             self.refresh()
 
     def _slider_for_time(self, t: float | None) -> int:
         """Timeline position of ``t`` (None, the peak: the middle of the plateau)."""
-        ex = self.session.face.expressions[self.session.expression]
+        ex = self.session.current_expression()
         if t is None:
             t = ex.onset_s + 0.5 * ex.hold_s
         return round(TIMELINE_STEPS * t / ex.duration_s) if ex.duration_s > 0 else 0
@@ -628,7 +636,7 @@ class MainWindow(QtWidgets.QMainWindow):
         the position changes; one that took long skips positions).
         """
         start, t0 = self._play_start
-        ex = self.session.face.expressions[self.session.expression]
+        ex = self.session.current_expression()
         self.time_slider.setValue(playback_position(start, time.perf_counter() - t0,
                                                     ex.duration_s))
 
@@ -1102,6 +1110,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.session = session
         self.undo_stack.clear()
         self.param_error.setText("")
+        if self.track_plot is not None:  # the performance stays with the session it was in
+            self.track_plot.parentWidget().hide()
         self._populate()
         self.refresh(reset_camera=True)
         self.newface.session_changed(session)
@@ -1131,6 +1141,49 @@ class MainWindow(QtWidgets.QMainWindow):
                                                         "Layouts (*.json)")
         if path:
             self.open_layout(path)
+
+    def import_performance(self, path: str | Path) -> str:
+        """Play a recorded track (File > Import performance...): the timeline follows it,
+        Play runs at its clock, its channels are plotted under the views. Returns its name
+        in the expression list. ``TrackError`` (one line) for a file that cannot be read.
+        """
+        import warnings
+
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", TrackWarning)
+            track = read_track(path)
+        s = self.session
+        mapping = s.face.mapping or default_mapping()
+        perf = performance(track, mapping, s.face.muscle_names,
+                           name=f"{Path(path).stem} (track)")
+        s.set_performance(perf)
+        if self.track_plot is None:
+            dock = QtWidgets.QDockWidget("Performance", self)
+            dock.setObjectName("performance")
+            self.track_plot = TrackPlot(dock)
+            dock.setWidget(self.track_plot)
+            self.addDockWidget(QtCore.Qt.BottomDockWidgetArea, dock)
+        self.track_plot.set_curves(track_curves(track, mapping, s.face.muscle_names),
+                                   track.duration_s)
+        self.track_plot.parentWidget().show()
+        self._populate()
+        self.refresh()
+        notes = "; ".join(str(w.message) for w in caught)
+        self.statusBar().showMessage(
+            f"{perf.name}: {track.n_frames} frames, {track.duration_s:.3g} s"
+            + (f" ({notes})" if notes else ""), 15000)
+        return perf.name
+
+    def import_performance_dialog(self) -> None:
+        """Ask for a track file and play it; a bad one is reported in one line."""
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(
+            self, "Import performance", "", "Tracks (*.csv);;All files (*)")
+        if not path:
+            return
+        try:
+            self.import_performance(path)
+        except (TrackError, OSError) as exc:
+            QtWidgets.QMessageBox.warning(self, "Cannot import the performance", str(exc))
 
     def save_as_dialog(self) -> bool:
         """Ask for a file and save the layout there."""

@@ -29,8 +29,19 @@ from .registry import (
     register_muscle_type,
 )
 from .sampling import UndersampledWrinklesWarning, undersampled_muscles, warn_undersampled
+from .tracks import (
+    ChannelMap,
+    Track,
+    TrackError,
+    TrackMapping,
+    TrackWarning,
+    default_mapping,
+    read_track,
+    write_track,
+)
 
 __all__ = [
+    "ChannelMap",
     "FIELDS",
     "FIELD_NAMES",
     "Expression",
@@ -49,6 +60,10 @@ __all__ = [
     "OutputPathError",
     "Parameter",
     "SheetMuscle",
+    "Track",
+    "TrackError",
+    "TrackMapping",
+    "TrackWarning",
     "TriangleSurface",
     "UndersampledWrinklesWarning",
     "UnknownMuscleTypeError",
@@ -58,6 +73,7 @@ __all__ = [
     "bulge_height",
     "compression",
     "compression_operator",
+    "default_mapping",
     "edge_shrinkage",
     "get_muscle_type",
     "half_period",
@@ -67,6 +83,7 @@ __all__ = [
     "paper_expressions",
     "parameter",
     "periodic_coordinate",
+    "read_track",
     "register_field",
     "register_muscle_type",
     "save_layout",
@@ -75,4 +92,5 @@ __all__ = [
     "undersampled_muscles",
     "warn_undersampled",
     "waters_radial",
+    "write_track",
 ]

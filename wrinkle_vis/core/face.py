@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections import OrderedDict
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -48,6 +48,7 @@ from .mesh import (
 )
 from .muscle import Muscle, check_activation
 from .refined import RefinedEngine, slide_bend
+from .tracks import Track, TrackMapping, default_mapping, iter_activations
 from .units import check_unit, face_unit
 
 __all__ = ["FIELD_NAMES", "FaceModel", "FaceState"]
@@ -385,6 +386,9 @@ class FaceModel:
         The unit of the face's lengths (a key of :data:`~wrinkle_vis.core.units.LENGTH_UNITS`);
         None for a face that does not say (labels then read
         :data:`~wrinkle_vis.core.units.DEFAULT_UNIT`, :func:`~wrinkle_vis.core.units.face_unit`).
+    mapping : TrackMapping, optional
+        Which muscles a recorded track's channels drive (its layout's ``"mapping"``);
+        None: :func:`~wrinkle_vis.core.tracks.default_mapping` (:meth:`play`).
 
     Notes
     -----
@@ -394,7 +398,8 @@ class FaceModel:
 
     def __init__(self, skin: TriangleSurface, skull: TriangleSurface | None = None,
                  muscles: Iterable[Muscle] = (), expressions=None, *, name: str = "face",
-                 landmarks=None, unit: str | None = None, _caches=None, _rest_normals=None):
+                 landmarks=None, unit: str | None = None,
+                 mapping: TrackMapping | None = None, _caches=None, _rest_normals=None):
         if not isinstance(skin, TriangleSurface):
             raise TypeError(f"skin must be a TriangleSurface; got {type(skin).__name__}")
         if skull is not None and not isinstance(skull, TriangleSurface):
@@ -417,6 +422,7 @@ class FaceModel:
         self.expressions: dict[str, Expression] = dict(
             paper_expressions() if expressions is None else expressions
         )
+        self.mapping = mapping
         if _caches is None:
             _check_skin(skin)
             _caches = ({}, OrderedDict(), _RestFrame(skin, _rest_normals))
@@ -492,7 +498,7 @@ class FaceModel:
         return FaceModel(self.skin, self.skull, muscles,
                          self.expressions if expressions is None else expressions,
                          name=self.name, landmarks=self.landmarks, unit=self.unit,
-                         _caches=(cache, None, self._rest))
+                         mapping=self.mapping, _caches=(cache, None, self._rest))
 
     def muscle_data(self, muscle: Muscle) -> _MuscleData:
         """The cached rest-skin data of ``muscle`` (built on first use)."""
@@ -586,6 +592,20 @@ class FaceModel:
         if int(refine_levels) < 0:
             raise ValueError(f"refine_levels = {refine_levels} must be >= 0")
         return self._refined_frame(state, acts, refine_angle_deg, int(refine_levels))
+
+    def play(self, track: Track, fps: float | None = None, *, smooth_s: float = 0.0,
+             mapping: TrackMapping | None = None, **evaluate_options) -> Iterator[FaceState]:
+        """The states of a recorded track (:class:`~wrinkle_vis.core.tracks.Track`), one a
+        frame: at the track's own frames, or at ``fps`` from its start to its end
+        (:meth:`~wrinkle_vis.core.tracks.Track.frame_times`, smoothed over ``smooth_s``
+        seconds). Channels become activations through ``mapping`` (default the face's,
+        else :func:`~wrinkle_vis.core.tracks.default_mapping`), restricted to this face's
+        muscles; ``evaluate_options`` go to :meth:`evaluate` (``refine=True``, ...).
+        """
+        chosen = mapping or self.mapping or default_mapping()
+        for _, acts in iter_activations(track, chosen, self.muscle_names, fps=fps,
+                                        smooth_s=smooth_s):
+            yield self.evaluate(acts, **evaluate_options)
 
     def plot(self, expression="surprise", field: str | None = "W", muscle: str | None = None,
              *, intensity: float = 1.0, refine: bool = False, **kwargs):

@@ -18,6 +18,10 @@ layout that names its skin file and its landmarks is a whole face: reopening it 
 same skin, skull and muscles (the skull is made from the skin and the landmarks,
 deterministically). ``face`` (optional) names a built-in face whose skin and skull the
 layout uses when ``skin`` is null (``"lee_perry_smith"``; null: the procedural face).
+``mapping`` (optional) says which muscles a recorded track's channels drive
+(:class:`~wrinkle_vis.core.tracks.TrackMapping`: ``{"AU04": {"muscles": {"corrugator_L":
+1.0, ...}, "curve": [[0, 0], [1, 1]]}, ...}``, muscles of ``$.muscles`` only); without it a
+track plays through :func:`~wrinkle_vis.core.tracks.default_mapping`.
 Saving is atomic
 (:func:`wrinkle_vis.core.files.atomic_output`): the file is written beside its destination,
 flushed to disk and renamed over it, so a crash never leaves half a file, and a file saved
@@ -39,6 +43,7 @@ from .expressions import Expression
 from .files import atomic_write_text
 from .muscle import Muscle, MuscleParameterError
 from .registry import UnknownMuscleTypeError, get_muscle_type
+from .tracks import TrackMapping
 from .units import LENGTH_UNITS
 
 __all__ = ["FORMAT", "VERSION", "Layout", "LayoutError", "atomic_write_text", "load_layout",
@@ -95,6 +100,9 @@ class Layout:
     face : str or None
         The built-in face the layout is for when ``skin`` is None (a name
         :func:`wrinkle_vis.datasets.load_face` knows); None: the procedural face.
+    mapping : TrackMapping or None
+        Which muscles a recorded track's channels drive; None: not recorded (the default
+        mapping plays).
     """
 
     name: str = "face"
@@ -106,12 +114,16 @@ class Layout:
     n_triangles: int | None = None
     unit: str | None = None
     face: str | None = None
+    mapping: TrackMapping | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "muscles", tuple(self.muscles))
         object.__setattr__(self, "expressions", dict(self.expressions))
         object.__setattr__(self, "landmarks", {
             k: tuple(float(x) for x in v) for k, v in dict(self.landmarks).items()})
+        if self.mapping is not None:  # a muscle removed from the layout drives nothing
+            object.__setattr__(self, "mapping", self.mapping.restricted(
+                [m.name for m in self.muscles]))
 
     def __eq__(self, other) -> bool:
         return isinstance(other, Layout) and self.to_dict() == other.to_dict()
@@ -132,6 +144,8 @@ class Layout:
             out["unit"] = str(self.unit)
         if self.face is not None:
             out["face"] = str(self.face)
+        if self.mapping is not None:
+            out["mapping"] = self.mapping.to_dict()
         return out
 
     @classmethod
@@ -150,7 +164,7 @@ class Layout:
         _expect(version == VERSION, source, "$.version",
                 f"{VERSION} (this wrinkle-vis reads version {VERSION})", version)
         known = {"format", "version", "name", "skin", "skull", "muscles", "expressions",
-                 "landmarks", "n_triangles", "unit", "face"}
+                 "landmarks", "n_triangles", "unit", "face", "mapping"}
         for key in data:
             _expect(key in known, source, f"$.{key}", f"one of {sorted(known)}", key)
         name = data.get("name", "face")
@@ -174,10 +188,11 @@ class Layout:
         muscles = _muscles(data.get("muscles", []), source)
         expressions = _expressions(data.get("expressions", {}), source,
                                    {m.name for m in muscles})
+        mapping = _mapping(data.get("mapping"), source, {m.name for m in muscles})
         return cls(name=name, muscles=muscles, expressions=expressions,
                    skin=data.get("skin"), skull=data.get("skull"),
                    landmarks=_landmarks(data.get("landmarks", {}), source),
-                   n_triangles=n_triangles, unit=unit, face=face)
+                   n_triangles=n_triangles, unit=unit, face=face, mapping=mapping)
 
     def resolve(self, key: str, base: str | os.PathLike) -> Path | None:
         """The absolute path of ``skin`` or ``skull`` relative to folder ``base``."""
@@ -252,6 +267,26 @@ def _expressions(items: Any, source: str, muscles: set[str]) -> dict[str, Expres
         except (TypeError, ValueError) as exc:
             raise LayoutError(source, path, "a valid expression", str(exc)) from None
     return out
+
+
+def _mapping(items: Any, source: str, muscles: set[str]) -> TrackMapping | None:
+    """The optional ``$.mapping``: channels to muscle weights and response curves."""
+    if items is None:
+        return None
+    _expect(isinstance(items, dict), source, "$.mapping",
+            "an object of channel name to {\"muscles\": {...}, \"curve\": [...]}", items)
+    for key, item in items.items():
+        path = f"$.mapping.{key}"
+        _expect(isinstance(item, dict) and isinstance(item.get("muscles", {}), dict), source,
+                path, "{\"muscles\": {muscle name: weight in [0, 1]}, \"curve\": [[x, y], "
+                "...]}", item)
+        for muscle in item.get("muscles", {}):
+            _expect(muscle in muscles, source, f"{path}.muscles.{muscle}",
+                    "the name of a muscle in $.muscles", muscle)
+    try:
+        return TrackMapping.from_dict(items)
+    except (TypeError, ValueError) as exc:
+        raise LayoutError(source, "$.mapping", "a valid track mapping", str(exc)) from None
 
 
 def _landmarks(items: Any, source: str) -> dict:

@@ -77,7 +77,7 @@ def bent(triangles: np.ndarray, points: np.ndarray, angle_deg: float,
 
 def _unit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
     """``(3, k)``: the vectors ``(x, y, z)`` ``(k,)`` each, scaled to unit length."""
-    v = np.stack([x, y, z])
+    v = np.stack([x, y, z]).astype(float, copy=False)  # bincount of no weights is int
     v /= np.maximum(np.sqrt(x * x + y * y + z * z), 1e-300)
     return v
 

@@ -1,0 +1,93 @@
+"""File > Import performance...: a recorded track plays in the app (a real window under
+Xvfb; fixtures: conftest.py), and the Qt-free session side.
+"""
+
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from qtpy import QtWidgets
+
+import wrinkle_vis as wv
+from wrinkle_vis.app.session import TIMELINE_STEPS, Session
+from wrinkle_vis.app.trackplot import track_curves
+from wrinkle_vis.core.tracks import Track, default_mapping, performance, write_track
+
+pytestmark = pytest.mark.usefixtures("no_leaked_plotters")
+
+OPENFACE = Path(__file__).resolve().parents[1].parent / "shared" / "tracks" / \
+    "openface_test.csv"
+
+
+def _brows(tmp_path) -> Path:
+    t = np.linspace(0.0, 2.0, 21)
+    path = tmp_path / "brows.csv"
+    write_track(Track(t, ["AU01", "AU04", "AU45"],
+                      np.column_stack([np.sin(np.pi * t / 2), 0.5 * t / 2, 0.3 + 0 * t])),
+                path, "openface")
+    return path
+
+
+def test_the_session_plays_a_performance_without_saving_it(wv_face, tmp_path):
+    s = Session(wv_face)
+    track = wv.read_track(_brows(tmp_path))
+    perf = performance(track, default_mapping(), wv_face.muscle_names, name="brows (track)")
+    s.set_performance(perf)
+    assert s.expression == "brows (track)" and s.current_expression() is perf
+    s.set_time(1.0)
+    assert s.activations()["frontalis_inner_L"] == pytest.approx(1.0)
+    assert s.activations()["procerus"] == pytest.approx(0.25)
+    assert "brows (track)" not in s.layout().expressions  # not part of the layout
+    with pytest.raises(ValueError, match="recorded track"):
+        s.with_activation("procerus", 0.5)
+    s.set_face(s.face.without_muscle("procerus"))  # an edit after the import
+    assert "procerus" not in s.activations() and s.state().W.shape == (wv_face.skin.n_points,)
+    s.set_expression("frown")
+    assert s.current_expression() is wv_face.expressions["frown"]
+    s.set_expression("brows (track)")  # still offered
+    lo, hi = s.ramp_range()
+    assert hi > 0.1  # over the whole track, not its (empty) onset
+
+
+def test_track_curves_keep_the_channels_that_drive_muscles(tmp_path):
+    track = wv.read_track(_brows(tmp_path))
+    curves = track_curves(track, default_mapping(), ["frontalis_inner_L", "procerus"])
+    assert [c[0] for c in curves] == ["AU01", "AU04"]  # AU45 drives no muscle
+
+
+def test_import_performance_in_the_window(window, tmp_path):
+    name = window.import_performance(_brows(tmp_path))
+    s = window.session
+    assert name == "brows (track)" and window.expression_box.currentText() == name
+    assert [window.expression_box.itemText(i) for i in range(window.expression_box.count())
+            ][-1] == name
+    plot = window.track_plot
+    assert plot is not None and plot.isVisible() and [c[0] for c in plot.curves] == [
+        "AU01", "AU04"]
+    window.time_slider.setValue(TIMELINE_STEPS // 2)  # the timeline spans the track
+    assert s.time_s == pytest.approx(1.0, abs=2.0 / TIMELINE_STEPS)
+    assert plot.time_s == s.time_s
+    expected = s.face.evaluate(s.current_expression().at(s.time_s))
+    np.testing.assert_allclose(s.state().W, expected.W)
+    assert np.abs(s.state().W).max() > 0
+    window._play_start = (0, time.perf_counter() - 0.5)  # Play runs at the track's clock:
+    window._tick()  # half a second into a 2 s track is a quarter of the timeline
+    position = window.time_slider.value()  # 0.5 s and the time the call took (< 0.2 s)
+    assert TIMELINE_STEPS / 4 <= position <= TIMELINE_STEPS * (0.5 + 0.2) / 2
+
+
+def test_the_real_track_imports_and_a_bad_file_is_one_line(window, tmp_path, monkeypatch):
+    assert window.import_performance(OPENFACE) == "openface_test (track)"
+    assert window.session.current_expression().duration_s == pytest.approx(0.099)
+    shown = []
+    monkeypatch.setattr(QtWidgets.QMessageBox, "warning", lambda *a: shown.append(a[2]))
+    bad = tmp_path / "bad.csv"
+    bad.write_text("name,score\nada,3\n")
+    monkeypatch.setattr(QtWidgets.QFileDialog, "getOpenFileName",
+                        lambda *a, **k: (str(bad), ""))
+    window.import_performance_dialog()
+    assert len(shown) == 1 and "not a track this reads" in shown[0] and "\n" not in shown[0]
+    assert window.session.expression == "openface_test (track)"  # kept
+    window._show_session(Session(window.session.face))  # another layout opened
+    assert not window.track_plot.isVisible() and window.session.performance is None
