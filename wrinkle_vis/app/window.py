@@ -1290,10 +1290,10 @@ class MainWindow(QtWidgets.QMainWindow):
         for path in self.recovery.orphans():
             try:
                 rec = Recovery.load(path)
-            except LayoutError as exc:
+                answer = self._ask_recovery(rec, can_restore=not restored)
+            except Exception as exc:  # whatever the file holds, the app starts
                 self._keep_aside(path, exc)
                 continue
-            answer = self._ask_recovery(rec, can_restore=not restored)
             if answer == "restore":
                 restored = self.restore(path) or restored
             elif answer == "discard":
