@@ -237,15 +237,13 @@ def read_landmarks(path: str | os.PathLike) -> dict[str, tuple]:
         fewer than 4 of :data:`LANDMARKS`).
     """
     import json
-    import math
+
+    from wrinkle_vis.core.layout import finite_number, read_json
 
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no landmarks file at {path}; check the path")
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"{path}: not a JSON file of landmarks ({exc})") from None
+    data = read_json(path)  # one-line LayoutError (a ValueError): not JSON, too deep, ...
     if isinstance(data, dict) and isinstance(data.get("landmarks"), dict):
         data = data["landmarks"]
     if not isinstance(data, dict) or not data:
@@ -253,9 +251,7 @@ def read_landmarks(path: str | os.PathLike) -> dict[str, tuple]:
                          '"landmarks"); found no landmarks')
     out = {}
     for name, value in data.items():
-        ok = isinstance(value, list) and len(value) == 3 and all(
-            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
-            for x in value)
+        ok = isinstance(value, list) and len(value) == 3 and all(map(finite_number, value))
         if not ok:
             raise ValueError(f"{path}: landmark {name!r}: expected [x, y, z] of finite "
                              f"numbers; found {json.dumps(value)[:60]}")

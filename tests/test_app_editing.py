@@ -330,9 +330,10 @@ def _recovery_file(folder, pid: int, layout: dict, **fields) -> Path:
                          ids=[f"{k}={v!r:.12}" for k, v in BAD_RECOVERY_FIELDS])
 def test_a_malformed_recovery_field_is_a_one_line_layout_error(tmp_path, key, value):
     from wrinkle_vis.core.layout import LayoutError
-    from wrinkle_vis.datasets import builtin_layout
+    from wrinkle_vis.datasets import BUILTIN_LAYOUT
 
-    path = _recovery_file(tmp_path, 999999990, builtin_layout().to_dict(), **{key: value})
+    layout = json.loads(BUILTIN_LAYOUT.read_text())
+    path = _recovery_file(tmp_path, 999999990, layout, **{key: value})
     with pytest.raises(LayoutError, match=rf"\$\.{key}: expected ") as info:
         Recovery.load(path)
     assert "\n" not in str(info.value) and str(path) in str(info.value)
@@ -341,11 +342,11 @@ def test_a_malformed_recovery_field_is_a_one_line_layout_error(tmp_path, key, va
 def test_malformed_recovery_files_are_kept_aside_and_the_app_starts(make_window, tmp_path,
                                                                      monkeypatch):
     """Each malformed file is set aside as .bad with a warning; none stops the start."""
-    from wrinkle_vis.datasets import builtin_layout
+    from wrinkle_vis.datasets import BUILTIN_LAYOUT
 
     folder = tmp_path / "recovery"
     folder.mkdir()
-    layout = builtin_layout().to_dict()
+    layout = json.loads(BUILTIN_LAYOUT.read_text())
     paths = [_recovery_file(folder, 999999900 + i, layout, **{key: value})
              for i, (key, value) in enumerate(BAD_RECOVERY_FIELDS)]
     warnings = []

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..core.files import atomic_write_text
-from ..core.layout import Layout, LayoutError
+from ..core.layout import Layout, LayoutError, read_json
 
 __all__ = ["Recovered", "Recovery", "default_directory"]
 
@@ -107,10 +107,7 @@ class Recovery:
             message names the file, where, and what was expected).
         """
         path = Path(path)
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
-            raise LayoutError(str(path), "$", "a readable JSON recovery file", exc) from exc
+        data = read_json(path)
         if not isinstance(data, dict) or data.get("wrinkle_vis_recovery") != VERSION:
             raise LayoutError(str(path), "$.wrinkle_vis_recovery",
                               f"a wrinkle-vis recovery file of version {VERSION}",
