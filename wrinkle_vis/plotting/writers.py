@@ -50,6 +50,7 @@ from ..core.files import (
     umask,
     write_error,
 )
+from .finite import require_finite
 
 __all__ = ["ANIMATION_SUFFIXES", "IMAGE_SUFFIXES", "MESH_SUFFIXES", "Written",
            "check_target", "save_animation", "save_image", "save_mesh"]
@@ -106,6 +107,7 @@ def save_mesh(mesh: pv.PolyData | pv.MultiBlock, path: str | os.PathLike) -> Wri
         intact and no temporary file is left.
     """
     real = check_target(path, MESH_SUFFIXES)
+    require_finite(path, mesh)
     suffix = real.suffix.lower()
     if isinstance(mesh, pv.MultiBlock) != (suffix == ".vtm"):
         raise OutputPathError(
