@@ -145,11 +145,11 @@ def _xml_bytes(dataset) -> bytes:
     """VTK XML of ``dataset``, serialized in memory (base64 binary data, zlib)."""
     writer, _ = _xml_writer(dataset)
     writer.SetInputData(dataset)
-    writer.SetDataModeToBinary()  # base64 inline: the string is ASCII
+    writer.SetDataModeToBinary()  # base64 inline; names may be any Unicode: UTF-8
     writer.SetWriteToOutputString(True)
     if not writer.Write():
         raise WriteError("VTK could not serialize the mesh")
-    return writer.GetOutputString().encode("ascii")
+    return writer.GetOutputString().encode("utf-8")
 
 
 def _legacy_bytes(mesh: pv.PolyData) -> bytes:
@@ -178,12 +178,12 @@ def _check_vtk(tmp: Path, mesh) -> None:
 def ply_properties(mesh: pv.PolyData) -> dict[str, np.ndarray]:
     """``{property name: (n,) array}``: the vertex properties :func:`save_mesh` writes to a
     PLY file for ``mesh``'s point arrays (a vector array ``a`` of 2 or 3 components as
-    ``a_x, a_y[, a_z]``, more as ``a_0, a_1, ...``; whitespace in names becomes ``_``).
+    ``a_x, a_y[, a_z]``, more as ``a_0, a_1, ...``; names made ASCII by :func:`ply_name`).
     """
     out: dict[str, np.ndarray] = {}
     for name in mesh.point_data:
         values = np.asarray(mesh.point_data[name])
-        base = re.sub(r"\s", "_", name) or "_"
+        base = ply_name(name)
         if values.ndim == 1:
             cols = {base: values}
         else:
@@ -197,6 +197,15 @@ def ply_properties(mesh: pv.PolyData) -> dict[str, np.ndarray]:
                                       "twice; rename the array or write .vtp")
             out[key] = col
     return out
+
+
+def ply_name(name: str) -> str:
+    """A PLY property name for point array ``name``: whitespace as ``_``, any other
+    character outside printable ASCII as ``_uXXXX`` (PLY headers are ASCII), e.g.
+    ``"corrügatör_L.W"`` as ``"corr_u00fcgat_u00f6r_L.W"``.
+    """
+    name = re.sub(r"\s", "_", name)
+    return "".join(c if " " < c < "\x7f" else f"_u{ord(c):04x}" for c in name) or "_"
 
 
 def _ply_bytes(mesh: pv.PolyData) -> tuple[bytes, int]:
