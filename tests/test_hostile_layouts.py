@@ -189,3 +189,12 @@ def test_bools_and_huge_counts_are_refused():
         wv.LinearMuscle("m", (0, 0, 0), (0, 0, 1), **KW, n_wrinkles=BIG)
     np.testing.assert_equal(wv.LinearMuscle("m", (0, 0, 0), (0, 0, 1), **KW,
                                             n_wrinkles=10**9).n_wrinkles, 10**9)
+
+
+def test_an_unknown_type_says_what_was_expected(tmp_path):
+    data = _layout()
+    data["muscles"][0]["type"] = "evil"
+    message = _one_line_error(_write(tmp_path, data), "$.muscles[0].type: expected a muscle "
+                                                      "type that is installed (installed "
+                                                      "types: linear, ")
+    assert message.endswith('found "evil"') and "expected unknown" not in message

@@ -40,7 +40,7 @@ from .expressions import Expression
 from .files import atomic_write_text
 from .muscle import Muscle, MuscleParameterError
 from .params import control_character
-from .registry import UnknownMuscleTypeError, get_muscle_type
+from .registry import UnknownMuscleTypeError, get_muscle_type, muscle_types
 from .units import LENGTH_UNITS
 
 __all__ = ["FORMAT", "VERSION", "Layout", "LayoutError", "atomic_write_text", "load_layout",
@@ -210,8 +210,10 @@ def _muscles(items: Any, source: str) -> tuple[Muscle, ...]:
         _expect(isinstance(kind, str), source, f"{path}.type", "a muscle type name", kind)
         try:
             cls = get_muscle_type(kind)
-        except UnknownMuscleTypeError as exc:
-            raise LayoutError(source, f"{path}.type", str(exc), kind) from None
+        except UnknownMuscleTypeError:
+            raise LayoutError(source, f"{path}.type", "a muscle type that is installed "
+                              f"(installed types: {', '.join(muscle_types())}; a plug-in "
+                              "type needs its package installed)", kind) from None
         try:
             muscle = cls.from_dict(item)
         except MuscleParameterError as exc:
