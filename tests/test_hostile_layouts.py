@@ -198,3 +198,11 @@ def test_an_unknown_type_says_what_was_expected(tmp_path):
                                                       "type that is installed (installed "
                                                       "types: linear, ")
     assert message.endswith('found "evil"') and "expected unknown" not in message
+
+
+@pytest.mark.parametrize(("param", "value"), [("max_angle_deg", 1e-320), ("radius", 1e-300),
+                                              ("max_angle_deg", 1e-10)])
+def test_values_next_to_an_open_zero_are_refused(param, value):
+    """Found by the fuzz test: 1e-320 degrees passed (0, 180] and overflowed a division."""
+    with pytest.raises(wv.MuscleParameterError, match=f"{param} = .*at least 1e-09"):
+        wv.LinearMuscle("m", (0, 0, 0), (0, 0, 1), **{**KW, param: value})

@@ -37,6 +37,9 @@ OPTIONS = {"taper": (False, True), "compression": COMPRESSION_MEASURES}
 #: face's units: far beyond any face (1e12 mm is 7 times the Earth's orbit), yet its square
 #: and products stay finite, so nothing overflows to inf.
 MAX_COORDINATE = 1e12
+#: The least value of a parameter that must be above 0 (an angle in degrees, a length):
+#: what is divided by it stays finite.
+MIN_POSITIVE = 1e-9
 #: The largest count (``n_wrinkles``): far beyond any mesh, and exact as a float.
 _MAX_COUNT = 10**9
 
@@ -515,6 +518,9 @@ class Muscle:
             if spec.is_length and abs(x) > MAX_COORDINATE:
                 self._fail(spec.name, x, f"at most {MAX_COORDINATE:g} (face units)",
                            "Far beyond any face: check the value and the layout's unit")
+            if spec.lo == 0.0 and spec.lo_open and x < MIN_POSITIVE:
+                self._fail(spec.name, x, f"{spec.range_text()}, at least {MIN_POSITIVE:g}",
+                           "A value this close to 0 overflows what is divided by it")
 
     def _check_options(self) -> None:
         """Validate :data:`OPTIONS`: ``taper`` a bool, ``compression`` a known measure."""
