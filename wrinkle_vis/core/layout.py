@@ -32,6 +32,7 @@ import json
 import math
 import os
 import re
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -335,10 +336,6 @@ def read_json(path: str | os.PathLike) -> Any:
     return parse_json(raw, str(path))
 
 
-#: Python's limit on the digits of an integer it converts (``sys.get_int_max_str_digits``).
-_MAX_DIGITS = 4300
-
-
 class _Duplicated(dict):
     """A JSON object that had ``key`` more than once (found after parsing, with its path)."""
 
@@ -386,14 +383,17 @@ def parse_json(raw: bytes, source: str) -> Any:
 
 
 def _too_long(text: str, source: str) -> LayoutError:
-    """The error for the first integer of ``text`` over :data:`_MAX_DIGITS` digits."""
-    match = re.search(rf"\d{{{_MAX_DIGITS + 1},}}", text)
+    """The error for the first integer of ``text`` over Python's limit on the digits of an
+    integer it converts (``sys.get_int_max_str_digits()``, 4300 by default).
+    """
+    limit = sys.get_int_max_str_digits()
+    match = re.search(rf"\d{{{limit + 1},}}", text) if limit else None
     if match is None:
         return LayoutError(source, "$", "valid JSON", "a value Python cannot convert")
     line = text.count("\n", 0, match.start()) + 1
     column = match.start() - text.rfind("\n", 0, match.start())
     return LayoutError(source, f"line {line} column {column}",
-                       f"a number of at most {_MAX_DIGITS} digits",
+                       f"a number of at most {limit} digits",
                        f"a number of {len(match.group())} digits")
 
 
@@ -403,13 +403,9 @@ def _refuse_duplicates(data: Any, source: str) -> None:
     while stack:
         value, where = stack.pop()
         if isinstance(value, _Duplicated):
-            raise LayoutError(source, _child(where, value.key),
-                              "each key once in an object", value.key)
+            raise LayoutError(source, f"{where}.{value.key}", "each key once in an object",
+                              value.key)
         if isinstance(value, dict):
-            stack.extend((v, _child(where, k)) for k, v in reversed(value.items()))
+            stack.extend((v, f"{where}.{k}") for k, v in reversed(value.items()))
         elif isinstance(value, list):
             stack.extend((v, f"{where}[{i}]") for i, v in reversed(list(enumerate(value))))
-
-
-def _child(where: str, key: str) -> str:
-    return f"{where}.{key}"
