@@ -359,6 +359,19 @@ def test_malformed_recovery_files_are_kept_aside_and_the_app_starts(make_window,
     assert Recovery(folder).orphans() == []
 
 
+def test_an_unreadable_recovery_folder_does_not_stop_the_start(make_window, monkeypatch):
+    """As a user other than root, a recovery folder without read permission makes the
+    folder listing raise PermissionError (root reads any folder, so it is simulated).
+    """
+    def unreadable(self):
+        raise PermissionError(13, "Permission denied", str(self.directory))
+
+    monkeypatch.setattr(Recovery, "orphans", unreadable)
+    w = make_window(show=False)
+    assert not w.offer_recovery()
+    assert "Permission denied" in w.statusBar().currentMessage()
+
+
 def test_a_drag_with_real_qt_mouse_events(window, qtbot):
     """The whole path: Qt mouse events on the view widget, pyvistaqt, VTK, the widget."""
     from qtpy.QtTest import QTest

@@ -1287,7 +1287,12 @@ class MainWindow(QtWidgets.QMainWindow):
         session's own. Returns whether one was restored.
         """
         restored = False
-        for path in self.recovery.orphans():
+        try:
+            orphans = self.recovery.orphans()
+        except OSError as exc:  # an unreadable recovery folder: start without offering
+            self.statusBar().showMessage(f"Cannot look for autosaved work: {exc}", 10000)
+            return False
+        for path in orphans:
             try:
                 rec = Recovery.load(path)
                 answer = self._ask_recovery(rec, can_restore=not restored)
