@@ -53,9 +53,9 @@ def require_finite(target: str | os.PathLike | None, data) -> None:
         if bad.any():
             where = f"{str(target)!r}" if target is not None else "the output"
             raise NonFiniteError(
-                f"refusing to write {where}: {name} holds {int(bad.sum()):,} non-finite "
-                f"value(s) (NaN or inf); the model overflowed, so check the muscles' k0, "
-                "strength and lengths against the face's size; nothing was written")
+                f"refusing to write {where}: {int(bad.sum()):,} non-finite value(s) (NaN or "
+                f"inf) in {name}; the model overflowed, so check the muscles' k0, strength "
+                "and lengths against the face's size; nothing was written")
 
 
 def _arrays(data, prefix: str = ""):
