@@ -122,6 +122,15 @@ def test_control_characters_in_expression_names_are_refused(tmp_path):
     _one_line_error(_write(tmp_path, data), "expected a name without control characters")
 
 
+def test_control_characters_in_the_layouts_name_are_refused(tmp_path):
+    """``summary`` printed the face's name raw: escape sequences reached the terminal."""
+    data = _layout()
+    data["name"] = "evil\x1b[31mred"
+    message = _one_line_error(_write(tmp_path, data), "$.name: expected a string without "
+                                                      "control characters")
+    assert "\x1b" not in message
+
+
 def test_unicode_muscle_names_are_accepted(tmp_path):
     data = _layout()
     _, m = _muscle(data, "corrugator_R")

@@ -165,7 +165,8 @@ class Layout:
         for key in data:
             _expect(key in known, source, f"$.{key}", f"one of {sorted(known)}", key)
         name = data.get("name", "face")
-        _expect(isinstance(name, str), source, "$.name", "a string", name)
+        _expect(isinstance(name, str) and control_character(name) is None, source, "$.name",
+                "a string without control characters", name)
         for key in ("skin", "skull"):
             value = data.get(key)
             _expect(value is None or (isinstance(value, str) and value), source, f"$.{key}",
