@@ -48,14 +48,34 @@ def _key(*parts) -> str:
     return h.hexdigest()[:20]
 
 
-def _cached(name: str, parts: tuple, build):
-    """``build()`` -> dict of arrays, cached on disk under a key of the code and ``parts``."""
+def _surface_arrays(arrays: dict) -> dict:
+    """``arrays`` if it holds a triangle surface: ``points`` ``(n, 3)`` finite floats and
+    ``triangles`` ``(m, 3)`` integers in ``[0, n)``, ``n, m > 0``; else ``ValueError``.
+    """
+    points, triangles = arrays["points"], arrays["triangles"]
+    if points.ndim != 2 or points.shape[1] != 3 or not len(points) or \
+            points.dtype.kind != "f" or not np.isfinite(points).all():
+        raise ValueError(f"points of shape {points.shape} ({points.dtype})")
+    if triangles.ndim != 2 or triangles.shape[1] != 3 or not len(triangles) or \
+            triangles.dtype.kind not in "iu" or triangles.min() < 0 or \
+            triangles.max() >= len(points):
+        raise ValueError(f"triangles of shape {triangles.shape} ({triangles.dtype})")
+    return arrays
+
+
+def _cached(name: str, parts: tuple, build, check=_surface_arrays):
+    """``build()`` -> dict of arrays, cached on disk under a key of the code and ``parts``.
+
+    An entry that does not load (truncated, empty, not a zip) or that ``check`` refuses (a
+    member missing, a wrong shape or type, indices out of range) is rebuilt and written
+    again.
+    """
     path = _cache_dir() / f"{name}-{_key(name, *parts)}.npz"
     if path.exists():
         try:
-            with np.load(path) as data:
-                return {k: data[k] for k in data.files}
-        except (OSError, ValueError):
+            with open(path, "rb") as fh, np.load(fh) as data:  # closed if np.load fails
+                return check({k: data[k] for k in data.files})
+        except Exception:  # BadZipFile, EOFError, KeyError, zlib.error, ValueError, ...
             pass  # a damaged cache entry is rebuilt
     arrays = build()
     try:  # synced before the rename; on a failure (a full disk) no temporary stays

@@ -10,8 +10,8 @@ import numpy as np
 from wrinkle_vis.core import Layout, MeshError, TriangleSurface, load_layout
 from wrinkle_vis.core.mesh import closest_points
 
-__all__ = ["LANDMARKS", "orient_outward", "read_landmarks", "read_surface", "scan_layout",
-           "similarity_transform", "transfer_layout"]
+__all__ = ["LANDMARKS", "fit_landmarks", "orient_outward", "read_landmarks", "read_surface",
+           "scan_layout", "similarity_transform", "transfer_layout"]
 
 #: The landmarks ``transfer_layout`` understands (L is the subject's left, +x).
 LANDMARKS = ("nasion", "nose_tip", "chin", "eye_inner_L", "eye_inner_R", "eye_outer_L",
@@ -160,6 +160,64 @@ def similarity_transform(source, target) -> tuple[np.ndarray, float, np.ndarray]
     return rot, scale, my - scale * rot @ mx
 
 
+#: How far a landmark may lie from where the best similarity puts it, as a fraction of the
+#: landmarks' spread (their RMS distance from their mean): real scans against the built-in
+#: face stay under 0.3; two swapped landmarks are off by more than 1.
+MAX_LANDMARK_MISFIT = 0.75
+
+
+def fit_landmarks(source: dict, target: dict) -> tuple[np.ndarray, float, np.ndarray]:
+    r"""The similarity :math:`y = s R x + t` from ``source`` to ``target`` landmarks (their
+    shared names, :func:`similarity_transform`), after checking that it means something.
+
+    Refused, each in one line naming the landmarks: fewer than 4 shared names; target
+    landmarks at one point or on one line (no rotation follows from them); landmarks that
+    a mirror image fits and no rotation does (left and right swapped); landmarks that lie
+    more than :data:`MAX_LANDMARK_MISFIT` of the landmarks' spread from where the fit puts
+    them (swapped or misplaced: the worst named first).
+
+    Raises
+    ------
+    ValueError
+        As above, with the way out.
+    """
+    names = _shared_landmarks(source, target)
+    x = np.array([source[n] for n in names], float)
+    y = np.array([target[n] for n in names], float)
+    spread = float(np.sqrt(((y - y.mean(axis=0)) ** 2).sum(axis=1).mean()))
+    sv = np.linalg.svd(y - y.mean(axis=0), compute_uv=False)
+    if not spread > 1e-9 * max(1.0, float(np.abs(y).max())):
+        raise ValueError(f"the landmarks {', '.join(names)} are all at one point; place each "
+                         "on its own feature of the face")
+    if sv[1] < 0.05 * sv[0]:
+        raise ValueError(f"the landmarks {', '.join(names)} lie on one line; place them on "
+                         "the face's features (the eyes' corners are left and right of the "
+                         "nose, the chin below it)")
+    rot, scale, shift = similarity_transform(x, y)
+    off = np.linalg.norm(scale * x @ rot.T + shift - y, axis=1) / spread
+    if off.max() <= MAX_LANDMARK_MISFIT:
+        return rot, scale, shift
+    if _mirror_misfit(x, y, spread).max() <= MAX_LANDMARK_MISFIT:
+        raise ValueError("the landmarks are a mirror image of the face's: _L and _R are "
+                         "swapped (_L is the subject's left, on your right as you face "
+                         "them); swap them")
+    worst = [f"{names[i]} ({off[i]:.2f})" for i in np.argsort(-off)
+             if off[i] > MAX_LANDMARK_MISFIT]
+    raise ValueError(f"the landmarks {', '.join(worst)} lie far from where the others put "
+                     f"them (by that fraction of the landmarks' spread; at most "
+                     f"{MAX_LANDMARK_MISFIT:g} fits a face): are they swapped or misplaced? "
+                     "Check them on the scan")
+
+
+def _mirror_misfit(x: np.ndarray, y: np.ndarray, spread: float) -> np.ndarray:
+    """``(k,)``: each landmark's distance from the best fit that may mirror, over ``spread``."""
+    mx, my = x.mean(axis=0), y.mean(axis=0)
+    u, sig, vt = np.linalg.svd((y - my).T @ (x - mx) / len(x))
+    m = u @ vt  # orthogonal, possibly a reflection
+    scale = float(sig.sum() / ((x - mx) ** 2).sum(axis=1).mean())
+    return np.linalg.norm(scale * (x - mx) @ m.T + my - y, axis=1) / spread
+
+
 def _shared_landmarks(source: dict, target: dict) -> list[str]:
     names = [n for n in source if n in target]
     if len(names) < 4:
@@ -195,9 +253,7 @@ def transfer_layout(layout: Layout, target_skin: TriangleSurface, landmarks: dic
         its frame, which neighbouring sheets share; a linear muscle's radius keeps its ratio
         to the muscle's length); the expressions unchanged; the target's landmarks.
     """
-    names = _shared_landmarks(layout.landmarks, landmarks)
-    rot, scale, shift = similarity_transform([layout.landmarks[n] for n in names],
-                                             [landmarks[n] for n in names])
+    rot, scale, shift = fit_landmarks(layout.landmarks, landmarks)
     if target_skull is None:
         from .skull import scan_skull
 
@@ -238,15 +294,13 @@ def read_landmarks(path: str | os.PathLike) -> dict[str, tuple]:
         fewer than 4 of :data:`LANDMARKS`).
     """
     import json
-    import math
+
+    from wrinkle_vis.core.layout import finite_number, read_json
 
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no landmarks file at {path}; check the path")
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"{path}: not a JSON file of landmarks ({exc})") from None
+    data = read_json(path)  # one-line LayoutError (a ValueError): not JSON, too deep, ...
     if isinstance(data, dict) and isinstance(data.get("landmarks"), dict):
         data = data["landmarks"]
     if not isinstance(data, dict) or not data:
@@ -254,9 +308,7 @@ def read_landmarks(path: str | os.PathLike) -> dict[str, tuple]:
                          '"landmarks"); found no landmarks')
     out = {}
     for name, value in data.items():
-        ok = isinstance(value, list) and len(value) == 3 and all(
-            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
-            for x in value)
+        ok = isinstance(value, list) and len(value) == 3 and all(map(finite_number, value))
         if not ok:
             raise ValueError(f"{path}: landmark {name!r}: expected [x, y, z] of finite "
                              f"numbers; found {json.dumps(value)[:60]}")

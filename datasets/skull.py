@@ -48,11 +48,9 @@ NECK_PLANE_Y = -104.0
 def _frame(landmarks):
     """The similarity ``(rot, scale, shift)`` from the built-in face onto the landmarks."""
     from .face import builtin_landmarks
-    from .scans import _shared_landmarks, similarity_transform
+    from .scans import fit_landmarks
 
-    source = builtin_landmarks()
-    names = _shared_landmarks(source, landmarks)
-    return similarity_transform([source[n] for n in names], [landmarks[n] for n in names])
+    return fit_landmarks(builtin_landmarks(), landmarks)
 
 
 def _poly(surface: TriangleSurface):

@@ -2,11 +2,13 @@
 real interactors, undo and redo, editing actions, autosave and crash recovery.
 """
 
+import json
 import os
 import signal
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -308,6 +310,66 @@ def test_discarding_recovery_deletes_it_and_a_broken_file_is_kept_aside(make_win
     answer("Discard")
     assert not w.offer_recovery()
     assert recovery.orphans() == []
+
+
+BAD_RECOVERY_FIELDS = [("n_triangles", "many"), ("n_triangles", None), ("n_triangles", 1e400),
+                       ("n_triangles", 10**400), ("n_triangles", True), ("source", 123),
+                       ("source", "a\0b"), ("saved_at", [1]), ("saved_at", 1e400),
+                       ("saved_at", 10**400), ("saved_at", "now"), ("saved_at", 1e300)]
+
+
+def _recovery_file(folder, pid: int, layout: dict, **fields) -> Path:
+    data = {"wrinkle_vis_recovery": 1, "pid": pid, "saved_at": 1.0, "source": None,
+            "n_triangles": 4500, "layout": layout, **fields}
+    path = folder / f"recovery-{pid}.json"
+    path.write_text(json.dumps(data))
+    return path
+
+
+@pytest.mark.parametrize(("key", "value"), BAD_RECOVERY_FIELDS,
+                         ids=[f"{k}={v!r:.12}" for k, v in BAD_RECOVERY_FIELDS])
+def test_a_malformed_recovery_field_is_a_one_line_layout_error(tmp_path, key, value):
+    from wrinkle_vis.core.layout import LayoutError
+    from wrinkle_vis.datasets import BUILTIN_LAYOUT
+
+    layout = json.loads(BUILTIN_LAYOUT.read_text())
+    path = _recovery_file(tmp_path, 999999990, layout, **{key: value})
+    with pytest.raises(LayoutError, match=rf"\$\.{key}: expected ") as info:
+        Recovery.load(path)
+    assert "\n" not in str(info.value) and str(path) in str(info.value)
+
+
+def test_malformed_recovery_files_are_kept_aside_and_the_app_starts(make_window, tmp_path,
+                                                                     monkeypatch):
+    """Each malformed file is set aside as .bad with a warning; none stops the start."""
+    from wrinkle_vis.datasets import BUILTIN_LAYOUT
+
+    folder = tmp_path / "recovery"
+    folder.mkdir()
+    layout = json.loads(BUILTIN_LAYOUT.read_text())
+    paths = [_recovery_file(folder, 999999900 + i, layout, **{key: value})
+             for i, (key, value) in enumerate(BAD_RECOVERY_FIELDS)]
+    warnings = []
+    monkeypatch.setattr(QtWidgets.QMessageBox, "warning", lambda *a: warnings.append(a[2]))
+    w = make_window(recovery_=Recovery(folder), show=False)
+    assert not w.offer_recovery()
+    assert len(warnings) == len(paths)
+    for path in paths:
+        assert not path.exists() and path.with_suffix(".bad").exists()
+    assert Recovery(folder).orphans() == []
+
+
+def test_an_unreadable_recovery_folder_does_not_stop_the_start(make_window, monkeypatch):
+    """As a user other than root, a recovery folder without read permission makes the
+    folder listing raise PermissionError (root reads any folder, so it is simulated).
+    """
+    def unreadable(self):
+        raise PermissionError(13, "Permission denied", str(self.directory))
+
+    monkeypatch.setattr(Recovery, "orphans", unreadable)
+    w = make_window(show=False)
+    assert not w.offer_recovery()
+    assert "Permission denied" in w.statusBar().currentMessage()
 
 
 def test_a_drag_with_real_qt_mouse_events(window, qtbot):

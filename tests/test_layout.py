@@ -47,7 +47,8 @@ def layouts(draw):
         acts = {m: draw(st.floats(0, 1)) for m in names if draw(st.booleans())}
         expressions[f"e{k}"] = wv.Expression(f"e{k}", acts, onset_s=draw(st.floats(0, 3)))
     landmarks = {f"l{k}": draw(point) for k in range(draw(st.integers(0, 3)))}
-    return wv.Layout(name=draw(st.text(max_size=12)), muscles=muscles, expressions=expressions,
+    names = st.text(st.characters(blacklist_categories=("Cc", "Cf", "Cs")), max_size=12)
+    return wv.Layout(name=draw(names), muscles=muscles, expressions=expressions,
                      skin=draw(st.none() | st.just("skin.obj")), landmarks=landmarks)
 
 

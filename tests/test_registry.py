@@ -112,6 +112,23 @@ def test_broken_plugin_is_skipped_with_a_warning_that_names_it(clean_registry):
     assert "broken" not in wv.muscle_types()
 
 
+def test_a_broken_plugins_warning_is_one_line_without_a_source_line(clean_registry):
+    """Python shows a warning as ``file:line: Category: message`` plus the source line of
+    ``file:line``; about a plug-in that line is the toolkit's, noise on every command.
+    """
+    import warnings
+
+    ep = EntryPoint(name="broken", value="wrinkle_vis_no_such_module:Muscle",
+                    group="wrinkle_vis.muscles")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        registry.load_entry_point(ep)
+    (w,) = caught
+    shown = warnings.formatwarning(w.message, w.category, w.filename, w.lineno, w.line)
+    assert shown.count("\n") == 1 and "MusclePluginWarning: wrinkle-vis skipped" in shown
+    assert "<plug-in broken>" in shown
+
+
 def test_entry_point_loading_is_lazy_and_runs_once(monkeypatch, clean_registry):
     calls = []
     real = registry.entry_points

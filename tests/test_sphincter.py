@@ -242,6 +242,24 @@ def test_bad_parameters_name_the_parameter(changes, param):
     assert e.value.param == param
 
 
+@pytest.mark.parametrize("t", [-1.0, 0.5, 2.0, -0.37, 1.5, 3.0])
+def test_an_end_b_on_the_a_axis_is_refused_however_the_rounding_falls(t):
+    """``end_b`` on the line through the centre and ``end_a`` (to rounding): no b axis. The
+    residual normal to e1 is rounding noise; normalised it would be a unit e2 that is not
+    orthogonal to e1 (e1.e2 = -0.965 at t = -1: a frame that is not orthonormal, fields
+    silently wrong), and b = v.e2 came out positive, so the old check passed.
+    """
+    m = next(m for m in wv.datasets.builtin_muscles() if m.name == "orbicularis_oculi_L")
+    c, a = np.array(m.center), np.array(m.end_a)
+    end_b = tuple(c + t * (a - c))
+    with pytest.raises(wv.MuscleParameterError, match="end_b .*off the line") as e:
+        SphincterMuscle("s", tuple(c), tuple(a), end_b, sector_deg=60.0)
+    assert e.value.param == "end_b" and "\n" not in str(e.value)
+    ok = SphincterMuscle("s", tuple(c), tuple(a), tuple(np.add(end_b, (0, 0, 1e-3))))
+    np.testing.assert_allclose(np.array(ok.frame) @ np.array(ok.frame).T, np.eye(3),
+                               atol=1e-9)
+
+
 # ---------------------------------------------------------------------- the built-in face
 @pytest.fixture(scope="module")
 def refined(wv_face):

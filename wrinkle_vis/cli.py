@@ -360,9 +360,23 @@ def _refinement(args) -> dict:
 
 def _output(args, suffixes: tuple[str, ...]) -> Path:
     """Check ``--output`` before any work: its extension, then that it can be written."""
+    out = args.output
+    try:
+        return _checked_output(out, suffixes)
+    except OSError as exc:  # a name over 255 bytes, a path over 4096 bytes, ...
+        raise _unusable_output(out, exc) from None
+
+
+def _unusable_output(out: Path, exc: OSError) -> CliError:
+    """One line for an ``--output`` the system refuses to look at (a name too long)."""
+    shown = str(out) if len(str(out)) <= 80 else f"{str(out)[:77]}..."
+    return CliError(f"--output {shown}: {exc.strerror or exc} (names have at most 255 "
+                    "bytes, paths 4096); use a shorter name")
+
+
+def _checked_output(out: Path, suffixes: tuple[str, ...]) -> Path:
     from wrinkle_vis.core.files import OutputPathError, check_output
 
-    out = args.output
     if not out.is_dir() and out.suffix.lower() not in suffixes:
         names = ", ".join(suffixes[:-1]) + f" or {suffixes[-1]}" if len(suffixes) > 1 \
             else suffixes[0]
@@ -465,7 +479,7 @@ def _load(args, *, refine: bool = False):
                  else f"--face {args.face}" if args.face else "the built-in face")
         raise CliError(f"{where}: {exc}") from None
     names = getattr(args, "expression", None)
-    for name in names if isinstance(names, list) else [names] if names else []:
+    for name in names if isinstance(names, list) else [] if names is None else [names]:
         if name not in face.expressions:
             raise CliError(f"unknown expression {name!r}; choose from: "
                            f"{', '.join(face.expressions)}")
@@ -681,7 +695,7 @@ def _export(args) -> int:
     _output(args, MESH_SUFFIXES + GLTF_SUFFIXES)
     if suffix == ".glb":
         return _export_gltf(args)
-    args.expression = args.expression or "surprise"
+    args.expression = "surprise" if args.expression is None else args.expression
     face = _load(args)
     state = face.evaluate(args.expression, args.intensity)
     if args.output.suffix.lower() == ".vtm":
@@ -711,7 +725,7 @@ def _export_sequence(args) -> int:
         check_sequence_target(args.output)
     except OutputPathError as exc:
         raise CliError(f"--output {exc}") from None
-    args.expression = args.expression or "surprise"
+    args.expression = "surprise" if args.expression is None else args.expression
     track = _read_track(args) if args.track is not None else None
     face = _load(args)
     fps = args.fps or (12 if track is None else TRACK_FPS)
@@ -770,6 +784,8 @@ def _bake(args) -> int:
         check_bake_folder(args.output)
     except OutputPathError as exc:
         raise CliError(f"--output {exc}") from None
+    except OSError as exc:
+        raise _unusable_output(args.output, exc) from None
     if not 0 <= args.padding <= MAX_PADDING:
         raise CliError(f"--padding {args.padding} is outside 0..{MAX_PADDING}; choose a "
                        "number of texels in that range (default 8)")

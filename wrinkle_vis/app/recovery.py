@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..core.files import atomic_write_text
-from ..core.layout import Layout, LayoutError
+from ..core.layout import Layout, LayoutError, read_json
 
 __all__ = ["Recovered", "Recovery", "default_directory"]
 
@@ -107,19 +107,48 @@ class Recovery:
             message names the file, where, and what was expected).
         """
         path = Path(path)
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
-            raise LayoutError(str(path), "$", "a readable JSON recovery file", exc) from exc
+        data = read_json(path)
         if not isinstance(data, dict) or data.get("wrinkle_vis_recovery") != VERSION:
             raise LayoutError(str(path), "$.wrinkle_vis_recovery",
                               f"a wrinkle-vis recovery file of version {VERSION}",
                               data.get("wrinkle_vis_recovery") if isinstance(data, dict)
                               else type(data).__name__)
         layout = Layout.from_dict(data.get("layout"), source=f"{path}: $.layout")
-        source = data.get("source")
-        return Recovered(path, layout, Path(source) if source else None,
-                         int(data.get("n_triangles", 4500)), float(data.get("saved_at", 0)))
+        return Recovered(path, layout, _source(path, data), _n_triangles(path, data),
+                         _saved_at(path, data))
+
+
+def _source(path: Path, data: dict) -> Path | None:
+    """``$.source``: the layout file the user had open (a path), or null."""
+    source = data.get("source")
+    if source is None or source == "":
+        return None
+    if not isinstance(source, str) or "\0" in source:
+        raise LayoutError(str(path), "$.source", "the path of a layout file or null", source)
+    return Path(source)
+
+
+def _n_triangles(path: Path, data: dict) -> int:
+    """``$.n_triangles``: a positive whole number (default 4500)."""
+    n = data.get("n_triangles", 4500)
+    if isinstance(n, bool) or not isinstance(n, int) or not 0 < n < 2**31:
+        raise LayoutError(str(path), "$.n_triangles", "a positive whole number of triangles",
+                          n)
+    return n
+
+
+def _saved_at(path: Path, data: dict) -> float:
+    """``$.saved_at``: seconds since the epoch (default 0), a time :func:`time.ctime` shows."""
+    value = data.get("saved_at", 0)
+    try:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise TypeError
+        seconds = float(value)
+        time.ctime(seconds)  # finite, and a date (raises beyond the year 9999 or so)
+    except (TypeError, ValueError, OverflowError, OSError):
+        raise LayoutError(str(path), "$.saved_at", "seconds since 1970 (a number)",
+                          value) from None
+    return seconds
 
 
 def _mtime(path: Path) -> float:

@@ -1340,13 +1340,18 @@ class MainWindow(QtWidgets.QMainWindow):
         session's own. Returns whether one was restored.
         """
         restored = False
-        for path in self.recovery.orphans():
+        try:
+            orphans = self.recovery.orphans()
+        except OSError as exc:  # an unreadable recovery folder: start without offering
+            self.statusBar().showMessage(f"Cannot look for autosaved work: {exc}", 10000)
+            return False
+        for path in orphans:
             try:
                 rec = Recovery.load(path)
-            except LayoutError as exc:
+                answer = self._ask_recovery(rec, can_restore=not restored)
+            except Exception as exc:  # whatever the file holds, the app starts
                 self._keep_aside(path, exc)
                 continue
-            answer = self._ask_recovery(rec, can_restore=not restored)
             if answer == "restore":
                 restored = self.restore(path) or restored
             elif answer == "discard":

@@ -8,7 +8,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Expression", "paper_expressions", "smoothstep"]
+from .params import control_character
+
+__all__ = ["MAX_DURATION_S", "Expression", "paper_expressions", "smoothstep"]
+
+#: The longest onset, hold or release, in seconds (a year): their sum and any frame count
+#: at any frame rate stay finite.
+MAX_DURATION_S = 3.2e7
 
 
 def smoothstep(x):
@@ -41,6 +47,10 @@ class Expression:
     description: str = ""
 
     def __post_init__(self):
+        bad = control_character(str(self.name))
+        if bad is not None:
+            raise ValueError(f"expression {self.name!r}: the name holds the control character "
+                             f"{bad}; use printable characters (any language) only")
         clean = {}
         for muscle, value in dict(self.activations).items():
             a = float(value)
@@ -52,9 +62,13 @@ class Expression:
             clean[str(muscle)] = a
         object.__setattr__(self, "activations", dict(sorted(clean.items())))
         for param in ("onset_s", "hold_s", "release_s"):
-            v = float(getattr(self, param))
-            if not (math.isfinite(v) and v >= 0.0):
-                raise ValueError(f"expression {self.name!r}: {param} = {v:g} must be >= 0")
+            try:
+                v = float(getattr(self, param))
+            except OverflowError:  # an int beyond 1.8e308
+                v = math.inf
+            if not (math.isfinite(v) and 0.0 <= v <= MAX_DURATION_S):
+                raise ValueError(f"expression {self.name!r}: {param} = {v:g} must be in "
+                                 f"[0, {MAX_DURATION_S:g}] seconds")
             object.__setattr__(self, param, v)
 
     @property

@@ -419,6 +419,7 @@ class FaceModel:
                 raise ValueError(f"two muscles are named {m.name!r}; muscle names must be "
                                  "unique in a face")
             seen.add(m.name)
+        _check_scale(self.muscles, skin)
         self.expressions: dict[str, Expression] = dict(
             paper_expressions() if expressions is None else expressions
         )
@@ -589,8 +590,9 @@ class FaceModel:
             return state
         if not (0.0 < refine_angle_deg < 180.0):
             raise ValueError(f"refine_angle_deg = {refine_angle_deg:g} is outside (0, 180)")
-        if int(refine_levels) < 0:
-            raise ValueError(f"refine_levels = {refine_levels} must be >= 0")
+        if isinstance(refine_levels, bool) or not isinstance(refine_levels, (int, np.integer)) \
+                or refine_levels < 0:
+            raise ValueError(f"refine_levels = {refine_levels!r} must be a whole number >= 0")
         return self._refined_frame(state, acts, refine_angle_deg, int(refine_levels))
 
     def play(self, track: Track, fps: float | None = None, *, smooth_s: float = 0.0,
@@ -705,6 +707,28 @@ def _lru(cache: OrderedDict, key, size: int, build):
     else:
         cache.move_to_end(key)
     return value
+
+
+#: The largest furrow depth factor :math:`k_0` and pull :math:`K` of a muscle, as a multiple
+#: of the skin's size (the diagonal of its bounding box): a deeper furrow or a longer pull
+#: than the whole face is a typo or a wrong unit, and far beyond it the wrinkles overflow.
+MAX_DEPTH_RATIO = 1.0
+
+
+def _check_scale(muscles, skin: TriangleSurface) -> None:
+    r"""Refuse a muscle whose :math:`k_0` or :math:`K` exceeds :data:`MAX_DEPTH_RATIO` times
+    the skin's size (one line naming the muscle, the value and the bound).
+    """
+    if not muscles:
+        return
+    size = float(np.linalg.norm(np.ptp(skin.points, axis=0)))
+    for m in muscles:
+        for param, value in (("k0", m.k0), ("strength", m.strength_value)):
+            if value > MAX_DEPTH_RATIO * size:
+                raise ValueError(
+                    f"muscle {m.name!r}: {param} = {value:g} is larger than the whole face "
+                    f"({size:.4g} across, in its units); furrows and pulls are a fraction of "
+                    "it: check the value and the layout's unit")
 
 
 def _check_skin(skin: TriangleSurface) -> None:

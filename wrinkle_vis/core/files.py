@@ -621,6 +621,8 @@ _WAY_OUT = {
 
 def write_error(path: str | os.PathLike, exc: BaseException) -> WriteError:
     """The one-line :class:`WriteError` for a failure ``exc`` while writing ``path``."""
+    if isinstance(exc, WriteError):  # one line naming the target already
+        return exc
     if isinstance(exc, OSError) and exc.errno in _WAY_OUT:
         why = _WAY_OUT[exc.errno]
     elif isinstance(exc, OSError) and exc.strerror:

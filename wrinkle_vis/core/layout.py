@@ -35,6 +35,8 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -42,12 +44,13 @@ from typing import Any
 from .expressions import Expression
 from .files import atomic_write_text
 from .muscle import Muscle, MuscleParameterError
-from .registry import UnknownMuscleTypeError, get_muscle_type
+from .params import control_character
+from .registry import UnknownMuscleTypeError, get_muscle_type, muscle_types
 from .tracks import TrackMapping
 from .units import LENGTH_UNITS
 
 __all__ = ["FORMAT", "VERSION", "Layout", "LayoutError", "atomic_write_text", "load_layout",
-           "save_layout"]
+           "finite_number", "parse_json", "read_json", "save_layout"]
 
 FORMAT = "wrinkle-vis-layout"
 VERSION = 1
@@ -58,7 +61,15 @@ class LayoutError(ValueError):
 
     def __init__(self, source: str, path: str, expected: str, found: Any):
         self.source, self.path, self.expected, self.found = source, path, expected, found
-        super().__init__(f"{source}: {path}: expected {expected}; found {_show(found)}")
+        super().__init__(f"{_escaped(source)}: {_escaped(path)}: expected {expected}; found "
+                         f"{_show(found)}")
+
+
+def _escaped(text: str) -> str:
+    r"""``text`` with control and format characters as ``\uXXXX`` (keys from a file reach
+    the terminal only so).
+    """
+    return "".join(f"\\u{ord(c):04x}" if control_character(c) else c for c in str(text))
 
 
 def _show(value: Any) -> str:
@@ -168,7 +179,8 @@ class Layout:
         for key in data:
             _expect(key in known, source, f"$.{key}", f"one of {sorted(known)}", key)
         name = data.get("name", "face")
-        _expect(isinstance(name, str), source, "$.name", "a string", name)
+        _expect(isinstance(name, str) and control_character(name) is None, source, "$.name",
+                "a string without control characters", name)
         for key in ("skin", "skull"):
             value = data.get(key)
             _expect(value is None or (isinstance(value, str) and value), source, f"$.{key}",
@@ -215,14 +227,16 @@ def _muscles(items: Any, source: str) -> tuple[Muscle, ...]:
         _expect(isinstance(kind, str), source, f"{path}.type", "a muscle type name", kind)
         try:
             cls = get_muscle_type(kind)
-        except UnknownMuscleTypeError as exc:
-            raise LayoutError(source, f"{path}.type", str(exc), kind) from None
+        except UnknownMuscleTypeError:
+            raise LayoutError(source, f"{path}.type", "a muscle type that is installed "
+                              f"(installed types: {', '.join(muscle_types())}; a plug-in "
+                              "type needs its package installed)", kind) from None
         try:
             muscle = cls.from_dict(item)
         except MuscleParameterError as exc:
             where = f"{path}.{exc.param}" if exc.param else path
             raise LayoutError(source, where, _expected(cls, exc.param), str(exc)) from None
-        except (TypeError, ValueError) as exc:
+        except (TypeError, ValueError, OverflowError) as exc:
             raise LayoutError(source, path, "valid muscle parameters", str(exc)) from None
         _expect(muscle.name not in names, source, f"{path}.name", "a name no other muscle has",
                 muscle.name)
@@ -252,6 +266,8 @@ def _expressions(items: Any, source: str, muscles: set[str]) -> dict[str, Expres
     out = {}
     for key, item in items.items():
         path = f"$.expressions.{key}"
+        _expect(control_character(key) is None, source, path,
+                "a name without control characters (any other Unicode is fine)", key)
         _expect(isinstance(item, dict), source, path, "an expression object", item)
         acts = item.get("activations", {})
         _expect(isinstance(acts, dict), source, f"{path}.activations",
@@ -264,7 +280,7 @@ def _expressions(items: Any, source: str, muscles: set[str]) -> dict[str, Expres
                     "a number in [0, 1]", value)
         try:
             out[key] = Expression.from_dict({"name": key, **item})
-        except (TypeError, ValueError) as exc:
+        except (TypeError, ValueError, OverflowError) as exc:
             raise LayoutError(source, path, "a valid expression", str(exc)) from None
     return out
 
@@ -289,13 +305,23 @@ def _mapping(items: Any, source: str, muscles: set[str]) -> TrackMapping | None:
         raise LayoutError(source, "$.mapping", "a valid track mapping", str(exc)) from None
 
 
+def finite_number(value: Any) -> bool:
+    """Whether ``value`` is a JSON number (not a bool) that is a finite float (an integer
+    beyond 1.8e308 is not).
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:  # an int too large for a float
+        return False
+
+
 def _landmarks(items: Any, source: str) -> dict:
     _expect(isinstance(items, dict), source, "$.landmarks",
             "an object of landmark name to [x, y, z]", items)
     for key, value in items.items():
-        ok = isinstance(value, list) and len(value) == 3 and all(
-            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
-            for x in value)
+        ok = isinstance(value, list) and len(value) == 3 and all(map(finite_number, value))
         _expect(ok, source, f"$.landmarks.{key}", "[x, y, z] of finite numbers", value)
     return items
 
@@ -314,35 +340,108 @@ def load_layout(path: str | os.PathLike) -> Layout:
         Naming the path.
     LayoutError
         For a file that cannot be read (permissions, not UTF-8 text, invalid JSON, JSON
-        nested too deeply) or any bad field, with the file, the JSON path (or the line and
-        column), expected and found.
+        nested too deeply, a key twice in one object, a number of over 4300 digits) or any
+        bad field, with the file, the JSON path (or the line and column), expected and
+        found.
     """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no layout file at {path}; check the path, or save one "
                                 "with save_layout()")
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise LayoutError(str(path), "$", "a readable file", exc.strerror or str(exc)
-                          ) from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = raw.count(b"\n", 0, exc.start) + 1
-        raise LayoutError(str(path), f"line {line} (byte {exc.start})",
-                          "UTF-8 text (save the file as UTF-8)",
-                          f"the byte 0x{raw[exc.start]:02x}") from None
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise LayoutError(str(path), f"line {exc.lineno} column {exc.colno}",
-                          "valid JSON", exc.msg) from None
-    except RecursionError:
-        raise LayoutError(str(path), "$", "JSON nested at most a few hundred levels deep",
-                          "deeper nesting") from None
+    data = read_json(path)
     try:
         return Layout.from_dict(data, source=str(path))
     except RecursionError:
         raise LayoutError(str(path), "$", "JSON nested at most a few hundred levels deep",
                           "deeper nesting") from None
+
+
+def read_json(path: str | os.PathLike) -> Any:
+    """The JSON value of the file at ``path`` (:func:`parse_json`).
+
+    Raises
+    ------
+    LayoutError
+        If the file cannot be read, or :func:`parse_json` refuses it.
+    """
+    try:
+        raw = Path(path).read_bytes()
+    except (OSError, ValueError) as exc:
+        raise LayoutError(str(path), "$", "a readable file",
+                          getattr(exc, "strerror", None) or str(exc)) from None
+    return parse_json(raw, str(path))
+
+
+class _Duplicated(dict):
+    """A JSON object that had ``key`` more than once (found after parsing, with its path)."""
+
+    key: str = ""
+
+
+def _object(pairs: list) -> dict:
+    out = dict(pairs)
+    if len(out) == len(pairs):
+        return out
+    seen = set()
+    dup = _Duplicated(out)
+    dup.key = next(k for k, _ in pairs if k in seen or seen.add(k))
+    return dup
+
+
+def parse_json(raw: bytes, source: str) -> Any:
+    """Parse ``raw``, strict JSON in UTF-8 (a byte-order mark is allowed and skipped).
+
+    Refused, each with a one-line :class:`LayoutError` naming ``source`` and where: bytes
+    that are not UTF-8, invalid JSON, nesting deeper than Python's recursion limit, a key
+    twice in one object (JSON leaves it undefined which one counts), an integer of over
+    4300 digits.
+    """
+    raw = raw.removeprefix(b"\xef\xbb\xbf")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise LayoutError(source, f"line {line} (byte {exc.start})",
+                          "UTF-8 text (save the file as UTF-8)",
+                          f"the byte 0x{raw[exc.start]:02x}") from None
+    try:
+        data = json.loads(text, object_pairs_hook=_object)
+    except json.JSONDecodeError as exc:
+        raise LayoutError(source, f"line {exc.lineno} column {exc.colno}",
+                          "valid JSON", exc.msg) from None
+    except RecursionError:
+        raise LayoutError(source, "$", "JSON nested at most a few hundred levels deep",
+                          "deeper nesting") from None
+    except ValueError:  # an integer beyond Python's digit limit
+        raise _too_long(text, source) from None
+    _refuse_duplicates(data, source)
+    return data
+
+
+def _too_long(text: str, source: str) -> LayoutError:
+    """The error for the first integer of ``text`` over Python's limit on the digits of an
+    integer it converts (``sys.get_int_max_str_digits()``, 4300 by default).
+    """
+    limit = sys.get_int_max_str_digits()
+    match = re.search(rf"\d{{{limit + 1},}}", text) if limit else None
+    if match is None:
+        return LayoutError(source, "$", "valid JSON", "a value Python cannot convert")
+    line = text.count("\n", 0, match.start()) + 1
+    column = match.start() - text.rfind("\n", 0, match.start())
+    return LayoutError(source, f"line {line} column {column}",
+                       f"a number of at most {limit} digits",
+                       f"a number of {len(match.group())} digits")
+
+
+def _refuse_duplicates(data: Any, source: str) -> None:
+    """Raise for the first object (depth first) that had a key twice, with its JSON path."""
+    stack = [(data, "$")]
+    while stack:
+        value, where = stack.pop()
+        if isinstance(value, _Duplicated):
+            raise LayoutError(source, f"{where}.{value.key}", "each key once in an object",
+                              value.key)
+        if isinstance(value, dict):
+            stack.extend((v, f"{where}.{k}") for k, v in reversed(value.items()))
+        elif isinstance(value, list):
+            stack.extend((v, f"{where}[{i}]") for i, v in reversed(list(enumerate(value))))

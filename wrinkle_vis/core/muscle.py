@@ -18,11 +18,11 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .equations import attenuation, bulge_height, half_period, periodic_coordinate, shape_function
-from .params import PARAMETER_KEY, Parameter, parameter
+from .params import PARAMETER_KEY, Parameter, control_character, parameter
 
-__all__ = ["COMPRESSION_MEASURES", "OPTIONS", "Geometry", "Muscle", "MuscleParameterError",
-           "MuscleRegion", "Parameter", "parameter", "plateau_fall", "ramp_fall",
-           "smooth_fall", "waters_radial"]
+__all__ = ["COMPRESSION_MEASURES", "MAX_COORDINATE", "OPTIONS", "Geometry", "Muscle",
+           "MuscleParameterError", "MuscleRegion", "Parameter", "parameter", "plateau_fall",
+           "ramp_fall", "smooth_fall", "waters_radial"]
 
 #: The values of a muscle's ``compression`` option: ``"edges"`` is the paper's Eq. 10 (the
 #: default), ``"gradient"`` the deformation gradient's stretch along the contraction
@@ -32,6 +32,16 @@ COMPRESSION_MEASURES = ("edges", "gradient")
 #: The options every muscle type has, off by default (``docs/model.md``, "Two options, off by
 #: default"), with their allowed values, the default first.
 OPTIONS = {"taper": (False, True), "compression": COMPRESSION_MEASURES}
+
+#: The largest coordinate of a point parameter and the largest length parameter, in the
+#: face's units: far beyond any face (1e12 mm is 7 times the Earth's orbit), yet its square
+#: and products stay finite, so nothing overflows to inf.
+MAX_COORDINATE = 1e12
+#: The least value of a parameter that must be above 0 (an angle in degrees, a length):
+#: what is divided by it stays finite.
+MIN_POSITIVE = 1e-9
+#: The largest count (``n_wrinkles``): far beyond any mesh, and exact as a float.
+_MAX_COUNT = 10**9
 
 
 class MuscleParameterError(ValueError):
@@ -227,6 +237,8 @@ def plateau_fall(x, start: float, end: float) -> np.ndarray:
 def _fmt(value) -> str:
     if isinstance(value, float):
         return f"{value:g}"
+    if isinstance(value, int) and abs(value) >= 10**16:  # too long to show (or to repr)
+        return f"an integer of about {int(value.bit_length() * math.log10(2)) + 1} digits"
     return repr(value)
 
 
@@ -430,8 +442,12 @@ class Muscle:
     def _check(self, param, lo=-math.inf, hi=math.inf, *, lo_open=False, hi_open=False,
                hint="") -> float:
         value = getattr(self, param)
+        if isinstance(value, (bool, np.bool_)):
+            self._fail(param, value, "a real number", hint)
         try:
             x = float(value)
+        except OverflowError:  # an int beyond 1.8e308: out of any range
+            x = math.inf
         except (TypeError, ValueError):
             self._fail(param, value, "a real number", hint)
         left = "(" if lo_open or lo == -math.inf else "["
@@ -448,10 +464,9 @@ class Muscle:
         value = getattr(self, param)
         integral = isinstance(value, (int, np.integer)) or (
             isinstance(value, float) and value.is_integer())
-        if isinstance(value, bool) or not integral:
-            self._fail(param, value, f"an integer >= {lo}")
-        if int(value) < lo:
-            self._fail(param, value, f"an integer >= {lo}")
+        if isinstance(value, bool) or not integral or not lo <= int(value) <= _MAX_COUNT:
+            self._fail(param, value, f"an integer >= {lo}",
+                       f"at most {_MAX_COUNT:.0e}" if integral and int(value) > lo else "")
         object.__setattr__(self, param, int(value))
         return int(value)
 
@@ -459,8 +474,10 @@ class Muscle:
         value = getattr(self, param)
         try:
             arr = np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            self._fail(param, value, f"an array of shape {shape}")
+        except (TypeError, ValueError, OverflowError):
+            self._fail(param, value, f"finite coordinates of shape {shape}")
+        if np.isfinite(arr).all() and np.abs(arr).max(initial=0.0) > MAX_COORDINATE:
+            self._fail(param, value, f"coordinates within +-{MAX_COORDINATE:.0e}")
         if arr.shape != shape or not np.isfinite(arr).all():
             self._fail(param, value, f"finite coordinates of shape {shape}")
         as_tuple = tuple(map(float, arr)) if arr.ndim == 1 else tuple(
@@ -478,6 +495,11 @@ class Muscle:
             raise MuscleParameterError(
                 f"{self.type_name} muscle: name must be a non-empty string; got {self.name!r}"
             )
+        bad = control_character(self.name)
+        if bad is not None:
+            raise MuscleParameterError(
+                f"{self.type_name} muscle {self.name!r}: name holds the control character "
+                f"{bad}; use printable characters (any language) only", "name")
         self._check_options()
         for spec in self.parameters():
             self._check_declared(spec)
@@ -491,8 +513,14 @@ class Muscle:
         elif spec.unit == "count":
             self._check_int(spec.name, int(spec.lo))
         elif spec.is_number:
-            self._check(spec.name, spec.lo, spec.hi, lo_open=spec.lo_open,
-                        hi_open=spec.hi_open, hint=spec.hint)
+            x = self._check(spec.name, spec.lo, spec.hi, lo_open=spec.lo_open,
+                            hi_open=spec.hi_open, hint=spec.hint)
+            if spec.is_length and abs(x) > MAX_COORDINATE:
+                self._fail(spec.name, x, f"at most {MAX_COORDINATE:g} (face units)",
+                           "Far beyond any face: check the value and the layout's unit")
+            if spec.lo == 0.0 and spec.lo_open and x < MIN_POSITIVE:
+                self._fail(spec.name, x, f"{spec.range_text()}, at least {MIN_POSITIVE:g}",
+                           "A value this close to 0 overflows what is divided by it")
 
     def _check_options(self) -> None:
         """Validate :data:`OPTIONS`: ``taper`` a bool, ``compression`` a known measure."""

@@ -23,10 +23,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import unicodedata
 from dataclasses import dataclass
 
-__all__ = ["PARAMETER_KEY", "SURFACES", "TABLE_COLUMNS", "UNITS", "Parameter", "parameter",
-           "parameter_table"]
+__all__ = ["PARAMETER_KEY", "SURFACES", "TABLE_COLUMNS", "UNITS", "Parameter",
+           "control_character", "parameter", "parameter_table"]
 
 #: The key of a :class:`Parameter` in a dataclass field's metadata.
 PARAMETER_KEY = "wrinkle_vis.parameter"
@@ -215,3 +216,16 @@ def parameter_table(muscle_type, length_unit: str = "face units") -> list[tuple[
             allowed = "" if p.unit == "vector" else p.range_text()
         rows.append((p.name, p.symbol, unit, allowed, shown, p.doc))
     return rows
+
+
+def control_character(text: str) -> str | None:
+    """The first control or format character of ``text`` (Unicode categories Cc and Cf:
+    newline, escape, NUL, zero-width joiner, ...) as ``"U+001B"``, or None when it has none.
+
+    Names with them are refused: they reach terminals raw (escape sequences) and cut
+    array names in VTK files (NUL). Any other Unicode is fine.
+    """
+    for ch in text:
+        if unicodedata.category(ch) in ("Cc", "Cf"):
+            return f"U+{ord(ch):04X}"
+    return None

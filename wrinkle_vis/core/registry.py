@@ -168,26 +168,27 @@ def load_entry_point(ep) -> type | None:
     try:
         obj = ep.load()
     except Exception as exc:  # a broken plug-in must not break the toolkit
-        warnings.warn(
-            f"wrinkle-vis skipped the muscle plug-in {ep.name!r} ({ep.value}): it failed to "
-            f"import with {type(exc).__name__}: {exc}",
-            MusclePluginWarning,
-            stacklevel=2,
-        )
+        _skipped(ep, f"it failed to import with {type(exc).__name__}: {exc}")
         return None
     if isinstance(obj, type) and issubclass(obj, Muscle):
         if _REGISTRY.get(obj.type_name) is not obj:
             try:
                 register_muscle_type(obj, name=obj.__dict__.get("type_name") or ep.name)
             except (TypeError, ValueError) as exc:
-                warnings.warn(
-                    f"wrinkle-vis skipped the muscle plug-in {ep.name!r} ({ep.value}): {exc}",
-                    MusclePluginWarning,
-                    stacklevel=2,
-                )
+                _skipped(ep, str(exc))
                 return None
         return obj
     return None  # a module that registered its types by decorator on import
+
+
+def _skipped(ep, why: str) -> None:
+    """Warn, in one line, that plug-in ``ep`` was skipped and why: no source line (the
+    warning is not about a line of the caller's), the reason's own line breaks joined.
+    """
+    message = " ".join(f"wrinkle-vis skipped the muscle plug-in {ep.name!r} ({ep.value}): "
+                       f"{why}".split())
+    warnings.warn_explicit(message, MusclePluginWarning, filename=f"<plug-in {ep.name}>",
+                           lineno=0, module=__name__)
 
 
 def muscle_types() -> dict[str, type]:

@@ -23,6 +23,10 @@ __all__ = ["SphincterMuscle", "ellipse_arc_length"]
 
 #: Slack on the closed AOI bounds, so points exactly on them are not lost to rounding.
 _TOL = 1e-9
+#: The least part of ``end_b - center`` normal to the a axis, relative to its length
+#: (:math:`|v - (v\cdot e_1) e_1| > 10^{-6} |v|`): below it the b axis is rounding noise and
+#: its direction meaningless.
+_AXIS_TOL = 1e-6
 #: Samples of the arc-length integral over a full turn (:func:`ellipse_arc_length`).
 _ARC_SAMPLES = 4097
 
@@ -163,7 +167,9 @@ class SphincterMuscle(Muscle):
         if np.linalg.norm(p_a - c) == 0.0:
             self._fail("end_a", self.end_a, "a point other than the centre",
                        "A zero semi-axis has no direction; move the end of the a axis")
-        if not self.semi_axes[1] > 1e-9 * self.semi_axes[0]:
+        v = p_b - c
+        e1 = (p_a - c) / np.linalg.norm(p_a - c)
+        if not np.linalg.norm(v - (v @ e1) * e1) > _AXIS_TOL * np.linalg.norm(v):
             self._fail("end_b", self.end_b, "a point off the line through the centre and "
                        "end_a", "The ellipse needs a second axis; move the end of the b axis")
         if self.attenuation_start_deg is not None:

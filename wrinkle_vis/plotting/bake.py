@@ -53,6 +53,7 @@ from ..core.files import (
 )
 from ..core.mesh import MeshError, TriangleSurface, unit_rows
 from .fields import NAN_COLOR, field_info, field_range
+from .finite import require_finite
 from .polydata import field_array_name
 from .writers import Written, _write_synced, replace_folder
 
@@ -441,6 +442,7 @@ def bake_maps(state: FaceState, corner_uvs: np.ndarray, size: tuple[int, int] = 
     BakedMaps
         The images, their JSON side files, and W sampled back (``check``).
     """
+    require_finite("the baked maps", state)
     skin = state.face.skin
     tris = skin.triangles
     corner_uvs = np.asarray(corner_uvs, float)

@@ -56,6 +56,7 @@ from ..core.files import (
     write_error,
 )
 from ..core.units import LENGTH_UNITS, face_unit
+from .finite import require_finite
 from .polydata import to_polydata
 from .writers import (
     Written,
@@ -218,6 +219,7 @@ def _save_pvd(states, times: list[float], real: Path, work: Path) -> Written:
     try:
         (work / stem / version).mkdir(parents=True)
         for i, t, state in _frames(states, times):
+            require_finite(real, state)
             mesh = to_polydata(state)
             mesh.field_data["TimeValue"] = np.array([t])
             if first is None:
@@ -286,6 +288,7 @@ def _save_numbered(states, times: list[float], real: Path, work: Path) -> Writte
     try:
         new.mkdir()
         for i, t, state in _frames(states, times):
+            require_finite(real, state)
             if ply:
                 mesh = to_polydata(state)
                 data, _ = _ply_bytes(mesh)
@@ -369,6 +372,7 @@ def gltf_bytes(face: FaceModel, expressions: Sequence[str] | None = None, *,
     accessors: list[dict] = []
 
     def add(array: np.ndarray, kind: str, component: int, target: int, bounds: bool) -> int:
+        require_finite("the glTF file", {f"a {kind} accessor": array})
         raw = np.ascontiguousarray(array).tobytes()
         offset = sum(len(c) for c in chunks)
         chunks.append(raw + b"\0" * (-len(raw) % 4))

@@ -8,6 +8,7 @@ import pyvista as pv
 from ..core.face import FaceModel, FaceState
 from ..core.units import face_unit
 from .fields import NAN_COLOR, field_info, field_range
+from .finite import require_finite
 from .glyphs import glyph_factory
 from .polydata import field_array_name, to_polydata, to_surface_polydata
 from .writers import IMAGE_SUFFIXES, check_target, save_image
@@ -120,11 +121,15 @@ def evaluate(face: FaceModel, expression, intensity: float = 1.0, *, refine: boo
              refine_angle_deg: float | None = None,
              refine_levels: int | None = None) -> FaceState:
     """``face.evaluate(expression, intensity, refine=refine, ...)`` with only the
-    refinement options given (None: the model's defaults, :meth:`FaceModel.evaluate`).
+    refinement options given (None: the model's defaults, :meth:`FaceModel.evaluate`),
+    for the writers of images, animations and figures: a frame that is not finite is
+    refused (:func:`~wrinkle_vis.plotting.finite.require_finite`).
     """
     options = {k: v for k, v in (("refine_angle_deg", refine_angle_deg),
                                  ("refine_levels", refine_levels)) if v is not None}
-    return face.evaluate(expression, intensity, refine=refine, **options)
+    state = face.evaluate(expression, intensity, refine=refine, **options)
+    require_finite("the image", state)
+    return state
 
 
 def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",

@@ -56,6 +56,7 @@ from ..core.files import (
     tidy_versions,
     write_error,
 )
+from .finite import require_finite
 
 __all__ = ["ANIMATION_SUFFIXES", "IMAGE_SUFFIXES", "MESH_SUFFIXES", "Written",
            "check_target", "replace_folder", "save_animation", "save_image", "save_mesh"]
@@ -112,6 +113,7 @@ def save_mesh(mesh: pv.PolyData | pv.MultiBlock, path: str | os.PathLike) -> Wri
         intact and no temporary file is left.
     """
     real = check_target(path, MESH_SUFFIXES)
+    require_finite(path, mesh)
     suffix = real.suffix.lower()
     if isinstance(mesh, pv.MultiBlock) != (suffix == ".vtm"):
         raise OutputPathError(
@@ -149,11 +151,11 @@ def _xml_bytes(dataset) -> bytes:
     """VTK XML of ``dataset``, serialized in memory (base64 binary data, zlib)."""
     writer, _ = _xml_writer(dataset)
     writer.SetInputData(dataset)
-    writer.SetDataModeToBinary()  # base64 inline: the string is ASCII
+    writer.SetDataModeToBinary()  # base64 inline; names may be any Unicode: UTF-8
     writer.SetWriteToOutputString(True)
     if not writer.Write():
         raise WriteError("VTK could not serialize the mesh")
-    return writer.GetOutputString().encode("ascii")
+    return writer.GetOutputString().encode("utf-8")
 
 
 def _legacy_bytes(mesh: pv.PolyData) -> bytes:
@@ -182,12 +184,12 @@ def _check_vtk(tmp: Path, mesh) -> None:
 def ply_properties(mesh: pv.PolyData) -> dict[str, np.ndarray]:
     """``{property name: (n,) array}``: the vertex properties :func:`save_mesh` writes to a
     PLY file for ``mesh``'s point arrays (a vector array ``a`` of 2 or 3 components as
-    ``a_x, a_y[, a_z]``, more as ``a_0, a_1, ...``; whitespace in names becomes ``_``).
+    ``a_x, a_y[, a_z]``, more as ``a_0, a_1, ...``; names made ASCII by :func:`ply_name`).
     """
     out: dict[str, np.ndarray] = {}
     for name in mesh.point_data:
         values = np.asarray(mesh.point_data[name])
-        base = re.sub(r"\s", "_", name) or "_"
+        base = ply_name(name)
         if values.ndim == 1:
             cols = {base: values}
         else:
@@ -201,6 +203,15 @@ def ply_properties(mesh: pv.PolyData) -> dict[str, np.ndarray]:
                                       "twice; rename the array or write .vtp")
             out[key] = col
     return out
+
+
+def ply_name(name: str) -> str:
+    """A PLY property name for point array ``name``: whitespace as ``_``, any other
+    character outside printable ASCII as ``_uXXXX`` (PLY headers are ASCII), e.g.
+    ``"corrügatör_L.W"`` as ``"corr_u00fcgat_u00f6r_L.W"``.
+    """
+    name = re.sub(r"\s", "_", name)
+    return "".join(c if " " < c < "\x7f" else f"_u{ord(c):04x}" for c in name) or "_"
 
 
 def _ply_bytes(mesh: pv.PolyData) -> tuple[bytes, int]:
