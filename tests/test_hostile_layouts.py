@@ -139,6 +139,9 @@ def test_unicode_muscle_names_are_accepted(tmp_path):
         acts = item["activations"]
         if "corrugator_R" in acts:
             acts["procérus_鼻根筋"] = acts.pop("corrugator_R")
+    for item in data.get("mapping", {}).values():  # the AU mapping names muscles too
+        if "corrugator_R" in item["muscles"]:
+            item["muscles"]["procérus_鼻根筋"] = item["muscles"].pop("corrugator_R")
     assert "procérus_鼻根筋" in [m.name for m in load_layout(_write(tmp_path, data)).muscles]
 
 
