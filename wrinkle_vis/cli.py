@@ -13,6 +13,8 @@ import time
 import warnings
 from pathlib import Path
 
+from wrinkle_vis.core.files import input_problem
+
 CAMERA_CHOICES = ("front", "three_quarter", "side", "forehead", "upper_face")
 FIGURE_CHOICES = ("fig9", "fig11")
 FIG9_EXPRESSIONS = ("surprise", "frown", "fear")
@@ -341,9 +343,8 @@ def _check_face_options(args, layout) -> None:
     if args.face == "lee_perry_smith" and args.triangles is not None:
         raise CliError("--triangles sets the procedural face's resolution; the "
                        "lee_perry_smith head has its own (leave --triangles out)")
-    if skin is not None and not skin.is_file():
-        what = "is a folder, not a file" if skin.is_dir() else "no such file"
-        raise CliError(f"--skin {skin}: {what}; check the path")
+    if skin is not None and input_problem(skin) is not None:
+        raise CliError(f"--skin {skin}: {input_problem(skin)}; check the path")
     if args.landmarks is not None and skin is None and (layout is None or layout.skin is None):
         raise CliError(f"--landmarks {args.landmarks}: landmarks place the muscles on a scan; "
                        "add --skin SCAN")
@@ -371,11 +372,14 @@ def _load(args, *, refine: bool = False):
         layout = load_layout(args.layout)
         for key in ("skin", "skull"):
             path = layout.resolve(key, args.layout.parent)
-            if path is not None and not path.is_file():
+            if path is not None and input_problem(path) == "no such file":
                 raise CliError(
                     f"--layout {args.layout}: its {key} file {str(path)!r} does not exist; "
                     f"fix \"{key}\" in the layout (a path relative to the layout's folder, "
                     "or null for the built-in face)")
+            if path is not None and input_problem(path) is not None:
+                raise CliError(f"--layout {args.layout}: its {key} file {str(path)!r} "
+                               f"{input_problem(path)}; fix \"{key}\" in the layout")
     _check_face_options(args, layout)
     meshes = _layout_meshes(layout, args.layout)
     skin = getattr(args, "skin", None)
@@ -770,9 +774,8 @@ def main(argv=None) -> int:
             return 2
     if not (0.0 <= args.intensity <= 1.0):
         parser.error(f"--intensity {args.intensity:g} is outside [0, 1]")
-    if getattr(args, "layout", None) is not None and not args.layout.is_file():
-        what = "is a folder, not a file" if args.layout.is_dir() else "no such file"
-        parser.error(f"--layout {args.layout}: {what}; check the path")
+    if getattr(args, "layout", None) is not None and input_problem(args.layout) is not None:
+        parser.error(f"--layout {args.layout}: {input_problem(args.layout)}; check the path")
     from wrinkle_vis.core.files import OutputPathError, WriteError
     from wrinkle_vis.core.layout import LayoutError
     from wrinkle_vis.core.mesh import MeshError

@@ -1,0 +1,240 @@
+"""Hostile and damaged mesh files: refused in one line naming the file, before VTK reads
+them (issue 33: H1 crashes, M7 VTK noise, M12 garbage, L1 non-regular files).
+
+The cases that used to kill the process inside VTK run in a child process with a 4 GiB
+address-space limit, so a regression fails the test instead of killing pytest.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import struct
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from wrinkle_vis.core import MeshError
+from wrinkle_vis.core.files import input_problem
+from wrinkle_vis.datasets import read_surface
+from wrinkle_vis.datasets.meshfile import check_mesh_file, obj_index_ranges
+
+TRI = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 1\n"
+PLY_HEAD = ("ply\nformat {fmt} 1.0\nelement vertex {nv}\nproperty float x\nproperty float y\n"
+            "property float z\nelement face {nf}\nproperty list uchar int vertex_indices\n"
+            "end_header\n")
+VERTS = struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0)
+
+
+def _binary_ply(faces: bytes, nv: int = 3, nf: int = 1) -> bytes:
+    return PLY_HEAD.format(fmt="binary_little_endian", nv=nv, nf=nf).encode() + VERTS + faces
+
+
+#: Files that killed the process inside VTK (SIGSEGV or abort) before the checks, and a
+#: word the one-line refusal must hold.
+CRASHERS = {
+    # the 193-byte PLY of the report: 10^12 vertices claimed
+    "bomb.ply": (PLY_HEAD.format(fmt="binary_little_endian", nv=10**12, nf=10**12).encode(),
+                 "1,000,000,000,000 vertex"),
+    "ascii_2e9.ply": (PLY_HEAD.format(fmt="ascii", nv=2 * 10**9, nf=1).encode()
+                      + b"0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", "2,000,000,000 vertex"),
+    "vertex_out_of_range.ply": (_binary_ply(struct.pack("<B3i", 3, 0, 1, 2 * 10**9)),
+                                "vertex 2000000000"),
+    "list_past_the_end.ply": (_binary_ply(struct.pack("<B3i", 200, 0, 1, 2)), "200 entries"),
+    "ascii_out_of_range.ply": (PLY_HEAD.format(fmt="ascii", nv=3, nf=1).encode()
+                               + b"0 0 0\n1 0 0\n0 1 0\n3 0 1 2000000000\n", "2000000000"),
+    "vt_out_of_range.obj": ((TRI + "f 1/1/1 2/999999/1 3/3/1\n").encode(), "vt index 999999"),
+    "v_out_of_range.obj": ((TRI + "f 1/1/1 2/2/1 99999999/3/1\n").encode(), "v index"),
+    "vn_out_of_range.obj": ((TRI + "f 1//1 2//1 3//99999999\n").encode(), "vn index"),
+    "huge.vtp": (b'<?xml version="1.0"?>\n<VTKFile type="PolyData" version="0.1"><PolyData>'
+                 b'<Piece NumberOfPoints="1000000000000" NumberOfPolys="1"><Points>'
+                 b'<DataArray type="Float32" NumberOfComponents="3" format="ascii">0 0 0'
+                 b'</DataArray></Points></Piece></PolyData></VTKFile>\n', "points"),
+    "cell_out_of_range.vtk": (b"# vtk DataFile Version 3.0\nx\nASCII\nDATASET POLYDATA\n"
+                              b"POINTS 3 float\n0 0 0 1 0 0 0 1 0\nPOLYGONS 1 4\n"
+                              b"3 0 1 99999999\n", "point 99999999"),
+}
+
+CHILD = """
+import json, resource, sys
+resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
+from wrinkle_vis.datasets import read_surface
+for path in sys.argv[1:]:
+    try:
+        s = read_surface(path)
+        print(json.dumps([path, "read", s.n_points]), flush=True)
+    except Exception as exc:
+        print(json.dumps([path, type(exc).__name__, str(exc)]), flush=True)
+"""
+
+
+def test_files_that_crashed_vtk_are_refused_in_one_line_naming_the_file(tmp_path):
+    paths = []
+    for name, (data, _) in CRASHERS.items():
+        (tmp_path / name).write_bytes(data)
+        paths.append(str(tmp_path / name))
+    run = subprocess.run([sys.executable, "-c", CHILD, *paths], capture_output=True,
+                         text=True, timeout=120)
+    assert run.returncode == 0, f"the reader died ({run.returncode}) after:\n{run.stdout}"
+    assert run.stderr == ""  # nothing from VTK
+    results = {Path(p).name: (kind, msg) for p, kind, msg in map(json.loads,
+                                                                   run.stdout.splitlines())}
+    for name, (_, word) in CRASHERS.items():
+        kind, msg = results[name]
+        assert kind == "MeshError" and name in msg and word in msg, (name, kind, msg)
+        assert "\n" not in msg
+
+
+def test_a_file_of_zeros_is_refused_after_its_first_block(tmp_path):
+    """A sparse 4 GiB file of NUL bytes named .obj (8.3 GB of memory before): refused
+    without reading it."""
+    path = tmp_path / "zeros.obj"
+    with path.open("wb") as f:
+        f.truncate(4 << 30)
+    with pytest.raises(MeshError, match="NUL bytes"):
+        check_mesh_file(path)
+    late = tmp_path / "late.obj"
+    late.write_bytes(TRI.encode() * 4000 + b"\0" * 100 + TRI.encode())  # past 64 KiB
+    with pytest.raises(MeshError, match="NUL bytes"):
+        obj_index_ranges(late)
+    long_line = tmp_path / "long.obj"
+    long_line.write_bytes(b"v 0 0 0\n" + b"1" * (3 << 20))
+    with pytest.raises(MeshError, match="longer than 1 MiB"):
+        obj_index_ranges(long_line, chunk=1 << 16)
+
+
+@pytest.mark.parametrize("text, word", [
+    (TRI + "f -1 -2 -3\n", "relative (negative) v index"),
+    (TRI + "f 1/-1 2/-2 3/-3\n", "relative (negative) vt index"),
+    (TRI + "f 0 1 2\n", "v index 0"),
+    (TRI + "   f 1 2 999\n", "v index 999"),  # indented lines are seen too
+    (TRI + "f 1/1 2/2 3/4\n", "vt index 4"),
+    (TRI + "l 1 5\n", "v index 5"),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/1 3/1\n", "vt index 1"),  # no vt lines at all
+])
+def test_obj_indices_are_checked_against_their_counts(tmp_path, text, word):
+    path = tmp_path / "bad.obj"
+    path.write_text(text)
+    with pytest.raises(MeshError, match=word.replace("(", r"\(").replace(")", r"\)")):
+        check_mesh_file(path)
+
+
+@st.composite
+def obj_files(draw):
+    """Random OBJ text: v/vt/vn lines and faces with random index forms, and the expected
+    counts and ranges."""
+    lines, counts = [], {"v": 0, "vt": 0, "vn": 0}
+    lo, hi = [np.inf] * 3, [0.0] * 3
+    for _ in range(draw(st.integers(1, 30))):
+        kind = draw(st.sampled_from(["v", "vt", "vn", "f", "f", "#"]))
+        if kind in counts:
+            counts[kind] += 1
+            lines.append(f"{kind} 1.5 -2e3 0")
+        elif kind == "#":
+            lines.append("# f 99999 comment 7")
+        else:
+            form = draw(st.sampled_from(["v", "v/t", "v//n", "v/t/n"]))
+            corners = []
+            for _ in range(draw(st.integers(1, 5))):
+                idx = [draw(st.integers(-50, 10**9)) for _ in range(3)]
+                slots = {"v": [0], "v/t": [0, 1], "v//n": [0, 2], "v/t/n": [0, 1, 2]}[form]
+                for s in slots:
+                    lo[s], hi[s] = min(lo[s], idx[s]), max(hi[s], idx[s])
+                corners.append(form.replace("v", str(idx[0]), 1).replace("t", str(idx[1]))
+                               .replace("n", str(idx[2])))
+            lines.append("f " + " ".join(corners))
+    return "\n".join(lines) + draw(st.sampled_from(["", "\n", "\r\n"])), counts, lo, hi
+
+
+@settings(max_examples=60, deadline=None)
+@given(obj_files(), st.sampled_from([7, 64, 1 << 22]))
+def test_obj_scan_matches_a_line_by_line_reading(tmp_path_factory, drawn, chunk):
+    text, counts, lo, hi = drawn
+    path = tmp_path_factory.mktemp("obj") / "x.obj"
+    path.write_text(text)
+    got = obj_index_ranges(path, chunk=chunk)
+    assert {k: got[k] for k in counts} == counts
+    np.testing.assert_array_equal(got["max"], np.maximum(hi, 0))
+    np.testing.assert_array_equal(got["min"], lo)
+
+
+def test_good_files_still_read(tmp_path):
+    """Triangles with vt/vn, binary PLY, and ASCII/binary PLY with a quad (lists of
+    different lengths, checked item by item)."""
+    obj = tmp_path / "good.obj"
+    obj.write_text(TRI + "f 1/1/1 2/2/1 3/3/1\nf 2/2/1 4/2/1 3/3/1\n")
+    assert read_surface(obj).n_triangles == 2
+    obj.write_bytes(obj.read_bytes() + b"\0")  # a NUL at the end, as the Lee Perry-Smith OBJ
+    assert read_surface(obj).n_triangles == 2
+    ply = tmp_path / "good.ply"
+    ply.write_bytes(_binary_ply(struct.pack("<B3i", 3, 0, 1, 2)))
+    assert read_surface(ply).n_triangles == 1
+    four = struct.pack("<12f", 0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0)
+    head = PLY_HEAD.replace("vertex {nv}", "vertex 4")
+    mixed = tmp_path / "mixed.ply"
+    mixed.write_bytes(head.format(fmt="binary_little_endian", nv=4, nf=2).encode() + four
+                      + struct.pack("<B3i", 3, 0, 1, 2) + struct.pack("<B4i", 4, 0, 1, 2, 3))
+    assert read_surface(mixed).n_triangles == 3
+    text = tmp_path / "mixed_ascii.ply"
+    text.write_text(head.format(fmt="ascii", nv=4, nf=2)
+                    + "0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n4 0 1 2 3\n")
+    assert read_surface(text).n_triangles == 3
+    bad = tmp_path / "mixed_bad.ply"
+    bad.write_text(head.format(fmt="ascii", nv=4, nf=2)
+                   + "0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n4 0 1 2 4\n")
+    with pytest.raises(MeshError, match="vertex 4, outside 0..3"):
+        check_mesh_file(bad)
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".ply", ".stl", ".vtp", ".vtk"])
+def test_unreadable_files_give_one_line_and_nothing_from_vtk(tmp_path, capfd, suffix):
+    """M7: random bytes (and a PNG named .vtp) used to print 10-27 lines of VTK errors."""
+    rng = np.random.default_rng(len(suffix))
+    for name, data in (("random", rng.integers(1, 256, 3000, dtype=np.uint8).tobytes()),
+                       ("png", b"\x89PNG\r\n\x1a\n" + bytes(range(1, 256)) * 8)):
+        path = tmp_path / f"{name}{suffix}"
+        path.write_bytes(data)
+        with pytest.raises(MeshError) as info:
+            read_surface(path)
+        assert str(path) in str(info.value) and "\n" not in str(info.value)
+    out, err = capfd.readouterr()
+    assert (out, err) == ("", "")
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes here")
+def test_non_regular_files_are_named_for_what_they_are(tmp_path):
+    """L1: a FIFO, a folder, /dev/zero and a symbolic link loop were 'missing files'."""
+    fifo = tmp_path / "pipe.obj"
+    os.mkfifo(fifo)
+    (tmp_path / "folder.obj").mkdir()
+    os.symlink(tmp_path / "b.obj", tmp_path / "a.obj")
+    os.symlink(tmp_path / "a.obj", tmp_path / "b.obj")
+    os.symlink(tmp_path / "nowhere.obj", tmp_path / "dangling.obj")
+    cases = {fifo: "named pipe", tmp_path / "folder.obj": "folder",
+             Path("/dev/zero"): "character device", tmp_path / "a.obj": "link loop",
+             tmp_path / "dangling.obj": "link to a missing file"}
+    for path, word in cases.items():
+        assert word in input_problem(path)
+        with pytest.raises(MeshError, match=word):
+            read_surface(path)
+    with pytest.raises(FileNotFoundError, match="no mesh file"):
+        read_surface(tmp_path / "missing.obj")
+    assert input_problem(tmp_path / "missing.obj") == "no such file"
+
+
+def test_cli_names_a_pipe_given_as_skin_or_layout(tmp_path, capsys):
+    from wrinkle_vis.cli import main
+
+    fifo = tmp_path / "pipe.ply"
+    os.mkfifo(fifo)
+    assert main(["summary", "--skin", str(fifo), "--landmarks", str(fifo)]) == 2
+    err = capsys.readouterr().err
+    assert "named pipe" in err and err.count("\n") == 1
+    with pytest.raises(SystemExit):
+        main(["summary", "--layout", str(fifo)])
+    assert "named pipe" in capsys.readouterr().err
