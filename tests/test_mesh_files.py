@@ -238,3 +238,41 @@ def test_cli_names_a_pipe_given_as_skin_or_layout(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["summary", "--layout", str(fifo)])
     assert "named pipe" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("vt, word", [
+    ("vt nan 0\nvt 1 0\nvt 0 1\n", "not finite"),
+    ("vt 0.5 0.5\nvt 0.5 0.5\nvt 0.5 0.5\n", "have no area"),
+    ("vt 0 0\nvt 0.5 0.5\nvt 1 1\n", "have no area"),  # in a line
+])
+def test_uvs_that_cannot_be_baked_are_refused(tmp_path, vt, word):
+    """M13: NaN UVs gave an IndexError traceback; all-equal UVs baked constant maps."""
+    from wrinkle_vis import TriangleSurface
+    from wrinkle_vis.plotting.bake import UVError, read_obj_uvs
+
+    path = tmp_path / "uv.obj"
+    path.write_text("v 1 0 0\nv 0 1 0\nv 0 0 1\n" + vt + "f 1/1 2/2 3/3\n")
+    skin = TriangleSurface(np.eye(3), [[0, 1, 2]])
+    with pytest.raises(UVError, match=word) as info:
+        read_obj_uvs(path, skin)
+    assert str(path) in str(info.value)
+
+
+def test_bake_maps_refuses_nan_uvs_and_uvs_smaller_than_a_texel():
+    from meshes import grid
+
+    from wrinkle_vis import FaceModel
+    from wrinkle_vis.core import paper_expressions
+    from wrinkle_vis.plotting.bake import UVError, bake_maps
+
+    skin = grid(5, 5)
+    face = FaceModel(skin, grid(3, 3), (), {"neutral": paper_expressions()["neutral"]})
+    state = face.evaluate("neutral")
+    uv = (skin.points[skin.triangles][..., :2] + 30.0) / 60.0  # the square onto [0, 1]^2
+    assert bake_maps(state, uv, (16, 16)).images  # the good UVs bake
+    nan = uv.copy()
+    nan[3, 1, 0] = np.nan
+    with pytest.raises(UVError, match="1 of 32 triangles .* not finite"):
+        bake_maps(state, nan, (16, 16))
+    with pytest.raises(UVError, match="cover 0.25 texels of the 16 x 16 map"):
+        bake_maps(state, uv / 32.0, (16, 16))
