@@ -276,3 +276,24 @@ def test_bake_maps_refuses_nan_uvs_and_uvs_smaller_than_a_texel():
         bake_maps(state, nan, (16, 16))
     with pytest.raises(UVError, match="cover 0.25 texels of the 16 x 16 map"):
         bake_maps(state, uv / 32.0, (16, 16))
+
+
+@pytest.mark.parametrize("scale", [4e29 / 60.0, 4e-31 / 60.0])
+def test_a_face_no_unit_makes_a_head_is_refused(scale):
+    """L6: faces 4e29 or 4e-31 units tall "read as mm"."""
+    import warnings
+
+    from meshes import grid
+
+    from wrinkle_vis.core.units import UnitWarning
+    from wrinkle_vis.datasets import load_face
+    from wrinkle_vis.datasets.face import face_unit_of
+
+    skin = grid(5, 5, 60.0 * scale)
+    with pytest.raises(ValueError, match="a head in no unit"):
+        load_face(skin=skin)
+    with pytest.warns(UnitWarning, match="no human size"):
+        assert face_unit_of(skin, "mm") == "mm"  # a unit given: said, not refused
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert face_unit_of(grid(5, 5, 200.0), "mm") == "mm"  # a face 20 cm across

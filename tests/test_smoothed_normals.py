@@ -59,7 +59,7 @@ def test_two_level_iterations_stay_flat_as_the_mesh_is_refined():
         system, areas = _system(surface, 12.0)
         rhs = areas[:, None] * surface.vertex_normals()
         dinv = 1.0 / system.diagonal()
-        counts["jacobi"].append(_iterations(system, rhs, lambda r: dinv[:, None] * r))
+        counts["jacobi"].append(_iterations(system, rhs, lambda r, d=dinv: d[:, None] * r))
         h = np.sqrt(2.0 * surface.triangle_areas().mean())
         counts["two-level"].append(_iterations(
             system, rhs, two_level_preconditioner(system, surface.points, 6.0 * h)))
