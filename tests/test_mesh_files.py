@@ -297,3 +297,27 @@ def test_a_face_no_unit_makes_a_head_is_refused(scale):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert face_unit_of(grid(5, 5, 200.0), "mm") == "mm"  # a face 20 cm across
+
+
+def test_cli_announces_a_large_scan_with_an_estimate(tmp_path, capsys, monkeypatch):
+    """M12: a 4.5 M-triangle scan printed nothing for 15 minutes. (The thresholds are
+    lowered so that a 4,500-triangle scan counts as large.)"""
+    import wrinkle_vis.cli as cli
+    from wrinkle_vis.datasets import load_face
+    from wrinkle_vis.plotting import to_surface_polydata
+
+    face = load_face()
+    scan = tmp_path / "scan.ply"
+    to_surface_polydata(face.skin).save(scan)
+    marks = tmp_path / "marks.json"
+    marks.write_text(json.dumps({k: list(v) for k, v in face.landmarks.items()}))
+    monkeypatch.setattr(cli, "LARGE_SKIN_BYTES", 1)
+    monkeypatch.setattr(cli, "LARGE_SKIN_TRIANGLES", 1000)
+    assert cli.main(["summary", "--skin", str(scan), "--landmarks", str(marks), "--unit",
+                     "mm", "-e", "surprise"]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert err[0] == f"wrinkle-vis summary: reading {scan} (0 MiB)..."
+    assert err[1].startswith(f"wrinkle-vis summary: note: {scan} has "
+                             f"{face.skin.n_triangles:,} triangles (read in ")
+    assert "the first frame take about" in err[1] and len(err) == 2
+    assert cli._estimate_s(2_000_000) > 2 * cli._estimate_s(1_000_000)  # grows faster than n
