@@ -25,7 +25,7 @@ import numpy as np
 
 from wrinkle_vis.core import MeshError
 
-__all__ = ["check_mesh_file", "obj_index_ranges", "quiet_vtk"]
+__all__ = ["check_mesh_file", "obj_index_ranges", "quiet_read", "quiet_vtk"]
 
 #: The most bytes a PLY or legacy-VTK header may take before its data.
 HEADER_LIMIT = 1 << 16
@@ -517,3 +517,13 @@ def quiet_vtk() -> Iterator[None]:
     finally:
         obj.SetGlobalWarningDisplay(display)
         logger.SetStderrVerbosity(verbosity)
+
+
+def quiet_read(path: str | os.PathLike):
+    """``pyvista.read(path)`` inside :func:`quiet_vtk`: for read-back checks, whose caller
+    reports a failure in one line of its own.
+    """
+    import pyvista as pv
+
+    with quiet_vtk():
+        return pv.read(path)

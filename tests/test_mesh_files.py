@@ -321,3 +321,20 @@ def test_cli_announces_a_large_scan_with_an_estimate(tmp_path, capsys, monkeypat
                              f"{face.skin.n_triangles:,} triangles (read in ")
     assert "the first frame take about" in err[1] and len(err) == 2
     assert cli._estimate_s(2_000_000) > 2 * cli._estimate_s(1_000_000)  # grows faster than n
+
+
+@pytest.mark.parametrize("suffix", [".vtp", ".vtm"])
+def test_a_write_that_does_not_read_back_is_one_line_without_vtk_noise(tmp_path, capfd,
+                                                                      monkeypatch, suffix):
+    """M7 (X06/X07): VTK's XML reader printed its errors before "does not read back"."""
+    import pyvista as pv
+
+    from wrinkle_vis.core.files import WriteError
+    from wrinkle_vis.plotting import writers
+
+    monkeypatch.setattr(writers, "_xml_bytes", lambda mesh: b"<VTKFile broken")
+    mesh = pv.Sphere()
+    with pytest.raises(WriteError, match="read back"):
+        writers.save_mesh(mesh if suffix == ".vtp" else pv.MultiBlock({"a": mesh}),
+                          tmp_path / f"x{suffix}")
+    assert capfd.readouterr() == ("", "")

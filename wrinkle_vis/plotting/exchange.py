@@ -49,6 +49,7 @@ from ..core.files import (
     write_error,
 )
 from ..core.units import LENGTH_UNITS, face_unit
+from ..datasets.meshfile import quiet_read
 from .polydata import to_polydata
 from .writers import (
     Written,
@@ -264,7 +265,7 @@ def _save_numbered(states, times: list[float], real: Path, work: Path) -> Writte
         raise write_error(real, exc) from exc
     for k in {0, n - 1}:  # read back the first and the last frame
         try:
-            back = pv.read(work / targets[k].name)
+            back = quiet_read(work / targets[k].name)
             if (back.n_points, back.n_cells) != first[:2]:
                 raise ValueError(f"{back.n_points} points and {back.n_cells} cells instead "
                                  f"of {first[0]} and {first[1]}")

@@ -50,6 +50,7 @@ from ..core.files import (
     umask,
     write_error,
 )
+from ..datasets.meshfile import quiet_read
 
 __all__ = ["ANIMATION_SUFFIXES", "IMAGE_SUFFIXES", "MESH_SUFFIXES", "Written",
            "check_target", "save_animation", "save_image", "save_mesh"]
@@ -164,7 +165,7 @@ def _legacy_bytes(mesh: pv.PolyData) -> bytes:
 
 
 def _check_vtk(tmp: Path, mesh) -> None:
-    back = pv.read(tmp)
+    back = quiet_read(tmp)
     if back.n_points != mesh.n_points or back.n_cells != mesh.n_cells:
         raise ValueError(f"{back.n_points} points and {back.n_cells} cells instead of "
                          f"{mesh.n_points} and {mesh.n_cells}")
@@ -309,7 +310,7 @@ def _save_multiblock(blocks: pv.MultiBlock, real: Path) -> Written:
             for rel, data in pieces:
                 _write_synced(work / rel, data)
             _write_synced(work / real.name, index.encode("utf-8"))
-            back = pv.read(work / real.name)
+            back = quiet_read(work / real.name)
         except OSError as exc:
             raise write_error(real, exc) from exc
         if _flatten(back) != counts:
