@@ -724,9 +724,10 @@ def two_level_preconditioner(system: sp.csr_matrix, points: np.ndarray, size: fl
 
     dinv = 1.0 / system.diagonal()
     pts = np.asarray(points, float)
-    key = np.floor((pts - pts.min(axis=0)) / max(size, 1e-300)).astype(np.int64)
-    _, agg = np.unique(key, axis=0, return_inverse=True)
-    agg = agg.ravel()
+    cell = np.floor((pts - pts.min(axis=0)) / max(size, 1e-300)).astype(np.int64)
+    dims = cell.max(axis=0) + 1
+    _, agg = np.unique((cell[:, 2] * dims[1] + cell[:, 1]) * dims[0] + cell[:, 0],
+                       return_inverse=True)
     n, c = len(pts), int(agg.max()) + 1
     p0 = sp.csr_matrix((np.ones(n), (np.arange(n), agg)), shape=(n, c))
     prolong = (p0 - omega * (sp.diags(dinv) @ (system @ p0))).tocsr()
