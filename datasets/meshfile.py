@@ -162,7 +162,10 @@ def _check_ply_data(path: Path, fmt: str, elements: list, start: int, size: int)
     if fmt == "ascii":
         with path.open("rb") as f:
             f.seek(start)
-            text = f.read().decode("ascii", "replace")
+            raw = f.read()
+        if _ascii_triangles(path, raw, elements, n_vertex):
+            return
+        text = raw.decode("ascii", "replace")
         with warnings.catch_warnings():  # a word that is no number ends the data early
             warnings.simplefilter("ignore")
             data = np.fromstring(text, dtype=float, sep=" ")
@@ -177,13 +180,72 @@ def _check_ply_data(path: Path, fmt: str, elements: list, start: int, size: int)
         where = _binary_element(path, raw, where, order, name, count, props, n_vertex)
 
 
+def _ascii_triangles(path: Path, raw: bytes, elements: list, n_vertex: int) -> bool:
+    r"""The common ASCII layout, checked without parsing the vertices' numbers: fixed-size
+    elements, then one element whose only property is a list (``k i_1 .. i_k``, the same
+    ``k`` throughout), last. Its words are found as runs of non-blank bytes after the
+    :math:`\sum n_e p_e` words before it, and read as integers by Horner's rule; True when
+    this layout was found and checked (a bad index raises), False to check another way.
+    """
+    lists = [i for i, (_, _, props) in enumerate(elements) if any(c for c, _, _ in props)]
+    if lists != [len(elements) - 1] or len(elements[-1][2]) != 1:
+        return False
+    name, count, ((_, _, prop),) = elements[-1]
+    skip = sum(n * len(props) for _, n, props in elements[:-1])
+    text = np.frombuffer(raw, np.uint8)
+    if count == 0 or len(text) == 0:
+        return False
+    solid = ~_is_blank(text)
+    first = np.flatnonzero(solid & ~np.concatenate(([False], solid[:-1])))
+    if len(first) <= skip:
+        raise _refuse(path, f"the {name} data ends early")
+    first = first[skip:]
+    values = _whole_numbers(text, solid, first)
+    if values is None:
+        return False
+    k = values[0]
+    if not 0 <= k < 1e6 or len(values) != count * (int(k) + 1):
+        return False
+    rows = values.reshape(count, int(k) + 1)
+    if np.any(rows[:, 0] != k):
+        return False
+    _index_check(path, name, prop, rows[:, 1:], n_vertex)
+    return True
+
+
+def _whole_numbers(text: np.ndarray, solid: np.ndarray, first: np.ndarray):
+    """``(len(first),)`` float: the words starting at ``first`` read as whole numbers (an
+    optional ``-``, then digits; over 15 digits: infinite), or None if one is not.
+    """
+    n = len(text)
+    negative = text[first] == 45
+    start = first + negative
+    values, alive = np.zeros(len(first)), np.ones(len(first), bool)
+    for j in range(16):
+        at = np.minimum(start + j, n - 1)
+        more = alive & (start + j < n) & solid[at]
+        c = text[at]
+        if np.any(more & ((c < 48) | (c > 57))):
+            return None  # a word that is no whole number: not this layout
+        if j == 0 and not more.all():
+            return None
+        alive = more
+        if not alive.any():
+            break
+        values = np.where(alive, 10.0 * values + (c.astype(float) - 48.0), values)
+    else:
+        values[alive] = np.inf
+    return np.where(negative, -values, values)
+
+
 def _index_check(path: Path, name: str, prop: str, values: np.ndarray, n_vertex: int) -> None:
     if prop not in ("vertex_indices", "vertex_index") or len(values) == 0:
         return
     lo, hi = values.min(), values.max()
     if lo < 0 or hi >= n_vertex:
         bad = lo if lo < 0 else hi
-        raise _refuse(path, f"a {name} element names vertex {int(bad)}, outside "
+        shown = f"{int(bad)}" if np.isfinite(bad) else "beyond 10^15"
+        raise _refuse(path, f"a {name} element names vertex {shown}, outside "
                             f"0..{n_vertex - 1}")
 
 

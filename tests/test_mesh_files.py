@@ -338,3 +338,21 @@ def test_a_write_that_does_not_read_back_is_one_line_without_vtk_noise(tmp_path,
         writers.save_mesh(mesh if suffix == ".vtp" else pv.MultiBlock({"a": mesh}),
                           tmp_path / f"x{suffix}")
     assert capfd.readouterr() == ("", "")
+
+
+@pytest.mark.parametrize("last", ["3 0 1 2", "3 0 1 4", "3 -1 1 2", "3 0 1 99999999999999999"])
+@pytest.mark.parametrize("fast", [True, False])
+def test_ascii_ply_indices_are_checked_with_and_without_the_fast_path(tmp_path, monkeypatch,
+                                                                      last, fast):
+    from wrinkle_vis.datasets import meshfile
+
+    if not fast:
+        monkeypatch.setattr(meshfile, "_ascii_triangles", lambda *a: False)
+    path = tmp_path / "t.ply"
+    path.write_text(PLY_HEAD.replace("vertex {nv}", "vertex 4").format(fmt="ascii", nv=4, nf=2)
+                    + "0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 3\n" + last + "\n")
+    if last == "3 0 1 2":
+        check_mesh_file(path)
+    else:
+        with pytest.raises(MeshError, match="outside 0..3"):
+            check_mesh_file(path)
