@@ -453,9 +453,10 @@ def _read_skin(args, path: Path):
 
 
 def _estimate_s(n_triangles: int) -> float:
-    """Seconds a scan of ``n_triangles`` takes from its read to its first frame: the skull
-    (level set, about n^1.2) and the first frame (about n^1.1), fitted to runs on 2 cores at
-    326 k and 1.3 M triangles.
+    """Seconds a scan of ``n_triangles`` takes from its read to its first frame, roughly:
+    the skull (level set, about n^1.2: 313 s at 1.13 M triangles on 2 idle cores, issue 33)
+    and the first frame (about n^1.1: ~35 s at 1.13 M with the two-level solve,
+    ``benchmarks/bench_smoothed_normals.py``); a busy machine takes longer.
     """
     m = n_triangles / 1e6
     return SKULL_S_PER_MTRI * m**1.2 + FIRST_FRAME_S_PER_MTRI * m**1.1
