@@ -391,7 +391,7 @@ def obj_index_ranges(path: str | os.PathLike, chunk: int = 1 << 22) -> dict:
     Raises
     ------
     MeshError
-        For NUL bytes or a line over :data:`LINE_LIMIT` (not a text file: a file of zeros
+        For NUL bytes or a line over ``LINE_LIMIT`` (1 MiB; not a text file: a file of zeros
         named ``.obj`` is refused after its first block, not after reading it all).
     """
     out = {"v": 0, "vt": 0, "vn": 0, "max": np.zeros(3), "min": np.full(3, np.inf)}

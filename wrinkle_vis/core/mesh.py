@@ -10,10 +10,11 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 from scipy.spatial import cKDTree
 
-__all__ = ["MeshError", "MeshReport", "TriangleSurface", "barycentric_points", "closest_points",
-           "cotangent_laplacian", "phong_midpoints", "self_intersections", "shape_operators",
-           "smoothed_normals", "subdivide", "surface_coordinates", "tangent_bases",
-           "triangle_normals", "unit_rows", "vector_lengths"]
+__all__ = ["MeshError", "MeshReport", "TriangleSurface", "barycentric_points", "block_pcg",
+           "closest_points", "cotangent_laplacian", "phong_midpoints", "self_intersections",
+           "shape_operators", "smoothed_normals", "subdivide", "surface_coordinates",
+           "tangent_bases", "triangle_normals", "two_level_preconditioner", "unit_rows",
+           "vector_lengths"]
 
 
 class MeshError(ValueError):
