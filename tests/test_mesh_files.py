@@ -356,3 +356,19 @@ def test_ascii_ply_indices_are_checked_with_and_without_the_fast_path(tmp_path, 
     else:
         with pytest.raises(MeshError, match="outside 0..3"):
             check_mesh_file(path)
+
+
+def test_bake_checks_the_obj_before_parsing_its_uvs(tmp_path):
+    """A sparse 4 GiB file of zeros named .obj: the bake's own OBJ parser read it as one
+    4 GiB line; now it is refused after its first block."""
+    from wrinkle_vis.plotting.bake import _parse_obj
+
+    path = tmp_path / "zeros.obj"
+    with path.open("wb") as f:
+        f.truncate(4 << 30)
+    with pytest.raises(MeshError, match="NUL bytes"):
+        _parse_obj(path)
+    bad = tmp_path / "bad.obj"
+    bad.write_text(TRI + "f 1/1 2/9 3/3\n")
+    with pytest.raises(MeshError, match="vt index 9"):
+        _parse_obj(bad)

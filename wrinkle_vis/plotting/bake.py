@@ -73,8 +73,12 @@ def _obj_index(token: bytes, count: int) -> int:
 
 def _parse_obj(path: Path):
     """Vertices ``(N, 3)``, texture coordinates ``(K, 2)`` and the polygons (lists of
-    vertex indices and of UV indices, -1 where a corner has none).
+    vertex indices and of UV indices, -1 where a corner has none). The file is checked first
+    (:func:`~wrinkle_vis.datasets.meshfile.check_mesh_file`: text, indices in range).
     """
+    from ..datasets.meshfile import check_mesh_file
+
+    check_mesh_file(path)
     vs, vts, polys = [], [], []
     with open(path, "rb") as fh:
         for raw in fh:
