@@ -499,7 +499,7 @@ def face_unit_of(skin: TriangleSurface, unit: str | None = None) -> str:
 
     A skin no unit makes a head of (its largest extent outside 1 cm .. 10 m in every unit of
     :data:`~wrinkle_vis.core.units.LENGTH_UNITS`, e.g. 4e29 or 4e-31 units) is refused when
-    no unit is given, and warned about when ``unit`` makes it such a size.
+    no unit is given, and warned about when one is.
 
     Raises
     ------
@@ -511,15 +511,16 @@ def face_unit_of(skin: TriangleSurface, unit: str | None = None) -> str:
     lo, hi = skin.bounds()
     height = float(hi[1] - lo[1])
     extent = float(np.max(hi - lo))
-    metres = {u: extent * f for u, f in LENGTH_UNITS.items()}
+    possible = any(HEAD_METRES[0] <= extent * f <= HEAD_METRES[1]
+                   for f in LENGTH_UNITS.values())
     if unit is not None:
         unit = check_unit(unit)
-        if not HEAD_METRES[0] <= metres[unit] <= HEAD_METRES[1]:
-            warnings.warn(f"the skin is {extent:.4g} {unit} across ({metres[unit]:.3g} m), "
-                          "no human size; check the unit (--unit) and the file",
-                          UnitWarning, stacklevel=3)
+        if not possible:
+            warnings.warn(f"the skin is {extent:.4g} {unit} across "
+                          f"({extent * LENGTH_UNITS[unit]:.3g} m), a head in no unit; check "
+                          "the file", UnitWarning, stacklevel=3)
         return unit
-    if not any(HEAD_METRES[0] <= m <= HEAD_METRES[1] for m in metres.values()):
+    if not possible:
         raise ValueError(f"the skin is {extent:.4g} units across, a head in no unit "
                          f"({', '.join(LENGTH_UNITS)}); the file's coordinates are damaged "
                          "or scaled: check it, or scale it to millimetres")

@@ -292,11 +292,12 @@ def test_a_face_no_unit_makes_a_head_is_refused(scale):
     skin = grid(5, 5, 60.0 * scale)
     with pytest.raises(ValueError, match="a head in no unit"):
         load_face(skin=skin)
-    with pytest.warns(UnitWarning, match="no human size"):
+    with pytest.warns(UnitWarning, match="a head in no unit"):
         assert face_unit_of(skin, "mm") == "mm"  # a unit given: said, not refused
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert face_unit_of(grid(5, 5, 200.0), "mm") == "mm"  # a face 20 cm across
+        assert face_unit_of(grid(5, 5, 2.7), "mm") == "mm"  # odd, but a head in cm
 
 
 def test_cli_announces_a_large_scan_with_an_estimate(tmp_path, capsys, monkeypatch):
