@@ -548,18 +548,43 @@ def _as_layout(layout) -> tuple[Layout | None, Path | None]:
 def face_unit_of(skin: TriangleSurface, unit: str | None = None) -> str:
     """``unit`` checked, or the unit guessed from the skin's height (with a
     :class:`~wrinkle_vis.core.units.UnitWarning`; ``"mm"`` when nothing fits).
-    """
-    from wrinkle_vis.core.units import UnitWarning, check_unit, guess_unit
 
-    if unit is not None:
-        return check_unit(unit)
+    A skin no unit makes a head of (its largest extent outside 1 cm .. 10 m in every unit of
+    :data:`~wrinkle_vis.core.units.LENGTH_UNITS`, e.g. 4e29 or 4e-31 units) is refused when
+    no unit is given, and warned about when one is.
+
+    Raises
+    ------
+    ValueError
+        One line: the skin's size, and that no unit makes it a head; or an unknown unit.
+    """
+    from wrinkle_vis.core.units import LENGTH_UNITS, UnitWarning, check_unit, guess_unit
+
     lo, hi = skin.bounds()
     height = float(hi[1] - lo[1])
+    extent = float(np.max(hi - lo))
+    possible = any(HEAD_METRES[0] <= extent * f <= HEAD_METRES[1]
+                   for f in LENGTH_UNITS.values())
+    if unit is not None:
+        unit = check_unit(unit)
+        if not possible:
+            warnings.warn(f"the skin is {extent:.4g} {unit} across "
+                          f"({extent * LENGTH_UNITS[unit]:.3g} m), a head in no unit; check "
+                          "the file", UnitWarning, stacklevel=3)
+        return unit
+    if not possible:
+        raise ValueError(f"the skin is {extent:.4g} units across, a head in no unit "
+                         f"({', '.join(LENGTH_UNITS)}); the file's coordinates are damaged "
+                         "or scaled: check it, or scale it to millimetres")
     guess = guess_unit(height)
     warnings.warn(f"the skin's unit is not given; a face {height:.4g} units tall reads as "
                   f"{guess or 'mm'}: pass unit=... (or \"unit\" in its layout) to say",
                   UnitWarning, stacklevel=3)
     return guess or "mm"
+
+
+#: The sizes in metres a skin's largest extent may have (a face to a bust, generously).
+HEAD_METRES = (0.01, 10.0)
 
 
 def _check_fits(lay: Layout, skin: TriangleSurface, what: str) -> None:

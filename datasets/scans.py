@@ -27,17 +27,32 @@ def read_surface(path: str | os.PathLike, *, weld_tolerance: float = 0.0) -> Tri
     otherwise put the skull outside the skin and push the wrinkles into the face.
     Boundaries and non-manifold edges are allowed; see ``surface.report()``.
 
+    The file is checked before a reader sees it
+    (:func:`~wrinkle_vis.datasets.meshfile.check_mesh_file`: counts against its size, OBJ
+    indices against their ranges), so a damaged or hostile file is refused in one line
+    instead of crashing VTK, and VTK's own messages are kept off the terminal.
+
     Raises
     ------
     FileNotFoundError
         If there is no such file.
     MeshError
-        If the file holds no triangles or non-finite coordinates, or cannot be oriented
-        consistently, naming the file.
+        If the path is not a regular file (a folder, a pipe, a device, a link loop: saying
+        which), the file is damaged (counts it cannot hold, indices out of range) or holds no
+        triangles or non-finite coordinates, or cannot be oriented consistently, naming the
+        file.
     """
+    from wrinkle_vis.core.files import input_problem
+
+    from .meshfile import check_mesh_file
+
     path = Path(path)
-    if not path.is_file():
+    problem = input_problem(path)
+    if problem == "no such file":
         raise FileNotFoundError(f"no mesh file at {path}; check the path")
+    if problem is not None:
+        raise MeshError(f"{path} {problem}; give a mesh file (OBJ, PLY, STL, VTP)")
+    check_mesh_file(path)
     points, faces = _read_any(path)
     try:
         surface = orient_outward(TriangleSurface(points, faces).welded(weld_tolerance)
@@ -109,28 +124,67 @@ def orient_outward(surface: TriangleSurface) -> TriangleSurface:
 def _read_any(path: Path) -> tuple[np.ndarray, np.ndarray]:
     import pyvista as pv
 
-    try:
-        mesh = pv.read(path)
-    except Exception as first:  # unknown to VTK: let meshio try
-        try:
-            import meshio
+    from .meshfile import quiet_vtk
 
-            m = meshio.read(path)
-        except Exception as second:
-            raise MeshError(f"{path}: neither VTK ({first}) nor meshio ({second}) can read "
-                            "it; convert it to OBJ, PLY, STL or VTP") from None
-        tris = [c.data for c in m.cells if c.type == "triangle"]
-        tris += [_fan(c.data) for c in m.cells if c.type in ("quad", "polygon")]
-        if not tris:
-            raise MeshError(f"{path}: no triangles or polygons in the file") from None
-        return np.asarray(m.points, float)[:, :3], np.concatenate(tris)
-    mesh = mesh.extract_surface(algorithm="dataset_surface") if not isinstance(
-        mesh, pv.PolyData) else mesh
-    mesh = mesh.triangulate()
+    with quiet_vtk():
+        try:
+            mesh = pv.read(path)
+        except Exception as first:  # unknown to VTK: let meshio try
+            return _read_meshio(path, first)
+        if getattr(mesh, "n_points", 1) == 0:
+            raise MeshError(f"{path}: nothing readable in the file (damaged, or not a "
+                            f"{path.suffix or 'mesh'} file); export it again (OBJ, PLY, STL "
+                            "or VTP)")
+        _check_connectivity(path, mesh)
+        mesh = mesh.extract_surface(algorithm="dataset_surface") if not isinstance(
+            mesh, pv.PolyData) else mesh
+        mesh = mesh.triangulate()
     if mesh.n_cells == 0:
         raise MeshError(f"{path}: no triangles or polygons in the file")
     faces = mesh.faces.reshape(-1, 4)[:, 1:]
     return np.asarray(mesh.points, float), faces
+
+
+def _read_meshio(path: Path, first: Exception) -> tuple[np.ndarray, np.ndarray]:
+    try:
+        import meshio
+
+        m = meshio.read(path)
+    except Exception as second:
+        raise MeshError(f"{path}: neither VTK ({first}) nor meshio ({second}) can read "
+                        "it; convert it to OBJ, PLY, STL or VTP") from None
+    tris = [c.data for c in m.cells if c.type == "triangle"]
+    tris += [_fan(c.data) for c in m.cells if c.type in ("quad", "polygon")]
+    if not tris:
+        raise MeshError(f"{path}: no triangles or polygons in the file") from None
+    points, faces = np.asarray(m.points, float)[:, :3], np.concatenate(tris)
+    if faces.size and (faces.min() < 0 or faces.max() >= len(points)):
+        raise MeshError(f"{path}: a cell names a point outside 0..{len(points) - 1}; the "
+                        "file is damaged: export it again (OBJ, PLY, STL or VTP)")
+    return points, faces
+
+
+def _check_connectivity(path: Path, mesh) -> None:
+    """Refuse cells naming points the mesh does not have, before a VTK filter follows them
+    (out of range, VTK reads memory it does not own).
+    """
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    getters = ("GetPolys", "GetStrips", "GetLines", "GetVerts", "GetCells")
+    if not hasattr(mesh, "GetNumberOfPoints"):
+        return
+    n = mesh.GetNumberOfPoints()
+    for getter in getters:
+        cells = getattr(mesh, getter, lambda: None)()
+        conn = None if cells is None else cells.GetConnectivityArray()
+        if conn is None or conn.GetNumberOfTuples() == 0:
+            continue
+        ids = vtk_to_numpy(conn)
+        lo, hi = int(ids.min()), int(ids.max())
+        if lo < 0 or hi >= n:
+            raise MeshError(f"{path}: a cell names point {hi if hi >= n else lo}, outside "
+                            f"0..{n - 1}; the file is damaged: export it again (OBJ, PLY, "
+                            "STL or VTP)")
 
 
 def _fan(polys: np.ndarray) -> np.ndarray:

@@ -17,6 +17,8 @@ import warnings
 from contextlib import contextmanager
 from pathlib import Path
 
+from wrinkle_vis.core.files import input_problem
+
 CAMERA_CHOICES = ("front", "three_quarter", "side", "forehead", "upper_face")
 FIGURE_CHOICES = ("fig9", "fig11")
 FIG9_EXPRESSIONS = ("surprise", "frown", "fear")
@@ -415,9 +417,8 @@ def _check_face_options(args, layout) -> None:
     if args.face == "lee_perry_smith" and args.triangles is not None:
         raise CliError("--triangles sets the procedural face's resolution; the "
                        "lee_perry_smith head has its own (leave --triangles out)")
-    if skin is not None and not skin.is_file():
-        what = "is a folder, not a file" if skin.is_dir() else "no such file"
-        raise CliError(f"--skin {skin}: {what}; check the path")
+    if skin is not None and input_problem(skin) is not None:
+        raise CliError(f"--skin {skin}: {input_problem(skin)}; check the path")
     if args.landmarks is not None and skin is None and (layout is None or layout.skin is None):
         raise CliError(f"--landmarks {args.landmarks}: landmarks place the muscles on a scan; "
                        "add --skin SCAN")
@@ -445,11 +446,14 @@ def _load(args, *, refine: bool = False):
         layout = load_layout(args.layout)
         for key in ("skin", "skull"):
             path = layout.resolve(key, args.layout.parent)
-            if path is not None and not path.is_file():
+            if path is not None and input_problem(path) == "no such file":
                 raise CliError(
                     f"--layout {args.layout}: its {key} file {str(path)!r} does not exist; "
                     f"fix \"{key}\" in the layout (a path relative to the layout's folder, "
                     "or null for the built-in face)")
+            if path is not None and input_problem(path) is not None:
+                raise CliError(f"--layout {args.layout}: its {key} file {str(path)!r} "
+                               f"{input_problem(path)}; fix \"{key}\" in the layout")
     _check_face_options(args, layout)
     meshes = _layout_meshes(layout, args.layout)
     skin = getattr(args, "skin", None)
@@ -462,6 +466,8 @@ def _load(args, *, refine: bool = False):
         except (OSError, ValueError) as exc:
             raise CliError(f"--landmarks {exc}") from None
     try:
+        if meshes.get("skin") is not None:  # read here: big scans are announced
+            meshes["skin"] = _read_skin(args, Path(meshes["skin"]))
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", UnitWarning)
             face = load_face(args.face, args.triangles, layout=layout, landmarks=landmarks,
@@ -489,6 +495,49 @@ def _load(args, *, refine: bool = False):
     if not refine:
         _warn_undersampled(args, face, names)
     return face
+
+
+#: A skin file this large (bytes) is announced before it is read; a skin of this many
+#: triangles gets an estimate of the time its skull and first frame take.
+LARGE_SKIN_BYTES = 32 << 20
+LARGE_SKIN_TRIANGLES = 200_000
+
+
+def _read_skin(args, path: Path):
+    """The skin at ``path``, read with a line before a large file and, for a large mesh, a
+    line with its size and an estimate of the minutes that follow (:func:`_estimate_s`).
+    """
+    from wrinkle_vis.datasets import read_surface
+
+    size = path.stat().st_size if input_problem(path) is None else 0
+    if size >= LARGE_SKIN_BYTES:
+        print(f"wrinkle-vis {args.command}: reading {path} ({size / 2**20:,.0f} MiB)...",
+              file=sys.stderr, flush=True)
+    start = time.perf_counter()
+    skin = read_surface(path)
+    n = skin.n_triangles
+    if n >= LARGE_SKIN_TRIANGLES:
+        est = _estimate_s(n)
+        more = f"{est:.0f} s" if est < 120 else f"{est / 60:.0f} min"
+        print(f"wrinkle-vis {args.command}: note: {path} has {n:,} triangles (read in "
+              f"{time.perf_counter() - start:.0f} s); its skull, the muscles and the first "
+              f"frame take about {more} more (a skull is cached: the next run is faster)",
+              file=sys.stderr, flush=True)
+    return skin
+
+
+def _estimate_s(n_triangles: int) -> float:
+    """Seconds a scan of ``n_triangles`` takes from its read to its first frame, roughly:
+    the skull (level set, about n^1.2: 313 s at 1.13 M triangles on 2 idle cores, issue 33)
+    and the first frame (about n^1.1: ~35 s at 1.13 M with the two-level solve,
+    ``benchmarks/bench_smoothed_normals.py``); a busy machine takes longer.
+    """
+    m = n_triangles / 1e6
+    return SKULL_S_PER_MTRI * m**1.2 + FIRST_FRAME_S_PER_MTRI * m**1.1
+
+
+SKULL_S_PER_MTRI = 250.0
+FIRST_FRAME_S_PER_MTRI = 30.0
 
 
 def _layout_meshes(layout, path) -> dict:
@@ -952,9 +1001,8 @@ def main(argv=None) -> int:
             return 2
     if not (0.0 <= args.intensity <= 1.0):
         parser.error(f"--intensity {args.intensity:g} is outside [0, 1]")
-    if getattr(args, "layout", None) is not None and not args.layout.is_file():
-        what = "is a folder, not a file" if args.layout.is_dir() else "no such file"
-        parser.error(f"--layout {args.layout}: {what}; check the path")
+    if getattr(args, "layout", None) is not None and input_problem(args.layout) is not None:
+        parser.error(f"--layout {args.layout}: {input_problem(args.layout)}; check the path")
     from wrinkle_vis.core.files import Interrupted, OutputPathError, WriteError, commits
     from wrinkle_vis.core.layout import LayoutError
     from wrinkle_vis.core.mesh import MeshError

@@ -45,7 +45,8 @@ from pathlib import Path
 
 __all__ = ["Interrupted", "OutputPathError", "WriteError", "atomic_output", "atomic_write_bytes",
            "atomic_write_text", "check_output", "clean_stale", "commits", "deferred_signals",
-           "exchange", "indexed_entries", "interrupt_exception", "new_version", "note_interrupt",
+           "exchange", "indexed_entries", "input_problem", "interrupt_exception", "new_version",
+           "note_interrupt",
            "replace_folder", "replace_indexed", "replace_permissions", "resolve_output",
            "temp_folder", "temp_prefix", "tidy_versions", "write_error"]
 
@@ -731,3 +732,34 @@ def atomic_write_text(path: str | os.PathLike, text: str, *, mode: int | None = 
     new file).
     """
     return atomic_write_bytes(path, text.encode("utf-8"), mode=mode)
+
+
+def input_problem(path: str | os.PathLike) -> str | None:
+    """What keeps ``path`` from being read as a regular file, in words; None if nothing.
+
+    ``"no such file"`` for a missing one (``FileNotFoundError`` territory); otherwise what
+    it is: a folder, a named pipe, a device (such as ``/dev/zero``), a socket, a symbolic
+    link loop or a link to nowhere, or a file that cannot be opened (permission denied).
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        return ("is a symbolic link to a missing file" if os.path.islink(path)
+                else "no such file")
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            return "is a symbolic link loop (a link that leads back to itself)"
+        if exc.errno == errno.ENOTDIR:
+            return "no such file (a part of the path is a file, not a folder)"
+        return f"cannot be opened ({exc.strerror or exc})"
+    kinds = ((stat.S_ISDIR, "is a folder, not a file"),
+             (stat.S_ISFIFO, "is a named pipe (FIFO), not a file"),
+             (stat.S_ISCHR, "is a character device (such as /dev/zero), not a file"),
+             (stat.S_ISBLK, "is a block device, not a file"),
+             (stat.S_ISSOCK, "is a socket, not a file"))
+    for test, what in kinds:
+        if test(mode):
+            return what
+    if not os.access(path, os.R_OK):
+        return "cannot be read (permission denied)"
+    return None

@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import Any
 
 from .expressions import Expression
-from .files import atomic_write_text
+from .files import atomic_write_text, input_problem
 from .muscle import Muscle, MuscleParameterError
 from .params import control_character
 from .registry import UnknownMuscleTypeError, get_muscle_type, muscle_types
@@ -345,9 +345,12 @@ def load_layout(path: str | os.PathLike) -> Layout:
         found.
     """
     path = Path(path)
-    if not path.is_file():
+    problem = input_problem(path)
+    if problem == "no such file":
         raise FileNotFoundError(f"no layout file at {path}; check the path, or save one "
                                 "with save_layout()")
+    if problem is not None:  # a folder, a pipe, a device, a link loop: say which
+        raise LayoutError(str(path), "$", "a layout file (.json)", problem)
     data = read_json(path)
     try:
         return Layout.from_dict(data, source=str(path))

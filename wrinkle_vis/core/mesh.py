@@ -10,10 +10,11 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 from scipy.spatial import cKDTree
 
-__all__ = ["MeshError", "MeshReport", "TriangleSurface", "barycentric_points", "closest_points",
-           "cotangent_laplacian", "phong_midpoints", "self_intersections", "shape_operators",
-           "smoothed_normals", "subdivide", "surface_coordinates", "tangent_bases",
-           "triangle_normals", "unit_rows", "vector_lengths"]
+__all__ = ["MeshError", "MeshReport", "TriangleSurface", "barycentric_points", "block_pcg",
+           "closest_points", "cotangent_laplacian", "phong_midpoints", "self_intersections",
+           "shape_operators", "smoothed_normals", "subdivide", "surface_coordinates",
+           "tangent_bases", "triangle_normals", "two_level_preconditioner", "unit_rows",
+           "vector_lengths"]
 
 
 class MeshError(ValueError):
@@ -675,7 +676,8 @@ def cotangent_laplacian(surface: TriangleSurface) -> tuple[sp.csr_matrix, np.nda
     return stiffness.tocsr(), surface.incidence @ surface.triangle_areas() / 3.0
 
 
-def smoothed_normals(surface: TriangleSurface, normals, radius: float) -> np.ndarray:
+def smoothed_normals(surface: TriangleSurface, normals, radius: float,
+                     rtol: float = 1e-8) -> np.ndarray:
     r"""``(n, 3)``: unit normals smoothed over about ``radius`` by heat diffusion.
 
     .. math:: (M + t K)\,\bar n = M n, \qquad t = r^2 / 2,
@@ -683,20 +685,96 @@ def smoothed_normals(surface: TriangleSurface, normals, radius: float) -> np.nda
     with :math:`K` and :math:`M` from :func:`cotangent_laplacian` (one implicit step of the
     heat equation, a kernel of width about :math:`r` whatever the mesh resolution), then
     normalized.
-    """
-    from scipy.sparse.linalg import cg
 
+    The three columns are solved together by conjugate gradients (:func:`block_pcg`, to a
+    residual of ``rtol`` times the right-hand side's; 1e-8 moves the normals by under 1e-5
+    degrees) preconditioned by one two-level cycle (:func:`two_level_preconditioner`):
+    Jacobi smoothing and a coarse correction on aggregates of vertices. Jacobi alone needs
+    iterations in proportion to :math:`r / h` (the radius over the edge length: ~230 at
+    326 k triangles, growing as the mesh is refined); with the cycle they stay about 40-50
+    from 82 k to 1.3 M triangles.
+    """
     n = np.asarray(normals, dtype=float)
     if radius <= 0:
         return n
     stiffness, areas = cotangent_laplacian(surface)
     system = (sp.diags(areas) + 0.5 * radius**2 * stiffness).tocsr()
-    jacobi = sp.diags(1.0 / system.diagonal())
-    out = np.empty_like(n)
-    for c in range(3):
-        out[:, c], _ = cg(system, areas * n[:, c], x0=n[:, c], rtol=1e-12, maxiter=2000,
-                          M=jacobi)
+    spacing = float(np.sqrt(2.0 * surface.triangle_areas().mean()))
+    precondition = two_level_preconditioner(system, surface.points, 6.0 * spacing)
+    out = block_pcg(system, areas[:, None] * n, n.copy(), precondition, rtol)
     return unit_rows(out)
+
+
+def two_level_preconditioner(system: sp.csr_matrix, points: np.ndarray, size: float,
+                             omega: float = 2.0 / 3.0):
+    r"""One symmetric two-level cycle for the symmetric positive definite ``system`` ``A``
+    ``(n, n)`` whose unknowns sit at ``points`` ``(n, 3)``, as a function of ``R`` ``(n, k)``.
+
+    Aggregates are the points in each cube of side ``size``; :math:`P_0` ``(n, c)`` maps an
+    aggregate to its points, smoothed to :math:`P = (I - \omega D^{-1} A) P_0` (smoothed
+    aggregation, :math:`D` the diagonal of :math:`A`), and the coarse matrix
+    :math:`A_c = P^T A P` is factorized once (SuperLU). The cycle is
+
+    .. math:: z_1 = \omega D^{-1} r, \quad z_2 = z_1 + P A_c^{-1} P^T (r - A z_1), \quad
+              z = z_2 + \omega D^{-1} (r - A z_2),
+
+    symmetric and positive definite, so conjugate gradients may use it. Where the coarse
+    matrix cannot be factorized, Jacobi (:math:`D^{-1}`) is returned.
+    """
+    from scipy.sparse.linalg import splu
+
+    dinv = 1.0 / system.diagonal()
+    pts = np.asarray(points, float)
+    cell = np.floor((pts - pts.min(axis=0)) / max(size, 1e-300)).astype(np.int64)
+    dims = cell.max(axis=0) + 1
+    _, agg = np.unique((cell[:, 2] * dims[1] + cell[:, 1]) * dims[0] + cell[:, 0],
+                       return_inverse=True)
+    n, c = len(pts), int(agg.max()) + 1
+    p0 = sp.csr_matrix((np.ones(n), (np.arange(n), agg)), shape=(n, c))
+    prolong = (p0 - omega * (sp.diags(dinv) @ (system @ p0))).tocsr()
+    restrict = prolong.T.tocsr()
+    try:
+        coarse = splu((restrict @ system @ prolong).tocsc())
+    except RuntimeError:  # singular coarse matrix: Jacobi alone
+        return lambda r: dinv[:, None] * r
+
+    def cycle(r: np.ndarray) -> np.ndarray:
+        z = omega * dinv[:, None] * r
+        z += prolong @ coarse.solve(np.asarray(restrict @ (r - system @ z)))
+        return z + omega * dinv[:, None] * (r - system @ z)
+
+    return cycle
+
+
+def block_pcg(system: sp.csr_matrix, rhs: np.ndarray, guess: np.ndarray, precondition,
+              rtol: float, maxiter: int = 5000) -> np.ndarray:
+    r"""``(n, k)``: preconditioned conjugate gradients for ``system @ X = rhs`` ``(n, k)``,
+    the ``k`` columns side by side (one sparse product a step for all of them), from
+    ``guess`` (overwritten), until every column's residual is at most ``rtol`` times its
+    right-hand side's (or ``maxiter`` steps).
+
+    .. math:: \alpha = \frac{r^T z}{p^T A p}, \quad x \mathrel{+}= \alpha p, \quad
+              r \mathrel{-}= \alpha A p, \quad z = M^{-1} r, \quad
+              p = z + \frac{r^T z}{r_{old}^T z_{old}} p
+    """
+    x = guess
+    r = rhs - system @ x
+    z = precondition(r)
+    p = z.copy()
+    rz = np.einsum("ij,ij->j", r, z)
+    limit = rtol * np.linalg.norm(rhs, axis=0)
+    for _ in range(maxiter):
+        if np.all(np.linalg.norm(r, axis=0) <= limit):
+            break
+        ap = system @ p
+        alpha = rz / np.maximum(np.einsum("ij,ij->j", p, ap), 1e-300)
+        x += alpha * p
+        r -= alpha * ap
+        z = precondition(r)
+        rz_new = np.einsum("ij,ij->j", r, z)
+        p = z + (rz_new / np.where(rz == 0, 1.0, rz)) * p
+        rz = rz_new
+    return x
 
 
 def self_intersections(surface: TriangleSurface, chunk: int = 200_000) -> np.ndarray:

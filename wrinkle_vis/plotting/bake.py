@@ -58,6 +58,7 @@ from .polydata import field_array_name
 from .writers import Written, _write_synced, replace_folder
 
 __all__ = ["BAKE_FILE", "BakedMaps", "UVError", "UVRaster", "bake_maps", "check_bake_folder",
+           "check_corner_uvs",
            "decode_displacement", "read_obj_uvs", "sample_bilinear", "save_bake",
            "tangent_space_normals", "uv_raster"]
 
@@ -79,8 +80,12 @@ def _obj_index(token: bytes, count: int) -> int:
 
 def _parse_obj(path: Path):
     """Vertices ``(N, 3)``, texture coordinates ``(K, 2)`` and the polygons (lists of
-    vertex indices and of UV indices, -1 where a corner has none).
+    vertex indices and of UV indices, -1 where a corner has none). The file is checked first
+    (:func:`~wrinkle_vis.datasets.meshfile.check_mesh_file`: text, indices in range).
     """
+    from ..datasets.meshfile import check_mesh_file
+
+    check_mesh_file(path)
     vs, vts, polys = [], [], []
     with open(path, "rb") as fh:
         for raw in fh:
@@ -168,7 +173,36 @@ def read_obj_uvs(path: str | os.PathLike, surface: TriangleSurface) -> np.ndarra
     if missing.any():
         raise UVError(f"{path}: {int(missing.sum())} of {surface.n_triangles} skin triangles "
                       "have no UVs in the file; give every face of the OBJ its vt")
-    return vts[ids]
+    return check_corner_uvs(vts[ids], str(path))
+
+
+def check_corner_uvs(corner_uvs: np.ndarray, where: str,
+                     size: tuple[int, int] | None = None) -> np.ndarray:
+    r"""``corner_uvs`` ``(m, 3, 2)`` if they can be baked: finite, and their triangles
+    covering some of the map, :math:`\tfrac12 \sum |\det(b - a, c - a)| \, w h \ge 1`
+    texel at ``size`` ``(w, h)`` (without ``size``: a non-zero area).
+
+    Raises
+    ------
+    UVError
+        One line naming ``where``: NaN or infinite UVs, or UVs all equal or in a line.
+    """
+    uv = np.asarray(corner_uvs, float)
+    bad = ~np.isfinite(uv).all(axis=(1, 2))
+    if bad.any():
+        raise UVError(f"{where}: {int(bad.sum())} of {len(uv)} triangles have UV coordinates "
+                      "that are not finite (NaN or infinity); unwrap the skin again (e.g. in "
+                      "Blender: UV > Smart UV Project) and export it as OBJ")
+    e1, e2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
+    area = 0.5 * float(np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum())
+    texels = area * (size[0] * size[1] if size is not None else 1.0)
+    if not texels >= (1.0 if size is not None else 1e-300):
+        covers = (f"cover {texels:.2g} texels of the {size[0]} x {size[1]} map"
+                  if size is not None else "have no area (all equal, or in a line)")
+        raise UVError(f"{where}: the UV triangles {covers}, so nothing can be baked; "
+                      "unwrap the skin (e.g. in Blender: UV > Smart UV Project) and export "
+                      "it as OBJ")
+    return uv
 
 
 # ---------------------------------------------------------------------- rasterization
@@ -449,6 +483,7 @@ def bake_maps(state: FaceState, corner_uvs: np.ndarray, size: tuple[int, int] = 
     if corner_uvs.shape != (skin.n_triangles, 3, 2):
         raise ValueError(f"corner_uvs is {corner_uvs.shape}; expected "
                          f"({skin.n_triangles}, 3, 2)")
+    check_corner_uvs(corner_uvs, "the skin's UVs", (int(size[0]), int(size[1])))
     common = {**(info or {}), "size": [int(size[0]), int(size[1])], "padding": int(padding),
               "uv_origin": "bottom left (v up, as OBJ and Blender): image row 0 is v = 1"}
     out = BakedMaps()

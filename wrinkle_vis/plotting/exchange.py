@@ -56,6 +56,7 @@ from ..core.files import (
     write_error,
 )
 from ..core.units import LENGTH_UNITS, face_unit
+from ..datasets.meshfile import quiet_read
 from .finite import require_finite
 from .polydata import to_polydata
 from .writers import (
@@ -301,7 +302,7 @@ def _save_numbered(states, times: list[float], real: Path, work: Path) -> Writte
         raise write_error(real, exc) from exc
     for k in {0, n - 1}:  # read back the first and the last frame
         try:
-            back = pv.read(new / targets[k].name)
+            back = quiet_read(new / targets[k].name)
             if (back.n_points, back.n_cells) != first[:2]:
                 raise ValueError(f"{back.n_points} points and {back.n_cells} cells instead "
                                  f"of {first[0]} and {first[1]}")

@@ -56,6 +56,7 @@ from ..core.files import (
     tidy_versions,
     write_error,
 )
+from ..datasets.meshfile import quiet_read
 from .finite import require_finite
 
 __all__ = ["ANIMATION_SUFFIXES", "IMAGE_SUFFIXES", "MESH_SUFFIXES", "Written",
@@ -172,7 +173,7 @@ def _legacy_bytes(mesh: pv.PolyData) -> bytes:
 
 
 def _check_vtk(tmp: Path, mesh) -> None:
-    back = pv.read(tmp)
+    back = quiet_read(tmp)
     if back.n_points != mesh.n_points or back.n_cells != mesh.n_cells:
         raise ValueError(f"{back.n_points} points and {back.n_cells} cells instead of "
                          f"{mesh.n_points} and {mesh.n_cells}")
@@ -338,7 +339,7 @@ def _save_multiblock(blocks: pv.MultiBlock, real: Path) -> Written:
             for rel, data in pieces:
                 _write_synced(work / rel, data)
             _write_synced(work / real.name, index.encode("utf-8"))
-            back = pv.read(work / real.name)
+            back = quiet_read(work / real.name)
         except OSError as exc:
             raise write_error(real, exc) from exc
         if _flatten(back) != counts:
