@@ -419,7 +419,7 @@ def test_a_new_muscle_and_the_parameter_steps_follow_the_face_unit(make_window, 
                        wv_face.skull.with_points(wv_face.skull.points / 1000), (),
                        {"neutral": wv_face.expressions["neutral"]}, unit="m")
     w = make_window(Session(metres))
-    w.probed_vertex = int(np.argmax(metres.skin.points[:, 2]))
+    w.probe_vertex(int(np.argmax(metres.skin.points[:, 2])))
     name = w.add_muscle("linear")
     assert w.session.face.muscle(name).k0 == pytest.approx(0.0008)  # 0.8 mm
     box = w.param_widgets["k0"]

@@ -33,13 +33,24 @@ from ..plotting.polydata import field_array_name
 from ..widgets.panels import MuscleListPanel
 from .newface_panel import NewFaceFlow
 from .recovery import Recovery
-from .session import TIMELINE_STEPS, Session, editable, load_session, playback_position
+from .session import (
+    TIMELINE_STEPS,
+    Session,
+    SurfacePoint,
+    editable,
+    load_session,
+    playback_position,
+)
 from .views import VIEWS, LinkedViews
 from .viewwidget import NativeView, View, make_view
 
 __all__ = ["MainWindow"]
 
 TOTAL = "total"
+#: What the probe panel says before a point is probed.
+PROBE_HINT = "Right-click the skin to probe a point"
+#: The probe marker's radius, a fraction of the skin's bounding-box diagonal.
+PROBE_MARKER = 0.006
 _FACE_LABELS = {"procedural": "&Procedural", "lee_perry_smith": "&Lee Perry-Smith"}
 PLAIN = "none"  # the field box's entry for plain skin (no field)
 KEEP = object()  # edit(): keep the selection
@@ -177,9 +188,13 @@ class MainWindow(QtWidgets.QMainWindow):
             p.renderer.camera = camera
         self._camera_observer = camera.AddObserver("ModifiedEvent", _weak(self._sync_views))
         # PyVista calls back with (point, picker) when use_picker is on
+        # a cell picker: the point on the skin drawn and its triangle, exactly (PyVista's
+        # tolerance, 2.5 % of the window, can name a triangle beside the one hit; the window
+        # draws the probe's own marker, which follows the skin)
         self.skin_view.enable_point_picking(_weak(self._on_pick, keep=2), use_picker=True,
-                                            show_message=False, show_point=True,
-                                            left_clicking=False)
+                                            picker="cell", tolerance=1e-4,
+                                            show_message=False,
+                                            show_point=False, left_clicking=False)
         iren = self.muscle_view.iren
         iren.add_observer("LeftButtonPressEvent", _weak(self._on_muscle_press))
         iren.add_observer("LeftButtonReleaseEvent", _weak(self._on_muscle_release))
@@ -295,10 +310,16 @@ class MainWindow(QtWidgets.QMainWindow):
 
         probe = QtWidgets.QGroupBox("Probe (right-click the skin)")
         box = QtWidgets.QVBoxLayout(probe)
-        self.probe_table = QtWidgets.QTableWidget(len(FIELD_NAMES), 2)
-        self.probe_table.setHorizontalHeaderLabels(["selected muscle", "total"])
+        self.probe_label = QtWidgets.QLabel(PROBE_HINT)
+        self.probe_label.setWordWrap(True)
+        self.probe_label.setTextInteractionFlags(QtCore.Qt.TextSelectableByMouse)
+        box.addWidget(self.probe_label)
+        self.probe_table = QtWidgets.QTableWidget(len(FIELD_NAMES), 1)
+        self.probe_table.setHorizontalHeaderLabels(["total"])
         self.probe_table.setVerticalHeaderLabels(
             [_field_label(f, self.session.unit) for f in FIELD_NAMES])
+        self.probe_table.setVerticalScrollBarPolicy(QtCore.Qt.ScrollBarAlwaysOff)
+        self.probe_table.setEditTriggers(QtWidgets.QAbstractItemView.NoEditTriggers)
         box.addWidget(self.probe_table)
         form.addWidget(probe)
         form.addStretch(1)
@@ -312,7 +333,8 @@ class MainWindow(QtWidgets.QMainWindow):
                                + scroll.verticalScrollBar().sizeHint().width())
         dock.setWidget(scroll)
         self.addDockWidget(QtCore.Qt.LeftDockWidgetArea, dock)
-        self.probed_vertex: int | None = None
+        self.probe_point: SurfacePoint | None = None  # on the rest skin
+        self._fit_probe_table()
         self._build_muscle_dock()
 
     def _build_muscle_dock(self) -> None:
@@ -732,33 +754,82 @@ class MainWindow(QtWidgets.QMainWindow):
         self.edit(f"Set activation of {s.muscle} in {s.expression} to {value:g}", face)
 
     def _on_pick(self, point, picker=None) -> None:
-        """A right-click on the skin view picked ``point``: probe the vertex there (the
-        skin's own vertex when the picker names it, else the nearest one).
+        """A right-click on the skin view picked ``point``: probe the skin there (in the
+        triangle the picker names, else at the closest point of the skin shown).
         """
         if point is None:
             return
         skin = self.views.skin_mesh
+        cell = None
         if picker is not None and skin is not None and picker.GetDataSet() is skin \
-                and 0 <= picker.GetPointId() < self.session.state().n_points:
-            self.probe_vertex(int(picker.GetPointId()))
-            return
-        points = self.session.state().points
-        self.probe_vertex(int(np.argmin(np.linalg.norm(points - np.asarray(point), axis=1))))
+                and hasattr(picker, "GetCellId"):
+            cell = int(picker.GetCellId())
+        self.probe_at(self.session.surface_point(point, cell))
 
     def probe_vertex(self, vertex: int) -> dict:
-        """Show every field's value at ``vertex`` in the probe table; returns them."""
-        self.probed_vertex = vertex
-        values = self.session.probe(vertex)
-        self.probe_table.setVerticalHeaderLabels(
-            [_field_label(f, self.session.unit) for f in FIELD_NAMES])
-        muscle = self.session.muscle
+        """Probe skin vertex ``vertex`` of the face (at rest); returns the values shown."""
+        return self.probe_at(self.session.vertex_point(vertex))
+
+    def probe_at(self, where: SurfacePoint) -> dict:
+        """Probe rest-skin point ``where``: kept there (the frame's values at it, shown
+        again every frame, whatever the expression, the edits or the refinement), with a
+        marker on the skin view, its coordinates and every field of the total and of each
+        muscle that defines anything there (the selected one first); returns the values.
+        """
+        self.probe_point = where
+        s = self.session
+        values = s.probe(where)
+        rest, now = s.probe_position(where)
+        self._show_probe_marker(now)
+        unit = s.unit
+        self.probe_label.setText(f"at rest ({_xyz(rest)}) {unit}\nnow ({_xyz(now)}) {unit}")
+        muscles = [m for m in values if m != "total"]
+        if s.muscle in muscles:
+            muscles.remove(s.muscle)
+            muscles.insert(0, s.muscle)
+        table = self.probe_table
+        table.setColumnCount(1 + len(muscles))
+        table.setHorizontalHeaderLabels(["total", *muscles])
+        table.setVerticalHeaderLabels([_field_label(f, unit) for f in FIELD_NAMES])
         for row, field in enumerate(FIELD_NAMES):
-            own = values.get(muscle, {}).get(field, np.nan) if muscle else np.nan
-            total = values["total"].get(field, np.nan)
-            for col, v in enumerate((own, total)):
-                text = "undefined" if not np.isfinite(v) else f"{v:.5g}"
-                self.probe_table.setItem(row, col, QtWidgets.QTableWidgetItem(text))
+            for col, column in enumerate(["total", *muscles]):
+                if column == "total" and field not in values["total"]:
+                    text = ""  # no total of this field
+                else:
+                    v = values[column][field]
+                    text = "undefined" if not np.isfinite(v) else f"{v:.5g}"
+                table.setItem(row, col, QtWidgets.QTableWidgetItem(text))
+        if s.muscle in muscles:
+            font = table.horizontalHeaderItem(1).font()
+            font.setBold(True)
+            table.horizontalHeaderItem(1).setFont(font)
+        table.resizeColumnsToContents()
+        self._fit_probe_table()
         return values
+
+    def clear_probe(self) -> None:
+        """Probe nothing: the marker goes, the table empties."""
+        self.probe_point = None
+        self.views.show_probe(None, 0.0)
+        self.probe_label.setText(PROBE_HINT)
+        self.probe_table.setColumnCount(1)
+        self.probe_table.setHorizontalHeaderLabels(["total"])
+        self.probe_table.clearContents()
+        self._fit_probe_table()
+
+    def _show_probe_marker(self, point) -> None:
+        lo, hi = self.session.face.skin.bounds()
+        self.views.show_probe(point, PROBE_MARKER * float(np.linalg.norm(hi - lo)))
+
+    def _fit_probe_table(self) -> None:
+        """Make the probe table as tall as its rows: all of them show, none scrolls."""
+        table = self.probe_table
+        table.resizeRowsToContents()
+        height = (table.horizontalHeader().sizeHint().height() + 2 * table.frameWidth()
+                  + sum(table.rowHeight(r) for r in range(table.rowCount())))
+        if table.horizontalScrollBar().isVisible() or table.columnCount() > 2:
+            height += table.horizontalScrollBar().sizeHint().height()
+        table.setFixedHeight(height)
 
     # ------------------------------------------------------------------ editing
     def edit(self, text: str, face, select=KEEP, before=None) -> None:
@@ -821,8 +892,8 @@ class MainWindow(QtWidgets.QMainWindow):
         skin view, else the front of the face.
         """
         skin = self.session.face.skin
-        if self.probed_vertex is not None and self.probed_vertex < skin.n_points:
-            return skin.points[self.probed_vertex]
+        if self.probe_point is not None:
+            return self.session.probe_position(self.probe_point)[0]
         picker = vtkPropPicker()
         w, h = self.skin_view.render_window.GetSize()
         if picker.Pick(w / 2, h / 2, 0, self.skin_view.renderer):
@@ -950,10 +1021,11 @@ class MainWindow(QtWidgets.QMainWindow):
         finally:
             self._syncing = False
         self._show_activation()
-        if self.probed_vertex is not None and self.probed_vertex >= len(state.points):
-            self.probed_vertex = None  # a vertex of a refinement that is gone
-        if self.probed_vertex is not None:
-            self.probe_vertex(self.probed_vertex)
+        if self.probe_point is not None:
+            if self.probe_point.triangle < s.face.skin.n_triangles:
+                self.probe_at(self.probe_point)  # the same rest point, this frame
+            else:
+                self.clear_probe()
         self.views.render(only_changed=not reset_camera, skip=skip)
         total_ms = 1e3 * (time.perf_counter() - t0)
         self.status_label.setText(
@@ -1102,6 +1174,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.session = session
         self.undo_stack.clear()
         self.param_error.setText("")
+        self.clear_probe()  # a point of the skin shown before
         self._populate()
         self.refresh(reset_camera=True)
         self.newface.session_changed(session)
@@ -1476,6 +1549,11 @@ def _triangles(drawn: int, skin: int) -> str:
     from 4500)``.
     """
     return f"{drawn} triangles" + (f" (refined from {skin})" if drawn != skin else "")
+
+
+def _xyz(point) -> str:
+    """``(3,)`` as ``x, y, z`` with 4 significant digits."""
+    return ", ".join(f"{float(x):.4g}" for x in point)
 
 
 def _field_label(field: str, unit: str) -> str:

@@ -10,7 +10,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 from scipy.spatial import cKDTree
 
-__all__ = ["MeshError", "MeshReport", "TriangleSurface", "barycentric_points", "closest_points",
+__all__ = ["MeshError", "MeshReport", "TriangleSurface", "barycentric_points",
+           "closest_on_triangles", "closest_points", "ray_on_triangles",
            "cotangent_laplacian", "phong_midpoints", "self_intersections", "shape_operators",
            "smoothed_normals", "subdivide", "surface_coordinates", "tangent_bases",
            "triangle_normals", "unit_rows", "vector_lengths"]
@@ -422,6 +423,52 @@ def surface_coordinates(surface: TriangleSurface, queries) -> tuple[np.ndarray, 
         j = int(np.argmin(np.linalg.norm(cand - point, axis=1)))
         best_tri[i], best[i] = tris[j], cand[j]
     return best_tri, _barycentric(surface.points[surface.triangles[best_tri]], best)
+
+
+def closest_on_triangles(surface: TriangleSurface, candidates,
+                         point) -> tuple[int, np.ndarray]:
+    """Where among triangles ``candidates`` ``(t,)`` of ``surface`` the point closest to
+    ``point`` ``(3,)`` lies: its triangle and barycentric coordinates ``(3,)`` (summing to 1,
+    each in ``[0, 1]``). One candidate: where a point picked on that triangle lies in it.
+    """
+    ids = np.atleast_1d(np.asarray(candidates, dtype=np.intp))
+    p = np.asarray(point, dtype=float).reshape(3)
+    corners = surface.points[surface.triangles[ids]]
+    cand = _closest_on_triangles(p, corners)
+    j = int(np.argmin(np.linalg.norm(cand - p, axis=1)))
+    bary = np.clip(_barycentric(corners[j:j + 1], cand[j:j + 1])[0], 0.0, 1.0)
+    return int(ids[j]), bary / bary.sum()
+
+
+def ray_on_triangles(surface: TriangleSurface, candidates, origin,
+                     direction) -> tuple[int, np.ndarray] | None:
+    r"""Where the line through ``origin`` ``(3,)`` along ``direction`` ``(3,)`` meets the
+    triangles ``candidates`` ``(t,)`` of ``surface`` nearest to ``origin``: the triangle and
+    the barycentric coordinates ``(3,)`` of the hit; None if it meets none of them.
+
+    Möller-Trumbore: :math:`o + s\,d = a + u\,(b - a) + v\,(c - a)` with
+    :math:`u, v \ge 0,\ u + v \le 1` (a tolerance of :math:`10^{-9}` on the edges).
+    """
+    ids = np.atleast_1d(np.asarray(candidates, dtype=np.intp))
+    o, d = np.asarray(origin, float).reshape(3), np.asarray(direction, float).reshape(3)
+    corners = surface.points[surface.triangles[ids]]
+    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    p = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, p)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / det
+        t = o - corners[:, 0]
+        u = np.einsum("ij,ij->i", t, p) * inv
+        q = np.cross(t, e1)
+        v = (q @ d) * inv
+        s = np.einsum("ij,ij->i", e2, q) * inv
+    tol = 1e-9
+    hit = (np.abs(det) > 0) & (u >= -tol) & (v >= -tol) & (u + v <= 1 + tol)
+    if not hit.any():
+        return None
+    j = int(np.flatnonzero(hit)[np.argmin(np.abs(s[hit]))])
+    bary = np.clip(np.array([1.0 - u[j] - v[j], u[j], v[j]]), 0.0, 1.0)
+    return int(ids[j]), bary / bary.sum()
 
 
 def barycentric_points(surface: TriangleSurface, triangles, barycentric,
