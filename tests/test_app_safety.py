@@ -706,3 +706,39 @@ def test_run_reports_a_layout_it_cannot_open_in_one_line(tmp_path, capsys):
     assert run(["wrinkle-vis"], layout=bad) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "bad.json" in err and "line 1" in err
+
+
+def _wheel(widget: QtWidgets.QWidget, notches: int = 1) -> None:
+    """A real QWheelEvent (``notches`` of 15 degrees up) at the middle of ``widget``."""
+    centre = QtCore.QPointF(widget.width() / 2, widget.height() / 2)
+    event = QtGui.QWheelEvent(centre, QtCore.QPointF(widget.mapToGlobal(centre.toPoint())),
+                              QtCore.QPoint(0, 0), QtCore.QPoint(0, 120 * notches),
+                              QtCore.Qt.NoButton, QtCore.Qt.NoModifier,
+                              QtCore.Qt.NoScrollPhase, False)
+    QtWidgets.QApplication.sendEvent(widget, event)
+
+
+def test_the_wheel_over_an_unfocused_control_edits_nothing(window, qtbot):
+    """Issue 32: scrolling the control panel with the wheel edited the parameter under the
+    pointer (an undo step each). Unfocused, a spin box, a combo box or a slider takes no
+    wheel; focused (clicked, tabbed to), it does."""
+    window.select_muscle("frontalis_major_L")
+    activate(window, qtbot)
+    window.expression_box.setFocus()  # the focus elsewhere
+    qtbot.waitUntil(window.expression_box.hasFocus)
+    k0 = window.param_widgets["k0"]
+    before = (k0.value(), window.session.face, window.undo_stack.count(),
+              window.expression_box.currentText(), window.intensity_slider.value(),
+              window.field_box.currentText(), window.activation_box.value())
+    for box in (k0, window.field_box, window.intensity_slider, window.activation_box):
+        assert not box.hasFocus()
+        _wheel(box, -1)
+    after = (k0.value(), window.session.face, window.undo_stack.count(),
+             window.expression_box.currentText(), window.intensity_slider.value(),
+             window.field_box.currentText(), window.activation_box.value())
+    assert after == before
+    k0.setFocus()
+    qtbot.waitUntil(k0.hasFocus)
+    _wheel(k0, 1)  # the control in use: one step up, an undoable edit
+    assert k0.value() == pytest.approx(before[0] + k0.singleStep())
+    assert window.undo_stack.count() == before[2] + 1

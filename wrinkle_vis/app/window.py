@@ -143,6 +143,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.autosave_deadline.setInterval(AUTOSAVE_MAX_MS)
         self.autosave_deadline.timeout.connect(self.autosave)
         self._undo_keys = _UndoKeysToWindow(self)
+        self._wheel_guard = _WheelOnlyWhenFocused(self)
         self._ramp = (None, None)  # (what it was computed for, the colour range over the ramp)
         self._drag_before = None
         self._drawn_face = None
@@ -329,6 +330,8 @@ class MainWindow(QtWidgets.QMainWindow):
         scroll.setFrameShape(QtWidgets.QFrame.NoFrame)
         scroll.setHorizontalScrollBarPolicy(QtCore.Qt.ScrollBarAlwaysOff)
         scroll.setWidget(panel)
+        self.control_scroll = scroll
+        self._guard_wheel(panel)
         scroll.setMinimumWidth(panel.minimumSizeHint().width()
                                + scroll.verticalScrollBar().sizeHint().width())
         dock.setWidget(scroll)
@@ -549,6 +552,19 @@ class MainWindow(QtWidgets.QMainWindow):
         self.param_form.addRow("derived", self.derived_label)
         self.param_form.addRow(self.param_error)
         self._show_derived()
+        self._guard_wheel(self.param_group)
+
+    def _guard_wheel(self, root: QtWidgets.QWidget) -> None:
+        """The wheel edits the value controls under ``root`` only once they have the focus
+        (a click or Tab gives it; the wheel does not): over an unfocused one it scrolls the
+        panel, so scrolling through the controls edits nothing.
+        """
+        kinds = (QtWidgets.QAbstractSpinBox, QtWidgets.QComboBox, QtWidgets.QAbstractSlider)
+        for w in root.findChildren(QtWidgets.QWidget):
+            if not isinstance(w, kinds) or isinstance(w, QtWidgets.QScrollBar):
+                continue  # a scroll bar (the probe table's) scrolls
+            w.setFocusPolicy(QtCore.Qt.StrongFocus)
+            w.installEventFilter(self._wheel_guard)
 
     def _show_derived(self) -> None:
         if self.session.muscle is not None:
@@ -1483,6 +1499,18 @@ class _UndoKeysToWindow(QtCore.QObject):
                 event.matches(QtGui.QKeySequence.Undo)
                 or event.matches(QtGui.QKeySequence.Redo)):
             event.ignore()  # not the box's: the shortcut goes to the window
+            return True
+        return False
+
+
+class _WheelOnlyWhenFocused(QtCore.QObject):
+    """An event filter that keeps the wheel from a value control without the focus: the
+    event goes on, unhandled, to the control's parents (the scrolled panel scrolls).
+    """
+
+    def eventFilter(self, obj, event) -> bool:  # noqa: N802 (Qt's name)
+        if event.type() == QtCore.QEvent.Wheel and not obj.hasFocus():
+            event.ignore()  # not the control's: Qt passes it on to its parent
             return True
         return False
 
