@@ -448,6 +448,31 @@ def test_a_layout_whose_mesh_moved_asks_for_it(make_window, answer, monkeypatch,
     assert len(w.session.face.muscles) == len(wv_face.muscles)
 
 
+def test_a_mesh_chosen_for_a_layout_is_an_unsaved_change_after_other_edits(
+        make_window, answer, monkeypatch, tmp_path, ply_skin, wv_face):
+    """Issue 32: after edits (discarded), a mesh chosen for the layout opened was no
+    unsaved change: no ``*``, Quit did not ask, the pairing was lost. The title marks it
+    and Quit asks (Cancel keeps the window)."""
+    from wrinkle_vis.app.session import Session
+
+    path = tmp_path / "mine.json"
+    wv.save_layout(dataclasses.replace(Session(wv_face).layout(), skin="gone.ply",
+                                       n_triangles=None), path)
+    w = make_window()
+    w.select_muscle("corrugator_L")
+    w.param_widgets["k0"].setValue(2.5)  # an edit: the undo stack is not clean
+    assert w.session.dirty
+    monkeypatch.setattr(QtWidgets.QFileDialog, "getOpenFileName",
+                        lambda *a, **k: (str(ply_skin), ""))
+    answer("Discard", "Choose mesh...")
+    assert w.open_layout(path)
+    assert w.session.dirty and w.windowTitle().endswith(" *")
+    assert w.session.layout().skin == os.path.relpath(ply_skin, tmp_path)
+    answer("Cancel")
+    w.close()
+    assert "unsaved changes" in answer.asked[-1] and w.isVisible()
+
+
 def test_the_lee_perry_smith_face_from_the_menu_saves_and_reopens_as_itself(make_window,
                                                                            tmp_path):
     w = make_window()

@@ -1125,11 +1125,8 @@ class MainWindow(QtWidgets.QMainWindow):
             session = self._session_on_chosen_mesh(Path(path), exc)
             if session is None:
                 return False
-        self._show_session(session)
-        if session.dirty:  # the mesh chosen for it: a change of the layout, unsaved
-            self.undo_stack.resetClean()
-            session.dirty = True
-            self._update_title()
+        # the mesh chosen for it is a change of the layout, unsaved
+        self._show_session(session, modified=session.dirty)
         self.recovery.discard()  # what it held was saved or discarded just now
         self._remember(path)
         return True
@@ -1183,12 +1180,17 @@ class MainWindow(QtWidgets.QMainWindow):
         """Open a layout of the Open recent menu."""
         return self.open_layout(path)
 
-    def _show_session(self, session: Session) -> None:
-        """Show another session (a layout opened or restored), with the view's settings."""
+    def _show_session(self, session: Session, modified: bool = False) -> None:
+        """Show another session (a layout opened or restored), with the view's settings;
+        ``modified``: it holds a change not saved yet (``*`` in the title, Quit asks).
+        """
         session.refine = self.refine_box.isChecked()
         session.fixed_range = self.session.fixed_range
         self.session = session
-        self.undo_stack.clear()
+        self.undo_stack.clear()  # clean again: the new session is not modified (so far)
+        if modified:  # after the clear, whose cleanChanged would unmark it
+            self.undo_stack.resetClean()
+            session.dirty = True
         self.param_error.setText("")
         self.clear_probe()  # a point of the skin shown before
         self._populate()
