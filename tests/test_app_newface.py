@@ -301,8 +301,9 @@ def test_the_example_opens_on_the_mesh_chosen_for_it(make_window, answer, monkey
 @pytest.mark.slow
 @pytest.mark.parametrize("mesh", list(SCAN_LANDMARKS))
 def test_a_new_face_from_a_scan_by_clicks_wrinkles_and_reopens_bit_for_bit(
-        make_window, monkeypatch, tmp_path, mesh):
+        make_window, monkeypatch, tmp_path, mesh, asked_unit):
     w = make_window()
+    asked_unit.reply = "mm"  # the bust's unit cannot be guessed: asked, read as before
     path = REAL / mesh
     start_flow(w, monkeypatch, path)
     flow = w.newface
@@ -471,6 +472,74 @@ def test_a_mesh_chosen_for_a_layout_is_an_unsaved_change_after_other_edits(
     answer("Cancel")
     w.close()
     assert "unsaved changes" in answer.asked[-1] and w.isVisible()
+
+
+@pytest.fixture
+def asked_unit(monkeypatch):
+    """QInputDialog.getItem answered with ``asked_unit.reply`` (None: Cancel); the prompts
+    asked are kept in ``asked_unit.prompts``."""
+    class Asked:
+        reply, prompts = "m", []
+
+    def get_item(parent, title, label, items, current=0, editable=True, *a, **k):
+        Asked.prompts.append(label)
+        assert Asked.reply is None or Asked.reply in items
+        return (Asked.reply or "", Asked.reply is not None)
+
+    monkeypatch.setattr(QtWidgets.QInputDialog, "getItem", get_item)
+    return Asked
+
+
+@pytest.fixture(scope="module")
+def small_ply(tmp_path_factory, wv_face):
+    """The built-in skin at 1/100 of its size (2.3 units tall: no unit fits a head)."""
+    path = tmp_path_factory.mktemp("small") / "small.ply"
+    to_surface_polydata(wv_face.skin.with_points(wv_face.skin.points / 100.0)).save(path)
+    return path
+
+
+def test_a_scan_whose_unit_cannot_be_guessed_asks_for_it(make_window, monkeypatch,
+                                                          asked_unit, small_ply, ply_skin):
+    """Issue 32: the app took such a scan (the Demosthenes bust, 2.69 units tall) as
+    millimetres without a word; it asks, and Cancel starts nothing. A scan of a head's size
+    in millimetres is not asked about."""
+    w = make_window()
+    start_flow(w, monkeypatch, small_ply)
+    assert len(asked_unit.prompts) == 1 and "small.ply is 2.3" in asked_unit.prompts[0]
+    assert w.newface.picker.unit == "m" and w.session.unit == "m"
+    assert w.newface.panel.unit_box.currentText() == "m"
+    w.newface.cancel()
+    asked_unit.reply = None  # Cancel
+    before = w.session
+    start_flow(w, monkeypatch, small_ply)
+    assert w.newface.picker is None and w.session is before
+    start_flow(w, monkeypatch, ply_skin)  # 230 mm tall: guessed, not asked
+    assert len(asked_unit.prompts) == 2 and w.newface.picker.unit == "mm"
+    w.newface.cancel()
+
+
+def test_a_layout_on_a_mesh_of_no_guessable_unit_asks_for_it(make_window, asked_unit,
+                                                               small_ply, tmp_path):
+    """A layout that names such a mesh and no unit: asked when opened."""
+    path = tmp_path / "small.json"
+    wv.save_layout(wv.Layout(skin=str(small_ply),
+                             expressions={"neutral": wv.Expression("neutral")}), path)
+    w = make_window()
+    asked_unit.reply = "cm"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", wv.core.units.UnitWarning)  # no guess behind it
+        assert w.open_layout(path)
+    assert len(asked_unit.prompts) == 1 and w.session.face.unit == "cm"
+    assert w.session.unit == "cm"
+
+
+@needs_scans
+def test_the_demosthenes_bust_asks_for_its_unit(make_window, monkeypatch, asked_unit):
+    w = make_window()
+    start_flow(w, monkeypatch, REAL / "demosthenes_bust.obj")
+    assert "demosthenes_bust.obj is 2.69 units tall" in asked_unit.prompts[0]
+    assert w.newface.picker.unit == "m"
+    w.newface.cancel()
 
 
 def test_the_lee_perry_smith_face_from_the_menu_saves_and_reopens_as_itself(make_window,

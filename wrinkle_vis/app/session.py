@@ -495,11 +495,13 @@ def playback_position(start: int, elapsed_s: float, duration_s: float,
     return (int(start) + round(steps * elapsed_s / duration_s)) % (steps + 1)
 
 
-def load_session(path: str | Path | None = None, n_triangles: int | None = None) -> Session:
+def load_session(path: str | Path | None = None, n_triangles: int | None = None,
+                 unit: str | None = None) -> Session:
     """A session on the layout file ``path``, read once (default: the built-in face).
 
     ``n_triangles``: the built-in skin's resolution when the layout records none (default
-    the loader's). Raises ``FileNotFoundError``, :class:`~wrinkle_vis.core.layout.LayoutError`
+    the loader's); ``unit``: its mesh's unit when the layout records none (default guessed
+    from its size). Raises ``FileNotFoundError``, :class:`~wrinkle_vis.core.layout.LayoutError`
     or ``ValueError`` with the reason.
     """
     from wrinkle_vis.datasets import load_face
@@ -510,5 +512,5 @@ def load_session(path: str | Path | None = None, n_triangles: int | None = None)
     layout = load_layout(path)
     n = layout.n_triangles if layout.n_triangles is not None else n_triangles
     face = load_face(n, layout=layout, skin=layout.resolve("skin", path.parent),
-                     skull=layout.resolve("skull", path.parent))
+                     skull=layout.resolve("skull", path.parent), unit=layout.unit or unit)
     return Session(face, path, layout=layout)

@@ -26,7 +26,7 @@ from ..core.face import FIELD_NAMES
 from ..core.layout import Layout, LayoutError, load_layout
 from ..core.muscle import MuscleParameterError
 from ..core.registry import muscle_types
-from ..core.units import LENGTH_UNITS
+from ..core.units import DEFAULT_UNIT, LENGTH_UNITS, guess_unit
 from ..plotting import set_camera
 from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
@@ -1118,8 +1118,11 @@ class MainWindow(QtWidgets.QMainWindow):
         current = self.session.layout()
         n = self.session.face.skin.n_triangles if current.skin is None and current.face in (
             None, "procedural") else None
+        go_on, unit = self._unit_of_layout_mesh(Path(path))
+        if not go_on:
+            return False
         try:
-            session = load_session(path, n_triangles=n)
+            session = load_session(path, n_triangles=n, unit=unit)
             session.state()  # a face that cannot be evaluated is refused here, not later
         except (OSError, LayoutError, ValueError, KeyError) as exc:
             session = self._session_on_chosen_mesh(Path(path), exc)
@@ -1137,7 +1140,8 @@ class MainWindow(QtWidgets.QMainWindow):
         offer to choose the mesh it was made for; else report ``exc`` in one line. Returns
         the session on the chosen mesh, or None.
         """
-        from wrinkle_vis.datasets import load_face
+        from wrinkle_vis.core.mesh import MeshError
+        from wrinkle_vis.datasets import load_face, read_surface
 
         from .newface import MESH_FILTER, relative_mesh_path
 
@@ -1166,15 +1170,64 @@ class MainWindow(QtWidgets.QMainWindow):
             if chosen else ""
         if not mesh:
             return None
-        named = dataclasses.replace(layout, skin=relative_mesh_path(mesh, path.parent))
         try:
-            session = Session(load_face(layout=layout, skin=mesh), path, layout=named)
+            skin = read_surface(mesh)
+        except (OSError, MeshError, ValueError) as err:
+            QtWidgets.QMessageBox.warning(self, "Cannot open layout", f"{mesh}: {err}")
+            return None
+        unit = layout.unit or self.ask_unit(skin, Path(mesh).name)
+        if unit is None:
+            return None
+        named = dataclasses.replace(layout, skin=relative_mesh_path(mesh, path.parent),
+                                    unit=unit)
+        try:
+            session = Session(load_face(layout=layout, skin=skin, unit=unit), path,
+                              layout=named)
             session.state()
         except (OSError, LayoutError, ValueError, KeyError) as err:
             QtWidgets.QMessageBox.warning(self, "Cannot open layout", f"{mesh}: {err}")
             return None
         session.dirty = True
         return session
+
+    def _unit_of_layout_mesh(self, path: Path) -> tuple[bool, str | None]:
+        """For layout ``path`` naming a mesh but no unit: ``(True, unit)`` with the unit
+        guessed or asked (:meth:`ask_unit`), ``(False, None)`` when the question was
+        cancelled; ``(True, None)`` for any other layout (or one that cannot be read: the
+        opening reports it).
+        """
+        from wrinkle_vis.core.mesh import MeshError
+        from wrinkle_vis.datasets import read_surface
+
+        try:
+            layout = load_layout(path)
+            mesh = layout.resolve("skin", path.parent)
+            if layout.unit is not None or mesh is None or not mesh.is_file():
+                return True, None
+            skin = read_surface(mesh)
+        except (OSError, LayoutError, MeshError, ValueError):
+            return True, None
+        unit = self.ask_unit(skin, mesh.name)
+        return unit is not None, unit
+
+    def ask_unit(self, skin, what: str) -> str | None:
+        """The unit of the coordinates of ``skin`` (a :class:`TriangleSurface`; ``what``
+        names it): guessed from its height where that is a head's in one of the units
+        (:func:`~wrinkle_vis.core.units.guess_unit`), else asked (None: cancelled), so a
+        scan is never taken as millimetres without a word.
+        """
+        lo, hi = skin.bounds()
+        height = float(hi[1] - lo[1])
+        guess = guess_unit(height)
+        if guess is not None:
+            return guess
+        units = list(LENGTH_UNITS)
+        unit, ok = QtWidgets.QInputDialog.getItem(
+            self, "Unit of the mesh",
+            f"{what} is {height:.3g} units tall, not a head's height in m, cm or mm, so its "
+            "unit cannot be guessed. In which unit are its coordinates?",
+            units, units.index(DEFAULT_UNIT), False)
+        return unit if ok else None
 
     def open_recent(self, path: str) -> bool:
         """Open a layout of the Open recent menu."""
