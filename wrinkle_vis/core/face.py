@@ -89,9 +89,11 @@ class _MuscleData:
     @classmethod
     def build(cls, skin: TriangleSurface, muscle: Muscle, normals: np.ndarray) -> _MuscleData:
         reg = muscle.region(skin.points)
-        aoi = np.flatnonzero(reg["in_aoi"])
+        in_aoi = reg["in_aoi"].copy()
+        inside = np.flatnonzero(in_aoi)
+        in_aoi[inside[muscle.hidden(skin.points[inside], skin)]] = False  # skin behind skin
+        aoi = np.flatnonzero(in_aoi)
         region_pos = np.flatnonzero(reg["in_region"][aoi])
-        in_aoi = reg["in_aoi"]
         directions = np.nan_to_num(reg["direction"], nan=0.0)
         if muscle.compression == "gradient":
             edge_ids = np.zeros(0, np.intp)
