@@ -480,9 +480,8 @@ def occluded(surface: TriangleSurface, points, direction, min_distance: float,
              triangles=None) -> np.ndarray:
     r"""``(k,) bool``: which of ``points`` ``(k, 3)`` have ``surface`` in front of them
     along ``direction`` ``(3,)``: the ray :math:`p + t\,d`, :math:`t >` ``min_distance``
-    (in units of ``direction``'s length, which this normalizes), meets one of its
-    ``triangles`` (default all). ``min_distance`` steps over the surface a point lies on or
-    next to.
+    (a length: :math:`d` is ``direction`` normalized), meets one of its ``triangles``
+    (default all). ``min_distance`` steps over the surface a point lies on or next to.
 
     The triangles are binned on a grid of the plane normal to ``direction`` (cells about one
     triangle across), so each ray is tested against the few triangles over its cell
