@@ -354,6 +354,11 @@ class LinkedViews:
         if self.placement is not None:
             self.placement.update(face.muscle(self.placement.muscle.name), state)
 
+    def render_skin(self) -> None:
+        """Render the skin view alone (a probe marker moved)."""
+        if not getattr(self.skin_view, "_closed", False):
+            self._render_view(self.skin_view)
+
     def render(self, only_changed: bool = False, skip=()) -> None:
         """Render the views (with ``render_view``): all, or only those the last
         :meth:`draw` changed, less the plotters in ``skip`` (the view of a handle being

@@ -781,6 +781,7 @@ class MainWindow(QtWidgets.QMainWindow):
                 and hasattr(picker, "GetCellId"):
             cell = int(picker.GetCellId())
         self.probe_at(self.session.surface_point(point, cell))
+        self.views.render_skin()  # the marker where the click was
 
     def probe_vertex(self, vertex: int) -> dict:
         """Probe skin vertex ``vertex`` of the face (at rest); returns the values shown."""
