@@ -56,14 +56,23 @@ def test_probe_reports_what_the_core_computes(window, wv_face):
                                 state.fields["frontalis_major_L"][f][vertex])
     assert values["total"]["W"] == state.W[vertex]
     row = list(wv.FIELD_NAMES).index("W")
-    assert float(window.probe_table.item(row, 0).text()) == pytest.approx(
+    table = window.probe_table
+    assert table.horizontalHeaderItem(1).text() == "frontalis_major_L"  # selected: first
+    assert float(table.item(row, 1).text()) == pytest.approx(
         state.fields["frontalis_major_L"]["W"][vertex], rel=1e-4)
+    assert float(table.item(row, 0).text()) == pytest.approx(state.W[vertex], rel=1e-4)
 
 
-def test_pick_callback_probes_the_nearest_vertex(window):
-    point = window.session.state().points[123]
-    window._on_pick(point + 1e-6)
-    assert window.probed_vertex == 123
+def test_pick_callback_probes_the_point_on_the_skin(window):
+    """A pick with no triangle probes the closest point of the skin shown: at a vertex,
+    that vertex's values exactly, and its rest position."""
+    state = window.session.state()
+    window._on_pick(state.points[123] + 1e-6)
+    rest, now = window.session.probe_position(window.probe_point)
+    np.testing.assert_allclose(rest, state.rest_points[123], atol=1e-5)
+    np.testing.assert_allclose(now, state.points[123], atol=1e-5)
+    assert window.session.probe(window.probe_point)["total"]["W"] == pytest.approx(
+        state.W[123], abs=1e-9)
 
 
 def test_a_parameter_change_updates_the_skin(window):
@@ -252,17 +261,19 @@ def test_refinement_toggle_and_wireframe(window, wv_face):
     refined = skin_mesh(window).n_cells
     assert refined > base
     assert refined == len(wv_face.evaluate("surprise", refine=True).triangles)
-    newest = len(window.session.state().points) - 1  # a vertex the refinement made
+    state = window.session.state()
+    newest = len(state.points) - 1  # a vertex the refinement made
     assert newest >= wv_face.skin.n_points
-    window.probe_vertex(newest)
+    window._on_pick(state.points[newest])
+    assert window.session.probe(window.probe_point)["total"]["W"] == pytest.approx(
+        state.W[newest], abs=1e-9)
     window.wireframe_box.setChecked(True)
     assert window.skin_view.actors["skin"].prop.show_edges
     window.intensity_slider.setValue(40)  # a new refinement pattern: rebuilt, still right
     assert skin_mesh(window).n_cells == len(window.session.state().triangles)
-    window.probe_vertex(len(window.session.state().points) - 1)
     window.refine_box.setChecked(False)
     assert skin_mesh(window).n_cells == base
-    assert window.probed_vertex is None  # its vertex is gone with the refinement
+    assert window.probe_point is not None  # a point of the rest skin: it stays
 
 
 def test_plain_skin_and_the_raking_light(window):

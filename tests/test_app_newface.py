@@ -301,8 +301,9 @@ def test_the_example_opens_on_the_mesh_chosen_for_it(make_window, answer, monkey
 @pytest.mark.slow
 @pytest.mark.parametrize("mesh", list(SCAN_LANDMARKS))
 def test_a_new_face_from_a_scan_by_clicks_wrinkles_and_reopens_bit_for_bit(
-        make_window, monkeypatch, tmp_path, mesh):
+        make_window, monkeypatch, tmp_path, mesh, asked_unit):
     w = make_window()
+    asked_unit.reply = "mm"  # the bust's unit cannot be guessed: asked, read as before
     path = REAL / mesh
     start_flow(w, monkeypatch, path)
     flow = w.newface
@@ -419,7 +420,7 @@ def test_a_new_muscle_and_the_parameter_steps_follow_the_face_unit(make_window, 
                        wv_face.skull.with_points(wv_face.skull.points / 1000), (),
                        {"neutral": wv_face.expressions["neutral"]}, unit="m")
     w = make_window(Session(metres))
-    w.probed_vertex = int(np.argmax(metres.skin.points[:, 2]))
+    w.probe_vertex(int(np.argmax(metres.skin.points[:, 2])))
     name = w.add_muscle("linear")
     assert w.session.face.muscle(name).k0 == pytest.approx(0.0008)  # 0.8 mm
     box = w.param_widgets["k0"]
@@ -446,6 +447,99 @@ def test_a_layout_whose_mesh_moved_asks_for_it(make_window, answer, monkeypatch,
     assert w.session.face.skin.n_points == wv_face.skin.n_points and w.session.dirty
     assert w.session.layout().skin == os.path.relpath(ply_skin, tmp_path)
     assert len(w.session.face.muscles) == len(wv_face.muscles)
+
+
+def test_a_mesh_chosen_for_a_layout_is_an_unsaved_change_after_other_edits(
+        make_window, answer, monkeypatch, tmp_path, ply_skin, wv_face):
+    """Issue 32: after edits (discarded), a mesh chosen for the layout opened was no
+    unsaved change: no ``*``, Quit did not ask, the pairing was lost. The title marks it
+    and Quit asks (Cancel keeps the window)."""
+    from wrinkle_vis.app.session import Session
+
+    path = tmp_path / "mine.json"
+    wv.save_layout(dataclasses.replace(Session(wv_face).layout(), skin="gone.ply",
+                                       n_triangles=None), path)
+    w = make_window()
+    w.select_muscle("corrugator_L")
+    w.param_widgets["k0"].setValue(2.5)  # an edit: the undo stack is not clean
+    assert w.session.dirty
+    monkeypatch.setattr(QtWidgets.QFileDialog, "getOpenFileName",
+                        lambda *a, **k: (str(ply_skin), ""))
+    answer("Discard", "Choose mesh...")
+    assert w.open_layout(path)
+    assert w.session.dirty and w.windowTitle().endswith(" *")
+    assert w.session.layout().skin == os.path.relpath(ply_skin, tmp_path)
+    answer("Cancel")
+    w.close()
+    assert "unsaved changes" in answer.asked[-1] and w.isVisible()
+
+
+@pytest.fixture
+def asked_unit(monkeypatch):
+    """QInputDialog.getItem answered with ``asked_unit.reply`` (None: Cancel); the prompts
+    asked are kept in ``asked_unit.prompts``."""
+    class Asked:
+        reply, prompts = "m", []
+
+    def get_item(parent, title, label, items, current=0, editable=True, *a, **k):
+        Asked.prompts.append(label)
+        assert Asked.reply is None or Asked.reply in items
+        return (Asked.reply or "", Asked.reply is not None)
+
+    monkeypatch.setattr(QtWidgets.QInputDialog, "getItem", get_item)
+    return Asked
+
+
+@pytest.fixture(scope="module")
+def small_ply(tmp_path_factory, wv_face):
+    """The built-in skin at 1/100 of its size (2.3 units tall: no unit fits a head)."""
+    path = tmp_path_factory.mktemp("small") / "small.ply"
+    to_surface_polydata(wv_face.skin.with_points(wv_face.skin.points / 100.0)).save(path)
+    return path
+
+
+def test_a_scan_whose_unit_cannot_be_guessed_asks_for_it(make_window, monkeypatch,
+                                                          asked_unit, small_ply, ply_skin):
+    """Issue 32: the app took such a scan (the Demosthenes bust, 2.69 units tall) as
+    millimetres without a word; it asks, and Cancel starts nothing. A scan of a head's size
+    in millimetres is not asked about."""
+    w = make_window()
+    start_flow(w, monkeypatch, small_ply)
+    assert len(asked_unit.prompts) == 1 and "small.ply is 2.3" in asked_unit.prompts[0]
+    assert w.newface.picker.unit == "m" and w.session.unit == "m"
+    assert w.newface.panel.unit_box.currentText() == "m"
+    w.newface.cancel()
+    asked_unit.reply = None  # Cancel
+    before = w.session
+    start_flow(w, monkeypatch, small_ply)
+    assert w.newface.picker is None and w.session is before
+    start_flow(w, monkeypatch, ply_skin)  # 230 mm tall: guessed, not asked
+    assert len(asked_unit.prompts) == 2 and w.newface.picker.unit == "mm"
+    w.newface.cancel()
+
+
+def test_a_layout_on_a_mesh_of_no_guessable_unit_asks_for_it(make_window, asked_unit,
+                                                               small_ply, tmp_path):
+    """A layout that names such a mesh and no unit: asked when opened."""
+    path = tmp_path / "small.json"
+    wv.save_layout(wv.Layout(skin=str(small_ply),
+                             expressions={"neutral": wv.Expression("neutral")}), path)
+    w = make_window()
+    asked_unit.reply = "cm"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", wv.core.units.UnitWarning)  # no guess behind it
+        assert w.open_layout(path)
+    assert len(asked_unit.prompts) == 1 and w.session.face.unit == "cm"
+    assert w.session.unit == "cm"
+
+
+@needs_scans
+def test_the_demosthenes_bust_asks_for_its_unit(make_window, monkeypatch, asked_unit):
+    w = make_window()
+    start_flow(w, monkeypatch, REAL / "demosthenes_bust.obj")
+    assert "demosthenes_bust.obj is 2.69 units tall" in asked_unit.prompts[0]
+    assert w.newface.picker.unit == "m"
+    w.newface.cancel()
 
 
 def test_the_lee_perry_smith_face_from_the_menu_saves_and_reopens_as_itself(make_window,

@@ -12,6 +12,7 @@ import time
 
 import numpy as np
 import pytest
+from conftest import skin_mesh
 from PIL import Image
 from qtpy import QtCore, QtGui, QtWidgets
 from qtpy.QtTest import QTest
@@ -294,9 +295,10 @@ def test_autosave_comes_within_a_bounded_time_however_the_edits_go_on(window, re
 
 
 # ---------------------------------------------------------------------- silently wrong
-def test_a_right_click_on_the_skin_probes_the_vertex_there(window, qtbot):
+def test_a_right_click_on_the_skin_probes_the_point_there(window, qtbot):
     """Through Qt's mouse events on the view, pyvistaqt, VTK's picker and PyVista's pick
-    callback (which passes the point and the picker).
+    callback (which passes the point and the picker): the point under the mouse, marked
+    there, its coordinates and every muscle that acts there in the table.
     """
     window.set_camera("front")
     window.select_muscle("frontalis_major_L")
@@ -305,22 +307,135 @@ def test_a_right_click_on_the_skin_probes_the_vertex_there(window, qtbot):
     defined = np.flatnonzero(np.isfinite(fields["W"]) & (state.normals[:, 2] > 0.9))
     target = int(defined[len(defined) // 2])
     pos = widget_pos(window.skin_view, state.points[target])
+    _right_click(window, pos)
+    where = window.probe_point
+    assert where is not None, "the right-click probed nothing"
+    rest, now = window.session.probe_position(where)
+    clicked = np.array([pos.x(), window.skin_view.interactor.height() - pos.y()]) \
+        * window.skin_view.interactor.devicePixelRatioF()
+    assert np.linalg.norm(display_point(window.skin_view, now) - clicked) < 2
+    marker = window.skin_view.actors["_picked_probe"].mapper.dataset
+    np.testing.assert_allclose(np.mean(marker.points, axis=0), now, atol=1e-3)
+    radius = np.ptp(marker.points[:, 0]) / 2
+    lo, hi = state.face.skin.bounds()
+    assert radius > 0.004 * np.linalg.norm(hi - lo)  # a ball one sees, not 3 pixels
+    assert f"{rest[0]:.4g}" in window.probe_label.text()
+    values = window.session.probe(where)
+    acting = [m for m in values if m != "total"]
+    assert "frontalis_major_L" in acting
+    table = window.probe_table
+    assert [table.horizontalHeaderItem(c).text() for c in range(table.columnCount())] == \
+        ["total", "frontalis_major_L", *[m for m in acting if m != "frontalis_major_L"]]
+    for row, f in enumerate(wv.FIELD_NAMES):
+        own = values["frontalis_major_L"][f]
+        shown = table.item(row, 1).text()
+        assert shown == ("undefined" if not np.isfinite(own) else f"{own:.5g}")
+    assert float(table.item(list(wv.FIELD_NAMES).index("W"), 0).text()) == \
+        pytest.approx(values["total"]["W"], rel=1e-4, abs=1e-9)
+    # every row shows: the table is as tall as its rows
+    assert table.viewport().height() >= sum(table.rowHeight(r) for r in range(9))
+
+
+def _right_click(window, pos: QtCore.QPoint) -> None:
     view = window.skin_view.interactor
     QTest.mouseMove(view, pos)
     QTest.mousePress(view, QtCore.Qt.RightButton, QtCore.Qt.NoModifier, pos)
     QTest.mouseRelease(view, QtCore.Qt.RightButton, QtCore.Qt.NoModifier, pos)
-    vertex = window.probed_vertex
-    assert vertex is not None, "the right-click probed nothing"
-    near = np.linalg.norm(display_point(window.skin_view, state.points[vertex])
-                          - display_point(window.skin_view, state.points[target]))
-    assert near < 6  # the vertex under the mouse, or one beside it
-    values = window.session.probe(vertex)
-    for row, f in enumerate(wv.FIELD_NAMES):
-        own = values["frontalis_major_L"][f]
-        shown = window.probe_table.item(row, 0).text()
-        assert shown == ("undefined" if not np.isfinite(own) else f"{own:.5g}")
-    assert float(window.probe_table.item(list(wv.FIELD_NAMES).index("W"), 1).text()) == \
-        pytest.approx(state.W[vertex], rel=1e-4, abs=1e-9)
+
+
+def _rest_point_clicked(window) -> np.ndarray:
+    """The rest-skin point that PyVista's pick (the click) found, located apart from the
+    app: the closest cell of the drawn skin (VTK's cell locator), the point's barycentric
+    coordinates in that triangle of the frame, the same coordinates on the frame's rest
+    skin, the closest point of the face's skin."""
+    picked = np.asarray(window.skin_view.picked_point, float)
+    cell, on = skin_mesh(window).find_closest_cell(picked, return_closest_point=True)
+    state = window.session.state()
+    corners = state.points[state.triangles[cell]]
+    weights = np.linalg.lstsq(np.vstack([corners.T, np.ones(3)]), np.append(on, 1.0),
+                              rcond=None)[0]
+    rest = weights @ state.rest_points[state.triangles[cell]]
+    return wv.core.mesh.closest_points(window.session.face.skin, rest[None])[0]
+
+
+def _evaluated_at(face, expression: str, rest: np.ndarray) -> dict:
+    """The refined frame of ``expression`` evaluated apart from the app, sampled by VTK
+    (``vtkProbeFilter``) on its rest skin where the line through ``rest`` along the skin's
+    normal there meets it: ``{"W": .., "point": (3,), muscle: {field: ..}}``."""
+    import pyvista as pv
+
+    state = face.evaluate(expression, refine=True)
+    mesh = pv.PolyData.from_regular_faces(np.array(state.rest_points), state.triangles)
+    mesh.point_data["W"] = state.W
+    mesh.point_data["final"] = state.points
+    for m in face.muscle_names:
+        for f in wv.FIELD_NAMES:
+            mesh.point_data[f"{m}/{f}"] = state.fields[m][f]
+    tri, _ = wv.core.mesh.surface_coordinates(face.skin, rest[None])
+    a, b, c = face.skin.points[face.skin.triangles[tri[0]]]
+    normal = np.cross(b - a, c - a)
+    normal *= 5.0 / np.linalg.norm(normal)
+    hits = [mesh.ray_trace(rest, rest + sign * normal, first_point=True)[0]
+            for sign in (1.0, -1.0)]
+    hit = min((h for h in hits if len(h)), key=lambda h: np.linalg.norm(h - rest))
+    sampled = pv.PolyData(hit[None]).sample(mesh, tolerance=1e-6)
+    assert sampled["vtkValidPointMask"][0]
+    out = {"W": float(sampled["W"][0]), "point": np.array(sampled["final"][0])}
+    for m in face.muscle_names:
+        out[m] = {f: float(sampled[f"{m}/{f}"][0]) for f in wv.FIELD_NAMES}
+    return out
+
+
+def _probe_column(window, name: str) -> dict[str, str]:
+    table = window.probe_table
+    cols = [table.horizontalHeaderItem(c).text() for c in range(table.columnCount())]
+    col = cols.index(name)
+    return {f: table.item(r, col).text() for r, f in enumerate(wv.FIELD_NAMES)}
+
+
+def test_the_probe_stays_on_its_point_through_expressions_and_edits_when_refined(
+        window, wv_face):
+    """Issue 32: with refinement on, the probe kept an index into the refined mesh, whose
+    numbering changes with each frame: after surprise -> frown the table showed another
+    point's W (-0.68 mm on a bare forehead point), surprise -> fear kept surprise's values,
+    and after a k0 edit it showed a muscle outside its AOI. A right-click on the forehead,
+    then each frame's table and marker are compared with the frame evaluated apart from
+    the app at that rest point."""
+    window.set_camera("front")
+    window.refine_box.setChecked(True)
+    state = window.session.state()
+    sheet = state.fields["frontalis_major_L"]["W"]
+    defined = np.flatnonzero(np.isfinite(sheet) & (state.normals[:, 2] > 0.9))
+    target = int(defined[len(defined) // 3])
+    pos = widget_pos(window.skin_view, state.points[target])
+    _right_click(window, pos)
+    rest = _rest_point_clicked(window)
+    face = window.session.face
+    for expression in ("surprise", "frown", "fear", "surprise"):
+        window.expression_box.setCurrentText(expression)
+        want = _evaluated_at(face, expression, rest)
+        total = _probe_column(window, "total")
+        assert float(total["W"]) == pytest.approx(want["W"], rel=1e-4, abs=1e-6), expression
+        marker = window.skin_view.actors["_picked_probe"].mapper.dataset
+        np.testing.assert_allclose(np.mean(marker.points, axis=0), want["point"], atol=0.05)
+        acting = {m for m in face.muscle_names if np.isfinite(want[m]["lambda"])}
+        table = window.probe_table
+        shown = {table.horizontalHeaderItem(c).text() for c in range(table.columnCount())}
+        assert acting <= shown - {"total"}, expression
+        for m in acting:
+            column = _probe_column(window, m)
+            for f in ("lambda", "gamma", "l"):  # smooth on the AOI: interpolated alike
+                assert float(column[f]) == pytest.approx(want[m][f], rel=1e-4, abs=1e-6)
+    # an edit: k0 of the sheet; the probe shows the edited frame at its point
+    window.select_muscle("frontalis_major_L")
+    window.param_widgets["k0"].setValue(2.0 * window.param_widgets["k0"].value())
+    face = window.session.face
+    want = _evaluated_at(face, "surprise", rest)
+    assert float(_probe_column(window, "total")["W"]) == pytest.approx(
+        want["W"], rel=1e-4, abs=1e-6)
+    column = _probe_column(window, "frontalis_major_L")
+    assert float(column["W"]) == pytest.approx(want["frontalis_major_L"]["W"], rel=1e-4,
+                                               abs=1e-6)
 
 
 def test_a_long_session_cannot_run_none_out_of_references(window):
@@ -591,3 +706,39 @@ def test_run_reports_a_layout_it_cannot_open_in_one_line(tmp_path, capsys):
     assert run(["wrinkle-vis"], layout=bad) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "bad.json" in err and "line 1" in err
+
+
+def _wheel(widget: QtWidgets.QWidget, notches: int = 1) -> None:
+    """A real QWheelEvent (``notches`` of 15 degrees up) at the middle of ``widget``."""
+    centre = QtCore.QPointF(widget.width() / 2, widget.height() / 2)
+    event = QtGui.QWheelEvent(centre, QtCore.QPointF(widget.mapToGlobal(centre.toPoint())),
+                              QtCore.QPoint(0, 0), QtCore.QPoint(0, 120 * notches),
+                              QtCore.Qt.NoButton, QtCore.Qt.NoModifier,
+                              QtCore.Qt.NoScrollPhase, False)
+    QtWidgets.QApplication.sendEvent(widget, event)
+
+
+def test_the_wheel_over_an_unfocused_control_edits_nothing(window, qtbot):
+    """Issue 32: scrolling the control panel with the wheel edited the parameter under the
+    pointer (an undo step each). Unfocused, a spin box, a combo box or a slider takes no
+    wheel; focused (clicked, tabbed to), it does."""
+    window.select_muscle("frontalis_major_L")
+    activate(window, qtbot)
+    window.expression_box.setFocus()  # the focus elsewhere
+    qtbot.waitUntil(window.expression_box.hasFocus)
+    k0 = window.param_widgets["k0"]
+    before = (k0.value(), window.session.face, window.undo_stack.count(),
+              window.expression_box.currentText(), window.intensity_slider.value(),
+              window.field_box.currentText(), window.activation_box.value())
+    for box in (k0, window.field_box, window.intensity_slider, window.activation_box):
+        assert not box.hasFocus()
+        _wheel(box, -1)
+    after = (k0.value(), window.session.face, window.undo_stack.count(),
+             window.expression_box.currentText(), window.intensity_slider.value(),
+             window.field_box.currentText(), window.activation_box.value())
+    assert after == before
+    k0.setFocus()
+    qtbot.waitUntil(k0.hasFocus)
+    _wheel(k0, 1)  # the control in use: one step up, an undoable edit
+    assert k0.value() == pytest.approx(before[0] + k0.singleStep())
+    assert window.undo_stack.count() == before[2] + 1

@@ -181,7 +181,8 @@ def test_normal_map_holds_the_wrinkles_in_tangent_space(head, baked, raw_uv_tria
     angle = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", got, expected), -1, 1)))
     tilt = np.degrees(np.arccos(np.clip(expected[:, 2], -1, 1)))
     got_tilt = np.degrees(np.arccos(np.clip(got[:, 2], -1, 1)))
-    assert tilt.max() > 10  # the wrinkles do tilt the normal
+    assert tilt.max() > 1.0  # the wrinkles do tilt the normal (about 1.4 deg at most on
+    # the forehead; the 10+ deg this once saw were the eye sockets' roofs, issue 32)
     # how far: whatever the frame, within the 8-bit steps
     assert np.percentile(np.abs(got_tilt - tilt), 99) < 1.5
     # which way: the map's frame smooths +u over the triangles around a corner, while this

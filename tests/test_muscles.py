@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from meshes import assert_c1_along_random_lines, rotation
+from meshes import assert_c1_along_random_lines, grid, rotation
 
 import wrinkle_vis as wv
 
@@ -256,3 +256,39 @@ def test_region_is_invariant_under_rigid_motion_and_lambda_gamma_under_scaling(m
     r2 = _moved(m, np.eye(3), 0.0, scale=2.5).region(2.5 * pts)
     for key in ("lam", "gamma"):
         np.testing.assert_allclose(r2[key], r0[key], atol=1e-9)
+
+
+def _plates(hidden: bool) -> wv.TriangleSurface:
+    """A 100 mm square "forehead" facing +z at z = 0 and, with ``hidden``, a "socket roof"
+    25 mm behind it facing away (-z), as on a scan with open eye sockets."""
+    front = grid(41, 41, 100.0)
+    if not hidden:
+        return front
+    back = front.points + [0.0, 0.0, -25.0]
+    tris = front.triangles[:, ::-1] + front.n_points  # facing -z
+    return wv.TriangleSurface(np.r_[front.points, back], np.r_[front.triangles, tris])
+
+
+def _forehead_face(skin):
+    sheet = wv.SheetMuscle("frontalis", [[-15.0, 40.0, 0.0], [15.0, 40.0, 0.0]],
+                           [[-15.0, -10.0, 0.0], [15.0, -10.0, 0.0]], lambda_w=0.2,
+                           n_wrinkles=3, k0=1.0, alpha=1.0)
+    assert sheet.depth_value > 25.0  # its prism takes in the plate behind
+    return wv.FaceModel(skin, None, [sheet], {"up": wv.Expression("up", {"frontalis": 1.0})})
+
+
+@pytest.mark.parametrize("refine", [False, True])
+def test_a_sheet_leaves_out_the_skin_behind_the_skin_it_wrinkles(refine):
+    """Issue 32: a sheet's AOI, a prism through everything in its depth bound, reached skin
+    behind the forehead (the roof of a scan's eye socket, 25 mm back) and wrinkled it more
+    than the forehead. That skin gets no AOI and no W, and the forehead's frame is the one
+    it has without the skin behind it, to the last bit."""
+    alone = _forehead_face(_plates(hidden=False)).evaluate("up", refine=refine)
+    both = _forehead_face(_plates(hidden=True)).evaluate("up", refine=refine)
+    front = both.rest_points[:, 2] > -1.0
+    assert np.abs(alone.W).max() > 0.1
+    np.testing.assert_array_equal(both.W[front], alone.W)
+    np.testing.assert_array_equal(both.points[front], alone.points)
+    assert not np.any(both.W[~front]) and np.array_equal(both.points[~front],
+                                                         both.rest_points[~front])
+    assert np.isnan(both.fields["frontalis"]["lambda"][~front]).all()

@@ -245,3 +245,36 @@ def test_a_non_orientable_scan_is_refused_with_the_way_out(tmp_path):
     with pytest.raises(wv.MeshError, match="moebius.obj: the triangles cannot be oriented "
                                            "consistently.*Re-Orient all faces coherently"):
         read_surface(path)
+
+
+@needs_scans
+@pytest.mark.parametrize("refine", [False, True])
+def test_on_the_raw_scan_no_sheet_wrinkles_skin_hidden_behind_skin(refine):
+    """Issue 32: on the raw head scan (the README's scan example) the frontalis wrinkled
+    the hidden roof of the eye socket, 25 mm behind the forehead: W 2.6 mm there against
+    0.35 mm on the forehead, and that value set the summary and the colour ranges. Every
+    vertex a sheet wrinkles is seen from outside along the sheet's normal (VTK's ray
+    tracer: the ray from half the sheet's width out meets no skin), and the largest |W| is
+    on skin that faces the sheet."""
+    face = wv.datasets.load_face(skin=HEAD, landmarks=wv.datasets.read_landmarks(EXAMPLE),
+                                 unit="m")
+    skin = to_surface_polydata(face.skin)
+    centre = face.skin.points.mean(axis=0)
+    for expression in ("surprise", "fear"):
+        state = face.evaluate(expression, refine=refine)
+        normals = face.skin.vertex_normals()
+        for m in face.muscles:
+            if m.type_name != "sheet" or not state.activations[m.name]:
+                continue
+            _, _, n = m.frame
+            out = n if (m.insertion_center - centre) @ n >= 0 else -n
+            step = 0.5 * m.width_value  # skin farther behind skin: another layer
+            wrinkled = np.flatnonzero(np.nan_to_num(state.fields[m.name]["W"]) != 0)
+            assert len(wrinkled) > 10
+            for x in state.rest_points[wrinkled]:
+                hits, _ = skin.ray_trace(x + step * out, x + 0.3 * out)
+                assert not len(hits), f"{m.name} wrinkles {x}, behind skin at {hits[0]}"
+        if not refine:
+            top = int(np.argmax(np.abs(state.W)))
+            assert normals[top] @ [0.0, 0.33, 0.94] > 0.5  # the forehead's outward normal
+        assert np.abs(state.W).max() < 1.5e-3  # metres: was 2.6 mm in the socket

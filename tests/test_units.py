@@ -43,3 +43,33 @@ def test_a_scan_in_metres_is_labelled_metres(wv_face):
     placed = wv.datasets.load_face(skin=skin, landmarks=marks, unit="m")
     assert placed.unit == "m" and len(placed.muscles) == len(wv_face.muscles)
     assert "W total (m)" in placed.evaluate("surprise").summary()
+
+
+def _in_metres(face):
+    """``face`` (millimetres) in metres: its meshes, muscle points and lengths / 1000."""
+    muscles = []
+    for m in face.muscles:
+        data = m.to_dict()
+        for p in m.parameters():
+            if p.unit in ("length", "point") and data.get(p.name) is not None:
+                data[p.name] = (np.asarray(data[p.name], float) / 1000.0).tolist()
+        muscles.append(type(m).from_dict(data))
+    return wv.FaceModel(face.skin.with_points(face.skin.points / 1000.0),
+                        face.skull.with_points(face.skull.points / 1000.0), muscles,
+                        face.expressions, unit="m")
+
+
+def test_the_summary_of_a_face_in_metres_prints_its_values(wv_face):
+    """Issue 32: every per-muscle range of a face in metres printed as [-0.000, +0.000]."""
+    import re
+
+    state = _in_metres(wv_face).evaluate("surprise")
+    text = state.summary()
+    line = next(x for x in text.splitlines() if x.strip().startswith("frontalis_major_L:"))
+    low, high = (float(x) for x in re.search(r"W \[(\S+), (\S+)\]", line).groups())
+    w = state.fields["frontalis_major_L"]["W"]
+    w = w[np.isfinite(w)]
+    assert w.min() < 0 < w.max() and max(-w.min(), w.max()) < 1e-2  # metres: small numbers
+    assert low == pytest.approx(w.min(), rel=1e-3) and high == pytest.approx(w.max(), rel=1e-3)
+    total = re.search(r"W total \(m\): min (\S+)\s+max (\S+)", text).groups()
+    assert [float(x) for x in total] == pytest.approx([state.W.min(), state.W.max()], rel=1e-3)

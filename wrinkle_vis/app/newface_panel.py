@@ -219,7 +219,9 @@ class NewFaceFlow:
             QtWidgets.QMessageBox.warning(w, "Cannot read the mesh", str(exc))
             return False
         picker = LandmarkPicker(skin, Path(path))
-        picker.unit = picker.guessed_unit()
+        picker.unit = w.ask_unit(skin, Path(path).name)  # guessed, else asked
+        if picker.unit is None:
+            return False
         self._begin(picker)
         return True
 

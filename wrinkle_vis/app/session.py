@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +22,7 @@ from ..core.tracks import Performance
 from ..core.units import face_unit
 from ..plotting.fields import field_info, field_range
 
-__all__ = ["OPTIONS", "TIMELINE_STEPS", "Session", "editable", "load_session",
+__all__ = ["OPTIONS", "TIMELINE_STEPS", "Session", "SurfacePoint", "editable", "load_session",
            "playback_position"]
 
 #: Steps of the app's timeline: positions 0 to this many span the expression's duration.
@@ -343,19 +344,100 @@ class Session:
         return {"d": m.d, "u": m.u}
 
     # ------------------------------------------------------------------ probe
-    def probe(self, vertex: int) -> dict:
-        """Every field's value at skin vertex ``vertex``: ``{"total": {"W": ..}, muscle:
-        {field: ..}}`` for the muscles that define anything there (NaN elsewhere).
+    def surface_point(self, point, triangle: int | None = None) -> SurfacePoint:
+        """The rest-skin point under ``point`` ``(3,)`` of the frame shown (its final skin,
+        as drawn): in its ``triangle`` of :meth:`state` when known (a pick names it), else
+        at the closest point of that skin; carried to the rest skin by its barycentric
+        coordinates and there onto :attr:`face`'s own (unrefined) skin.
         """
+        from ..core.mesh import barycentric_points, closest_on_triangles, surface_coordinates
+
         state = self.state()
-        if not 0 <= vertex < state.n_points:
-            raise IndexError(f"vertex {vertex} is not on the skin (0..{state.n_points - 1})")
-        out = {"total": {"W": float(state.W[vertex])}}
+        point = np.asarray(point, float).reshape(1, 3)
+        shown = state.surface()
+        if triangle is None or not 0 <= triangle < len(state.triangles):
+            tri, bary = surface_coordinates(shown, point)
+        else:
+            t, b = closest_on_triangles(shown, [triangle], point[0])
+            tri, bary = np.array([t]), b[None]
+        rest = barycentric_points(state.face.skin, tri, bary)
+        base = self.face.skin
+        if state.face.skin is not base:  # a refined frame: onto the skin's own triangles
+            tri, bary = surface_coordinates(base, rest)
+        return SurfacePoint(int(tri[0]), tuple(float(b) for b in bary[0]))
+
+    def vertex_point(self, vertex: int) -> SurfacePoint:
+        """Skin vertex ``vertex`` of :attr:`face` as a :class:`SurfacePoint`."""
+        skin = self.face.skin
+        if not 0 <= vertex < skin.n_points:
+            raise IndexError(f"vertex {vertex} is not on the skin (0..{skin.n_points - 1})")
+        tri, corner = np.argwhere(skin.triangles == vertex)[0]
+        bary = [0.0, 0.0, 0.0]
+        bary[corner] = 1.0
+        return SurfacePoint(int(tri), tuple(bary))
+
+    def _located(self, where: SurfacePoint) -> tuple[FaceState, np.ndarray, np.ndarray]:
+        """The frame shown, and the vertices ``(3,)`` and weights ``(3,)`` of its triangle
+        that holds ``where``: on the skin's own frame its triangle and coordinates; on a
+        refined frame (whose vertices and numbering change with each evaluation) the
+        closest point of its rest skin to ``where``'s rest position.
+        """
+        from ..core.mesh import barycentric_points, closest_on_triangles, ray_on_triangles
+
+        state, base = self.state(), self.face.skin
+        if not 0 <= where.triangle < base.n_triangles:
+            raise IndexError(f"triangle {where.triangle} is not on the skin "
+                             f"(0..{base.n_triangles - 1})")
+        bary = np.asarray(where.barycentric, float)
+        if state.face.skin is base:
+            return state, base.triangles[where.triangle], bary
+        # a refined frame: its triangles over the base triangle, bent onto the smooth rest
+        # surface; the point is the one straight above (or below) ``where`` along the base
+        # triangle's normal, as :meth:`surface_point` projects it back down
+        rest = barycentric_points(base, [where.triangle], bary[None])[0]
+        corners = base.points[base.triangles[where.triangle]]
+        reach = 2.0 * np.linalg.norm(corners - corners.mean(axis=0), axis=1).max()
+        skin = state.face.skin
+        near = np.linalg.norm(skin.points - rest, axis=1) <= reach
+        candidates = np.flatnonzero(near[skin.triangles].any(axis=1))
+        normal = np.cross(corners[1] - corners[0], corners[2] - corners[0])
+        found = ray_on_triangles(skin, candidates, rest, normal)
+        tri, weights = found if found is not None else closest_on_triangles(
+            skin, candidates, rest)
+        return state, skin.triangles[tri], weights
+
+    def probe(self, where: SurfacePoint | int) -> dict:
+        r"""Every field's value in the frame shown at rest-skin point ``where`` (or at skin
+        vertex ``where``): ``{"total": {"W": ..}, muscle: {field: ..}}`` for the muscles
+        that define anything there (NaN where one does not define a field).
+
+        The values are the frame's, interpolated linearly in the triangle of the frame's
+        skin that holds the point, as the skin view draws them: with weights :math:`b_k`
+        on its corners, :math:`v = \sum_k b_k v_k / \sum_k b_k` over the corners where the
+        field is defined, undefined when it is not at the nearest corner. At a vertex these
+        are its values exactly. The point stays where it is on the rest skin whatever the
+        frame (an expression, an edit, the refinement, whose vertices change each frame).
+        """
+        if not isinstance(where, SurfacePoint):
+            where = self.vertex_point(int(where))
+        state, corners, weights = self._located(where)
+        out = {"total": {"W": _interpolated(state.W, corners, weights)}}
         for name in self.face.muscle_names:
-            values = {f: float(state.fields[name][f][vertex]) for f in FIELD_NAMES}
+            fields = state.fields[name]
+            values = {f: _interpolated(fields[f], corners, weights) for f in FIELD_NAMES}
             if any(np.isfinite(v) for v in values.values()):
                 out[name] = values
         return out
+
+    def probe_position(self, where: SurfacePoint | int) -> tuple[np.ndarray, np.ndarray]:
+        """``((3,), (3,))``: rest-skin point ``where`` at rest and in the frame shown (its
+        final skin, wrinkles included), in the face's unit.
+        """
+        if not isinstance(where, SurfacePoint):
+            where = self.vertex_point(int(where))
+        state, corners, weights = self._located(where)
+        rest = weights @ state.face.skin.points[corners]
+        return rest, weights @ state.points[corners]
 
     # ------------------------------------------------------------------ files
     def layout(self, folder: str | Path | None = ...) -> Layout:
@@ -408,6 +490,29 @@ class Session:
         return path
 
 
+@dataclass(frozen=True)
+class SurfacePoint:
+    """A point on a face's rest skin: one of its triangles and barycentric coordinates in
+    it (the skin's own triangles, not a refinement's, whose numbering changes each frame).
+    """
+
+    triangle: int
+    barycentric: tuple[float, float, float]
+
+
+def _interpolated(values: np.ndarray, corners: np.ndarray, weights: np.ndarray) -> float:
+    """``values`` ``(n,)`` at the point with ``weights`` ``(3,)`` on vertices ``corners``
+    ``(3,)``: the weighted mean over the corners where it is finite; NaN where it is not at
+    the corner of the largest weight.
+    """
+    v = values[corners]
+    ok = np.isfinite(v)
+    nearest = int(np.argmax(weights))
+    if not ok[nearest] or weights[nearest] == 1.0:
+        return float(v[nearest])  # undefined, or at a vertex: its value as it is
+    return float(weights[ok] @ v[ok] / weights[ok].sum())
+
+
 def playback_position(start: int, elapsed_s: float, duration_s: float,
                       steps: int = TIMELINE_STEPS) -> int:
     r"""The timeline position ``elapsed_s`` seconds of playback after position ``start``.
@@ -425,11 +530,13 @@ def playback_position(start: int, elapsed_s: float, duration_s: float,
     return (int(start) + round(steps * elapsed_s / duration_s)) % (steps + 1)
 
 
-def load_session(path: str | Path | None = None, n_triangles: int | None = None) -> Session:
+def load_session(path: str | Path | None = None, n_triangles: int | None = None,
+                 unit: str | None = None) -> Session:
     """A session on the layout file ``path``, read once (default: the built-in face).
 
     ``n_triangles``: the built-in skin's resolution when the layout records none (default
-    the loader's). Raises ``FileNotFoundError``, :class:`~wrinkle_vis.core.layout.LayoutError`
+    the loader's); ``unit``: its mesh's unit when the layout records none (default guessed
+    from its size). Raises ``FileNotFoundError``, :class:`~wrinkle_vis.core.layout.LayoutError`
     or ``ValueError`` with the reason.
     """
     from wrinkle_vis.datasets import load_face
@@ -440,5 +547,5 @@ def load_session(path: str | Path | None = None, n_triangles: int | None = None)
     layout = load_layout(path)
     n = layout.n_triangles if layout.n_triangles is not None else n_triangles
     face = load_face(n, layout=layout, skin=layout.resolve("skin", path.parent),
-                     skull=layout.resolve("skull", path.parent))
+                     skull=layout.resolve("skull", path.parent), unit=layout.unit or unit)
     return Session(face, path, layout=layout)

@@ -47,6 +47,9 @@ __all__ = ["VIEWS", "LinkedViews", "add_field_bar", "ghost_skin", "redraw_kind"]
 
 #: The views, in order.
 VIEWS = ("skin", "muscles", "skull")
+#: The name of the probe marker's actor in the skin view (``_picked``: saved images leave
+#: it out, as PyVista's own picked point).
+PROBE_ACTOR = "_picked_probe"
 #: Tick labels of a field's scalar bar, the first that keeps them apart on the bar as
 #: drawn: (number of labels, printf format). None fitting, the bar has no tick labels.
 BAR_LABELS = ((3, "%.3g"), (3, "%.2g"), (2, "%.3g"), (2, "%.2g"))
@@ -148,6 +151,7 @@ class LinkedViews:
         self.last_redraw: str | None = None  # what the last draw did (see redraw_kind)
         self._render_view = render_view or _render_now
         self._skin_mesh = self._ghost_mesh = None
+        self._probe_mesh = None  # the probe's marker (show_probe)
         self._muscle_meshes: dict[str, pv.PolyData] = {}
         self._muscle_actors: dict = {}  # the actors that draw them
         self._drawn_muscles: dict = {}
@@ -204,6 +208,30 @@ class LinkedViews:
     def skin_mesh(self) -> pv.PolyData | None:
         """The mesh the skin view draws (its points and the field shown)."""
         return self._skin_mesh
+
+    def show_probe(self, point, radius: float) -> None:
+        """Mark the probed point ``(3,)`` on the skin view with a ball of ``radius`` (None:
+        no mark); kept across redraws while shown, hidden from saved images. Renders
+        nothing.
+        """
+        view = self.skin_view
+        if point is None:
+            if PROBE_ACTOR in view.actors:
+                view.remove_actor(PROBE_ACTOR, render=False)
+                self._changed.add("skin")
+            self._probe_mesh = None
+            return
+        ball = pv.Sphere(radius=radius, center=np.asarray(point, float), theta_resolution=20,
+                         phi_resolution=12)
+        actor = view.actors.get(PROBE_ACTOR)
+        if actor is not None and self._probe_mesh is not None \
+                and actor.mapper.dataset is self._probe_mesh:
+            self._probe_mesh.points = ball.points  # moved in place
+        else:
+            self._probe_mesh = ball
+            view.add_mesh(ball, color="#ff00ff", name=PROBE_ACTOR, pickable=False,
+                          reset_camera=False, render=False, smooth_shading=True)
+        self._changed.add("skin")
 
     def scalar_range(self) -> tuple[float, float] | None:
         """The skin view's colour range now (None for plain skin)."""
@@ -325,6 +353,11 @@ class LinkedViews:
             self._changed.add("skull")
         if self.placement is not None:
             self.placement.update(face.muscle(self.placement.muscle.name), state)
+
+    def render_skin(self) -> None:
+        """Render the skin view alone (a probe marker moved)."""
+        if not getattr(self.skin_view, "_closed", False):
+            self._render_view(self.skin_view)
 
     def render(self, only_changed: bool = False, skip=()) -> None:
         """Render the views (with ``render_view``): all, or only those the last

@@ -27,14 +27,21 @@ from ..core.layout import Layout, LayoutError, load_layout
 from ..core.muscle import MuscleParameterError
 from ..core.registry import muscle_types
 from ..core.tracks import TrackError, TrackWarning, default_mapping, performance, read_track
-from ..core.units import LENGTH_UNITS
+from ..core.units import DEFAULT_UNIT, LENGTH_UNITS, guess_unit
 from ..plotting import set_camera
 from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
 from ..widgets.panels import MuscleListPanel
 from .newface_panel import NewFaceFlow
 from .recovery import Recovery
-from .session import TIMELINE_STEPS, Session, editable, load_session, playback_position
+from .session import (
+    TIMELINE_STEPS,
+    Session,
+    SurfacePoint,
+    editable,
+    load_session,
+    playback_position,
+)
 from .trackplot import TrackPlot, track_curves
 from .views import VIEWS, LinkedViews
 from .viewwidget import NativeView, View, make_view
@@ -42,6 +49,10 @@ from .viewwidget import NativeView, View, make_view
 __all__ = ["MainWindow"]
 
 TOTAL = "total"
+#: What the probe panel says before a point is probed.
+PROBE_HINT = "Right-click the skin to probe a point"
+#: The probe marker's radius, a fraction of the skin's bounding-box diagonal.
+PROBE_MARKER = 0.006
 _FACE_LABELS = {"procedural": "&Procedural", "lee_perry_smith": "&Lee Perry-Smith"}
 PLAIN = "none"  # the field box's entry for plain skin (no field)
 KEEP = object()  # edit(): keep the selection
@@ -134,6 +145,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.autosave_deadline.setInterval(AUTOSAVE_MAX_MS)
         self.autosave_deadline.timeout.connect(self.autosave)
         self._undo_keys = _UndoKeysToWindow(self)
+        self._wheel_guard = _WheelOnlyWhenFocused(self)
         self._ramp = (None, None)  # (what it was computed for, the colour range over the ramp)
         self._drag_before = None
         self._drawn_face = None
@@ -180,9 +192,13 @@ class MainWindow(QtWidgets.QMainWindow):
             p.renderer.camera = camera
         self._camera_observer = camera.AddObserver("ModifiedEvent", _weak(self._sync_views))
         # PyVista calls back with (point, picker) when use_picker is on
+        # a cell picker: the point on the skin drawn and its triangle, exactly (PyVista's
+        # tolerance, 2.5 % of the window, can name a triangle beside the one hit; the window
+        # draws the probe's own marker, which follows the skin)
         self.skin_view.enable_point_picking(_weak(self._on_pick, keep=2), use_picker=True,
-                                            show_message=False, show_point=True,
-                                            left_clicking=False)
+                                            picker="cell", tolerance=1e-4,
+                                            show_message=False,
+                                            show_point=False, left_clicking=False)
         iren = self.muscle_view.iren
         iren.add_observer("LeftButtonPressEvent", _weak(self._on_muscle_press))
         iren.add_observer("LeftButtonReleaseEvent", _weak(self._on_muscle_release))
@@ -298,10 +314,16 @@ class MainWindow(QtWidgets.QMainWindow):
 
         probe = QtWidgets.QGroupBox("Probe (right-click the skin)")
         box = QtWidgets.QVBoxLayout(probe)
-        self.probe_table = QtWidgets.QTableWidget(len(FIELD_NAMES), 2)
-        self.probe_table.setHorizontalHeaderLabels(["selected muscle", "total"])
+        self.probe_label = QtWidgets.QLabel(PROBE_HINT)
+        self.probe_label.setWordWrap(True)
+        self.probe_label.setTextInteractionFlags(QtCore.Qt.TextSelectableByMouse)
+        box.addWidget(self.probe_label)
+        self.probe_table = QtWidgets.QTableWidget(len(FIELD_NAMES), 1)
+        self.probe_table.setHorizontalHeaderLabels(["total"])
         self.probe_table.setVerticalHeaderLabels(
             [_field_label(f, self.session.unit) for f in FIELD_NAMES])
+        self.probe_table.setVerticalScrollBarPolicy(QtCore.Qt.ScrollBarAlwaysOff)
+        self.probe_table.setEditTriggers(QtWidgets.QAbstractItemView.NoEditTriggers)
         box.addWidget(self.probe_table)
         form.addWidget(probe)
         form.addStretch(1)
@@ -311,11 +333,14 @@ class MainWindow(QtWidgets.QMainWindow):
         scroll.setFrameShape(QtWidgets.QFrame.NoFrame)
         scroll.setHorizontalScrollBarPolicy(QtCore.Qt.ScrollBarAlwaysOff)
         scroll.setWidget(panel)
+        self.control_scroll = scroll
+        self._guard_wheel(panel)
         scroll.setMinimumWidth(panel.minimumSizeHint().width()
                                + scroll.verticalScrollBar().sizeHint().width())
         dock.setWidget(scroll)
         self.addDockWidget(QtCore.Qt.LeftDockWidgetArea, dock)
-        self.probed_vertex: int | None = None
+        self.probe_point: SurfacePoint | None = None  # on the rest skin
+        self._fit_probe_table()
         self._build_muscle_dock()
 
     def _build_muscle_dock(self) -> None:
@@ -533,6 +558,19 @@ class MainWindow(QtWidgets.QMainWindow):
         self.param_form.addRow("derived", self.derived_label)
         self.param_form.addRow(self.param_error)
         self._show_derived()
+        self._guard_wheel(self.param_group)
+
+    def _guard_wheel(self, root: QtWidgets.QWidget) -> None:
+        """The wheel edits the value controls under ``root`` only once they have the focus
+        (a click or Tab gives it; the wheel does not): over an unfocused one it scrolls the
+        panel, so scrolling through the controls edits nothing.
+        """
+        kinds = (QtWidgets.QAbstractSpinBox, QtWidgets.QComboBox, QtWidgets.QAbstractSlider)
+        for w in root.findChildren(QtWidgets.QWidget):
+            if not isinstance(w, kinds) or isinstance(w, QtWidgets.QScrollBar):
+                continue  # a scroll bar (the probe table's) scrolls
+            w.setFocusPolicy(QtCore.Qt.StrongFocus)
+            w.installEventFilter(self._wheel_guard)
 
     def _show_derived(self) -> None:
         if self.session.muscle is not None:
@@ -740,33 +778,83 @@ class MainWindow(QtWidgets.QMainWindow):
         self.edit(f"Set activation of {s.muscle} in {s.expression} to {value:g}", face)
 
     def _on_pick(self, point, picker=None) -> None:
-        """A right-click on the skin view picked ``point``: probe the vertex there (the
-        skin's own vertex when the picker names it, else the nearest one).
+        """A right-click on the skin view picked ``point``: probe the skin there (in the
+        triangle the picker names, else at the closest point of the skin shown).
         """
         if point is None:
             return
         skin = self.views.skin_mesh
+        cell = None
         if picker is not None and skin is not None and picker.GetDataSet() is skin \
-                and 0 <= picker.GetPointId() < self.session.state().n_points:
-            self.probe_vertex(int(picker.GetPointId()))
-            return
-        points = self.session.state().points
-        self.probe_vertex(int(np.argmin(np.linalg.norm(points - np.asarray(point), axis=1))))
+                and hasattr(picker, "GetCellId"):
+            cell = int(picker.GetCellId())
+        self.probe_at(self.session.surface_point(point, cell))
+        self.views.render_skin()  # the marker where the click was
 
     def probe_vertex(self, vertex: int) -> dict:
-        """Show every field's value at ``vertex`` in the probe table; returns them."""
-        self.probed_vertex = vertex
-        values = self.session.probe(vertex)
-        self.probe_table.setVerticalHeaderLabels(
-            [_field_label(f, self.session.unit) for f in FIELD_NAMES])
-        muscle = self.session.muscle
+        """Probe skin vertex ``vertex`` of the face (at rest); returns the values shown."""
+        return self.probe_at(self.session.vertex_point(vertex))
+
+    def probe_at(self, where: SurfacePoint) -> dict:
+        """Probe rest-skin point ``where``: kept there (the frame's values at it, shown
+        again every frame, whatever the expression, the edits or the refinement), with a
+        marker on the skin view, its coordinates and every field of the total and of each
+        muscle that defines anything there (the selected one first); returns the values.
+        """
+        self.probe_point = where
+        s = self.session
+        values = s.probe(where)
+        rest, now = s.probe_position(where)
+        self._show_probe_marker(now)
+        unit = s.unit
+        self.probe_label.setText(f"at rest ({_xyz(rest)}) {unit}\nnow ({_xyz(now)}) {unit}")
+        muscles = [m for m in values if m != "total"]
+        if s.muscle in muscles:
+            muscles.remove(s.muscle)
+            muscles.insert(0, s.muscle)
+        table = self.probe_table
+        table.setColumnCount(1 + len(muscles))
+        table.setHorizontalHeaderLabels(["total", *muscles])
+        table.setVerticalHeaderLabels([_field_label(f, unit) for f in FIELD_NAMES])
         for row, field in enumerate(FIELD_NAMES):
-            own = values.get(muscle, {}).get(field, np.nan) if muscle else np.nan
-            total = values["total"].get(field, np.nan)
-            for col, v in enumerate((own, total)):
-                text = "undefined" if not np.isfinite(v) else f"{v:.5g}"
-                self.probe_table.setItem(row, col, QtWidgets.QTableWidgetItem(text))
+            for col, column in enumerate(["total", *muscles]):
+                if column == "total" and field not in values["total"]:
+                    text = ""  # no total of this field
+                else:
+                    v = values[column][field]
+                    text = "undefined" if not np.isfinite(v) else f"{v:.5g}"
+                table.setItem(row, col, QtWidgets.QTableWidgetItem(text))
+        if s.muscle in muscles:
+            font = table.horizontalHeaderItem(1).font()
+            font.setBold(True)
+            table.horizontalHeaderItem(1).setFont(font)
+        table.resizeColumnsToContents()
+        self._fit_probe_table()
         return values
+
+    def clear_probe(self) -> None:
+        """Probe nothing: the marker goes, the table empties."""
+        self.probe_point = None
+        self.views.show_probe(None, 0.0)
+        self.probe_label.setText(PROBE_HINT)
+        self.probe_table.setColumnCount(1)
+        self.probe_table.setHorizontalHeaderLabels(["total"])
+        self.probe_table.clearContents()
+        self._fit_probe_table()
+
+    def _show_probe_marker(self, point) -> None:
+        lo, hi = self.session.face.skin.bounds()
+        self.views.show_probe(point, PROBE_MARKER * float(np.linalg.norm(hi - lo)))
+
+    def _fit_probe_table(self) -> None:
+        """Make the probe table as tall as its rows: all of them show, none scrolls."""
+        table = self.probe_table
+        table.resizeRowsToContents()
+        height = (table.horizontalHeader().sizeHint().height() + 2 * table.frameWidth()
+                  + sum(table.rowHeight(r) for r in range(table.rowCount())))
+        if table.horizontalScrollBar().isVisible() or table.columnCount() > 2:
+            height += table.horizontalScrollBar().sizeHint().height()
+        table.setFixedHeight(height)
 
     # ------------------------------------------------------------------ editing
     def edit(self, text: str, face, select=KEEP, before=None) -> None:
@@ -829,8 +917,8 @@ class MainWindow(QtWidgets.QMainWindow):
         skin view, else the front of the face.
         """
         skin = self.session.face.skin
-        if self.probed_vertex is not None and self.probed_vertex < skin.n_points:
-            return skin.points[self.probed_vertex]
+        if self.probe_point is not None:
+            return self.session.probe_position(self.probe_point)[0]
         picker = vtkPropPicker()
         w, h = self.skin_view.render_window.GetSize()
         if picker.Pick(w / 2, h / 2, 0, self.skin_view.renderer):
@@ -958,10 +1046,11 @@ class MainWindow(QtWidgets.QMainWindow):
         finally:
             self._syncing = False
         self._show_activation()
-        if self.probed_vertex is not None and self.probed_vertex >= len(state.points):
-            self.probed_vertex = None  # a vertex of a refinement that is gone
-        if self.probed_vertex is not None:
-            self.probe_vertex(self.probed_vertex)
+        if self.probe_point is not None:
+            if self.probe_point.triangle < s.face.skin.n_triangles:
+                self.probe_at(self.probe_point)  # the same rest point, this frame
+            else:
+                self.clear_probe()
         self.views.render(only_changed=not reset_camera, skip=skip)
         total_ms = 1e3 * (time.perf_counter() - t0)
         self.status_label.setText(
@@ -1038,18 +1127,18 @@ class MainWindow(QtWidgets.QMainWindow):
         current = self.session.layout()
         n = self.session.face.skin.n_triangles if current.skin is None and current.face in (
             None, "procedural") else None
+        go_on, unit = self._unit_of_layout_mesh(Path(path))
+        if not go_on:
+            return False
         try:
-            session = load_session(path, n_triangles=n)
+            session = load_session(path, n_triangles=n, unit=unit)
             session.state()  # a face that cannot be evaluated is refused here, not later
         except (OSError, LayoutError, ValueError, KeyError) as exc:
             session = self._session_on_chosen_mesh(Path(path), exc)
             if session is None:
                 return False
-        self._show_session(session)
-        if session.dirty:  # the mesh chosen for it: a change of the layout, unsaved
-            self.undo_stack.resetClean()
-            session.dirty = True
-            self._update_title()
+        # the mesh chosen for it is a change of the layout, unsaved
+        self._show_session(session, modified=session.dirty)
         self.recovery.discard()  # what it held was saved or discarded just now
         self._remember(path)
         return True
@@ -1060,7 +1149,8 @@ class MainWindow(QtWidgets.QMainWindow):
         offer to choose the mesh it was made for; else report ``exc`` in one line. Returns
         the session on the chosen mesh, or None.
         """
-        from wrinkle_vis.datasets import load_face
+        from wrinkle_vis.core.mesh import MeshError
+        from wrinkle_vis.datasets import load_face, read_surface
 
         from .newface import MESH_FILTER, relative_mesh_path
 
@@ -1089,9 +1179,19 @@ class MainWindow(QtWidgets.QMainWindow):
             if chosen else ""
         if not mesh:
             return None
-        named = dataclasses.replace(layout, skin=relative_mesh_path(mesh, path.parent))
         try:
-            session = Session(load_face(layout=layout, skin=mesh), path, layout=named)
+            skin = read_surface(mesh)
+        except (OSError, MeshError, ValueError) as err:
+            QtWidgets.QMessageBox.warning(self, "Cannot open layout", f"{mesh}: {err}")
+            return None
+        unit = layout.unit or self.ask_unit(skin, Path(mesh).name)
+        if unit is None:
+            return None
+        named = dataclasses.replace(layout, skin=relative_mesh_path(mesh, path.parent),
+                                    unit=unit)
+        try:
+            session = Session(load_face(layout=layout, skin=skin, unit=unit), path,
+                              layout=named)
             session.state()
         except (OSError, LayoutError, ValueError, KeyError) as err:
             QtWidgets.QMessageBox.warning(self, "Cannot open layout", f"{mesh}: {err}")
@@ -1099,19 +1199,64 @@ class MainWindow(QtWidgets.QMainWindow):
         session.dirty = True
         return session
 
+    def _unit_of_layout_mesh(self, path: Path) -> tuple[bool, str | None]:
+        """For layout ``path`` naming a mesh but no unit: ``(True, unit)`` with the unit
+        guessed or asked (:meth:`ask_unit`), ``(False, None)`` when the question was
+        cancelled; ``(True, None)`` for any other layout (or one that cannot be read: the
+        opening reports it).
+        """
+        from wrinkle_vis.core.mesh import MeshError
+        from wrinkle_vis.datasets import read_surface
+
+        try:
+            layout = load_layout(path)
+            mesh = layout.resolve("skin", path.parent)
+            if layout.unit is not None or mesh is None or not mesh.is_file():
+                return True, None
+            skin = read_surface(mesh)
+        except (OSError, LayoutError, MeshError, ValueError):
+            return True, None
+        unit = self.ask_unit(skin, mesh.name)
+        return unit is not None, unit
+
+    def ask_unit(self, skin, what: str) -> str | None:
+        """The unit of the coordinates of ``skin`` (a :class:`TriangleSurface`; ``what``
+        names it): guessed from its height where that is a head's in one of the units
+        (:func:`~wrinkle_vis.core.units.guess_unit`), else asked (None: cancelled), so a
+        scan is never taken as millimetres without a word.
+        """
+        lo, hi = skin.bounds()
+        height = float(hi[1] - lo[1])
+        guess = guess_unit(height)
+        if guess is not None:
+            return guess
+        units = list(LENGTH_UNITS)
+        unit, ok = QtWidgets.QInputDialog.getItem(
+            self, "Unit of the mesh",
+            f"{what} is {height:.3g} units tall, not a head's height in m, cm or mm, so its "
+            "unit cannot be guessed. In which unit are its coordinates?",
+            units, units.index(DEFAULT_UNIT), False)
+        return unit if ok else None
+
     def open_recent(self, path: str) -> bool:
         """Open a layout of the Open recent menu."""
         return self.open_layout(path)
 
-    def _show_session(self, session: Session) -> None:
-        """Show another session (a layout opened or restored), with the view's settings."""
+    def _show_session(self, session: Session, modified: bool = False) -> None:
+        """Show another session (a layout opened or restored), with the view's settings;
+        ``modified``: it holds a change not saved yet (``*`` in the title, Quit asks).
+        """
         session.refine = self.refine_box.isChecked()
         session.fixed_range = self.session.fixed_range
         self.session = session
-        self.undo_stack.clear()
+        self.undo_stack.clear()  # clean again: the new session is not modified (so far)
+        if modified:  # after the clear, whose cleanChanged would unmark it
+            self.undo_stack.resetClean()
+            session.dirty = True
         self.param_error.setText("")
         if self.track_plot is not None:  # the performance stays with the session it was in
             self.track_plot.parentWidget().hide()
+        self.clear_probe()  # a point of the skin shown before
         self._populate()
         self.refresh(reset_camera=True)
         self.newface.session_changed(session)
@@ -1472,6 +1617,18 @@ class _UndoKeysToWindow(QtCore.QObject):
         return False
 
 
+class _WheelOnlyWhenFocused(QtCore.QObject):
+    """An event filter that keeps the wheel from a value control without the focus: the
+    event goes on, unhandled, to the control's parents (the scrolled panel scrolls).
+    """
+
+    def eventFilter(self, obj, event) -> bool:  # noqa: N802 (Qt's name)
+        if event.type() == QtCore.QEvent.Wheel and not obj.hasFocus():
+            event.ignore()  # not the control's: Qt passes it on to its parent
+            return True
+        return False
+
+
 class ImageDialog(QtWidgets.QDialog):
     """Which view to save as an image, and at what size in pixels."""
 
@@ -1534,6 +1691,11 @@ def _triangles(drawn: int, skin: int) -> str:
     from 4500)``.
     """
     return f"{drawn} triangles" + (f" (refined from {skin})" if drawn != skin else "")
+
+
+def _xyz(point) -> str:
+    """``(3,)`` as ``x, y, z`` with 4 significant digits."""
+    return ", ".join(f"{float(x):.4g}" for x in point)
 
 
 def _field_label(field: str, unit: str) -> str:

@@ -90,9 +90,11 @@ class _MuscleData:
     @classmethod
     def build(cls, skin: TriangleSurface, muscle: Muscle, normals: np.ndarray) -> _MuscleData:
         reg = muscle.region(skin.points)
-        aoi = np.flatnonzero(reg["in_aoi"])
+        in_aoi = reg["in_aoi"].copy()
+        inside = np.flatnonzero(in_aoi)
+        in_aoi[inside[muscle.hidden(skin.points[inside], skin)]] = False  # skin behind skin
+        aoi = np.flatnonzero(in_aoi)
         region_pos = np.flatnonzero(reg["in_region"][aoi])
-        in_aoi = reg["in_aoi"]
         directions = np.nan_to_num(reg["direction"], nan=0.0)
         if muscle.compression == "gradient":
             edge_ids = np.zeros(0, np.intp)
@@ -1007,17 +1009,24 @@ class FaceState:
         lines.append("active muscles: " + (", ".join(f"{m}={a:.2f}" for m, a in active.items())
                                            or "none"))
         unit = face_unit(self.face)
-        lines.append(f"W total ({unit}): min {self.W.min():+.4f}  max {self.W.max():+.4f}  "
-                     f"nonzero at {np.count_nonzero(self.W)} vertices")
+        lines.append(f"W total ({unit}): min {_sig(self.W.min())}  max {_sig(self.W.max())}"
+                     f"  nonzero at {np.count_nonzero(self.W)} vertices")
         for m in active:
             f = self.fields[m]
             parts = []
             for key in ("lambda", "gamma", "eps", "At", "H", "A", "W"):
                 v = f[key][np.isfinite(f[key])]
-                parts.append(f"{key} [{v.min():+.3f}, {v.max():+.3f}]" if len(v) else
+                parts.append(f"{key} [{_sig(v.min())}, {_sig(v.max())}]" if len(v) else
                              f"{key} undefined")
             lines.append(f"  {m}: " + "  ".join(parts))
         return "\n".join(lines)
+
+
+def _sig(value: float) -> str:
+    """``value`` with its sign and 4 significant digits, whatever its scale (a face in
+    metres has wrinkles of 1e-4): ``+0.0123``, ``-2.5e-05``, ``+0``.
+    """
+    return f"{float(value):+.4g}"
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:

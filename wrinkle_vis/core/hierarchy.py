@@ -459,7 +459,9 @@ class MuscleLevels(HoldsArrays):
     def _add(self, hier: Hierarchy, v: np.ndarray, tangential) -> None:
         rest = hier.rest.take(v, axis=0)
         reg = self.muscle.region(rest)
-        keep = reg["in_aoi"]
+        keep = reg["in_aoi"].copy()
+        inside = np.flatnonzero(keep)
+        keep[inside[self.muscle.hidden(rest[inside], hier.skin)]] = False  # as the skin's
         v = v[keep]
         d = np.nan_to_num(reg["direction"][keep], nan=0.0)
         unit = tangential(self.muscle.unit_displacement(rest[keep]), hier.slide.take(v, axis=0))

@@ -11,10 +11,10 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components
 from scipy.spatial import cKDTree
 
 __all__ = ["MeshError", "MeshReport", "TriangleSurface", "barycentric_points", "block_pcg",
-           "closest_points", "cotangent_laplacian", "phong_midpoints", "self_intersections",
-           "shape_operators", "smoothed_normals", "subdivide", "surface_coordinates",
-           "tangent_bases", "triangle_normals", "two_level_preconditioner", "unit_rows",
-           "vector_lengths"]
+           "closest_on_triangles", "closest_points", "cotangent_laplacian", "occluded",
+           "phong_midpoints", "ray_on_triangles", "self_intersections", "shape_operators",
+           "smoothed_normals", "subdivide", "surface_coordinates", "tangent_bases",
+           "triangle_normals", "two_level_preconditioner", "unit_rows", "vector_lengths"]
 
 
 class MeshError(ValueError):
@@ -203,6 +203,11 @@ class TriangleSurface:
         """``(e,) float``: length of each edge at these positions."""
         e = self.edges
         return np.linalg.norm(self.points[e[:, 1]] - self.points[e[:, 0]], axis=1)
+
+    @cached_property
+    def mean_edge_length(self) -> float:
+        """The mean of :attr:`rest_edge_lengths`."""
+        return float(np.mean(self.rest_edge_lengths))
 
     @cached_property
     def adjacency(self) -> sp.csr_matrix:
@@ -423,6 +428,118 @@ def surface_coordinates(surface: TriangleSurface, queries) -> tuple[np.ndarray, 
         j = int(np.argmin(np.linalg.norm(cand - point, axis=1)))
         best_tri[i], best[i] = tris[j], cand[j]
     return best_tri, _barycentric(surface.points[surface.triangles[best_tri]], best)
+
+
+def closest_on_triangles(surface: TriangleSurface, candidates,
+                         point) -> tuple[int, np.ndarray]:
+    """Where among triangles ``candidates`` ``(t,)`` of ``surface`` the point closest to
+    ``point`` ``(3,)`` lies: its triangle and barycentric coordinates ``(3,)`` (summing to 1,
+    each in ``[0, 1]``). One candidate: where a point picked on that triangle lies in it.
+    """
+    ids = np.atleast_1d(np.asarray(candidates, dtype=np.intp))
+    p = np.asarray(point, dtype=float).reshape(3)
+    corners = surface.points[surface.triangles[ids]]
+    cand = _closest_on_triangles(p, corners)
+    j = int(np.argmin(np.linalg.norm(cand - p, axis=1)))
+    bary = np.clip(_barycentric(corners[j:j + 1], cand[j:j + 1])[0], 0.0, 1.0)
+    return int(ids[j]), bary / bary.sum()
+
+
+def ray_on_triangles(surface: TriangleSurface, candidates, origin,
+                     direction) -> tuple[int, np.ndarray] | None:
+    r"""Where the line through ``origin`` ``(3,)`` along ``direction`` ``(3,)`` meets the
+    triangles ``candidates`` ``(t,)`` of ``surface`` nearest to ``origin``: the triangle and
+    the barycentric coordinates ``(3,)`` of the hit; None if it meets none of them.
+
+    Möller-Trumbore: :math:`o + s\,d = a + u\,(b - a) + v\,(c - a)` with
+    :math:`u, v \ge 0,\ u + v \le 1` (a tolerance of :math:`10^{-9}` on the edges).
+    """
+    ids = np.atleast_1d(np.asarray(candidates, dtype=np.intp))
+    o, d = np.asarray(origin, float).reshape(3), np.asarray(direction, float).reshape(3)
+    corners = surface.points[surface.triangles[ids]]
+    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    p = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, p)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / det
+        t = o - corners[:, 0]
+        u = np.einsum("ij,ij->i", t, p) * inv
+        q = np.cross(t, e1)
+        v = (q @ d) * inv
+        s = np.einsum("ij,ij->i", e2, q) * inv
+    tol = 1e-9
+    hit = (np.abs(det) > 0) & (u >= -tol) & (v >= -tol) & (u + v <= 1 + tol)
+    if not hit.any():
+        return None
+    j = int(np.flatnonzero(hit)[np.argmin(np.abs(s[hit]))])
+    bary = np.clip(np.array([1.0 - u[j] - v[j], u[j], v[j]]), 0.0, 1.0)
+    return int(ids[j]), bary / bary.sum()
+
+
+def occluded(surface: TriangleSurface, points, direction, min_distance: float,
+             triangles=None) -> np.ndarray:
+    r"""``(k,) bool``: which of ``points`` ``(k, 3)`` have ``surface`` in front of them
+    along ``direction`` ``(3,)``: the ray :math:`p + t\,d`, :math:`t >` ``min_distance``
+    (a length: :math:`d` is ``direction`` normalized), meets one of its ``triangles``
+    (default all). ``min_distance`` steps over the surface a point lies on or next to.
+
+    The triangles are binned on a grid of the plane normal to ``direction`` (cells about one
+    triangle across), so each ray is tested against the few triangles over its cell
+    (Möller-Trumbore, as :func:`ray_on_triangles`).
+    """
+    p = np.atleast_2d(np.asarray(points, dtype=float))
+    d = np.asarray(direction, dtype=float).reshape(3)
+    d = d / np.linalg.norm(d)
+    ids = np.arange(surface.n_triangles) if triangles is None else np.asarray(
+        triangles, dtype=np.intp)
+    if not len(p) or not len(ids):
+        return np.zeros(len(p), bool)
+    e1_axis = np.cross(d, [1.0, 0.0, 0.0] if abs(d[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1_axis /= np.linalg.norm(e1_axis)
+    axes = np.stack([e1_axis, np.cross(d, e1_axis)])  # (2, 3): the plane normal to d
+    tris = surface.triangles[ids]
+    uv = surface.points @ axes.T  # (n, 2): every vertex on the plane
+    a, b, c = uv[tris[:, 0]], uv[tris[:, 1]], uv[tris[:, 2]]
+    lo, hi = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
+    puv = p @ axes.T
+    over = ((hi >= puv.min(axis=0)) & (lo <= puv.max(axis=0))).all(axis=1)  # the rays' span
+    if not over.any():
+        return np.zeros(len(p), bool)
+    corners = surface.points[tris[over]]  # (t, 3, 3)
+    lo, hi = lo[over], hi[over]
+    cell = max(float(np.median((hi - lo).max(axis=1))), 1e-12)
+    origin = np.minimum(lo.min(axis=0), puv.min(axis=0))
+    i0, i1 = (np.floor((b - origin) / cell).astype(np.int64) for b in (lo, hi))
+    width = int(max(i1[:, 1].max(), np.floor((puv[:, 1] - origin[1]) / cell).max())) + 1
+    # every (cell, triangle) pair of the triangles' bounding boxes
+    spans = i1 - i0 + 1
+    count = spans[:, 0] * spans[:, 1]
+    tri = np.repeat(np.arange(len(corners)), count)
+    k = np.arange(len(tri)) - np.repeat(np.cumsum(count) - count, count)
+    cx = i0[tri, 0] + k // spans[tri, 1]
+    cy = i0[tri, 1] + k % spans[tri, 1]
+    key = cx * width + cy
+    order = np.argsort(key, kind="stable")
+    key, tri = key[order], tri[order]
+    qc = np.floor((puv - origin) / cell).astype(np.int64)
+    qkey = qc[:, 0] * width + qc[:, 1]
+    start, stop = np.searchsorted(key, qkey), np.searchsorted(key, qkey, side="right")
+    n = stop - start
+    query = np.repeat(np.arange(len(p)), n)
+    pair_tri = tri[np.repeat(start, n) + np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)]
+    c = corners[pair_tri]
+    e1, e2 = c[:, 1] - c[:, 0], c[:, 2] - c[:, 0]
+    h = np.cross(d, e2)
+    det = np.einsum("ij,ij->i", e1, h)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / det
+        t = p[query] - c[:, 0]
+        u = np.einsum("ij,ij->i", t, h) * inv
+        q = np.cross(t, e1)
+        v = (q @ d) * inv
+        dist = np.einsum("ij,ij->i", e2, q) * inv
+    hit = (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (dist > min_distance)
+    return np.bincount(query[hit], minlength=len(p)) > 0
 
 
 def barycentric_points(surface: TriangleSurface, triangles, barycentric,

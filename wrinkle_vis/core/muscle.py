@@ -640,6 +640,16 @@ class Muscle:
                       direction=direction)
         return MuscleRegion(arrays)
 
+    def hidden(self, points, skin) -> np.ndarray:
+        """``(k,) bool``: which of ``points`` ``(k, 3)`` (rest points of the AOI) lie on skin
+        that the muscle cannot reach, with the rest skin ``skin`` (a
+        :class:`~wrinkle_vis.core.mesh.TriangleSurface`) to tell; the face leaves them out
+        of the AOI. None here; a type whose AOI is a volume that can take in skin facing
+        away from it says which (:meth:`SheetMuscle.hidden
+        <wrinkle_vis.core.muscles.SheetMuscle.hidden>`).
+        """
+        return np.zeros(len(np.atleast_2d(points)), bool)
+
     def unit_displacement(self, rest_points) -> np.ndarray:
         """``(n, 3)``: the displacement at activation 1 (see :meth:`displacement`)."""
         p = _points(rest_points)

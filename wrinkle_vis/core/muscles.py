@@ -9,7 +9,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .mesh import closest_points
+from .mesh import closest_points, occluded
 from .muscle import Geometry, Muscle, plateau_fall, ramp_fall, smooth_fall, waters_radial
 from .params import parameter
 from .registry import register_muscle_type
@@ -19,6 +19,10 @@ __all__ = ["LinearMuscle", "SheetMuscle"]
 
 #: Slack on the closed AOI bounds, so points exactly on them are not lost to rounding.
 _TOL = 1e-9
+#: A sheet's AOI leaves out skin with other skin in front of it along the sheet's normal,
+#: farther than half the sheet's width and than this many mean edge lengths
+#: (:meth:`SheetMuscle.hidden`).
+HIDDEN_EDGES = 2.0
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -412,6 +416,24 @@ class SheetMuscle(Muscle):
         direction = np.broadcast_to(-f, points.shape).copy()
         return Geometry(l=l, lam=lam, gamma=gamma, coordinate=h, in_aoi=in_aoi,
                         direction=direction, extra={"h": h, "depth": depth})
+
+    def hidden(self, points, skin) -> np.ndarray:
+        r"""``(k,) bool``: which of the AOI's ``points`` ``(k, 3)`` lie behind another layer
+        of ``skin``, seen from outside along the sheet's normal (our extension, with the
+        depth bound): the ray :math:`x + t\,n_o`, :math:`t > \max(W_s/2,\ 2\bar e)`, meets
+        the skin, with :math:`n_o = \pm n` pointing out of the head (away from the skin's
+        centroid at the insertion line) and :math:`\bar e` the skin's mean edge length.
+
+        The AOI's prism reaches through everything in its depth bound: on a scan with open
+        eye sockets the frontalis wrinkled the roof of a socket 25 mm behind the forehead.
+        A fold of the skin in the sheet's own footprint (a brow over a lid, a temple's
+        hollow: skin a few millimetres behind skin) is not another layer, so the ray starts
+        half the sheet's width out; skin that faces the sheet is never hidden.
+        """
+        _, _, n = self.frame
+        outward = n if (self.insertion_center - skin.points.mean(axis=0)) @ n >= 0 else -n
+        beyond = max(0.5 * self.width_value, HIDDEN_EDGES * skin.mean_edge_length)
+        return occluded(skin, points, outward, beyond)
 
     def _falloff(self, points: np.ndarray, geometry: Geometry) -> np.ndarray:
         across = plateau_fall(geometry.extra["h"], *self.attenuation_range)

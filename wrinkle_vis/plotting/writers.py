@@ -517,14 +517,15 @@ class _GifStream:
         quantized = im.quantize(colors=256, method=Image.Quantize.MEDIANCUT,
                                 dither=Image.Dither.NONE)
         one = BytesIO()
-        quantized.save(one, format="GIF")
-        table, size_bits, block = _gif_image_block(one.getvalue())
+        # not interlaced: the descriptor written below says so (Pillow interlaces by default)
+        quantized.save(one, format="GIF", interlace=False)
+        table, size_bits, interlaced, block = _gif_image_block(one.getvalue())
         delay = round(100 * (self.count + 1) / self.fps) - round(100 * self.count / self.fps)
         # graphic control: no disposal, the delay in 1/100 s
         self.fh.write(b"\x21\xf9\x04\x04" + _u16(delay) + b"\x00\x00")
         w, h = self.size
         self.fh.write(b"\x2c" + _u16(0) + _u16(0) + _u16(w) + _u16(h)
-                      + bytes([0x80 | size_bits]) + table + block)
+                      + bytes([0x80 | interlaced | size_bits]) + table + block)
         self.fh.flush()  # on disk now: nothing of the frame stays in memory
         self.count += 1
 
@@ -537,9 +538,11 @@ def _u16(value: int) -> bytes:
     return int(value).to_bytes(2, "little")
 
 
-def _gif_image_block(data: bytes) -> tuple[bytes, int, bytes]:
-    """From a one-frame GIF: its colour table, the table's size bits and the LZW data (the
-    minimum code size and the sub-blocks, terminator included).
+def _gif_image_block(data: bytes) -> tuple[bytes, int, int, bytes]:
+    """From a one-frame GIF: its colour table, the table's size bits, its interlace flag
+    (``0x40`` or 0, to be copied into the descriptor that precedes the LZW data, whose row
+    order it states) and the LZW data (the minimum code size and the sub-blocks, terminator
+    included).
     """
     pos = 13
     packed = data[10]
@@ -557,6 +560,7 @@ def _gif_image_block(data: bytes) -> tuple[bytes, int, bytes]:
             pos += 1
         elif kind == 0x2C:
             local = data[pos + 9]
+            interlaced = local & 0x40
             pos += 10
             if local & 0x80:
                 bits = local & 7
@@ -566,7 +570,7 @@ def _gif_image_block(data: bytes) -> tuple[bytes, int, bytes]:
             pos += 1  # LZW minimum code size
             while data[pos]:
                 pos += data[pos] + 1
-            return table, bits, data[start:pos + 1]
+            return table, bits, interlaced, data[start:pos + 1]
         else:
             break
     raise ValueError("Pillow wrote a GIF without an image")
