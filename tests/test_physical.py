@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from meshes import grid
 
 import wrinkle_vis as wv
 from wrinkle_vis.core.params import parameter_table
@@ -19,8 +20,6 @@ from wrinkle_vis.core.skin import (
     bending_pairs,
     inverted_triangles,
 )
-
-from meshes import grid
 
 
 def _plate(nx: int = 13, size: float = 40.0):
