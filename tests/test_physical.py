@@ -290,3 +290,15 @@ def test_a_step_to_surprise_forms_its_wrinkles_in_50_to_300_ms_without_overshoot
     reach = t[np.argmax(w >= 0.9 * final)]
     assert 0.05 <= reach <= 0.3
     assert w.max() <= 1.1 * final
+
+
+def test_a_pull_into_the_skull_stops_on_it():
+    skin, skull = _plate(9)
+    springs = SpringSkin(skin, np.ones(skin.n_points), SkinMaterial(), 1e-3, skull)
+    into = np.tile([0.0, 0.0, -12.0], (skin.n_points, 1))
+    x, v = skin.points.copy(), np.zeros_like(skin.points)
+    for _ in range(5):
+        x, v = springs.step(x, v, into, 1.0 / 30.0)
+        assert x[:, 2].min() >= -5.0 - 1e-9
+    assert x[:, 2].min() == pytest.approx(-5.0)
+    assert springs.equilibrium(into)[:, 2].min() >= -5.0 - 1e-9
