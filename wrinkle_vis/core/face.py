@@ -401,6 +401,11 @@ class FaceModel:
         The unit of the face's lengths (a key of :data:`~wrinkle_vis.core.units.LENGTH_UNITS`);
         None for a face that does not say (labels then read
         :data:`~wrinkle_vis.core.units.DEFAULT_UNIT`, :func:`~wrinkle_vis.core.units.face_unit`).
+    skin_model : {"geometric", "physical"}, default "geometric"
+        The skin model :meth:`evaluate` uses unless told otherwise (see
+        :meth:`with_skin_model`).
+    material : SkinMaterial, optional
+        The physical skin's parameters (default :class:`SkinMaterial()`).
 
     Notes
     -----
@@ -410,7 +415,8 @@ class FaceModel:
 
     def __init__(self, skin: TriangleSurface, skull: TriangleSurface | None = None,
                  muscles: Iterable[Muscle] = (), expressions=None, *, name: str = "face",
-                 landmarks=None, unit: str | None = None, _caches=None, _rest_normals=None):
+                 landmarks=None, unit: str | None = None, skin_model: str = "geometric",
+                 material: SkinMaterial | None = None, _caches=None, _rest_normals=None):
         if not isinstance(skin, TriangleSurface):
             raise TypeError(f"skin must be a TriangleSurface; got {type(skin).__name__}")
         if skull is not None and not isinstance(skull, TriangleSurface):
@@ -419,6 +425,10 @@ class FaceModel:
         self.skull = skull
         self.name = name
         self.unit: str | None = None if unit is None else check_unit(unit)
+        self.skin_model: str = check_skin_model(skin_model)
+        if material is not None and not isinstance(material, SkinMaterial):
+            raise TypeError(f"material must be a SkinMaterial; got {type(material).__name__}")
+        self.material: SkinMaterial = material or SkinMaterial()
         self.landmarks: dict[str, tuple] = {
             str(k): tuple(float(x) for x in v) for k, v in dict(landmarks or {}).items()}
         self.muscles: tuple[Muscle, ...] = tuple(muscles)
@@ -508,7 +518,21 @@ class FaceModel:
         return FaceModel(self.skin, self.skull, muscles,
                          self.expressions if expressions is None else expressions,
                          name=self.name, landmarks=self.landmarks, unit=self.unit,
+                         skin_model=self.skin_model, material=self.material,
                          _caches=(cache, None, self._rest))
+
+    def with_skin_model(self, skin_model: str, material: SkinMaterial | None = None
+                        ) -> FaceModel:
+        """The same face whose :meth:`evaluate` uses ``skin_model`` (``"geometric"`` or
+        ``"physical"``) and ``material`` (default: this face's) unless told otherwise; it
+        shares every cache with this face (the physical skin's factorized matrices too).
+        """
+        face = self._derived(self.muscles)
+        face.skin_model = check_skin_model(skin_model)
+        face.material = material or self.material
+        face._assemblies = self._assemblies
+        face.__dict__["_springs"] = self.__dict__.setdefault("_springs", {})
+        return face
 
     def muscle_data(self, muscle: Muscle) -> _MuscleData:
         """The cached rest-skin data of ``muscle`` (built on first use)."""
@@ -543,7 +567,7 @@ class FaceModel:
         material: its matrices are factorized again only for a new muscle layout (a new
         face) or material.
         """
-        material = material or SkinMaterial()
+        material = material or self.material
         cache = self.__dict__.setdefault("_springs", {})
         skin = cache.get(material)
         if skin is None:
@@ -643,7 +667,7 @@ class FaceModel:
 
     def evaluate(self, activations=None, intensity: float = 1.0, *, refine: bool = False,
                  refine_angle_deg: float = 3.0, refine_levels: int = 3,
-                 skin: str = "geometric", material: SkinMaterial | None = None
+                 skin: str | None = None, material: SkinMaterial | None = None
                  ) -> FaceState:
         r"""One frame of the wrinkle model.
 
@@ -678,12 +702,13 @@ class FaceModel:
         refine_levels : int, default 3
             At most this many levels.
 
-        skin : {"geometric", "physical"}, default "geometric"
-            The skin model: the muscles' summed pulls (:mod:`wrinkle_vis.core.face`), or the
-            physically based skin's equilibrium (:mod:`wrinkle_vis.core.skin`), on which
-            every field is computed by the same code.
+        skin : {"geometric", "physical"}, optional
+            The skin model (default the face's :attr:`skin_model`): the muscles' summed
+            pulls (:mod:`wrinkle_vis.core.face`), or the physically based skin's
+            equilibrium (:mod:`wrinkle_vis.core.skin`), on which every field is computed by
+            the same code.
         material : SkinMaterial, optional
-            The physical skin's parameters (default :class:`SkinMaterial()`).
+            The physical skin's parameters (default the face's :attr:`material`).
 
         Returns
         -------
@@ -692,7 +717,7 @@ class FaceModel:
             ``refine`` its ``face`` and ``triangles`` are the refined ones.
         """
         acts = self.activations_for({} if activations is None else activations, intensity)
-        if check_skin_model(skin) == "physical":
+        if check_skin_model(skin or self.skin_model) == "physical":
             springs = self.physical_skin(material)
             x = springs.equilibrium(self.muscle_displacement(acts))
             state = self.physical_state(acts, x, velocities=np.zeros_like(x))

@@ -35,7 +35,7 @@ class Simulation:
     face : FaceModel
     timeline : see the module docstring
     material : SkinMaterial, optional
-        Default :class:`SkinMaterial()`.
+        Default the face's ``material``.
 
     Attributes
     ----------
@@ -49,7 +49,7 @@ class Simulation:
 
     def __init__(self, face, timeline=None, material: SkinMaterial | None = None):
         self.face = face
-        self.material = material or SkinMaterial()
+        self.material = material or face.material
         self.skin = face.physical_skin(self.material)
         self.timeline = timeline
         self.reset()
