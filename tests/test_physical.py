@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from meshes import grid
 
 import wrinkle_vis as wv
+from wrinkle_vis.core.analysis import dihedral_change
 from wrinkle_vis.core.params import parameter_table
 from wrinkle_vis.core.skin import (
     SkinMaterial,
@@ -302,3 +303,21 @@ def test_a_pull_into_the_skull_stops_on_it():
         assert x[:, 2].min() >= -5.0 - 1e-9
     assert x[:, 2].min() == pytest.approx(-5.0)
     assert springs.equilibrium(into)[:, 2].min() >= -5.0 - 1e-9
+
+
+def test_refinement_carries_the_simulated_displacement_to_new_vertices():
+    face = _grid_face(25)
+    flat = face.evaluate({"lin": 1.0}, skin="physical")
+    state = face.evaluate({"lin": 1.0}, skin="physical", refine=True, refine_angle_deg=1.0)
+    n0 = face.skin.n_points
+    assert state.n_points > n0 + 50 and state.skin_model == "physical"
+    np.testing.assert_array_equal(state.deformed_points[:n0], flat.deformed_points)
+    # new vertices move with their neighbours (the geometric pull alone would leave them
+    # behind by up to the 1.7 mm the springs add, folding triangles over)
+    surface = state.face.skin
+    change = dihedral_change(surface, surface.points, state.deformed_points)
+    assert np.nanmax(change) <= 5.0
+    assert inverted_triangles(surface.points, state.deformed_points, surface.triangles) == 0
+    added = (state.deformed_points - surface.points
+             - state.face.muscle_displacement(state.activations))
+    assert np.abs(added[n0:]).max() > 0.1

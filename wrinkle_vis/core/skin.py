@@ -109,10 +109,10 @@ class SkinMaterial:
     """
 
     membrane_stiffness: float = parameter(
-        300.0, label="Y (N/m)", symbol="Y", unit="N/m", lo=0.0, lo_open=True, step=10.0,
+        100.0, label="Y (N/m)", symbol="Y", unit="N/m", lo=0.0, lo_open=True, step=10.0,
         doc="membrane stiffness of the skin (Young's modulus times thickness)")
     bending_stiffness: float = parameter(
-        30.0, label="B (N/m)", symbol="B", unit="N/m", lo=0.0, step=1.0,
+        10.0, label="B (N/m)", symbol="B", unit="N/m", lo=0.0, step=1.0,
         doc="stiffness of the bending springs across each interior edge")
     biphasic_strain: float = parameter(
         0.3, label="c", symbol="c", unit="1", lo=0.0, hi=1.0, lo_open=True, hi_open=True,
@@ -125,7 +125,7 @@ class SkinMaterial:
         4e5, label="kappa (N/m^3)", symbol="κ", unit="N/m^3", lo=0.0, lo_open=True,
         step=1e4, doc="stiffness per area of the tissue binding the skin to the skull")
     muscle_stiffness: float = parameter(
-        2.5e7, label="kappa_z (N/m^3)", symbol="κ_z", unit="N/m^3", lo=0.0, step=1e5,
+        1e8, label="kappa_z (N/m^3)", symbol="κ_z", unit="N/m^3", lo=0.0, step=1e5,
         doc="stiffness per area of a muscle's grip on the skin of its zone")
     density: float = parameter(
         1040.0, label="rho (kg/m^3)", symbol="ρ", unit="kg/m^3", lo=0.0, lo_open=True,
