@@ -398,7 +398,7 @@ class SpringSkin:
         return new, (new - x) / h
 
     def equilibrium(self, target_disp: np.ndarray, x: np.ndarray | None = None, *,
-                    tol: float = 1e-7, max_iter: int = 500, window: int = 6) -> np.ndarray:
+                    tol: float = 1e-7, max_iter: int = 500, window: int = 5) -> np.ndarray:
         """``(n, 3)``: the still frame, the minimum of :math:`E` for ``target_disp``
         ``(n, 3)``, from ``x`` (default the rest skin): local/global iterations, sped up by
         Anderson acceleration over the last ``window`` iterates (Peng et al. 2018), until no
@@ -454,7 +454,9 @@ def _anderson(g, x: np.ndarray, tol: float, max_iter: int, window: int) -> np.nd
             return gx
         if dfs:
             df = np.stack(dfs, axis=1)
-            gamma = np.linalg.lstsq(df, f, rcond=None)[0]
+            normal = df.T @ df  # the small normal equations, lightly regularised
+            normal[np.diag_indices_from(normal)] += 1e-10 * np.trace(normal) + 1e-300
+            gamma = np.linalg.solve(normal, df.T @ f)
             x_new = gx - np.stack(dgs, axis=1) @ gamma
         else:
             x_new = gx
