@@ -548,17 +548,17 @@ class FaceModel:
 
     # ------------------------------------------------------------------ physical skin
     def muscle_grip(self) -> np.ndarray:
-        r"""``(n,)``: :math:`\omega_i`, how strongly the face's muscles hold each skin
-        vertex: the largest over the muscles of the length of the muscle's pull at the
-        vertex over its longest pull (:mod:`wrinkle_vis.core.skin`).
+        r"""``(n,)``: :math:`\omega_i`, where the face's muscles hold the skin: 1 on the
+        area of influence of any muscle (active or not: a muscle lies under its zone and
+        holds it, at rest where it does not pull), 0 elsewhere (:mod:`wrinkle_vis.core.skin`).
+
+        Measured against weighting by each muscle's normalised pull, which lets the skin of
+        a zone slip where the pull fades: that added more crease on the scanned head (99th
+        percentile 5.9 against 3.3 degrees on surprise) and made the furrows shallower.
         """
         grip = np.zeros(self.skin.n_points)
         for m in self.muscles:
-            data = self.muscle_data(m)
-            mag = np.linalg.norm(data.unit_disp, axis=1)
-            top = mag.max(initial=0.0)
-            if top > 0.0:
-                np.maximum.at(grip, data.aoi, mag / top)
+            grip[self.muscle_data(m).aoi] = 1.0
         return grip
 
     def physical_skin(self, material: SkinMaterial | None = None) -> SpringSkin:

@@ -28,8 +28,8 @@ around the vertex). Its potential energy is
 * attachment springs: each vertex is bound to its rest position :math:`\bar x_i`, at the
   rest tissue depth over the skull, with stiffness :math:`\kappa a_i` per vertex
   (:math:`\kappa` a stiffness per area, of the tissue under the skin);
-* muscle (zone) springs: where muscles grip the skin (:math:`\omega_i \in [0, 1]`, the
-  largest normalised pull of any muscle of the face at vertex :math:`i`), a spring of
+* muscle (zone) springs: where muscles grip the skin (:math:`\omega_i \in [0, 1]`; 1 on
+  every muscle's area of influence, :meth:`FaceModel.muscle_grip`), a spring of
   stiffness :math:`\kappa_z \omega_i a_i` pulls the vertex towards its rest position
   displaced by the muscles, :math:`\bar x_i + D_i`, where :math:`D` is
   :meth:`~wrinkle_vis.core.muscle.Muscle.displacement` summed over the active muscles and
