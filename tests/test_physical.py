@@ -321,3 +321,39 @@ def test_refinement_carries_the_simulated_displacement_to_new_vertices():
     added = (state.deformed_points - surface.points
              - state.face.muscle_displacement(state.activations))
     assert np.abs(added[n0:]).max() > 0.1
+
+
+# ---------------------------------------------------------------- layout files
+def test_a_layout_records_the_skin_model_and_its_material(tmp_path):
+    from wrinkle_vis.core.layout import Layout, LayoutError, load_layout, save_layout
+
+    path = tmp_path / "phys.json"
+    save_layout(Layout(skin_model="physical", skin_material={"membrane_stiffness": 150.0}),
+                path)
+    layout = load_layout(path)
+    assert layout.skin_model == "physical"
+    assert layout.material() == SkinMaterial(membrane_stiffness=150.0)
+    data = layout.to_dict()
+    data["skin_material"] = {"density": -3}
+    with pytest.raises(LayoutError, match=r"\$\.skin_material\.density: expected density "
+                                          r"\(ρ, density of the soft tissue\) in \(0, inf\)"):
+        Layout.from_dict(data)
+    data["skin_material"] = {"stiffness": 1}
+    with pytest.raises(LayoutError, match=r"\$\.skin_material\.stiffness: expected one of"):
+        Layout.from_dict(data)
+    data["skin_material"], data["skin_model"] = {}, "soft"
+    with pytest.raises(LayoutError, match=r"\$\.skin_model: expected a skin model"):
+        Layout.from_dict(data)
+
+
+def test_load_face_applies_the_layouts_skin_model():
+    from wrinkle_vis.core.layout import load_layout
+    from wrinkle_vis.datasets.face import BUILTIN_LAYOUT
+
+    layout = dataclasses.replace(load_layout(BUILTIN_LAYOUT), skin_model="physical",
+                                 skin_material={"damping": 5.0})
+    face = wv.datasets.load_face(layout=layout)
+    assert face.skin_model == "physical" and face.material.damping == 5.0
+    state = face.evaluate("frown")
+    assert state.skin_model == "physical"
+    assert wv.datasets.load_face().skin_model == "geometric"

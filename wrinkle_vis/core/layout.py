@@ -7,7 +7,8 @@
      "muscles": [{"type": "linear", "name": "corrugator_L", "attachment": [...], ...}],
      "expressions": {"frown": {"name": "frown", "activations": {"corrugator_L": 1.0}, ...}},
      "landmarks": {"nose_tip": [0.0, -29.0, 110.0], ...},
-     "n_triangles": 4500, "unit": "mm", "face": null}
+     "n_triangles": 4500, "unit": "mm", "face": null,
+     "skin_model": "physical", "skin_material": {"membrane_stiffness": 150.0}}
 
 Mesh paths are relative to the layout file; ``null`` means the built-in face's mesh (skin)
 or, for the skull, one built from the skin. ``n_triangles`` (optional) records the
@@ -18,6 +19,10 @@ layout that names its skin file and its landmarks is a whole face: reopening it 
 same skin, skull and muscles (the skull is made from the skin and the landmarks,
 deterministically). ``face`` (optional) names a built-in face whose skin and skull the
 layout uses when ``skin`` is null (``"lee_perry_smith"``; null: the procedural face).
+``skin_model`` (optional) is the skin model the face evaluates with
+(:data:`~wrinkle_vis.core.skin.SKIN_MODELS`; null: geometric) and ``skin_material``
+(optional) the physical skin's parameters that differ from their defaults, each checked
+against its declaration in :class:`~wrinkle_vis.core.skin.SkinMaterial`.
 Saving is atomic
 (:func:`wrinkle_vis.core.files.atomic_output`): the file is written beside its destination,
 flushed to disk and renamed over it, so a crash never leaves half a file, and a file saved
@@ -39,6 +44,7 @@ from .expressions import Expression
 from .files import atomic_write_text
 from .muscle import Muscle, MuscleParameterError
 from .registry import UnknownMuscleTypeError, get_muscle_type
+from .skin import SKIN_MODELS, SkinMaterial
 from .units import LENGTH_UNITS
 
 __all__ = ["FORMAT", "VERSION", "Layout", "LayoutError", "atomic_write_text", "load_layout",
@@ -95,6 +101,12 @@ class Layout:
     face : str or None
         The built-in face the layout is for when ``skin`` is None (a name
         :func:`wrinkle_vis.datasets.load_face` knows); None: the procedural face.
+    skin_model : str or None
+        The skin model the face evaluates with (``"geometric"`` or ``"physical"``); None
+        when not recorded (geometric).
+    skin_material : dict of str to float
+        The physical skin's parameters that differ from their defaults
+        (:class:`~wrinkle_vis.core.skin.SkinMaterial`).
     """
 
     name: str = "face"
@@ -106,8 +118,11 @@ class Layout:
     n_triangles: int | None = None
     unit: str | None = None
     face: str | None = None
+    skin_model: str | None = None
+    skin_material: dict = field(default_factory=dict)
 
     def __post_init__(self):
+        object.__setattr__(self, "skin_material", dict(self.skin_material))
         object.__setattr__(self, "muscles", tuple(self.muscles))
         object.__setattr__(self, "expressions", dict(self.expressions))
         object.__setattr__(self, "landmarks", {
@@ -132,7 +147,15 @@ class Layout:
             out["unit"] = str(self.unit)
         if self.face is not None:
             out["face"] = str(self.face)
+        if self.skin_model is not None:
+            out["skin_model"] = str(self.skin_model)
+        if self.skin_material:
+            out["skin_material"] = dict(self.skin_material)
         return out
+
+    def material(self) -> SkinMaterial:
+        """The physical skin's :class:`~wrinkle_vis.core.skin.SkinMaterial` of the layout."""
+        return SkinMaterial(**self.skin_material)
 
     @classmethod
     def from_dict(cls, data: Any, source: str = "<layout>") -> Layout:
@@ -150,7 +173,7 @@ class Layout:
         _expect(version == VERSION, source, "$.version",
                 f"{VERSION} (this wrinkle-vis reads version {VERSION})", version)
         known = {"format", "version", "name", "skin", "skull", "muscles", "expressions",
-                 "landmarks", "n_triangles", "unit", "face"}
+                 "landmarks", "n_triangles", "unit", "face", "skin_model", "skin_material"}
         for key in data:
             _expect(key in known, source, f"$.{key}", f"one of {sorted(known)}", key)
         name = data.get("name", "face")
@@ -171,13 +194,18 @@ class Layout:
         face = data.get("face")
         _expect(face is None or (isinstance(face, str) and face), source, "$.face",
                 "the name of a built-in face or null", face)
+        skin_model = data.get("skin_model")
+        _expect(skin_model is None or skin_model in SKIN_MODELS, source, "$.skin_model",
+                f"a skin model ({', '.join(SKIN_MODELS)}) or null", skin_model)
+        material = _skin_material(data.get("skin_material", {}), source)
         muscles = _muscles(data.get("muscles", []), source)
         expressions = _expressions(data.get("expressions", {}), source,
                                    {m.name for m in muscles})
         return cls(name=name, muscles=muscles, expressions=expressions,
                    skin=data.get("skin"), skull=data.get("skull"),
                    landmarks=_landmarks(data.get("landmarks", {}), source),
-                   n_triangles=n_triangles, unit=unit, face=face)
+                   n_triangles=n_triangles, unit=unit, face=face, skin_model=skin_model,
+                   skin_material=material)
 
     def resolve(self, key: str, base: str | os.PathLike) -> Path | None:
         """The absolute path of ``skin`` or ``skull`` relative to folder ``base``."""
@@ -188,6 +216,25 @@ class Layout:
 def _expect(ok: bool, source: str, path: str, expected: str, found: Any) -> None:
     if not ok:
         raise LayoutError(source, path, expected, found)
+
+
+def _skin_material(items: Any, source: str) -> dict:
+    """The physical skin's parameters of a layout, each checked against its declaration."""
+    _expect(isinstance(items, dict), source, "$.skin_material",
+            "an object of skin parameter name to value", items)
+    specs = {p.name: p for p in SkinMaterial.parameters()}
+    for key, value in items.items():
+        path = f"$.skin_material.{key}"
+        _expect(key in specs, source, path, f"one of {sorted(specs)}", key)
+        spec = specs[key]
+        expected = f"{key} ({spec.symbol}, {spec.doc}) in {spec.range_text()} {spec.unit}"
+        _expect(isinstance(value, (int, float)) and not isinstance(value, bool), source, path,
+                expected, value)
+        try:
+            SkinMaterial(**{key: value})
+        except ValueError:
+            raise LayoutError(source, path, expected, value) from None
+    return dict(items)
 
 
 def _muscles(items: Any, source: str) -> tuple[Muscle, ...]:
