@@ -9,6 +9,11 @@ the largest step it is stable at (0.9 of 2 / omega_max, omega_max from the large
 eigenvalue of M^-1 K), advanced through the same 1/30 s.
 
 Run:  .venv/bin/python benchmarks/bench_physical.py [--triangles 4500 20000] [--rounds 5]
+      [--memory 10000]
+
+``--memory N`` also runs N simulated frames of the first face (the expression switching
+between surprise, frown and fear every 100 frames) and prints the resident memory every
+N/10 frames (it should stay flat).
 
 Every figure is the median over ``--rounds`` rounds of the median of several calls.
 """
@@ -133,10 +138,34 @@ def run(n_triangles: int, rounds: int) -> dict:
     return out
 
 
+def memory(n_triangles: int, frames: int) -> None:
+    """Resident memory over ``frames`` simulated frames."""
+    import resource
+
+    face = wv.datasets.load_face(n_triangles=n_triangles)
+    names = ("surprise", "frown", "fear")
+    sim = face.simulator(names[0])
+    for k in range(frames):
+        if k % 100 == 0:
+            sim.timeline = names[(k // 100) % 3]
+        sim.step(H)
+        if (k + 1) % max(1, frames // 10) == 0:
+            rss = _rss_mb()
+            peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+            print(f"  frame {k + 1:6d}: resident {rss:7.1f} MB (peak {peak:.1f} MB)")
+
+
+def _rss_mb() -> float:
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * (__import__("os").sysconf("SC_PAGE_SIZE")) / 2**20
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--triangles", type=int, nargs="+", default=[4500, 20000])
     ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--memory", type=int, default=0, metavar="N",
+                    help="also run N frames of the first face and print resident memory")
     args = ap.parse_args()
     print(f"load average {open('/proc/loadavg').read().split()[0]}, "
           f"{__import__('os').cpu_count()} CPUs")
@@ -153,6 +182,9 @@ def main() -> None:
         print(f"  still frame (equilibrium) {r['still_frame_s']:8.3f} s")
         print(f"  peer: semi-implicit Euler {r['peer_frame_ms']:8.2f} ms a frame "
               f"({r['peer_substeps']} substeps of {r['peer_stable_step_us']:.1f} us)")
+    if args.memory:
+        print(f"memory over {args.memory} frames, {args.triangles[0]} triangles:")
+        memory(args.triangles[0], args.memory)
 
 
 if __name__ == "__main__":

@@ -321,6 +321,9 @@ def test_refinement_carries_the_simulated_displacement_to_new_vertices():
     added = (state.deformed_points - surface.points
              - state.face.muscle_displacement(state.activations))
     assert np.abs(added[n0:]).max() > 0.1
+    frames = list(face.simulate({"lin": 1.0}, 0.1, 0.05, refine=True, refine_angle_deg=1.0))
+    assert [round(s.time, 6) for s in frames] == [0.05, 0.1]
+    assert all(s.n_points > n0 and s.skin_model == "physical" for s in frames)
 
 
 # ---------------------------------------------------------------- layout files
