@@ -29,6 +29,8 @@ from .registry import (
     register_muscle_type,
 )
 from .sampling import UndersampledWrinklesWarning, undersampled_muscles, warn_undersampled
+from .simulation import Simulation
+from .skin import SkinMaterial
 
 __all__ = [
     "FIELDS",
@@ -49,6 +51,8 @@ __all__ = [
     "OutputPathError",
     "Parameter",
     "SheetMuscle",
+    "Simulation",
+    "SkinMaterial",
     "TriangleSurface",
     "UndersampledWrinklesWarning",
     "UnknownMuscleTypeError",

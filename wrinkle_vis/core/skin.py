@@ -83,8 +83,8 @@ from scipy.spatial import cKDTree
 from .mesh import TriangleSurface
 from .params import PARAMETER_KEY, Parameter, parameter
 
-__all__ = ["SKIN_MODELS", "SkinMaterial", "SpringSkin", "bending_pairs", "check_skin_model",
-           "inverted_triangles", "vertex_areas"]
+__all__ = ["SKIN_MODELS", "SkinMaterial", "SpringSkin", "activation_response", "bending_pairs",
+           "check_skin_model", "inverted_triangles", "vertex_areas"]
 
 #: The skin models a face can be evaluated with: the geometric pulls (the default) and the
 #: physically based skin of this module.
