@@ -2,7 +2,8 @@
 
 Usage:  .venv/bin/python docs/make_physical_images.py
 
-Writes ``images/fig9_physical.png`` (Fig. 9 on the physical skin), ``images/fig10.png``
+Writes ``images/fig9_physical.png`` (Fig. 9 on the physical skin, refined as the paper
+renders it; the same as ``wrinkle-vis figure fig9 --refine --skin-model physical``), ``images/fig10.png``
 (wrinkles forming after a step to surprise), ``images/physical_maps.png`` (W and the
 compression of one muscle, geometric and physical skin side by side, for surprise, frown and
 fear) and ``images/physical_step.png`` (W against time after a step), and prints the step
@@ -59,7 +60,8 @@ def step_response(face, dt=0.005, duration=0.5):
 def main() -> None:
     """Write the four images and print the step response."""
     face = wv.datasets.load_face()
-    save_image(figure_expressions(face.with_skin_model("physical")), OUT / "fig9_physical.png")
+    save_image(figure_expressions(face.with_skin_model("physical"), refine=True),
+               OUT / "fig9_physical.png")
     save_image(figure_dynamics(face, "surprise"), OUT / "fig10.png")
     save_image(maps(face), OUT / "physical_maps.png")
     t, w = step_response(face)
