@@ -4,10 +4,10 @@ Usage:  .venv/bin/python docs/make_physical_images.py
 
 Writes ``images/fig9_physical.png`` (Fig. 9 on the physical skin, refined as the paper
 renders it; the same as ``wrinkle-vis figure fig9 --refine --skin-model physical``),
-``images/fig10.png`` (wrinkles forming after a step to surprise), ``images/physical_maps.png`` (W and the
-compression of one muscle, geometric and physical skin side by side, for surprise, frown and
-fear) and ``images/physical_step.png`` (W against time after a step), and prints the step
-response's numbers.
+``images/fig10.png`` (wrinkles forming after a step to surprise),
+``images/physical_maps.png`` (W and the compression of one muscle, geometric and physical
+skin side by side, for surprise, frown and fear) and ``images/physical_step.png`` (W
+against time after a step), and prints the step response's numbers.
 """
 
 from pathlib import Path
