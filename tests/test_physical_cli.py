@@ -2,6 +2,7 @@
 
 import imageio.v3 as iio
 import numpy as np
+import pytest
 import pyvista as pv
 
 import wrinkle_vis as wv
@@ -32,3 +33,26 @@ def test_figure_fig10_shows_the_wrinkles_forming(tmp_path, capsys):
 def test_times_belong_to_fig10(tmp_path, capsys):
     assert main(["figure", "fig9", "--times", "0.1", "-o", str(tmp_path / "a.png")]) == 2
     assert "--times is for fig10" in capsys.readouterr().err
+
+
+def test_an_expressions_timeline_is_simulated_on_the_physical_skin():
+    face = wv.datasets.load_face()
+    expression = face.expressions["frown"]
+    times = [0.0, 0.1, 0.2, 0.4]
+    geo = list(face.expression_states(expression, times))
+    for t, state in zip(times, geo, strict=True):
+        np.testing.assert_array_equal(state.points, face.evaluate(expression.at(t)).points)
+    phys = list(face.with_skin_model("physical").expression_states(expression, times))
+    assert [s.time for s in phys] == pytest.approx(times)
+    assert all(s.skin_model == "physical" for s in phys)
+    # the skin lags behind the command (activation dynamics), then catches up
+    w = [np.abs(s.W).sum() for s in phys]
+    assert w[0] == 0.0 and w[1] < w[2] <= w[3] * 1.1
+
+
+def test_export_sequence_on_the_physical_skin(tmp_path):
+    out = tmp_path / "frown.pvd"
+    assert main(["export", "--sequence", "--fps", "2", "-e", "frown", "--skin-model",
+                 "physical", "-o", str(out)]) == 0
+    frames = sorted((tmp_path / "frown").glob("*.vtp"))
+    assert len(frames) >= 2

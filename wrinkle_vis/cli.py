@@ -80,8 +80,9 @@ def _common(p: argparse.ArgumentParser, *, expression_many: bool = False,
                         "mouth_corner_L/R), or a layout file with them")
     p.add_argument("--skin-model", choices=SKIN_MODEL_CHOICES, default="geometric",
                    help="geometric: the muscles' summed pulls (default); physical: the "
-                        "simulated mass-spring skin bound to the skull, at equilibrium "
-                        "(fig10: over time)")
+                        "simulated mass-spring skin bound to the skull, at equilibrium for a "
+                        "still frame, simulated over time for animate, export --sequence "
+                        "and fig10")
     p.add_argument("--unit", choices=UNIT_CHOICES, default=None,
                    help="the unit of the face's lengths (default: the layout's; mm for the "
                         "built-in faces; guessed from a scan's size, with a note)")

@@ -625,6 +625,31 @@ class FaceModel:
                 state = self._refined_physical(state, refine_angle_deg, refine_levels)
             yield state
 
+    def expression_states(self, expression: Expression, times, intensity: float = 1.0, *,
+                          refine: bool = False, refine_angle_deg: float = 3.0,
+                          refine_levels: int = 3):
+        """Yield the states of ``expression``'s timeline (onset, hold, release:
+        :meth:`Expression.at`) at ``times`` (seconds, ascending), one at a time: on the
+        geometric skin each evaluated on its own; on the physical skin (the face's
+        :attr:`skin_model`) simulated from rest at t = 0, the timeline as the command, at
+        the material's time step and landing on each time.
+        """
+        times = [float(t) for t in times]
+        if any(b < a for a, b in zip(times, times[1:], strict=False)):
+            raise ValueError("times must be ascending")
+        options = {"refine": refine, "refine_angle_deg": refine_angle_deg,
+                   "refine_levels": refine_levels}
+        if self.skin_model != "physical":
+            for t in times:
+                yield self.evaluate(expression.at(t, intensity), **options)
+            return
+        sim = self.simulator(lambda t: expression.at(t, intensity))
+        for t in times:
+            states = list(sim.run(max(0.0, t - sim.time)))
+            state = states[-1] if states else sim.state()
+            yield (self._refined_physical(state, refine_angle_deg, refine_levels) if refine
+                   else state)
+
     def _refined_physical(self, state: FaceState, angle_deg: float, levels: int) -> FaceState:
         if not (0.0 < angle_deg < 180.0):
             raise ValueError(f"refine_angle_deg = {angle_deg:g} is outside (0, 180)")
