@@ -449,6 +449,7 @@ class FaceModel:
         self._muscle_data: dict[Muscle, _MuscleData] = _caches[0]
         self._assemblies: OrderedDict = _caches[1] if _caches[1] is not None else OrderedDict()
         self._rest: _RestFrame = _caches[2]
+        self._springs: dict[SkinMaterial, SpringSkin] = {}  # the physical skin, per material
 
     # ------------------------------------------------------------------ access
     @property
@@ -531,7 +532,7 @@ class FaceModel:
         face.skin_model = check_skin_model(skin_model)
         face.material = material or self.material
         face._assemblies = self._assemblies
-        face.__dict__["_springs"] = self.__dict__.setdefault("_springs", {})
+        face._springs = self._springs  # same skin, skull and muscles: same matrices
         return face
 
     def muscle_data(self, muscle: Muscle) -> _MuscleData:
@@ -568,7 +569,7 @@ class FaceModel:
         face) or material.
         """
         material = material or self.material
-        cache = self.__dict__.setdefault("_springs", {})
+        cache = self._springs
         skin = cache.get(material)
         if skin is None:
             if len(cache) > 2:
