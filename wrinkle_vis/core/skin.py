@@ -80,7 +80,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.spatial import cKDTree
 
-from .mesh import TriangleSurface
+from .mesh import TriangleSurface, barycentric_points, surface_coordinates, unit_rows
 from .params import PARAMETER_KEY, Parameter, parameter
 
 __all__ = ["SKIN_MODELS", "SkinMaterial", "SpringSkin", "activation_response", "bending_pairs",
@@ -231,36 +231,56 @@ def inverted_triangles(rest: np.ndarray, points: np.ndarray, triangles: np.ndarr
 
 
 class _Skull:
-    r"""The skull as a constraint: signed distance from the nearest skull vertex along its
-    outward normal, :math:`s(x) = (x - p_k) \cdot n_k`.
+    r"""The skull as a constraint.
+
+    The signed distance of a point :math:`x` is :math:`s(x) = |x - c|\,\operatorname{sign}
+    ((x - c) \cdot n_c)`, :math:`c` the closest point of the skull (among the triangles
+    around the nearest skull vertices, :func:`~wrinkle_vis.core.mesh.surface_coordinates`)
+    and :math:`n_c` the skull's vertex normals interpolated there. A vertex is kept at
+    :math:`s \ge \min(s_\text{rest}, 0)`: never inside the skull, and never deeper than at
+    rest where a scan's skull pokes through its skin.
     """
 
+    #: Vertices whose nearest-vertex estimate of the distance is above this many times the
+    #: skull's mean edge length take it as their rest distance (far from the skull the
+    #: estimate is only used to decide which vertices to look at).
+    NEAR = 1.0
+
     def __init__(self, skull: TriangleSurface, rest: np.ndarray):
-        self.points = skull.points
+        self.surface = skull
         self.normals = skull.vertex_normals()
-        self.tree = cKDTree(self.points)
-        self.rest_distance = self.distance(rest)[0]
-        # the skin keeps at least this distance: never inside the skull, and never deeper
-        # than at rest where the vertex-normal distance already reads negative
+        self.tree = cKDTree(skull.points)
+        _, k = self.tree.query(rest)
+        rough = np.einsum("ij,ij->i", rest - skull.points[k], self.normals[k])
+        near = np.flatnonzero(rough < self.NEAR * float(np.mean(skull.rest_edge_lengths)))
+        self.rest_distance = rough
+        if len(near):
+            self.rest_distance[near] = self.distance(rest[near])[0]
         self.floor = np.minimum(self.rest_distance, 0.0)
 
-    def distance(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(k,)`` signed distances of ``x`` ``(k, 3)`` and ``(k,)`` nearest skull vertices."""
-        _, k = self.tree.query(x)
-        return np.einsum("ij,ij->i", x - self.points[k], self.normals[k]), k
+    def distance(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(k,)`` signed distances of ``x`` ``(k, 3)``, ``(k, 3)`` closest skull points and
+        ``(k, 3)`` the skull's unit normals there.
+        """
+        tri, bary = surface_coordinates(self.surface, x)
+        c = barycentric_points(self.surface, tri, bary)
+        n = unit_rows(np.einsum("kj,kjd->kd", bary, self.normals[self.surface.triangles[tri]]))
+        d = x - c
+        return np.sqrt(np.einsum("ij,ij->i", d, d)) * np.sign(np.einsum("ij,ij->i", d, n)), c, n
 
     def project(self, x: np.ndarray, rest: np.ndarray) -> np.ndarray:
-        """Move the vertices of ``x`` ``(n, 3)`` that came closer to the skull than allowed
-        out along the skull's normal, in place; returns the ids moved.
+        """Put the vertices of ``x`` ``(n, 3)`` that came closer to the skull than allowed
+        back at their least distance along the skull's normal, in place; returns their ids.
+        Only vertices that moved by more than half their rest distance are looked at.
         """
         near = np.flatnonzero(np.einsum("ij,ij->i", x - rest, x - rest)
                               >= (0.5 * np.maximum(self.rest_distance, 0.0)) ** 2)
         if not len(near):
             return near
-        s, k = self.distance(x[near])
+        s, c, n = self.distance(x[near])
         deep = s < self.floor[near]
         ids = near[deep]
-        x[ids] += (self.floor[ids] - s[deep])[:, None] * self.normals[k[deep]]
+        x[ids] = c[deep] + self.floor[ids][:, None] * n[deep]
         return ids
 
 
