@@ -41,8 +41,8 @@ around the vertex). Its potential energy is
   keep the system matrix constant while the activations change.
 
 The skin never enters the skull: after each step a vertex whose signed distance to the skull
-(from the nearest skull vertex and its normal) is below its rest value or 0 is projected out
-along that normal.
+(to the closest point of its triangles) fell below min(its rest value, 0) is put back at that
+distance along the skull's normal there.
 
 Integration
 -----------
@@ -317,21 +317,7 @@ class SpringSkin:
         self.k_att = mat.attachment_stiffness * area * s2
         self.k_zone = mat.muscle_stiffness * np.clip(grip, 0.0, 1.0) * area * s2
         self.anchor = self.k_att + self.k_zone
-        edges = skin.edges
-        tri_area = skin.triangle_areas()
-        e_area = np.zeros(len(edges))
-        tri_edges = _triangle_edge_ids(skin.triangles, edges, n)
-        np.add.at(e_area, tri_edges.ravel(), np.repeat(tri_area / 3.0, 3))
-        rest_len = skin.rest_edge_lengths
-        pairs, tris = bending_pairs(skin.triangles)
-        b_len = np.linalg.norm(self.rest[pairs[:, 0]] - self.rest[pairs[:, 1]], axis=1)
-        b_area = tri_area[tris].sum(axis=1) / 3.0
-        self.i = np.concatenate([edges[:, 0], pairs[:, 0]]).astype(np.intp)
-        self.j = np.concatenate([edges[:, 1], pairs[:, 1]]).astype(np.intp)
-        self.L = np.concatenate([rest_len, b_len])
-        self.k = np.concatenate([mat.membrane_stiffness * e_area / rest_len**2,
-                                 mat.bending_stiffness * b_area / np.maximum(b_len, 1e-300)**2])
-        self.n_edges = len(edges)
+        self.i, self.j, self.L, self.k, self.n_edges = _spring_network(skin, mat)
         self.kb = mat.biphasic_ratio * self.k[: self.n_edges]
         self.kL = self.k * self.L
         self.k_total = self.k.copy()
@@ -498,6 +484,37 @@ def _anderson(g, x: np.ndarray, tol: float, max_iter: int, window: int) -> np.nd
         best = min(best, res)
         x, gx, f = x_new, g_new, f_new
     return gx
+
+
+def _spring_network(skin: TriangleSurface, mat: SkinMaterial):
+    r"""The springs of ``skin``: its edges first, then one bending spring across each
+    interior edge.
+
+    Returns
+    -------
+    i, j : (s,) int
+        The ends of each spring.
+    rest_length : (s,) float
+    stiffness : (s,) float
+        :math:`Y a_e / L_e^2` on an edge, :math:`B a_e / L_b^2` on a bending spring
+        (:math:`a_e` a third of the area of the edge's triangles).
+    n_edges : int
+        How many of the springs are edges.
+    """
+    edges, points = skin.edges, skin.points
+    tri_area = skin.triangle_areas()
+    e_area = np.zeros(len(edges))
+    tri_edges = _triangle_edge_ids(skin.triangles, edges, skin.n_points)
+    np.add.at(e_area, tri_edges.ravel(), np.repeat(tri_area / 3.0, 3))
+    rest_len = skin.rest_edge_lengths
+    pairs, tris = bending_pairs(skin.triangles)
+    b_len = np.linalg.norm(points[pairs[:, 0]] - points[pairs[:, 1]], axis=1)
+    b_area = tri_area[tris].sum(axis=1) / 3.0
+    i = np.concatenate([edges[:, 0], pairs[:, 0]]).astype(np.intp)
+    j = np.concatenate([edges[:, 1], pairs[:, 1]]).astype(np.intp)
+    stiffness = np.concatenate([mat.membrane_stiffness * e_area / rest_len**2,
+                                mat.bending_stiffness * b_area / np.maximum(b_len, 1e-300)**2])
+    return i, j, np.concatenate([rest_len, b_len]), stiffness, len(edges)
 
 
 def _triangle_edge_ids(triangles: np.ndarray, edges: np.ndarray, n: int) -> np.ndarray:
