@@ -241,22 +241,30 @@ class _Skull:
     rest where a scan's skull pokes through its skin.
     """
 
-    #: Vertices whose nearest-vertex estimate of the distance is above this many times the
-    #: skull's mean edge length take it as their rest distance (far from the skull the
-    #: estimate is only used to decide which vertices to look at).
+    #: How close, in skull edges by the nearest-vertex estimate (:meth:`rough`), a point
+    #: must come to the skull (or to its least distance) to be measured exactly; farther
+    #: ones keep the estimate as their rest distance.
     NEAR = 1.0
 
     def __init__(self, skull: TriangleSurface, rest: np.ndarray):
         self.surface = skull
         self.normals = skull.vertex_normals()
         self.tree = cKDTree(skull.points)
-        _, k = self.tree.query(rest)
-        rough = np.einsum("ij,ij->i", rest - skull.points[k], self.normals[k])
-        near = np.flatnonzero(rough < self.NEAR * float(np.mean(skull.rest_edge_lengths)))
+        self.margin = self.NEAR * float(np.mean(skull.rest_edge_lengths))
+        rough = self.rough(rest)
+        near = np.flatnonzero(rough < self.margin)
         self.rest_distance = rough
         if len(near):
             self.rest_distance[near] = self.distance(rest[near])[0]
         self.floor = np.minimum(self.rest_distance, 0.0)
+
+    def rough(self, x: np.ndarray) -> np.ndarray:
+        """``(k,)``: the signed distance of ``x`` ``(k, 3)`` estimated from the nearest skull
+        vertex and its normal (vectorized; off by up to a few skull edges in concave
+        places, so it only decides which points to look at closely).
+        """
+        _, k = self.tree.query(x)
+        return np.einsum("ij,ij->i", x - self.surface.points[k], self.normals[k])
 
     def distance(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(k,)`` signed distances of ``x`` ``(k, 3)``, ``(k, 3)`` closest skull points and
@@ -271,10 +279,14 @@ class _Skull:
     def project(self, x: np.ndarray, rest: np.ndarray) -> np.ndarray:
         """Put the vertices of ``x`` ``(n, 3)`` that came closer to the skull than allowed
         back at their least distance along the skull's normal, in place; returns their ids.
-        Only vertices that moved by more than half their rest distance are looked at.
+        Only vertices that moved by more than half their rest distance, and came within
+        :attr:`NEAR` skull edges of their least distance by the estimate :meth:`rough`, are
+        looked at.
         """
         near = np.flatnonzero(np.einsum("ij,ij->i", x - rest, x - rest)
                               >= (0.5 * np.maximum(self.rest_distance, 0.0)) ** 2)
+        if len(near):
+            near = near[self.rough(x[near]) < self.floor[near] + self.margin]
         if not len(near):
             return near
         s, c, n = self.distance(x[near])
