@@ -40,9 +40,10 @@ around the vertex). Its potential energy is
   beyond what it declares (so a plug-in type drives this skin with no code of its own), and
   keep the system matrix constant while the activations change.
 
-The skin never enters the skull: after each step a vertex whose signed distance to the skull
-(to the closest point of its triangles) fell below min(its rest value, 0) is put back at that
-distance along the skull's normal there.
+The skin never enters the skull: after each step a vertex that was outside the skull at rest
+and whose signed distance to the skull (to the closest point of its triangles) became
+negative is put back on the skull at that point. (Where a scan's skull reaches through its
+skin, the vertices inside it at rest are left free.)
 
 Integration
 -----------
@@ -236,27 +237,25 @@ class _Skull:
     The signed distance of a point :math:`x` is :math:`s(x) = |x - c|\,\operatorname{sign}
     ((x - c) \cdot n_c)`, :math:`c` the closest point of the skull (among the triangles
     around the nearest skull vertices, :func:`~wrinkle_vis.core.mesh.surface_coordinates`)
-    and :math:`n_c` the skull's vertex normals interpolated there. A vertex is kept at
-    :math:`s \ge \min(s_\text{rest}, 0)`: never inside the skull, and never deeper than at
-    rest where a scan's skull pokes through its skin.
+    and :math:`n_c` the skull's vertex normals interpolated there. A vertex outside the
+    skull at rest is kept at :math:`s \ge 0`; one inside it at rest (where a scan's skull
+    reaches through its skin) is left free.
     """
 
     #: How close, in skull edges by the nearest-vertex estimate (:meth:`rough`), a point
-    #: must come to the skull (or to its least distance) to be measured exactly; farther
-    #: ones keep the estimate as their rest distance.
+    #: must come to the skull to be measured exactly.
     NEAR = 1.0
 
     def __init__(self, skull: TriangleSurface, rest: np.ndarray):
         self.surface = skull
+        self.rest = rest
         self.normals = skull.vertex_normals()
         self.tree = cKDTree(skull.points)
         self.margin = self.NEAR * float(np.mean(skull.rest_edge_lengths))
-        rough = self.rough(rest)
-        near = np.flatnonzero(rough < self.margin)
-        self.rest_distance = rough
-        if len(near):
-            self.rest_distance[near] = self.distance(rest[near])[0]
-        self.floor = np.minimum(self.rest_distance, 0.0)
+        #: the estimate at rest (which vertices to look at) and, filled in the first time a
+        #: vertex is looked at closely, the exact rest distance its floor comes from
+        self.rest_rough = self.rough(rest)
+        self._rest_exact = np.full(len(rest), np.nan)
 
     def rough(self, x: np.ndarray) -> np.ndarray:
         """``(k,)``: the signed distance of ``x`` ``(k, 3)`` estimated from the nearest skull
@@ -265,6 +264,17 @@ class _Skull:
         """
         _, k = self.tree.query(x)
         return np.einsum("ij,ij->i", x - self.surface.points[k], self.normals[k])
+
+    def floor(self, ids: np.ndarray) -> np.ndarray:
+        """``(k,)``: the least signed distance vertices ``ids`` may keep: 0 for a vertex
+        outside the skull at rest, and no bound (``-inf``) for one inside it at rest (where
+        a scan's skull reaches through its skin the side of the skull is ambiguous, and
+        pushing such vertices out would tear the skin). Measured the first time asked.
+        """
+        todo = ids[np.isnan(self._rest_exact[ids])]
+        if len(todo):
+            self._rest_exact[todo] = self.distance(self.rest[todo])[0]
+        return np.where(self._rest_exact[ids] >= 0.0, 0.0, -np.inf)
 
     def distance(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(k,)`` signed distances of ``x`` ``(k, 3)``, ``(k, 3)`` closest skull points and
@@ -276,23 +286,25 @@ class _Skull:
         d = x - c
         return np.sqrt(np.einsum("ij,ij->i", d, d)) * np.sign(np.einsum("ij,ij->i", d, n)), c, n
 
-    def project(self, x: np.ndarray, rest: np.ndarray) -> np.ndarray:
-        """Put the vertices of ``x`` ``(n, 3)`` that came closer to the skull than allowed
-        back at their least distance along the skull's normal, in place; returns their ids.
-        Only vertices that moved by more than half their rest distance, and came within
-        :attr:`NEAR` skull edges of their least distance by the estimate :meth:`rough`, are
+    def project(self, x: np.ndarray) -> np.ndarray:
+        """Put the vertices of ``x`` ``(n, 3)`` that entered the skull back on it (at the
+        closest point), in place; returns their ids.
+        Only vertices that moved by more than half their estimated rest distance, and that
+        the estimate :meth:`rough` puts within :attr:`NEAR` skull edges of the skull, are
         looked at.
         """
-        near = np.flatnonzero(np.einsum("ij,ij->i", x - rest, x - rest)
-                              >= (0.5 * np.maximum(self.rest_distance, 0.0)) ** 2)
+        d = x - self.rest
+        near = np.flatnonzero(np.einsum("ij,ij->i", d, d)
+                              >= (0.5 * np.maximum(self.rest_rough, 0.0)) ** 2)
         if len(near):
-            near = near[self.rough(x[near]) < self.floor[near] + self.margin]
+            rough = self.rough(x[near])
+            near = near[rough < self.margin]
         if not len(near):
             return near
         s, c, n = self.distance(x[near])
-        deep = s < self.floor[near]
+        deep = s < self.floor(near)
         ids = near[deep]
-        x[ids] = c[deep] + self.floor[ids][:, None] * n[deep]
+        x[ids] = c[deep]
         return ids
 
 
@@ -412,7 +424,7 @@ class SpringSkin:
         for _ in range(mat.iterations):
             new = lu.solve(fixed + self.spring_targets(new))
         if self.skull is not None:
-            self.skull.project(new, self.rest)
+            self.skull.project(new)
         return new, (new - x) / h
 
     def equilibrium(self, target_disp: np.ndarray, x: np.ndarray | None = None, *,
@@ -433,7 +445,7 @@ class SpringSkin:
         out = _anderson(g, x0.ravel(order="F"), tol * self.size(), max_iter, window)
         out = out.reshape((self.n, 3), order="F").copy()
         if self.skull is not None:
-            self.skull.project(out, self.rest)
+            self.skull.project(out)
         return out
 
     def energy(self, x: np.ndarray, v: np.ndarray, target_disp: np.ndarray | None = None
