@@ -1,5 +1,7 @@
 """``--skin-model physical`` on the commands, and ``figure fig10``."""
 
+import dataclasses
+
 import imageio.v3 as iio
 import numpy as np
 import pytest
@@ -56,3 +58,16 @@ def test_export_sequence_on_the_physical_skin(tmp_path):
                  "physical", "-o", str(out)]) == 0
     frames = sorted((tmp_path / "frown").glob("*.vtp"))
     assert len(frames) >= 2
+
+
+def test_a_layouts_skin_model_holds_unless_the_command_line_says_otherwise(tmp_path, capsys):
+    from wrinkle_vis.core.layout import load_layout, save_layout
+    from wrinkle_vis.datasets.face import BUILTIN_LAYOUT
+
+    path = tmp_path / "phys.json"
+    save_layout(dataclasses.replace(load_layout(BUILTIN_LAYOUT), skin_model="physical"), path)
+    assert main(["summary", "-e", "frown", "--layout", str(path)]) == 0
+    assert "physical skin" in capsys.readouterr().out
+    assert main(["summary", "-e", "frown", "--layout", str(path), "--skin-model",
+                 "geometric"]) == 0
+    assert "physical skin" not in capsys.readouterr().out

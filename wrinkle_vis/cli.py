@@ -78,11 +78,11 @@ def _common(p: argparse.ArgumentParser, *, expression_many: bool = False,
                    help='where the landmarks lie on --skin: {"nasion": [x, y, z], ...} (at '
                         "least 4 of nasion, nose_tip, chin, eye_inner_L/R, eye_outer_L/R, "
                         "mouth_corner_L/R), or a layout file with them")
-    p.add_argument("--skin-model", choices=SKIN_MODEL_CHOICES, default="geometric",
-                   help="geometric: the muscles' summed pulls (default); physical: the "
-                        "simulated mass-spring skin bound to the skull, at equilibrium for a "
-                        "still frame, simulated over time for animate, export --sequence "
-                        "and fig10")
+    p.add_argument("--skin-model", choices=SKIN_MODEL_CHOICES, default=None,
+                   help="geometric: the muscles' summed pulls; physical: the simulated "
+                        "mass-spring skin bound to the skull, at equilibrium for a still "
+                        "frame, simulated over time for animate, export --sequence and fig10 "
+                        "(default: the layout's, else geometric)")
     p.add_argument("--unit", choices=UNIT_CHOICES, default=None,
                    help="the unit of the face's lengths (default: the layout's; mm for the "
                         "built-in faces; guessed from a scan's size, with a note)")
@@ -428,8 +428,8 @@ def _load(args, *, refine: bool = False):
         raise CliError(f"unknown muscle {muscle!r}; choose from: {', '.join(face.muscle_names)}")
     if not refine:
         _warn_undersampled(args, face, names)
-    model = getattr(args, "skin_model", "geometric")
-    return face if model == face.skin_model else face.with_skin_model(model)
+    model = getattr(args, "skin_model", None)
+    return face if model in (None, face.skin_model) else face.with_skin_model(model)
 
 
 def _layout_meshes(layout, path) -> dict:
