@@ -236,9 +236,10 @@ def _check_frame(state, skull_distance, rest_distance) -> None:
 @pytest.fixture(scope="module")
 def skull_distance():
     pv = pytest.importorskip("pyvista")
+    vtk = pytest.importorskip("vtk")
     face = wv.datasets.load_face()
     skull = pv.PolyData.from_regular_faces(face.skull.points, face.skull.triangles)
-    implicit = __import__("vtk").vtkImplicitPolyDataDistance()
+    implicit = vtk.vtkImplicitPolyDataDistance()
     implicit.SetInput(skull)
 
     def distance(points):  # positive outside the skull (VTK's sign is negative inside)
@@ -277,6 +278,7 @@ def test_random_activations_up_to_three_times_the_strength_never_enter_nor_fold(
 
 
 def _max_factor(m) -> float:
+    """The largest factor in [1, 3] that muscle ``m``'s type allows on its strength."""
     lo, hi = 1.0, 3.0
     for _ in range(20):
         mid = 0.5 * (lo + hi)
