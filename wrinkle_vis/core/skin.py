@@ -126,7 +126,7 @@ class SkinMaterial:
         4e5, label="kappa (N/m^3)", symbol="κ", unit="N/m^3", lo=0.0, lo_open=True,
         step=1e4, doc="stiffness per area of the tissue binding the skin to the skull")
     muscle_stiffness: float = parameter(
-        1e8, label="kappa_z (N/m^3)", symbol="κ_z", unit="N/m^3", lo=0.0, step=1e5,
+        1e9, label="kappa_z (N/m^3)", symbol="κ_z", unit="N/m^3", lo=0.0, step=1e5,
         doc="stiffness per area of a muscle's grip on the skin of its zone")
     density: float = parameter(
         1040.0, label="rho (kg/m^3)", symbol="ρ", unit="kg/m^3", lo=0.0, lo_open=True,
