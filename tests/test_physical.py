@@ -394,3 +394,19 @@ def test_the_scanned_head_neither_folds_nor_enters_its_skull():
         moved = outside & (np.abs(state.deformed_points - face.skin.points).max(axis=1) > 0.01)
         assert moved.sum() > 20
         assert (distance(state.deformed_points[moved]) >= -1e-6).all(), name
+
+
+# ---------------------------------------------------------------- realism
+def test_the_physical_skin_meets_the_paper_size_realism_checks():
+    """Surprise and frown refined on the physical skin pass the project's realism checks
+    (tests/test_realism.py), and the deformation adds no crease past 8 degrees at the 99th
+    percentile."""
+    from test_realism import check_forehead, check_glabella, crease
+
+    face = wv.datasets.load_face()
+    surprise = face.evaluate("surprise", skin="physical", refine=True)
+    frown = face.evaluate("frown", skin="physical", refine=True)
+    check_forehead(surprise)
+    check_glabella(frown)
+    for state in (surprise, frown):
+        assert np.percentile(crease(state), 99) <= 8.0
