@@ -700,7 +700,7 @@ def load_face(name: str | int | None = None, n_triangles: int | None = None, *, 
                              "the name")
         from .lee_perry_smith import load_lee_perry_smith
 
-        return load_lee_perry_smith(layout=lay, skull=_surface(skull))
+        return _skinned(load_lee_perry_smith(layout=lay, skull=_surface(skull)), lay)
     if lay is None:
         lay_used = load_layout(BUILTIN_LAYOUT)
     else:
@@ -721,13 +721,22 @@ def load_face(name: str | int | None = None, n_triangles: int | None = None, *, 
         skin_mesh = build_skin(n)
         if lay is not None:
             _check_fits(lay_used, skin_mesh, f"layout {lay_used.name!r} on the built-in face")
-        return FaceModel(skin_mesh, _surface(skull) or build_skull(), lay_used.muscles,
-                         lay_used.expressions, name=lay_used.name,
-                         landmarks=lay_used.landmarks if landmarks is None else landmarks,
-                         unit=unit or lay_used.unit or "mm", mapping=lay_used.mapping)
+        return _skinned(FaceModel(skin_mesh, _surface(skull) or build_skull(),
+                                  lay_used.muscles, lay_used.expressions, name=lay_used.name,
+                                  landmarks=lay_used.landmarks if landmarks is None
+                                  else landmarks, unit=unit or lay_used.unit or "mm",
+                                  mapping=lay_used.mapping), lay)
     skin_mesh = _surface(skin)
     unit = face_unit_of(skin_mesh, unit or lay_used.unit)
-    return _scan_face(skin_mesh, _surface(skull), lay_used, lay is None, landmarks, unit)
+    return _skinned(_scan_face(skin_mesh, _surface(skull), lay_used, lay is None, landmarks,
+                               unit), lay)
+
+
+def _skinned(face: FaceModel, layout) -> FaceModel:
+    """``face`` with the skin model and material a layout records (as is without)."""
+    if layout is None or (layout.skin_model is None and not layout.skin_material):
+        return face
+    return face.with_skin_model(layout.skin_model or face.skin_model, layout.material())
 
 
 def _surface(value):

@@ -97,7 +97,7 @@ def test_bad_figure_arguments_are_one_line_errors(argv, message, capsys, tmp_pat
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["figure", "fig10", "-o", "x.png"], "invalid choice: 'fig10'"),
+        (["figure", "fig12", "-o", "x.png"], "invalid choice: 'fig12'"),
         (["figure", "fig9"], "required: --output"),
         (["figure", "fig9", "-o", "x.png", "--intensity", "-1"], "outside [0, 1]"),
     ],

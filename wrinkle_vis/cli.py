@@ -20,7 +20,11 @@ from pathlib import Path
 from wrinkle_vis.core.files import input_problem
 
 CAMERA_CHOICES = ("front", "three_quarter", "side", "forehead", "upper_face")
-FIGURE_CHOICES = ("fig9", "fig11")
+FIGURE_CHOICES = ("fig9", "fig10", "fig11")
+#: ``--skin-model`` choices (wrinkle_vis.core.skin.SKIN_MODELS, without importing core here).
+SKIN_MODEL_CHOICES = ("geometric", "physical")
+#: The simulated times (seconds after the activation step) fig10 shows by default.
+FIG10_TIMES = (0.033, 0.067, 0.1, 0.2, 0.5)
 FIG9_EXPRESSIONS = ("surprise", "frown", "fear")
 LAYER_CHOICES = ("skin", "muscles", "skull")
 #: The built-in faces (wrinkle_vis.datasets.FACES, without importing it here).
@@ -114,6 +118,11 @@ def _common(p: argparse.ArgumentParser, *, expression_many: bool = False,
                    help='where the landmarks lie on --skin: {"nasion": [x, y, z], ...} (at '
                         "least 4 of nasion, nose_tip, chin, eye_inner_L/R, eye_outer_L/R, "
                         "mouth_corner_L/R), or a layout file with them")
+    p.add_argument("--skin-model", choices=SKIN_MODEL_CHOICES, default=None,
+                   help="geometric: the muscles' summed pulls; physical: the simulated "
+                        "mass-spring skin bound to the skull, at equilibrium for a still "
+                        "frame, simulated over time for animate, export --sequence and fig10 "
+                        "(default: the layout's, else geometric)")
     p.add_argument("--unit", choices=UNIT_CHOICES, default=None,
                    help="the unit of the face's lengths (default: the layout's; mm for the "
                         "built-in faces; guessed from a scan's size, with a note)")
@@ -232,6 +241,8 @@ def _parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "figure", help="render one of the paper's figures to a PNG, off screen",
         description="fig9: each expression without and with wrinkles (paper Fig. 9); "
+                    "fig10: wrinkles forming on the physical skin after a step to the "
+                    "expression, snapshots at --times (paper Fig. 10); "
                     "fig11: the adaptively refined mesh over the forehead during surprise "
                     "(paper Fig. 11). Plain skin under a raking light.")
     p.add_argument("figure", choices=FIGURE_CHOICES, help="which figure")
@@ -239,6 +250,9 @@ def _parser() -> argparse.ArgumentParser:
         f"fig9: one row each, {', '.join(FIG9_EXPRESSIONS)}; fig11: one, surprise"))
     _refine_options(p, "fig9: evaluate with adaptive refinement (fig11 always refines; "
                        "--refine-angle and --refine-levels set how for both)")
+    p.add_argument("--times", type=float, nargs="+", metavar="S",
+                   help="fig10: the simulated seconds after the step to show (default "
+                        f"{' '.join(f'{t:g}' for t in FIG10_TIMES)})")
     p.add_argument("--size", type=int, nargs=2, metavar=("W", "H"),
                    help=f"image size in pixels ({_SIZES}; "
                         "default: 880 by 400 per row for fig9, 800 by 800 for fig11)")
@@ -494,7 +508,8 @@ def _load(args, *, refine: bool = False):
         raise CliError(f"unknown muscle {muscle!r}; choose from: {', '.join(face.muscle_names)}")
     if not refine:
         _warn_undersampled(args, face, names)
-    return face
+    model = getattr(args, "skin_model", None)
+    return face if model in (None, face.skin_model) else face.with_skin_model(model)
 
 
 #: A skin file this large (bytes) is announced before it is read; a skin of this many
@@ -685,7 +700,8 @@ def _summary(args) -> int:
         t0 = time.perf_counter()
         state = face.evaluate(name, intensity=args.intensity)
         ms = 1e3 * (time.perf_counter() - t0)
-        print(f"\n== {name} (intensity {args.intensity:g}, {ms:.2f} ms) ==")
+        skin = "" if face.skin_model == "geometric" else f", {face.skin_model} skin"
+        print(f"\n== {name} (intensity {args.intensity:g}{skin}, {ms:.2f} ms) ==")
         print(state.summary())
     return 0
 
@@ -938,6 +954,10 @@ def _figure(args) -> int:
     _output(args, (".png",))
     if args.figure == "fig11" and args.expression and len(args.expression) > 1:
         raise CliError(f"fig11 shows one expression; got {len(args.expression)}")
+    if args.figure == "fig10":
+        return _figure10(args)
+    if args.times is not None:
+        raise CliError("--times is for fig10 (the simulated snapshots); leave it out")
     if not args.expression:
         args.expression = list(FIG9_EXPRESSIONS) if args.figure == "fig9" else ["surprise"]
     face = _load(args, refine=args.refine or args.figure == "fig11")
@@ -951,6 +971,28 @@ def _figure(args) -> int:
             image = figure_refinement(face, expression=args.expression[0],
                                       size=size or (800, 800), intensity=args.intensity,
                                       **_refinement(args))
+    written = save_image(image, args.output)
+    print(f"wrote {_wrote(args, written)}")
+    return 0
+
+
+def _figure10(args) -> int:
+    """fig10: snapshots of the physical skin after a step to one expression."""
+    from wrinkle_vis.plotting.figures import figure_dynamics
+    from wrinkle_vis.plotting.offscreen import headless_rendering
+    from wrinkle_vis.plotting.writers import save_image
+
+    if args.expression and len(args.expression) > 1:
+        raise CliError(f"fig10 shows one expression; got {len(args.expression)}")
+    times = tuple(args.times or FIG10_TIMES)
+    if not all(0.0 < t <= 10.0 for t in times):
+        raise CliError("--times must lie in (0, 10] seconds after the step")
+    expression = (args.expression or ["surprise"])[0]
+    args.skin_model = "physical"  # fig10 is the simulation
+    face = _load(args)
+    size = None if args.size is None else tuple(args.size)
+    with headless_rendering():
+        image = figure_dynamics(face, expression, times, size=size, intensity=args.intensity)
     written = save_image(image, args.output)
     print(f"wrote {_wrote(args, written)}")
     return 0

@@ -29,6 +29,8 @@ from .registry import (
     register_muscle_type,
 )
 from .sampling import UndersampledWrinklesWarning, undersampled_muscles, warn_undersampled
+from .simulation import Simulation
+from .skin import SkinMaterial
 from .tracks import (
     ChannelMap,
     Track,
@@ -64,6 +66,8 @@ __all__ = [
     "TrackError",
     "TrackMapping",
     "TrackWarning",
+    "Simulation",
+    "SkinMaterial",
     "TriangleSurface",
     "UndersampledWrinklesWarning",
     "UnknownMuscleTypeError",

@@ -7,7 +7,8 @@
      "muscles": [{"type": "linear", "name": "corrugator_L", "attachment": [...], ...}],
      "expressions": {"frown": {"name": "frown", "activations": {"corrugator_L": 1.0}, ...}},
      "landmarks": {"nose_tip": [0.0, -29.0, 110.0], ...},
-     "n_triangles": 4500, "unit": "mm", "face": null}
+     "n_triangles": 4500, "unit": "mm", "face": null,
+     "skin_model": "physical", "skin_material": {"membrane_stiffness": 150.0}}
 
 Mesh paths are relative to the layout file; ``null`` means the built-in face's mesh (skin)
 or, for the skull, one built from the skin. ``n_triangles`` (optional) records the
@@ -22,6 +23,10 @@ layout uses when ``skin`` is null (``"lee_perry_smith"``; null: the procedural f
 (:class:`~wrinkle_vis.core.tracks.TrackMapping`: ``{"AU04": {"muscles": {"corrugator_L":
 1.0, ...}, "curve": [[0, 0], [1, 1]]}, ...}``, muscles of ``$.muscles`` only); without it a
 track plays through :func:`~wrinkle_vis.core.tracks.default_mapping`.
+``skin_model`` (optional) is the skin model the face evaluates with
+(:data:`~wrinkle_vis.core.skin.SKIN_MODELS`; null: geometric) and ``skin_material``
+(optional) the physical skin's parameters that differ from their defaults, each checked
+against its declaration in :class:`~wrinkle_vis.core.skin.SkinMaterial`.
 Saving is atomic
 (:func:`wrinkle_vis.core.files.atomic_output`): the file is written beside its destination,
 flushed to disk and renamed over it, so a crash never leaves half a file, and a file saved
@@ -46,6 +51,7 @@ from .files import atomic_write_text, input_problem
 from .muscle import Muscle, MuscleParameterError
 from .params import control_character
 from .registry import UnknownMuscleTypeError, get_muscle_type, muscle_types
+from .skin import SKIN_MODELS, SkinMaterial
 from .tracks import TrackMapping
 from .units import LENGTH_UNITS
 
@@ -114,6 +120,12 @@ class Layout:
     mapping : TrackMapping or None
         Which muscles a recorded track's channels drive; None: not recorded (the default
         mapping plays).
+    skin_model : str or None
+        The skin model the face evaluates with (``"geometric"`` or ``"physical"``); None
+        when not recorded (geometric).
+    skin_material : dict of str to float
+        The physical skin's parameters that differ from their defaults
+        (:class:`~wrinkle_vis.core.skin.SkinMaterial`).
     """
 
     name: str = "face"
@@ -126,8 +138,11 @@ class Layout:
     unit: str | None = None
     face: str | None = None
     mapping: TrackMapping | None = None
+    skin_model: str | None = None
+    skin_material: dict = field(default_factory=dict)
 
     def __post_init__(self):
+        object.__setattr__(self, "skin_material", dict(self.skin_material))
         object.__setattr__(self, "muscles", tuple(self.muscles))
         object.__setattr__(self, "expressions", dict(self.expressions))
         object.__setattr__(self, "landmarks", {
@@ -157,7 +172,15 @@ class Layout:
             out["face"] = str(self.face)
         if self.mapping is not None:
             out["mapping"] = self.mapping.to_dict()
+        if self.skin_model is not None:
+            out["skin_model"] = str(self.skin_model)
+        if self.skin_material:
+            out["skin_material"] = dict(self.skin_material)
         return out
+
+    def material(self) -> SkinMaterial:
+        """The physical skin's :class:`~wrinkle_vis.core.skin.SkinMaterial` of the layout."""
+        return SkinMaterial(**self.skin_material)
 
     @classmethod
     def from_dict(cls, data: Any, source: str = "<layout>") -> Layout:
@@ -175,7 +198,8 @@ class Layout:
         _expect(version == VERSION, source, "$.version",
                 f"{VERSION} (this wrinkle-vis reads version {VERSION})", version)
         known = {"format", "version", "name", "skin", "skull", "muscles", "expressions",
-                 "landmarks", "n_triangles", "unit", "face", "mapping"}
+                 "landmarks", "n_triangles", "unit", "face", "mapping", "skin_model",
+                 "skin_material"}
         for key in data:
             _expect(key in known, source, f"$.{key}", f"one of {sorted(known)}", key)
         name = data.get("name", "face")
@@ -197,6 +221,10 @@ class Layout:
         face = data.get("face")
         _expect(face is None or (isinstance(face, str) and face), source, "$.face",
                 "the name of a built-in face or null", face)
+        skin_model = data.get("skin_model")
+        _expect(skin_model is None or skin_model in SKIN_MODELS, source, "$.skin_model",
+                f"a skin model ({', '.join(SKIN_MODELS)}) or null", skin_model)
+        material = _skin_material(data.get("skin_material", {}), source)
         muscles = _muscles(data.get("muscles", []), source)
         expressions = _expressions(data.get("expressions", {}), source,
                                    {m.name for m in muscles})
@@ -204,7 +232,8 @@ class Layout:
         return cls(name=name, muscles=muscles, expressions=expressions,
                    skin=data.get("skin"), skull=data.get("skull"),
                    landmarks=_landmarks(data.get("landmarks", {}), source),
-                   n_triangles=n_triangles, unit=unit, face=face, mapping=mapping)
+                   n_triangles=n_triangles, unit=unit, face=face, mapping=mapping,
+                   skin_model=skin_model, skin_material=material)
 
     def resolve(self, key: str, base: str | os.PathLike) -> Path | None:
         """The absolute path of ``skin`` or ``skull`` relative to folder ``base``."""
@@ -215,6 +244,25 @@ class Layout:
 def _expect(ok: bool, source: str, path: str, expected: str, found: Any) -> None:
     if not ok:
         raise LayoutError(source, path, expected, found)
+
+
+def _skin_material(items: Any, source: str) -> dict:
+    """The physical skin's parameters of a layout, each checked against its declaration."""
+    _expect(isinstance(items, dict), source, "$.skin_material",
+            "an object of skin parameter name to value", items)
+    specs = {p.name: p for p in SkinMaterial.parameters()}
+    for key, value in items.items():
+        path = f"$.skin_material.{key}"
+        _expect(key in specs, source, path, f"one of {sorted(specs)}", key)
+        spec = specs[key]
+        expected = f"{key} ({spec.symbol}, {spec.doc}) in {spec.range_text()} {spec.unit}"
+        _expect(isinstance(value, (int, float)) and not isinstance(value, bool), source, path,
+                expected, value)
+        try:
+            SkinMaterial(**{key: value})
+        except ValueError:
+            raise LayoutError(source, path, expected, value) from None
+    return dict(items)
 
 
 def _muscles(items: Any, source: str) -> tuple[Muscle, ...]:

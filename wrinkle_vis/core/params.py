@@ -26,14 +26,16 @@ import math
 import unicodedata
 from dataclasses import dataclass
 
-__all__ = ["PARAMETER_KEY", "SURFACES", "TABLE_COLUMNS", "UNITS", "Parameter",
+__all__ = ["PARAMETER_KEY", "PHYSICAL_UNITS", "SURFACES", "TABLE_COLUMNS", "UNITS", "Parameter",
            "control_character", "parameter", "parameter_table"]
 
 #: The key of a :class:`Parameter` in a dataclass field's metadata.
 PARAMETER_KEY = "wrinkle_vis.parameter"
 #: The kinds of value a parameter holds: lengths in the face's units (they scale with the
-#: face), angles in degrees, dimensionless numbers, integer counts, and points or lines.
-UNITS = ("length", "deg", "1", "count", "point", "vector", "option")
+#: face), angles in degrees, dimensionless numbers, integer counts, and points or lines; the
+#: physically based skin's material constants (:mod:`wrinkle_vis.core.skin`) in SI units.
+PHYSICAL_UNITS = ("N/m", "N/m^3", "kg/m^3", "m", "1/s", "s")
+UNITS = ("length", "deg", "1", "count", "point", "vector", "option", *PHYSICAL_UNITS)
 #: The surfaces a point parameter lies on.
 SURFACES = ("skin", "skull")
 
@@ -117,7 +119,7 @@ class Parameter:
     @property
     def is_number(self) -> bool:
         """A real number or a count, which the parameter panel edits."""
-        return self.unit in ("length", "deg", "1", "count")
+        return self.unit in ("length", "deg", "1", "count", *PHYSICAL_UNITS)
 
     @property
     def is_length(self) -> bool:
@@ -212,7 +214,7 @@ def parameter_table(muscle_type, length_unit: str = "face units") -> list[tuple[
             allowed = ""
         else:
             unit = {"length": length_unit, "deg": "degrees", "1": "", "count": "",
-                    "vector": "vector"}[p.unit]
+                    "vector": "vector"}.get(p.unit, p.unit)
             allowed = "" if p.unit == "vector" else p.range_text()
         rows.append((p.name, p.symbol, unit, allowed, shown, p.doc))
     return rows

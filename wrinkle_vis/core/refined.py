@@ -295,6 +295,8 @@ class _Dynamic:
         self._influenced = asm.influenced.copy()
         self._influenced[:n0] = (_moved_or_wrinkled(root) if root_influenced is None
                                  else root_influenced)
+        self._carry = _skin_correction(root)
+        self._carried: np.ndarray | None = None
 
     def grow(self, asm: _Assembly) -> None:
         """Take in the vertices the hierarchy built since (``asm``: the assembly brought up
@@ -346,10 +348,32 @@ class _Dynamic:
         pull = np.zeros((len(v), 3))
         pull[has] = np.einsum("kc,kcx->kx", scale, asm.unit.take(p, axis=0))
         bend = slide_bend(pull.T, hier.shape6.take(v, axis=0).T)
-        self.deformed[:, v] = (hier.rest.take(v, axis=0) + pull
-                               - bend[:, None] * hier.slide.take(v, axis=0)).T
+        moved = hier.rest.take(v, axis=0) + pull - bend[:, None] * hier.slide.take(v, axis=0)
+        if self._carry is not None:
+            moved += self.carried().take(v, axis=0)
+        self.deformed[:, v] = moved.T
         self.computed[v] = True
         self._moved.append(v)
+
+    def carried(self) -> np.ndarray:
+        r"""``(v, 3)``: what another skin model (the physical skin) adds to the muscles'
+        pull, carried to the hierarchy's vertices: on the skin's vertices the root frame's
+        deformed points minus the geometric ones, on a new vertex the mean of the values at
+        its edge's ends, level by level (linear along each edge, as smooth as the skin
+        model's own displacement). Rebuilt when the hierarchy grows.
+        """
+        hier, n0 = self.hier, self.hier.n_root
+        n = hier.n_points
+        if self._carried is None or len(self._carried) != n:
+            out = np.zeros((n, 3))
+            out[:n0] = self._carry
+            level = hier.level[:n]
+            for lv in range(1, int(level.max(initial=0)) + 1):
+                ids = np.flatnonzero(level == lv)
+                ids = ids[ids >= n0]
+                out[ids] = 0.5 * (out[hier.ring[ids, 0]] + out[hier.ring[ids, 3]])
+            self._carried = out
+        return self._carried
 
     def evaluate(self, v: np.ndarray) -> None:
         """Evaluate the new vertices ``v`` ``(k,)`` (rings complete)."""
@@ -440,6 +464,17 @@ def _around(triangles: np.ndarray, ids: np.ndarray, rings: int, n_points: int) -
         corner[triangles[keep]] = True
         keep = _any_corner(corner, triangles)
     return np.flatnonzero(keep)
+
+
+def _skin_correction(root) -> np.ndarray | None:
+    """``(n, 3)``: a frame's deformed skin minus the muscles' geometric pull (the
+    displacement a skin model other than the geometric one adds), or None for a geometric
+    frame.
+    """
+    if getattr(root, "skin_model", "geometric") == "geometric":
+        return None
+    face = root.face
+    return root.deformed_points - face.skin.points - face.muscle_displacement(root.activations)
 
 
 def _moved_or_wrinkled(root) -> np.ndarray:

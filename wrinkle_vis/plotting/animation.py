@@ -70,7 +70,9 @@ def animation_frames(face: FaceModel, expression, times, *, field: str | None = 
     range of ``field`` is fixed over the whole ramp (the range at the peak), so the ramp is
     visible. One off-screen plotter is used and closed when the generator ends or is closed.
     ``refine`` evaluates every frame with adaptive refinement, with the bending threshold
-    and most levels given (None: the model's defaults, :meth:`FaceModel.evaluate`).
+    and most levels given (None: the model's defaults, :meth:`FaceModel.evaluate`). On a
+    face whose skin model is the physical one the frames are simulated
+    (:meth:`FaceModel.expression_states`).
     """
     unknown = [layer for layer in layers if layer not in LAYERS]
     if unknown or not layers:
@@ -86,9 +88,10 @@ def animation_frames(face: FaceModel, expression, times, *, field: str | None = 
     translucent = "muscles" in layers or "skull" in layers
     plotter = pv.Plotter(off_screen=True, window_size=[int(size[0]), int(size[1])],
                          theme=theme)
+    opts = {k: v for k, v in options.items() if v is not None}
+    states = face.expression_states(expression, times, intensity, **opts)
     try:
-        for t in times:
-            state = evaluate(face, expression.at(float(t), intensity), **options)
+        for t, state in zip(times, states, strict=True):
             clear_scene(plotter)
             if "skin" in layers:
                 add_skin(plotter, state, field, muscle, opacity=0.35 if translucent else 1.0)

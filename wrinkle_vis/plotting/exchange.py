@@ -84,10 +84,10 @@ METRES_PER_UNIT = LENGTH_UNITS
 def sequence_states(face: FaceModel, expression, times: Sequence[float],
                     intensity: float = 1.0) -> Iterable[FaceState]:
     """The states of ``expression`` (an :class:`~wrinkle_vis.core.expressions.Expression`)
-    at each of ``times`` (seconds), evaluated one at a time as they are asked for.
+    at each of ``times`` (seconds), evaluated one at a time as they are asked for (simulated
+    on a face whose skin model is the physical one: :meth:`FaceModel.expression_states`).
     """
-    for t in times:
-        yield face.evaluate(expression.at(float(t), intensity))
+    yield from face.expression_states(expression, times, intensity)
 
 
 def _numbered_parts(path: Path, count: int) -> tuple[str, int, str]:

@@ -1,9 +1,10 @@
 """The paper's figures, off screen: plain skin under a raking light.
 
 :func:`figure_expressions` is Fig. 9 (each expression without and with wrinkles),
-:func:`figure_refinement` is Fig. 11 (the adaptively refined mesh over the forehead during
-surprise). Both return the image and write it when given a file name; the ``wrinkle-vis
-figure`` command calls them.
+:func:`figure_dynamics` is Fig. 10 (wrinkles forming on the simulated skin after an
+activation step, with their times), :func:`figure_refinement` is Fig. 11 (the adaptively
+refined mesh over the forehead during surprise). Each returns the image and writes it when
+given a file name; the ``wrinkle-vis figure`` command calls them.
 """
 
 from __future__ import annotations
@@ -15,7 +16,8 @@ from ..core.face import FaceModel
 from .scenes import add_raking_light, add_skin, evaluate, set_camera
 from .writers import IMAGE_SUFFIXES, check_target, save_image
 
-__all__ = ["EDGE_COLOR", "PANEL_SIZE", "figure_expressions", "figure_refinement"]
+__all__ = ["EDGE_COLOR", "PANEL_SIZE", "figure_dynamics", "figure_expressions",
+           "figure_refinement"]
 
 #: Pixel size of one panel of :func:`figure_expressions` when no size is given.
 PANEL_SIZE = (440, 400)
@@ -160,6 +162,61 @@ def figure_refinement(face: FaceModel, filename=None, *, expression="surprise",
         _title(plotter, f"{_label(expression)}, refined: {state.face.skin.n_triangles:,} "
                         f"triangles (from {face.skin.n_triangles:,})", width)
         set_camera(plotter, camera, face)
+        image = plotter.screenshot(None, return_img=True)
+    finally:
+        plotter.close()
+    if filename is not None:
+        save_image(image, filename)
+    return image
+
+
+def simulated_snapshots(face: FaceModel, expression, times, intensity: float = 1.0) -> list:
+    """The physical skin's states at ``times`` (seconds, ascending) after a step to
+    ``expression`` (scaled by ``intensity``) at t = 0, stepping at the material's time step
+    and landing on each time.
+    """
+    acts = face.activations_for(expression, intensity)
+    sim = face.simulator(acts)
+    out = []
+    for t in sorted(float(t) for t in times):
+        states = list(sim.run(t - sim.time))
+        out.append(states[-1] if states else sim.state())
+    return out
+
+
+def figure_dynamics(face: FaceModel, expression="surprise", times=(0.033, 0.067, 0.1, 0.2, 0.5),
+                    filename=None, *, size=None, intensity: float = 1.0,
+                    camera: str = "forehead", elevation_deg: float = 20.0,
+                    azimuth_deg: float = 35.0, theme=None) -> np.ndarray:
+    """The paper's Fig. 10: wrinkles forming dynamically, one panel per simulated time.
+
+    The face's physically based skin (:meth:`FaceModel.simulator`) starts at rest and the
+    muscles are switched to ``expression`` at t = 0; each panel shows the final skin at one
+    of ``times`` (seconds) with its time, plain skin under :func:`add_raking_light`.
+
+    Returns
+    -------
+    (h, w, 3) uint8 ndarray
+        The image (also written to ``filename`` when given).
+    """
+    times = list(times)
+    if not times:
+        raise ValueError("name at least one time")
+    if filename is not None:
+        check_target(filename, IMAGE_SUFFIXES)
+    states = simulated_snapshots(face, expression, times, intensity)
+    width, height = size or (len(times) * 320, 340)
+    plotter = pv.Plotter(off_screen=True, shape=(1, len(times)), border=False,
+                         window_size=[int(width), int(height)], theme=theme)
+    try:
+        plotter.set_background("white")
+        for col, state in enumerate(states):
+            plotter.subplot(0, col)
+            add_skin(plotter, state, None)
+            add_raking_light(plotter, elevation_deg, azimuth_deg)
+            _title(plotter, f"{_label(expression)}: t = {1e3 * state.time:.0f} ms",
+                   width // len(times))
+            set_camera(plotter, camera, face)
         image = plotter.screenshot(None, return_img=True)
     finally:
         plotter.close()

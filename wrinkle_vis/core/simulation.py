@@ -1,0 +1,128 @@
+r"""Time stepping the physically based skin of a face (:mod:`wrinkle_vis.core.skin`).
+
+A :class:`Simulation` holds one state of a face's spring skin (positions, velocities, the
+muscles' current activations and the time) and advances it frame by frame for an activation
+*timeline*:
+
+* ``None``: neutral;
+* an expression name, an :class:`~wrinkle_vis.core.expressions.Expression` or a mapping of
+  muscle name to activation: a step to those activations at :math:`t = 0`;
+* a callable ``t -> activations`` (any of the above) for ramps, tracks and the like.
+
+The command at the end of each step is held over it and filtered by the muscles'
+activation dynamics (:func:`~wrinkle_vis.core.skin.activation_response`). Each step returns
+a :class:`~wrinkle_vis.core.face.FaceState` whose fields are computed by the same code as
+the geometric skin's, on the simulated skin; it carries ``time`` (seconds) and
+``velocities`` ``(n, 3)`` (face units per second).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+
+import numpy as np
+
+from .skin import SkinMaterial, activation_response
+
+__all__ = ["Simulation"]
+
+
+class Simulation:
+    """One running simulation of ``face``'s physically based skin.
+
+    Parameters
+    ----------
+    face : FaceModel
+    timeline : see the module docstring
+    material : SkinMaterial, optional
+        Default the face's ``material``.
+
+    Attributes
+    ----------
+    time : float
+        Simulated seconds since the start.
+    x, v : (n, 3) float
+        Positions and velocities of the skin's vertices.
+    activations : (M,) float
+        The muscles' current (filtered) activations, in the face's muscle order.
+    """
+
+    def __init__(self, face, timeline=None, material: SkinMaterial | None = None):
+        self.face = face
+        self.material = material or face.material
+        self.skin = face.physical_skin(self.material)
+        self.timeline = timeline
+        self.reset()
+
+    @property
+    def timeline(self):
+        """What the muscles are commanded to do (module docstring); setting it keeps the
+        state (the skin goes on from where it is).
+        """
+        return self._timeline
+
+    @timeline.setter
+    def timeline(self, timeline) -> None:
+        if timeline is None or not callable(timeline) or isinstance(timeline, str):
+            fixed = self.face.activations_for({} if timeline is None else timeline)
+            self._command: Callable[[float], dict] = lambda t: fixed
+        else:
+            self._command = lambda t: self.face.activations_for(timeline(t))
+        self._timeline = timeline
+
+    def reset(self) -> None:
+        """Back to the rest skin, at rest, at time 0, all muscles relaxed."""
+        self.time = 0.0
+        self.x = self.skin.rest.copy()
+        self.v = np.zeros_like(self.x)
+        self.activations = np.zeros(len(self.face.muscles))
+
+    def command(self, t: float) -> np.ndarray:
+        """``(M,)``: the timeline's activations at time ``t``, in muscle order."""
+        acts = self._command(float(t))
+        return np.array([acts[n] for n in self.face.muscle_names], dtype=float)
+
+    def step(self, dt: float | None = None):
+        """Advance by ``dt`` seconds (default the material's ``time_step``) and return the
+        new :class:`~wrinkle_vis.core.face.FaceState` (with ``time`` and ``velocities``).
+        """
+        h = self.material.time_step if dt is None else float(dt)
+        if not (h > 0.0 and np.isfinite(h)):
+            raise ValueError(f"time step dt = {dt!r} must be a positive number of seconds")
+        t1 = self.time + h
+        self.activations = activation_response(self.activations, self.command(t1), h,
+                                               self.material.activation_time)
+        acts = self._named(self.activations)
+        target = self.face.muscle_displacement(acts)
+        self.x, self.v = self.skin.step(self.x, self.v, target, h)
+        self.time = t1
+        return self.state()
+
+    def state(self):
+        """The :class:`~wrinkle_vis.core.face.FaceState` of the current state."""
+        return self.face.physical_state(self._named(self.activations), self.x,
+                                        time=self.time, velocities=self.v)
+
+    def energy(self) -> float:
+        """Kinetic plus potential energy of the current state (for the current
+        activations' targets).
+        """
+        target = self.face.muscle_displacement(self._named(self.activations))
+        return self.skin.energy(self.x, self.v, target)
+
+    def run(self, duration: float, dt: float | None = None) -> Iterator:
+        """Yield the state after each step of ``dt`` until ``duration`` seconds have passed
+        since the current time (the last step shortened to land on it).
+        """
+        h = self.material.time_step if dt is None else float(dt)
+        if not (h > 0.0 and np.isfinite(h)):
+            raise ValueError(f"time step dt = {dt!r} must be a positive number of seconds")
+        if not (float(duration) >= 0.0 and np.isfinite(duration)):
+            raise ValueError(f"duration = {duration!r} must be a non-negative number of "
+                             "seconds")
+        end = self.time + float(duration)
+        while self.time < end - 1e-9 * h:
+            yield self.step(min(h, end - self.time))
+
+    def _named(self, a: np.ndarray) -> dict[str, float]:
+        return {n: float(x) for n, x in zip(self.face.muscle_names, a, strict=True)}

@@ -1,0 +1,563 @@
+r"""The physically based skin: a mass-spring-damper surface bound to the skull (issue 27).
+
+The paper's face (its reference [13]) is a simulated skin whose compression drives the
+wrinkles. This module builds that skin beside the geometric one of
+:mod:`wrinkle_vis.core.face`, with numpy and scipy only.
+
+Model
+-----
+The skin surface's vertices carry lumped masses :math:`m_i = \rho\, t\, a_i` (density
+:math:`\rho`, tissue thickness :math:`t`, a third of the area :math:`a_i` of the triangles
+around the vertex). Its potential energy is
+
+.. math::
+
+    E(x) = \sum_{s} \tfrac12 k_s (l_s - L_s)^2
+         + \sum_{e} \tfrac12 r\, k_e \big(l_e - \Pi_e(l_e)\big)^2
+         + \sum_i \tfrac12 \kappa a_i |x_i - \bar x_i|^2
+         + \sum_i \tfrac12 \kappa_z \omega_i a_i |x_i - \bar x_i - D_i|^2
+
+* springs :math:`s`: every edge (stiffness :math:`k_e = Y a_e / L_e^2`, :math:`Y` the
+  membrane stiffness, :math:`a_e` a third of the area of the edge's triangles, so the
+  membrane's stiffness does not depend on the mesh) and a *bending spring* across each
+  interior edge, between its two opposite vertices (:math:`k_b = B a_e / L_b^2`);
+* the *biphasic* branch: past a strain :math:`\pm c` an edge stiffens by a factor
+  :math:`1 + r` (:math:`\Pi_e` clamps the length to :math:`[L_e (1 - c), L_e (1 + c)]`);
+  the stiff branch is the guard against collapse (an edge compressed by more than
+  :math:`c` meets :math:`r` times its soft stiffness);
+* attachment springs: each vertex is bound to its rest position :math:`\bar x_i`, at the
+  rest tissue depth over the skull, with stiffness :math:`\kappa a_i` per vertex
+  (:math:`\kappa` a stiffness per area, of the tissue under the skin);
+* muscle (zone) springs: where muscles grip the skin (:math:`\omega_i \in [0, 1]`; 1 on
+  every muscle's area of influence, :meth:`FaceModel.muscle_grip`), a spring of
+  stiffness :math:`\kappa_z \omega_i a_i` pulls the vertex towards its rest position
+  displaced by the muscles, :math:`\bar x_i + D_i`, where :math:`D` is
+  :meth:`~wrinkle_vis.core.muscle.Muscle.displacement` summed over the active muscles and
+  slid along the skin, exactly as the geometric skin computes it. This is the author's
+  "displace the zone, the rest relaxes"; the spring's pull is the force :math:`f_i` of the
+  paper's Fig. 2. Prescribed targets rather than free forces keep each muscle's calibrated
+  amplitude (its ``strength``) meaningful on both skins, need nothing of a muscle type
+  beyond what it declares (so a plug-in type drives this skin with no code of its own), and
+  keep the system matrix constant while the activations change.
+
+The skin never enters the skull: after each step a vertex that was outside the skull at rest
+and whose signed distance to the skull (to the closest point of its triangles) became
+negative is put back on the skull at that point. (Where a scan's skull reaches through its
+skin, the vertices inside it at rest are left free.)
+
+Integration
+-----------
+Implicit Euler with mass-proportional damping :math:`c`, written as a minimisation (Liu et
+al. 2013, "Fast simulation of mass-spring systems"; projective dynamics, Bouaziz et al.
+2014):
+
+.. math::
+
+    x_{n+1} = \arg\min_x \tfrac{1}{2h^2} \|x - y\|_M^2 + \tfrac{c}{2h} \|x - x_n\|_M^2 + E(x),
+    \qquad y = x_n + h v_n .
+
+Each spring's term is :math:`\tfrac12 k |(x_i - x_j) - d|^2` minimised over directions
+:math:`d` of the wanted length, so a *local* step projects every spring (its direction at
+the current iterate, its wanted length), and a *global* step solves one linear system whose
+matrix, :math:`(1/h^2 + c/h) M + \sum k\, G^T G + \operatorname{diag}(\kappa a + \kappa_z
+\omega a)`, does not change: it is factorized once (scipy's ``splu``) per skin, muscle
+layout and step, and each step runs a fixed number of local/global iterations. A still frame
+is the same minimisation without the inertial terms, iterated to equilibrium.
+
+The muscles' activations follow the commands through first-order activation dynamics
+(Zajac 1989), :math:`\dot a = (u - a)/\tau_a`, integrated exactly over each step; with
+physiological tissue stiffnesses the skin itself settles within a few milliseconds, so
+:math:`\tau_a` sets how fast an expression forms.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+from scipy.spatial import cKDTree
+
+from .mesh import TriangleSurface, barycentric_points, surface_coordinates, unit_rows
+from .params import PARAMETER_KEY, Parameter, parameter
+
+__all__ = ["SKIN_MODELS", "SkinMaterial", "SpringSkin", "activation_response", "bending_pairs",
+           "check_skin_model", "inverted_triangles", "vertex_areas"]
+
+#: The skin models a face can be evaluated with: the geometric pulls (the default) and the
+#: physically based skin of this module.
+SKIN_MODELS = ("geometric", "physical")
+
+
+def check_skin_model(skin: str) -> str:
+    """``skin`` if it names a skin model (:data:`SKIN_MODELS`), else a one-line error."""
+    if skin not in SKIN_MODELS:
+        raise ValueError(f"unknown skin model {skin!r}; choose one of {', '.join(SKIN_MODELS)}")
+    return skin
+
+
+@dataclass(frozen=True)
+class SkinMaterial:
+    """The physically based skin's material and solver parameters, declared once.
+
+    Every field carries a :class:`~wrinkle_vis.core.params.Parameter` (label, symbol, SI
+    unit, range, meaning), which validation, layout files, the app's panel and the docs read
+    (:meth:`parameters`, :func:`~wrinkle_vis.core.params.parameter_table`). Defaults and
+    their sources are tabulated in ``docs/model.md``.
+    """
+
+    membrane_stiffness: float = parameter(
+        100.0, label="Y (N/m)", symbol="Y", unit="N/m", lo=0.0, lo_open=True, step=10.0,
+        doc="membrane stiffness of the skin (Young's modulus times thickness)")
+    bending_stiffness: float = parameter(
+        10.0, label="B (N/m)", symbol="B", unit="N/m", lo=0.0, step=1.0,
+        doc="stiffness of the bending springs across each interior edge")
+    biphasic_strain: float = parameter(
+        0.3, label="c", symbol="c", unit="1", lo=0.0, hi=1.0, lo_open=True, hi_open=True,
+        step=0.01, doc="strain past which an edge stiffens (biphasic law, guard against "
+        "collapse)")
+    biphasic_ratio: float = parameter(
+        10.0, label="r", symbol="r", unit="1", lo=0.0, step=1.0,
+        doc="extra stiffness of the stiff branch, in units of the soft stiffness")
+    attachment_stiffness: float = parameter(
+        4e5, label="kappa (N/m^3)", symbol="κ", unit="N/m^3", lo=0.0, lo_open=True,
+        step=1e4, doc="stiffness per area of the tissue binding the skin to the skull")
+    muscle_stiffness: float = parameter(
+        1e9, label="kappa_z (N/m^3)", symbol="κ_z", unit="N/m^3", lo=0.0, step=1e5,
+        doc="stiffness per area of a muscle's grip on the skin of its zone")
+    density: float = parameter(
+        1040.0, label="rho (kg/m^3)", symbol="ρ", unit="kg/m^3", lo=0.0, lo_open=True,
+        step=10.0, doc="density of the soft tissue")
+    thickness: float = parameter(
+        0.008, label="t (m)", symbol="t", unit="m", lo=0.0, lo_open=True, step=0.001,
+        doc="thickness of soft tissue moving with the skin (lumped mass per area rho t)")
+    damping: float = parameter(
+        20.0, label="c_d (1/s)", symbol="c_d", unit="1/s", lo=0.0, step=1.0,
+        doc="mass-proportional damping")
+    activation_time: float = parameter(
+        0.045, label="tau_a (s)", symbol="τ_a", unit="s", lo=0.0, step=0.005,
+        doc="time constant of the muscles' activation dynamics")
+    time_step: float = parameter(
+        1.0 / 30.0, label="h (s)", symbol="h", unit="s", lo=0.0, lo_open=True, step=0.001,
+        doc="default time step of a simulation")
+    iterations: int = parameter(
+        10, label="iterations", symbol="N", unit="count", lo=1, step=1,
+        doc="local/global iterations per time step")
+
+    def __post_init__(self):
+        for p in self.parameters():
+            value = getattr(self, p.name)
+            if p.unit == "count":
+                if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or \
+                        value < p.lo:
+                    raise ValueError(f"skin {p.name} = {value!r} must be an integer >= "
+                                     f"{p.lo:g}")
+                continue
+            v = float(value)
+            ok = math.isfinite(v) and (v > p.lo if p.lo_open else v >= p.lo) and \
+                (v < p.hi if p.hi_open else v <= p.hi)
+            if not ok:
+                raise ValueError(f"skin {p.name} = {value!r} is outside {p.range_text()}; "
+                                 f"{p.doc}")
+
+    @classmethod
+    def parameters(cls) -> tuple[Parameter, ...]:
+        """Every parameter with its metadata, in declaration order."""
+        return tuple(dataclasses.replace(f.metadata[PARAMETER_KEY], name=f.name)
+                     for f in dataclasses.fields(cls))
+
+    def to_dict(self) -> dict:
+        """A plain, JSON-ready dict of the parameters."""
+        return {p.name: getattr(self, p.name) for p in self.parameters()}
+
+    @classmethod
+    def from_dict(cls, data) -> SkinMaterial:
+        """The material from :meth:`to_dict` output; unknown keys are an error."""
+        names = {p.name for p in cls.parameters()}
+        unknown = sorted(set(data) - names)
+        if unknown:
+            raise ValueError(f"unknown skin parameter(s) {', '.join(unknown)}; known: "
+                             f"{', '.join(sorted(names))}")
+        return cls(**dict(data))
+
+
+def vertex_areas(skin: TriangleSurface) -> np.ndarray:
+    """``(n,)``: a third of the area of the triangles around each vertex."""
+    area = np.repeat(skin.triangle_areas() / 3.0, 3)
+    return np.bincount(skin.triangles.ravel(), weights=area, minlength=skin.n_points)
+
+
+def bending_pairs(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The bending springs: for each interior edge, its two opposite vertices.
+
+    Parameters
+    ----------
+    triangles : (m, 3) int
+
+    Returns
+    -------
+    pairs : (b, 2) int
+        The opposite vertices of each interior edge.
+    tris : (b, 2) int
+        The two triangles of each interior edge.
+    """
+    t = np.asarray(triangles, dtype=np.int64)
+    m = len(t)
+    a = t[:, [0, 1, 2]].ravel()
+    b = t[:, [1, 2, 0]].ravel()
+    opp = t[:, [2, 0, 1]].ravel()
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    key = lo * (int(t.max(initial=0)) + 1) + hi
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    same = np.flatnonzero(ks[1:] == ks[:-1])
+    first, second = order[same], order[same + 1]
+    tri = np.arange(m).repeat(3)
+    return (np.stack([opp[first], opp[second]], axis=1),
+            np.stack([tri[first], tri[second]], axis=1))
+
+
+def inverted_triangles(rest: np.ndarray, points: np.ndarray, triangles: np.ndarray) -> int:
+    """How many ``triangles`` ``(m, 3)`` turned over: their normal at ``points`` ``(n, 3)``
+    points against their normal at ``rest`` (or they collapsed to no area).
+    """
+    def normals(p):
+        a, b, c = (p[triangles[:, k]] for k in range(3))
+        return np.cross(b - a, c - a)
+
+    return int(np.count_nonzero(np.einsum("ij,ij->i", normals(rest), normals(points)) <= 0))
+
+
+class _Skull:
+    r"""The skull as a constraint.
+
+    The signed distance of a point :math:`x` is :math:`s(x) = |x - c|\,\operatorname{sign}
+    ((x - c) \cdot n_c)`, :math:`c` the closest point of the skull (among the triangles
+    around the nearest skull vertices, :func:`~wrinkle_vis.core.mesh.surface_coordinates`)
+    and :math:`n_c` the skull's vertex normals interpolated there. A vertex outside the
+    skull at rest is kept at :math:`s \ge 0`; one inside it at rest (where a scan's skull
+    reaches through its skin) is left free.
+    """
+
+    #: How close, in skull edges by the nearest-vertex estimate (:meth:`rough`), a point
+    #: must come to the skull to be measured exactly.
+    NEAR = 1.0
+
+    def __init__(self, skull: TriangleSurface, rest: np.ndarray):
+        self.surface = skull
+        self.rest = rest
+        self.normals = skull.vertex_normals()
+        self.tree = cKDTree(skull.points)
+        self.margin = self.NEAR * float(np.mean(skull.rest_edge_lengths))
+        #: the estimate at rest (which vertices to look at) and, filled in the first time a
+        #: vertex is looked at closely, the exact rest distance its floor comes from
+        self.rest_rough = self.rough(rest)
+        self._rest_exact = np.full(len(rest), np.nan)
+
+    def rough(self, x: np.ndarray) -> np.ndarray:
+        """``(k,)``: the signed distance of ``x`` ``(k, 3)`` estimated from the nearest skull
+        vertex and its normal (vectorized; off by up to a few skull edges in concave
+        places, so it only decides which points to look at closely).
+        """
+        _, k = self.tree.query(x)
+        return np.einsum("ij,ij->i", x - self.surface.points[k], self.normals[k])
+
+    def floor(self, ids: np.ndarray) -> np.ndarray:
+        """``(k,)``: the least signed distance vertices ``ids`` may keep: 0 for a vertex
+        outside the skull at rest, and no bound (``-inf``) for one inside it at rest (where
+        a scan's skull reaches through its skin the side of the skull is ambiguous, and
+        pushing such vertices out would tear the skin). Measured the first time asked.
+        """
+        todo = ids[np.isnan(self._rest_exact[ids])]
+        if len(todo):
+            self._rest_exact[todo] = self.distance(self.rest[todo])[0]
+        return np.where(self._rest_exact[ids] >= 0.0, 0.0, -np.inf)
+
+    def distance(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(k,)`` signed distances of ``x`` ``(k, 3)``, ``(k, 3)`` closest skull points and
+        ``(k, 3)`` the skull's unit normals there.
+        """
+        tri, bary = surface_coordinates(self.surface, x)
+        c = barycentric_points(self.surface, tri, bary)
+        n = unit_rows(np.einsum("kj,kjd->kd", bary, self.normals[self.surface.triangles[tri]]))
+        d = x - c
+        return np.sqrt(np.einsum("ij,ij->i", d, d)) * np.sign(np.einsum("ij,ij->i", d, n)), c, n
+
+    def project(self, x: np.ndarray) -> np.ndarray:
+        """Put the vertices of ``x`` ``(n, 3)`` that entered the skull back on it (at the
+        closest point), in place; returns their ids.
+        Only vertices that moved by more than half their estimated rest distance, and that
+        the estimate :meth:`rough` puts within :attr:`NEAR` skull edges of the skull, are
+        looked at.
+        """
+        d = x - self.rest
+        near = np.flatnonzero(np.einsum("ij,ij->i", d, d)
+                              >= (0.5 * np.maximum(self.rest_rough, 0.0)) ** 2)
+        if len(near):
+            rough = self.rough(x[near])
+            near = near[rough < self.margin]
+        if not len(near):
+            return near
+        s, c, n = self.distance(x[near])
+        deep = s < self.floor(near)
+        ids = near[deep]
+        x[ids] = c[deep]
+        return ids
+
+
+class SpringSkin:
+    r"""The mass-spring skin of one rest surface, one muscle grip and one material.
+
+    Parameters
+    ----------
+    skin : TriangleSurface
+        The rest skin.
+    grip : (n,) float
+        :math:`\omega_i \in [0, 1]`: how strongly the muscles hold each vertex.
+    material : SkinMaterial
+    metres_per_unit : float
+        The face's length unit in metres (masses and the per-area stiffnesses are SI).
+    skull : TriangleSurface, optional
+        The skull the skin stays out of.
+
+    Notes
+    -----
+    The object holds what depends on the rest skin, the grip and the material (the springs,
+    the masses, the factorized matrices); a state, positions and velocities ``(x, v)``, is
+    passed in and out (:class:`~wrinkle_vis.core.simulation.Simulation` keeps one).
+    """
+
+    def __init__(self, skin: TriangleSurface, grip: np.ndarray, material: SkinMaterial,
+                 metres_per_unit: float = 1e-3, skull: TriangleSurface | None = None):
+        self.material = mat = material
+        self.rest = np.ascontiguousarray(skin.points, dtype=float)
+        n = self.n = skin.n_points
+        s2 = float(metres_per_unit) ** 2
+        area = vertex_areas(skin)
+        self.mass = mat.density * mat.thickness * area * s2
+        self.k_att = mat.attachment_stiffness * area * s2
+        self.k_zone = mat.muscle_stiffness * np.clip(grip, 0.0, 1.0) * area * s2
+        self.anchor = self.k_att + self.k_zone
+        self.i, self.j, self.L, self.k, self.n_edges = _spring_network(skin, mat)
+        self.kb = mat.biphasic_ratio * self.k[: self.n_edges]
+        self.kL = self.k * self.L
+        self.k_total = self.k.copy()
+        self.k_total[: self.n_edges] += self.kb
+        s = len(self.L)
+        self.J = sp.csr_matrix((np.concatenate([np.ones(s), -np.ones(s)]),
+                                (np.concatenate([self.i, self.j]), np.tile(np.arange(s), 2))),
+                               shape=(n, s))
+        self.laplacian = (self.J @ sp.diags(self.k_total) @ self.J.T).tocsc()
+        self.skull = None if skull is None else _Skull(skull, self.rest)
+        self._factors: dict[float | None, object] = {}
+
+    def size(self) -> float:
+        """The length of the rest skin's bounding-box diagonal (face units)."""
+        return float(np.linalg.norm(self.rest.max(axis=0) - self.rest.min(axis=0)))
+
+    def _factor(self, h: float | None):
+        """The prefactored global matrix for step ``h`` (None: the still frame)."""
+        lu = self._factors.get(h)
+        if lu is None:
+            if len(self._factors) > 4:
+                self._factors.clear()
+            diag = self.anchor.copy()
+            if h is not None:
+                diag += self.mass * (1.0 / h**2 + self.material.damping / h)
+            mat = (self.laplacian + sp.diags(diag)).tocsc()
+            # symmetric mode: the pivots stay on the diagonal of this SPD matrix and the
+            # ordering of A + A^T keeps the fill of a Cholesky factor
+            lu = self._factors[h] = spla.splu(mat, permc_spec="MMD_AT_PLUS_A",
+                                              diag_pivot_thresh=0.0,
+                                              options={"SymmetricMode": True})
+        return lu
+
+    def spring_targets(self, x: np.ndarray) -> np.ndarray:
+        r"""``(n, 3)``: the local step's right-hand side :math:`\sum_s k_s G_s^T d_s` of
+        the springs projected at ``x`` ``(n, 3)``: each spring's current direction times
+        :math:`k L + r k_e \Pi_e(l)` (the biphasic clamp on the edges). Works on the
+        coordinate rows (per-component gathers and one sparse scatter each); the result is
+        Fortran-ordered, as the factorized solve wants it.
+        """
+        xt = np.asarray(x).T
+        d = np.empty((3, len(self.L)))
+        for c in range(3):
+            row = np.ascontiguousarray(xt[c])
+            np.subtract(row.take(self.i), row.take(self.j), out=d[c])
+        length = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        ne, c, L = self.n_edges, self.material.biphasic_strain, self.L[: self.n_edges]
+        wanted = self.kL.copy()
+        wanted[:ne] += self.kb * np.clip(length[:ne], L * (1.0 - c), L * (1.0 + c))
+        d *= wanted / np.maximum(length, 1e-300)
+        out = np.empty((3, self.n))
+        for c in range(3):
+            out[c] = self.J @ d[c]
+        return out.T
+
+    def _anchor_rhs(self, target_disp: np.ndarray) -> np.ndarray:
+        """``(n, 3)``: the attachment and zone springs' pull on the right-hand side."""
+        return self.anchor[:, None] * self.rest + self.k_zone[:, None] * target_disp
+
+    def step(self, x: np.ndarray, v: np.ndarray, target_disp: np.ndarray,
+             h: float) -> tuple[np.ndarray, np.ndarray]:
+        r"""The state ``(x, v)`` (``(n, 3)`` each) after ``h`` seconds with the muscles'
+        displacement ``target_disp`` ``(n, 3)`` (:math:`D`): implicit Euler by a fixed
+        number of local/global iterations, then the skull projection.
+
+        Returns
+        -------
+        x, v : (n, 3) float
+            New positions and velocities :math:`(x_{n+1} - x_n) / h`.
+        """
+        h = float(h)
+        lu = self._factor(h)
+        mat = self.material
+        y = x + h * v
+        fixed = (self.mass * (1.0 / h**2))[:, None] * y
+        fixed += (self.mass * (mat.damping / h))[:, None] * x
+        fixed += self._anchor_rhs(target_disp)
+        fixed = np.asfortranarray(fixed)
+        new = x
+        for _ in range(mat.iterations):
+            new = lu.solve(fixed + self.spring_targets(new))
+        if self.skull is not None:
+            self.skull.project(new)
+        return new, (new - x) / h
+
+    def equilibrium(self, target_disp: np.ndarray, x: np.ndarray | None = None, *,
+                    tol: float = 1e-7, max_iter: int = 500, window: int = 5) -> np.ndarray:
+        """``(n, 3)``: the still frame, the minimum of :math:`E` for ``target_disp``
+        ``(n, 3)``, from ``x`` (default the rest skin): local/global iterations, sped up by
+        Anderson acceleration over the last ``window`` iterates (Peng et al. 2018), until no
+        vertex moves by more than ``tol`` times the skin's size.
+        """
+        lu = self._factor(None)
+        fixed = np.asfortranarray(self._anchor_rhs(target_disp))
+
+        def g(y):
+            y = y.reshape((self.n, 3), order="F")
+            return lu.solve(fixed + self.spring_targets(y)).ravel(order="F")
+
+        x0 = self.rest if x is None else np.asarray(x, dtype=float)
+        out = _anderson(g, x0.ravel(order="F"), tol * self.size(), max_iter, window)
+        out = out.reshape((self.n, 3), order="F").copy()
+        if self.skull is not None:
+            self.skull.project(out)
+        return out
+
+    def energy(self, x: np.ndarray, v: np.ndarray, target_disp: np.ndarray | None = None
+               ) -> float:
+        r"""Kinetic plus potential energy :math:`\tfrac12 v^T M v + E(x)` of the state
+        ``(x, v)`` (``(n, 3)`` each; lengths in the face's units).
+        """
+        d = x[self.i] - x[self.j]
+        length = np.sqrt(np.einsum("ij,ij->i", d, d))
+        ne, c, L = self.n_edges, self.material.biphasic_strain, self.L[: self.n_edges]
+        e = 0.5 * (self.k * (length - self.L) ** 2).sum()
+        clamp = np.clip(length[:ne], L * (1.0 - c), L * (1.0 + c))
+        e += 0.5 * (self.kb * (length[:ne] - clamp) ** 2).sum()
+        u = x - self.rest
+        e += 0.5 * (self.k_att * np.einsum("ij,ij->i", u, u)).sum()
+        if target_disp is not None:
+            u = u - target_disp
+        e += 0.5 * (self.k_zone * np.einsum("ij,ij->i", u, u)).sum()
+        return float(e + 0.5 * (self.mass * np.einsum("ij,ij->i", v, v)).sum())
+
+
+def _anderson(g, x: np.ndarray, tol: float, max_iter: int, window: int) -> np.ndarray:
+    r"""A fixed point of ``g`` from ``x`` ``(k,)`` by Anderson acceleration (type II):
+    :math:`x_{k+1} = g(x_k) - \Delta G\, \gamma`, :math:`\gamma` the least-squares fit of
+    the residual :math:`f_k = g(x_k) - x_k` by the last ``window`` residual differences
+    :math:`\Delta F`; the history restarts when the residual grows. Stops when
+    :math:`\max |f_k| \le` ``tol``.
+    """
+    gx = g(x)
+    f = gx - x
+    dgs: list[np.ndarray] = []
+    dfs: list[np.ndarray] = []
+    best = np.abs(f).max()
+    for _ in range(max_iter):
+        if np.abs(f).max() <= tol:
+            return gx
+        if dfs:
+            df = np.stack(dfs, axis=1)
+            normal = df.T @ df  # the small normal equations, lightly regularised
+            normal[np.diag_indices_from(normal)] += 1e-10 * np.trace(normal) + 1e-300
+            gamma = np.linalg.solve(normal, df.T @ f)
+            x_new = gx - np.stack(dgs, axis=1) @ gamma
+        else:
+            x_new = gx
+        g_new = g(x_new)
+        f_new = g_new - x_new
+        res = np.abs(f_new).max()
+        if res > 10.0 * best:  # accelerating went astray: plain step, forget the history
+            dgs.clear()
+            dfs.clear()
+            x_new, g_new = gx, g(gx)
+            f_new = g_new - x_new
+            res = np.abs(f_new).max()
+        else:
+            dgs.append(g_new - gx)
+            dfs.append(f_new - f)
+            if len(dfs) > window:
+                dgs.pop(0)
+                dfs.pop(0)
+        best = min(best, res)
+        x, gx, f = x_new, g_new, f_new
+    return gx
+
+
+def _spring_network(skin: TriangleSurface, mat: SkinMaterial):
+    r"""The springs of ``skin``: its edges first, then one bending spring across each
+    interior edge.
+
+    Returns
+    -------
+    i, j : (s,) int
+        The ends of each spring.
+    rest_length : (s,) float
+    stiffness : (s,) float
+        :math:`Y a_e / L_e^2` on an edge, :math:`B a_e / L_b^2` on a bending spring
+        (:math:`a_e` a third of the area of the edge's triangles).
+    n_edges : int
+        How many of the springs are edges.
+    """
+    edges, points = skin.edges, skin.points
+    tri_area = skin.triangle_areas()
+    e_area = np.zeros(len(edges))
+    tri_edges = _triangle_edge_ids(skin.triangles, edges, skin.n_points)
+    np.add.at(e_area, tri_edges.ravel(), np.repeat(tri_area / 3.0, 3))
+    rest_len = skin.rest_edge_lengths
+    pairs, tris = bending_pairs(skin.triangles)
+    b_len = np.linalg.norm(points[pairs[:, 0]] - points[pairs[:, 1]], axis=1)
+    b_area = tri_area[tris].sum(axis=1) / 3.0
+    i = np.concatenate([edges[:, 0], pairs[:, 0]]).astype(np.intp)
+    j = np.concatenate([edges[:, 1], pairs[:, 1]]).astype(np.intp)
+    stiffness = np.concatenate([mat.membrane_stiffness * e_area / rest_len**2,
+                                mat.bending_stiffness * b_area / np.maximum(b_len, 1e-300)**2])
+    return i, j, np.concatenate([rest_len, b_len]), stiffness, len(edges)
+
+
+def _triangle_edge_ids(triangles: np.ndarray, edges: np.ndarray, n: int) -> np.ndarray:
+    """``(m, 3)``: the id in ``edges`` ``(e, 2)`` of each triangle's edges 01, 12, 20."""
+    e = np.sort(edges, axis=1).astype(np.int64)
+    keys = e[:, 0] * n + e[:, 1]
+    order = np.argsort(keys)
+    t = np.asarray(triangles, dtype=np.int64)
+    a, b = t[:, [0, 1, 2]], t[:, [1, 2, 0]]
+    q = np.minimum(a, b) * n + np.maximum(a, b)
+    return order[np.searchsorted(keys[order], q)]
+
+
+def activation_response(previous: np.ndarray, command: np.ndarray, h: float,
+                        tau: float) -> np.ndarray:
+    r"""The activations after ``h`` seconds of first-order activation dynamics,
+    :math:`a + (u - a)(1 - e^{-h/\tau_a})` (exact for a command held over the step;
+    :math:`\tau_a = 0` follows the command at once).
+    """
+    if tau <= 0.0:
+        return command.copy()
+    return command + (previous - command) * math.exp(-h / tau)
