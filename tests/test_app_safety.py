@@ -122,8 +122,10 @@ def test_restoring_autosaved_work_asks_about_unsaved_changes(window, tmp_path, a
 
 @pytest.mark.parametrize("change", ["deleted", "truncated", "replaced"])
 def test_the_open_file_changing_on_disk_loses_nothing(make_window, wv_face, tmp_path,
-                                                      monkeypatch, qtbot, change):
-    """The session holds its layout: Save, Save As and autosave write what it shows."""
+                                                      monkeypatch, qtbot, answer, change):
+    """The session holds its layout: Save (after asking to overwrite a changed file), Save
+    As and autosave write what it shows.
+    """
     path = tmp_path / "mine.json"
     wv.save_layout(Session(wv_face).layout(), path)
     face = load_face(layout=path)
@@ -141,6 +143,8 @@ def test_the_open_file_changing_on_disk_loses_nothing(make_window, wv_face, tmp_
                                     "muscles": [], "expressions": {}}))
     w.select_muscle("corrugator_L")
     type_into(w.param_widgets["k0"], "3.75")
+    if change != "deleted":  # another program changed it: asked (test_app_external_change)
+        answer("Overwrite")
     menu_action(w, "File", "Save layout").trigger()
     assert not warnings and not w.session.dirty
     saved = wv.load_layout(path)

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import os
+import stat
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,7 +24,8 @@ from ..core.tracks import Performance
 from ..core.units import face_unit
 from ..plotting.fields import field_info, field_range
 
-__all__ = ["OPTIONS", "TIMELINE_STEPS", "Session", "SurfacePoint", "editable", "load_session",
+__all__ = ["OPTIONS", "TIMELINE_STEPS", "FileStamp", "Session", "SurfacePoint", "editable",
+           "load_session",
            "playback_position"]
 
 #: Steps of the app's timeline: positions 0 to this many span the expression's duration.
@@ -45,12 +48,57 @@ OPTIONS = tuple((p.name, p.label, None if p.is_flag else p.labelled_choices)
                 for p in Muscle.options())
 
 
+@dataclasses.dataclass(frozen=True)
+class FileStamp:
+    """What a file was when the app read or wrote it: its modification time (ns), its size
+    in bytes and the SHA-256 of its bytes, to tell whether another program changed it since
+    (:meth:`change`), as editors do.
+    """
+
+    mtime_ns: int
+    size: int
+    sha256: str
+
+    @classmethod
+    def of(cls, path: str | os.PathLike) -> FileStamp | None:
+        """The stamp of the file at ``path`` now; None when there is no file there or it
+        cannot be read.
+        """
+        try:
+            if not stat.S_ISREG(os.stat(path).st_mode):  # a FIFO would block the open
+                return None
+            with open(path, "rb") as fh:
+                st = os.fstat(fh.fileno())
+                digest = hashlib.file_digest(fh, "sha256").hexdigest()
+        except OSError:
+            return None
+        return cls(st.st_mtime_ns, st.st_size, digest)
+
+    def change(self, path: str | os.PathLike) -> str | None:
+        """How the file at ``path`` differs from this stamp: None (the same bytes, whatever
+        its time), ``"deleted"`` (no file there) or ``"changed"`` (other bytes, or a file
+        that cannot be read any more). A file of another size is changed without reading it.
+        """
+        try:
+            st = os.stat(path)
+        except FileNotFoundError:
+            return "deleted"
+        except OSError:
+            return "changed"
+        if st.st_size != self.size:
+            return "changed"
+        now = FileStamp.of(path)  # the bytes decide: a time can repeat, or be set back
+        return None if now is not None and now.sha256 == self.sha256 else "changed"
+
+
 class Session:
     """The face, the expression and time, the field on display, and the open layout file.
 
     The session holds its layout in memory: the file is read once (here, unless ``layout``
     is given) and only written after that, so a file deleted, truncated or replaced on disk
-    while the user works changes nothing in the session, and Save writes what it shows.
+    while the user works changes nothing in the session. It remembers what the file was
+    (:attr:`disk`, a :class:`FileStamp`) when it was read or last saved, so that the app
+    can ask before Save overwrites a change another program made (:meth:`disk_change`).
 
     Parameters
     ----------
@@ -63,12 +111,19 @@ class Session:
         layout for the built-in face).
     folder : path, optional
         Where the layout's relative mesh paths start (default: ``layout_path``'s folder).
+    disk : FileStamp, optional
+        What ``layout_path`` was when ``layout`` was read from it (default: the file as it
+        is now; taken before reading when the session reads it itself).
     """
 
     def __init__(self, face: FaceModel, layout_path: str | Path | None = None, *,
-                 layout: Layout | None = None, folder: str | Path | None = None):
+                 layout: Layout | None = None, folder: str | Path | None = None,
+                 disk: FileStamp | None = ...):
         self.face = face
         self.layout_path = Path(layout_path) if layout_path else None
+        if disk is ...:  # stamped before reading: a change in between is seen, not missed
+            disk = FileStamp.of(self.layout_path) if self.layout_path else None
+        self.disk: FileStamp | None = disk  # the file as read or last saved (None: unknown)
         if layout is None and self.layout_path is not None:
             layout = load_layout(self.layout_path)  # the only read of the file
         self._layout = layout if layout is not None else Layout()
@@ -476,9 +531,19 @@ class Session:
                 moved[key] = str(target)
         return dataclasses.replace(layout, **moved) if moved else layout
 
+    def disk_change(self) -> str | None:
+        """Whether the open file changed on disk since the session read or last saved it
+        (:meth:`FileStamp.change`): None (unchanged, or no file or stamp to compare),
+        ``"deleted"`` or ``"changed"``. Save should ask before overwriting a change.
+        """
+        if self.layout_path is None or self.disk is None:
+            return None
+        return self.disk.change(self.layout_path)
+
     def save(self, path: str | Path | None = None) -> Path:
-        """Save the layout atomically to ``path`` (default the open file); its relative mesh
-        paths are rewritten for the new folder.
+        """Save the layout atomically to ``path`` (default the open file), whatever is
+        there (ask first with :meth:`disk_change`); its relative mesh paths are rewritten
+        for the new folder. The file written becomes :attr:`disk`.
         """
         path = Path(path or self.layout_path or "")
         if not path.name:
@@ -487,6 +552,7 @@ class Session:
         save_layout(layout, path)
         self._layout, self.folder = layout, path.parent
         self.layout_path, self.dirty = path, False
+        self.disk = FileStamp.of(path)  # read back at once (as editors stat after writing)
         return path
 
 
@@ -544,8 +610,9 @@ def load_session(path: str | Path | None = None, n_triangles: int | None = None,
     if path is None:
         return Session(load_face(n_triangles))
     path = Path(path)
+    disk = FileStamp.of(path)  # before reading: a change in between is seen, not missed
     layout = load_layout(path)
     n = layout.n_triangles if layout.n_triangles is not None else n_triangles
     face = load_face(n, layout=layout, skin=layout.resolve("skin", path.parent),
                      skull=layout.resolve("skull", path.parent), unit=layout.unit or unit)
-    return Session(face, path, layout=layout)
+    return Session(face, path, layout=layout, disk=disk)

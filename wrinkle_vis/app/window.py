@@ -1262,10 +1262,42 @@ class MainWindow(QtWidgets.QMainWindow):
         self.newface.session_changed(session)
 
     def save(self) -> bool:
-        """Save to the open file, or ask for one."""
-        if self.session.layout_path is None:
+        """Save to the open file, or ask for one. When another program changed the file
+        since it was opened or saved, ask first: Overwrite, Save As... or Cancel (which
+        writes nothing and keeps the edits); a file deleted meanwhile is written again.
+        """
+        path = self.session.layout_path
+        if path is None:
             return self.save_as_dialog()
-        return self.save_as(self.session.layout_path)
+        change = self.session.disk_change()
+        if change == "changed":
+            choice = self._ask_overwrite(path)
+            if choice != "overwrite":
+                return self.save_as_dialog() if choice == "save as" else False
+        if not self.save_as(path):
+            return False
+        if change == "deleted":
+            self.statusBar().showMessage(f"{path} had been deleted meanwhile: saved it again",
+                                         10000)
+        return True
+
+    def _ask_overwrite(self, path: Path) -> str:
+        """Ask what to do with the open file another program changed: ``"overwrite"``,
+        ``"save as"`` or ``"cancel"`` (closing the question too).
+        """
+        box = QtWidgets.QMessageBox(
+            QtWidgets.QMessageBox.Warning, "The file changed on disk",
+            f"{path} was changed by another program since it was opened or last saved. "
+            "Overwrite it with the layout shown here (its changes are lost), save the "
+            "layout elsewhere, or cancel (nothing is written, the edits stay)?", parent=self)
+        buttons = {box.addButton("Overwrite", QtWidgets.QMessageBox.DestructiveRole):
+                   "overwrite",
+                   box.addButton("Save As...", QtWidgets.QMessageBox.AcceptRole): "save as"}
+        box.setDefaultButton(box.addButton(QtWidgets.QMessageBox.Cancel))
+        box.exec()
+        choice = buttons.get(box.clickedButton(), "cancel")
+        box.deleteLater()
+        return choice
 
     def save_as(self, path: str | Path) -> bool:
         """Save the layout atomically to ``path``."""
