@@ -92,7 +92,7 @@ def _two_squares():
 def test_folds_that_cross_are_counted_against_rest():
     skin = _two_squares()
     moved = skin.points.copy()
-    moved[6] = [1.0, 1.0, -1.0]  # a corner of the upper square pushed through the lower one
+    moved[6] = [0.8, 0.6, -1.0]  # a corner of the upper square pushed through the lower one
     frame = SimpleNamespace(face=SimpleNamespace(skin=skin), activations={},
                             W=np.zeros(8), points=moved, rest_points=skin.points)
     m = frame_metrics(frame)
