@@ -232,6 +232,42 @@ def test_the_table_of_10_runs_round_trips_with_its_types(tmp_path):
     assert failed["crests"].isna().all()
 
 
+def test_a_worker_writes_a_run_with_its_one_plotter(tmp_path):
+    """In process, as a worker does it: two runs share the worker's one plotter, each
+    image is rendered afresh, the run folders are complete, a time on the ramp is used.
+    """
+    import pyvista as pv
+
+    from wrinkle_vis.sweep import worker
+    from wrinkle_vis.sweep.runner import _prepare, _task
+
+    spec = load_spec(spec_with(tmp_path, expressions=["frown"], times_s=[0.5, 1.5],
+                               vary=[], samples=1))
+    out = _prepare(tmp_path / "out", spec)
+    before = len(pv.plotting.plotter._ALL_PLOTTERS)
+    try:
+        records = [worker.execute(_task(spec, out, r)) for r in spec.runs()]
+        made = len(pv.plotting.plotter._ALL_PLOTTERS) - before
+        plotter = worker._PLOTTER["plotter"]
+    finally:
+        worker.close_worker_plotter()
+    assert made == 1 and plotter._closed
+    assert [r["status"] for r in records] == ["done", "done"]
+    early, peak = (r["metrics"] for r in records)
+    assert early["time_s"] == 0.5 and peak["time_s"] == 1.5
+    assert 0 < early["W_range"] < peak["W_range"]  # half way up the onset, then held
+    import imageio.v3 as iio
+
+    a, b = (iio.imread(out / "runs" / r["id"] / "W_front.png") for r in records)
+    assert not np.array_equal(a, b)
+    for r in records:
+        assert sorted(p.name for p in (out / "runs" / r["id"]).iterdir()) == [
+            "W_front.png", "arrays.npz", "none_front.png", "run.json"]
+        saved = json.loads((out / "runs" / r["id"] / "run.json").read_text())
+        assert saved["metrics"] == r["metrics"] and saved["seed"] == int(r["id"][:8], 16)
+    assert not list((out / "runs").glob(".tmp-*"))
+
+
 # ---------------------------------------------------------------------- clusters
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
@@ -343,6 +379,42 @@ def test_a_scheduler_and_workers_started_apart_give_the_same_table(reference, tm
             _stop(p)
     pd.testing.assert_frame_equal(comparable(apart), comparable(table))
     assert_same_arrays(arrays_of(tmp_path / "out"), arrays_of(out))
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_the_command_cleanly(tmp_path):
+    """SIGINT to the command's process group (what Ctrl+C in a terminal does): one line,
+    exit status 130, no table, no worker process left; the finished runs stay.
+    """
+    import psutil
+
+    target = tmp_path / "out"
+    spec = write_spec(tmp_path)
+    process = subprocess.Popen(
+        [sys.executable, "-m", "wrinkle_vis.cli", "sweep", str(spec), "-o", str(target),
+         "--workers", "2", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True, start_new_session=True)
+    children = []
+    try:
+        deadline = time.monotonic() + 240
+        while not list(target.glob("runs/*/run.json")):
+            assert process.poll() is None and time.monotonic() < deadline
+            time.sleep(0.02)
+        children = psutil.Process(process.pid).children(recursive=True)
+        os.killpg(process.pid, signal.SIGINT)
+        _, err = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+    assert process.returncode == 130, err
+    assert err.strip().splitlines()[-1] == (
+        "wrinkle-vis sweep: interrupted; the finished runs are kept, run the same command "
+        "again to resume")
+    assert children and not [c for c in children if c.is_running()
+                             and c.status() != psutil.STATUS_ZOMBIE]
+    assert not (target / "results.parquet").exists()
+    assert list(target.glob("runs/*/run.json"))
 
 
 @pytest.mark.slow
