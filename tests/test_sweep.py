@@ -106,6 +106,21 @@ def test_the_spec_expands_to_named_seeded_runs(tmp_path):
     assert {r.columns["corrugator_L+corrugator_R.k0"] for r in other} != draws
 
 
+def test_a_layout_faces_run_id_does_not_depend_on_where_the_file_lies(tmp_path):
+    ids = []
+    for where in ("here", "there/deeper"):
+        folder = tmp_path / where
+        folder.mkdir(parents=True)
+        save_layout(wv.datasets.builtin_layout(), folder / "face.json")
+        spec = load_spec(write_spec(folder, TINY.replace(
+            'faces = [{ name = "procedural", n_triangles = 1000 }]',
+            'faces = [{ layout = "face.json", n_triangles = 1000 }]')))
+        runs = spec.runs()
+        assert runs[0].layout_path == str(folder / "face.json")
+        ids.append([r.id for r in runs])
+    assert ids[0] == ids[1]
+
+
 def test_the_example_spec_is_valid():
     assert len(load_spec(EXAMPLE).runs()) == 18
 

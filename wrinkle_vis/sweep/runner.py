@@ -180,8 +180,8 @@ def _cpus() -> int:
 
 def _task(spec: SweepSpec, out: Path, run: Run) -> dict:
     return {"id": run.id, "seed": run.seed, "params": run.params, "columns": run.columns,
-            "outputs": spec.outputs, "outputs_key": spec.outputs_key(),
-            "out": str(out.resolve())}
+            "layout_path": run.layout_path, "outputs": spec.outputs,
+            "outputs_key": spec.outputs_key(), "out": str(out.resolve())}
 
 
 def _run_all(spec, out, pending, client, scheduler, workers, progress, timeout) -> dict:

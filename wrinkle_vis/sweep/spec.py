@@ -59,17 +59,22 @@ class Run:
     Attributes
     ----------
     params : dict
-        ``face`` (a dict: ``name``, ``n_triangles``, ``layout`` and its ``layout_sha256``),
+        ``face`` (a dict: ``name``, ``n_triangles``, ``layout``, the layout file's name, and
+        ``layout_sha256``, the hash of its contents: not its path, so that the id is the same
+        wherever the file lies),
         ``expression`` (a name, or ``{"name", "activations"}``), ``intensity``, ``time_s``
         (None: the expression's peak), ``refine`` and ``set``: ``{muscle: {parameter:
         value}}`` for every muscle a varied parameter touches.
     columns : dict
         The run's row in the table: its plain parameters and one column per varied
         parameter (its ``label``).
+    layout_path : str or None
+        Where the face's layout file lies (a worker reads it from there).
     """
 
     params: dict
     columns: dict
+    layout_path: str | None = None
 
     @cached_property
     def id(self) -> str:
@@ -96,6 +101,7 @@ class _Face:
     params: dict  # name, n_triangles, layout, layout_sha256
     layout: Layout
     label: str
+    path: str | None = None
 
 
 @dataclass(frozen=True)
@@ -188,7 +194,7 @@ def _run(face: _Face, expr, k: float, t, refine: bool, chosen: list) -> Run:
     params = {"face": face.params, "expression": expr, "intensity": k, "time_s": t,
               "refine": refine,
               "set": {m: dict(sorted(p.items())) for m, p in sorted(overrides.items())}}
-    return Run(params, columns)
+    return Run(params, columns, face.path)
 
 
 # ---------------------------------------------------------------------- reading
@@ -336,9 +342,9 @@ def _face(e: _Errors, key: str, value, base: Path) -> _Face:
         except (FileNotFoundError, LayoutError) as exc:
             e.fail(f"{key}.layout", " ".join(str(exc).split()))
         sha = hashlib.sha256(path.read_bytes()).hexdigest()
-        params = {"name": name, "layout": str(path), "layout_sha256": sha, "n_triangles": n}
+        params = {"name": name, "layout": path.name, "layout_sha256": sha, "n_triangles": n}
         label = f"{path.stem}" + (f"@{n}" if n else "")
-        return _Face(params, layout, label)
+        return _Face(params, layout, label, str(path))
     name = name or "procedural"
     if name not in _BUILTIN_FACES:
         e.fail(f"{key}.name", f"no built-in face {name!r}; the built-in faces are "

@@ -47,9 +47,11 @@ def run_dir(out: str | os.PathLike, rid: str) -> Path:
     return Path(out) / RUNS / rid
 
 
-def cached_face(face: dict):
-    """The base face of a run's ``face`` parameters, loaded once per worker."""
-    key = json.dumps(face, sort_keys=True)
+def cached_face(face: dict, layout_path: str | None = None):
+    """The base face of a run's ``face`` parameters (its layout file read from
+    ``layout_path``), loaded once per worker.
+    """
+    key = json.dumps([face, layout_path], sort_keys=True)
     hit = _FACES.get(key)
     if hit is not None:
         _FACES.move_to_end(key)
@@ -57,7 +59,7 @@ def cached_face(face: dict):
     from wrinkle_vis.datasets import load_face
 
     if face["layout"] is not None:
-        loaded = load_face(face["name"], face["n_triangles"], layout=face["layout"])
+        loaded = load_face(face["name"], face["n_triangles"], layout=layout_path)
     else:
         loaded = load_face(face["name"], face["n_triangles"])
     _FACES[key] = loaded
@@ -73,9 +75,9 @@ def _rest_pairs(key: str, skin):
     return _REST_PAIRS[key]
 
 
-def _face_for(params: dict):
+def _face_for(params: dict, layout_path: str | None):
     """The run's face: the base face with the varied parameters set."""
-    face = cached_face(params["face"])
+    face = cached_face(params["face"], layout_path)
     for muscle, changes in params["set"].items():
         face = face.with_muscle(face.muscle(muscle).replace(**changes))
     return face
@@ -93,7 +95,7 @@ def _activations(face, params: dict) -> dict[str, float]:
     return face.activations_for(expr.at(params["time_s"], k))
 
 
-def evaluate_run(params: dict, prominence: float = 0.1):
+def evaluate_run(params: dict, prominence: float = 0.1, layout_path: str | None = None):
     """``(face, state, metrics)`` of one run's parameters (see :class:`~.spec.Run`).
 
     Parameters
@@ -102,6 +104,8 @@ def evaluate_run(params: dict, prominence: float = 0.1):
         The run's parameters.
     prominence : float
         The least crest or furrow counted (:func:`~wrinkle_vis.core.metrics.frame_metrics`).
+    layout_path : str, optional
+        Where the face's layout file lies (:attr:`~.spec.Run.layout_path`).
 
     Returns
     -------
@@ -112,14 +116,15 @@ def evaluate_run(params: dict, prominence: float = 0.1):
     metrics : dict
         :func:`~wrinkle_vis.core.metrics.frame_metrics` of the frame.
     """
-    face = _face_for(params)
+    face = _face_for(params, layout_path)
     acts = _activations(face, params)
     start = time.perf_counter()
     state = face.evaluate(acts, refine=params["refine"])
     seconds = time.perf_counter() - start
     pairs = None
     if state.face.skin is face.skin:
-        pairs = _rest_pairs(json.dumps(params["face"], sort_keys=True), face.skin)
+        pairs = _rest_pairs(json.dumps([params["face"], layout_path], sort_keys=True),
+                            face.skin)
     metrics = frame_metrics(state, prominence=prominence,
                             rest_pairs=pairs, time_s=params["time_s"], frame_seconds=seconds)
     return face, state, metrics
@@ -223,8 +228,8 @@ def execute(task: dict) -> dict:
     Parameters
     ----------
     task : dict
-        ``id``, ``seed``, ``params`` (:class:`~.spec.Run`), ``columns``, ``outputs``,
-        ``outputs_key`` and ``out`` (the sweep folder).
+        ``id``, ``seed``, ``params``, ``columns`` and ``layout_path`` (:class:`~.spec.Run`),
+        ``outputs``, ``outputs_key`` and ``out`` (the sweep folder).
 
     Returns
     -------
@@ -240,7 +245,8 @@ def execute(task: dict) -> dict:
               "columns": task["columns"], "outputs_key": task["outputs_key"]}
     tmp = Path(tempfile.mkdtemp(prefix=f".tmp-{task['id']}-", dir=final.parent))
     try:
-        face, state, metrics = evaluate_run(task["params"], task["outputs"]["prominence"])
+        face, state, metrics = evaluate_run(task["params"], task["outputs"]["prominence"],
+                                             task.get("layout_path"))
         outputs = task["outputs"]
         files = []
         if outputs["arrays"]:
