@@ -29,7 +29,13 @@ from pathlib import Path
 
 import wrinkle_vis as wv
 from wrinkle_vis.sweep import load_spec
-from wrinkle_vis.sweep.runner import _task, finished_records, table_frame, write_table
+from wrinkle_vis.sweep.runner import (
+    _task,
+    finished_records,
+    local_cluster,
+    table_frame,
+    write_table,
+)
 from wrinkle_vis.sweep.worker import close_worker_plotter, execute
 
 
@@ -73,10 +79,9 @@ def parallel_warm(runs: int, triangles: int, workers: int, folder: Path) -> floa
     """Seconds of ``wv.sweep`` on a running cluster whose workers have loaded the face and
     made their plotter (two runs each first, not timed).
     """
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster, Client(cluster) as client:
+    with local_cluster(workers) as cluster, Client(cluster) as client:
         wv.sweep(spec(2 * workers, triangles, seed=99), folder / "warm", client,
                  progress=False)
         start = time.perf_counter()
@@ -93,11 +98,10 @@ def rss() -> int:
 
 
 def memory(runs: int, folder: Path) -> list[tuple[int, float]]:
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
     out = []
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster, Client(cluster) as client:
+    with local_cluster(1) as cluster, Client(cluster) as client:
         done = 0
         for batch in range(runs // 100):
             wv.sweep(spec(100, 1000, seed=batch), folder, client, progress=False)

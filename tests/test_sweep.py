@@ -263,7 +263,7 @@ def test_a_worker_writes_a_run_with_its_one_plotter(tmp_path):
     try:
         records = [worker.execute(_task(spec, out, r)) for r in spec.runs()]
         made = len(pv.plotting.plotter._ALL_PLOTTERS) - before
-        plotter = worker._PLOTTER["plotter"]
+        (plotter,) = worker._PLOTTER.values()
     finally:
         worker.close_worker_plotter()
     assert made == 1 and plotter._closed

@@ -18,6 +18,7 @@ import math
 import os
 import shutil
 import tempfile
+import threading
 import time
 import traceback
 from collections import OrderedDict
@@ -131,10 +132,15 @@ def evaluate_run(params: dict, prominence: float = 0.1, layout_path: str | None 
 
 
 def worker_plotter(size):
-    """The worker's one off-screen plotter, resized to ``size`` (made on first use)."""
+    """The worker's one off-screen plotter, resized to ``size`` (made on first use).
+
+    One per thread that renders (a worker has one thread): an OpenGL context is current
+    in the thread that made it, and rendering from another thread fails.
+    """
     import pyvista as pv
 
-    plotter = _PLOTTER.get("plotter")
+    key = threading.get_ident()
+    plotter = _PLOTTER.get(key)
     if plotter is None or plotter._closed:
         from wrinkle_vis.plotting import testing_theme
 
@@ -142,16 +148,16 @@ def worker_plotter(size):
         theme.window_size = list(size)
         plotter = pv.Plotter(off_screen=True, window_size=list(size), theme=theme)
         plotter.show(auto_close=False)  # else render() does nothing and images go stale
-        _PLOTTER["plotter"] = plotter
+        _PLOTTER[key] = plotter
     if list(plotter.window_size) != list(size):
         plotter.window_size = list(size)
     return plotter
 
 
 def close_worker_plotter() -> None:
-    """Close the worker's plotter (a worker plugin's teardown; tests)."""
-    plotter = _PLOTTER.pop("plotter", None)
-    if plotter is not None:
+    """Close the worker's plotters (at the end of a serial loop; tests)."""
+    while _PLOTTER:
+        _, plotter = _PLOTTER.popitem()
         plotter.close()
 
 
