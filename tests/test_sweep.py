@@ -220,6 +220,20 @@ def test_wv_sweep_is_callable_after_importing_the_module():
     assert wv.sweep is module and callable(wv.sweep)
 
 
+def test_local_workers_are_spawned_without_the_profiler_and_malloc_trim():
+    import dask
+    from distributed.nanny import _get_env_variables
+
+    from wrinkle_vis.sweep.runner import LOCAL_WORKER_CONFIG
+
+    assert "MALLOC_TRIM_THRESHOLD_" in _get_env_variables("distributed.nanny.pre-spawn-environ")
+    with dask.config.set(LOCAL_WORKER_CONFIG):
+        env = _get_env_variables("distributed.nanny.pre-spawn-environ")
+        assert "MALLOC_TRIM_THRESHOLD_" not in env and env["OMP_NUM_THREADS"] == "1"
+        assert dask.config.get("distributed.worker.profile.enabled") is False
+        assert dask.config.get("distributed.worker.multiprocessing-method") == "spawn"
+
+
 def test_the_sweep_layer_imports_no_qt():
     code = ("import sys, wrinkle_vis.sweep, wrinkle_vis.sweep.worker; "
             "print([m for m in ('qtpy', 'PySide6', 'pyvistaqt') if m in sys.modules])")

@@ -173,13 +173,11 @@ def _client(client, scheduler, workers, timeout: float):
 #: VTK and numpy stacks: about 45 KiB of worker memory per run); and without the
 #: ``MALLOC_TRIM_THRESHOLD_=65536`` Dask's nanny sets by default, which made a run of the
 #: example's kind take 0.44 s instead of 0.31 s (glibc then returns and maps memory again
-#: for every large numpy temporary). One thread for numpy's and BLAS's pools, as Dask does.
+#: for every large numpy temporary; None unsets it).
 LOCAL_WORKER_CONFIG = {"distributed.worker.multiprocessing-method": "spawn",
                        "distributed.worker.daemon": True,
                        "distributed.worker.profile.enabled": False,
-                       "distributed.nanny.pre-spawn-environ": {
-                           "OMP_NUM_THREADS": 1, "MKL_NUM_THREADS": 1,
-                           "OPENBLAS_NUM_THREADS": 1}}
+                       "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
 
 
 def local_cluster(workers: int):
