@@ -1,14 +1,15 @@
 """Sweeps: throughput on local workers against a plain serial loop, worker memory over many
 runs, and the table of 10,000 runs.
 
-Run:  .venv/bin/python benchmarks/bench_sweep.py [--runs 200] [--workers 2]
+Run:  .venv/bin/python benchmarks/bench_sweep.py [--runs 200] [--rounds 4] [--workers 2]
       [--memory-runs 1000] [--table-runs 10000] [--json out.json]
 
 1. ``--runs`` runs of surprise on the paper-size face (4,500 triangles), each with its own
    k0 of the sheet muscles (a seeded random draw), every metric and one 400 by 400 image
-   (W, front camera, raking light): first as a plain loop in this process (the worker's own
-   function, one plotter, the same files written), then as a sweep on ``--workers`` local
-   worker processes. The sweep's wall time includes starting the cluster (reported apart).
+   (W, front camera, raking light), in ``--rounds`` rounds: in each, a plain loop in this
+   process (the worker's own function, one plotter, the same files written), then a sweep
+   on ``--workers`` warm local worker processes; the median of the rounds' ratios. Then one
+   round's sweep with its own cluster started, to show what starting costs.
 2. One worker process runs ``--memory-runs`` runs of the same kind (a 1,000-triangle face,
    100 runs a batch); its resident memory after each batch.
 3. The table of ``--table-runs`` runs built and written (pandas, pyarrow, atomically) from
@@ -22,6 +23,7 @@ import argparse
 import json
 import os
 import shutil
+import statistics
 import sys
 import tempfile
 import time
@@ -51,19 +53,20 @@ def spec(runs: int, triangles: int, seed: int = 0, image: bool = True) -> dict:
     return out
 
 
-def serial(runs: int, triangles: int, folder: Path) -> float:
-    s = load_spec(spec(runs, triangles))
+def serial(runs: int, triangles: int, folder: Path, seed: int = 0) -> float:
+    """Seconds of a plain loop over the runs in this process (the worker's own function;
+    the face loaded and the plotter made by one run first, not timed).
+    """
+    s = load_spec(spec(runs, triangles, seed=seed))
     (folder / "runs").mkdir(parents=True)
     (folder / "failed").mkdir()
     tasks = [_task(s, folder, r) for r in s.runs()]
-    execute(tasks[0])  # load the face and make the plotter once, as a worker does
+    execute(tasks[0])
     shutil.rmtree(folder / "runs" / tasks[0]["id"])
     start = time.perf_counter()
     for task in tasks:
         assert execute(task)["status"] == "done"
-    seconds = time.perf_counter() - start
-    close_worker_plotter()
-    return seconds
+    return time.perf_counter() - start
 
 
 def parallel(runs: int, triangles: int, workers: int, folder: Path) -> float:
@@ -75,20 +78,32 @@ def parallel(runs: int, triangles: int, workers: int, folder: Path) -> float:
     return seconds
 
 
-def parallel_warm(runs: int, triangles: int, workers: int, folder: Path) -> float:
-    """Seconds of ``wv.sweep`` on a running cluster whose workers have loaded the face and
-    made their plotter (two runs each first, not timed).
+def side_by_side(runs: int, triangles: int, workers: int, rounds: int,
+                 folder: Path) -> list[tuple[float, float]]:
+    """``rounds`` times, one after the other under the same load: a plain loop of
+    ``runs // rounds`` runs here, then a sweep of as many on a running cluster whose
+    workers have loaded the face and made their plotter (two runs each first, not timed).
+    Returns ``(serial_s, sweep_s)`` per round.
     """
     from distributed import Client
 
+    n = runs // rounds
+    out = []
     with local_cluster(workers) as cluster, Client(cluster) as client:
         wv.sweep(spec(2 * workers, triangles, seed=99), folder / "warm", client,
                  progress=False)
-        start = time.perf_counter()
-        table = wv.sweep(spec(runs, triangles), folder / "timed", client, progress=False)
-        seconds = time.perf_counter() - start
-    assert (table["status"] == "done").all() and len(table) == runs
-    return seconds
+        for k in range(rounds):
+            one = serial(n, triangles, folder / f"serial{k}", seed=100 + k)
+            start = time.perf_counter()
+            table = wv.sweep(spec(n, triangles, seed=200 + k), folder / f"sweep{k}", client,
+                             progress=False)
+            many = time.perf_counter() - start
+            assert (table["status"] == "done").all() and len(table) == n
+            out.append((one, many))
+            print(f"  round {k}: {n} runs, serial {one:6.1f} s, sweep {many:6.1f} s: "
+                  f"{one / many:.2f}x", flush=True)
+    close_worker_plotter()
+    return out
 
 
 def rss() -> int:
@@ -147,6 +162,7 @@ def table(runs: int, folder: Path) -> dict:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--runs", type=int, default=200)
+    p.add_argument("--rounds", type=int, default=4)
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--triangles", type=int, default=4500)
     p.add_argument("--memory-runs", type=int, default=1000)
@@ -159,19 +175,21 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         if args.runs:
-            one = serial(args.runs, args.triangles, tmp / "serial")
-            warm = parallel_warm(args.runs, args.triangles, args.workers, tmp / "warm")
-            cold = parallel(args.runs, args.triangles, args.workers, tmp / "sweep")
-            result["throughput"] = {
-                "runs": args.runs, "serial_s": one, "sweep_warm_s": warm, "sweep_cold_s": cold,
-                "speedup_warm": one / warm, "speedup_cold": one / cold}
-            n = args.runs
-            print(f"{n} runs, metrics and a 400x400 image each ({args.triangles} triangles):\n"
-                  f"  serial loop in one process   {one:6.1f} s  {n / one:5.2f} runs/s\n"
-                  f"  sweep, {args.workers} warm workers       {warm:6.1f} s  "
-                  f"{n / warm:5.2f} runs/s  {one / warm:.2f}x\n"
-                  f"  sweep, cluster started in it {cold:6.1f} s  {n / cold:5.2f} runs/s  "
-                  f"{one / cold:.2f}x", flush=True)
+            print(f"{args.runs} runs in {args.rounds} rounds, metrics and a 400x400 image each "
+                  f"({args.triangles} triangles), {args.workers} workers:", flush=True)
+            pairs = side_by_side(args.runs, args.triangles, args.workers, args.rounds,
+                                 tmp / "side")
+            serial_s = sum(a for a, _ in pairs)
+            sweep_s = sum(b for _, b in pairs)
+            ratio = statistics.median(a / b for a, b in pairs)
+            cold = parallel(max(args.runs // args.rounds, 1), args.triangles, args.workers,
+                            tmp / "cold")
+            result["throughput"] = {"rounds": pairs, "serial_s": serial_s, "sweep_s": sweep_s,
+                                    "median_ratio": ratio, "cold_sweep_s": cold}
+            print(f"  in all: serial {args.runs / serial_s:.2f} runs/s, sweep "
+                  f"{args.runs / sweep_s:.2f} runs/s; median ratio {ratio:.2f}x\n"
+                  f"  a sweep of {args.runs // args.rounds} runs starting its own cluster: "
+                  f"{cold:.1f} s", flush=True)
         if args.memory_runs:
             print(f"worker memory over {args.memory_runs} runs (1,000-triangle face, "
                   "metrics and a 400x400 image each):", flush=True)
