@@ -15,7 +15,7 @@ from .core import __all__ as _core_all
 __version__ = "0.1.0"
 __all__ = [*_core_all, "__version__"]
 
-_LAZY = {"datasets", "plotting", "widgets"}
+_LAZY = {"datasets", "plotting", "sweep", "widgets"}  # wv.sweep(spec, out): a callable module
 
 
 def __getattr__(name: str):

@@ -1,4 +1,4 @@
-"""The ``wrinkle-vis`` command: summary, render, export, animate, figure, bake and types.
+"""The ``wrinkle-vis`` command: summary, render, export, animate, figure, bake, types and sweep.
 
 Every error is one line on stderr that names the problem and the way out, with exit status
 2 and no traceback; outputs are checked (extension, folder) before any work and written
@@ -285,6 +285,20 @@ def _parser() -> argparse.ArgumentParser:
                     "default and meaning.")
     p.add_argument("type", nargs="*", help="only these types (default: all)")
     p.add_argument("--markdown", action="store_true", help="print Markdown tables")
+
+    p = sub.add_parser(
+        "sweep", help="run a parameter sweep on Dask and write its Parquet table",
+        description="Run every run of a sweep spec (TOML or JSON, docs/sweeps.md) that has "
+                    "not finished in OUT: on local worker processes, or on a running "
+                    "scheduler. Started again, it skips the finished runs. Ctrl+C stops it; "
+                    "the same command resumes.")
+    p.add_argument("spec", type=Path, help="the sweep spec (.toml or .json)")
+    p.add_argument("--output", "-o", type=Path, required=True, help="the sweep folder")
+    p.add_argument("--scheduler", help="a running Dask scheduler, tcp://HOST:PORT "
+                                       "(default: start local workers)")
+    p.add_argument("--workers", type=int, help="how many local worker processes (default: "
+                                               "the CPUs)")
+    p.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
     return parser
 
 
@@ -312,6 +326,28 @@ def _types(args) -> int:
             print("  " + "  ".join(c.ljust(w) for c, w in zip(row, widths, strict=False))
                   + "  " + row[5])
     return 0
+
+
+def _sweep(args) -> int:
+    """``wrinkle-vis sweep``: one line on an error, exit status 130 after Ctrl+C."""
+    if args.workers is not None and args.scheduler is not None:
+        raise CliError("give --workers or --scheduler, not both")
+    if args.workers is not None and args.workers < 1:
+        raise CliError(f"--workers {args.workers}: give 1 or more")
+    from wrinkle_vis.sweep import SweepError, SweepSpecError, sweep
+
+    try:
+        table = sweep(args.spec, args.output, scheduler=args.scheduler, workers=args.workers,
+                      progress=not args.quiet)
+    except (SweepSpecError, SweepError) as exc:
+        raise CliError(str(exc)) from None
+    except KeyboardInterrupt:
+        print("wrinkle-vis sweep: interrupted; the finished runs are kept, run the same "
+              "command again to resume", file=sys.stderr)
+        return 130
+    failed = int((table["status"] != "done").sum())
+    print(f"{len(table)} runs, {failed} failed: {args.output / 'results.parquet'}")
+    return 1 if failed else 0
 
 
 def _version() -> str:
@@ -1035,11 +1071,12 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.command is None:
         return _app(parser)
-    if args.command == "types":
+    if args.command in ("types", "sweep"):
         try:
-            return _types(args)
+            return _types(args) if args.command == "types" else _sweep(args)
         except CliError as exc:
-            print(f"wrinkle-vis types: {exc}", file=sys.stderr)
+            message = " ".join(str(exc).split())
+            print(f"wrinkle-vis {args.command}: {message}", file=sys.stderr)
             return 2
     if not (0.0 <= args.intensity <= 1.0):
         parser.error(f"--intensity {args.intensity:g} is outside [0, 1]")
