@@ -37,8 +37,8 @@ def test_a_camera_change_in_one_view_reaches_the_others_at_once(window):
 def test_switching_field_changes_the_active_array_and_scalar_bar(window):
     window.muscle_box.setCurrentText("corrugator_L")
     window.field_box.setCurrentText("gamma")
-    assert window.active_array() == "corrugator_L.gamma"
-    assert skin_mesh(window).active_scalars_name == "corrugator_L.gamma"
+    assert window.active_array() == "corrugator_L__gamma"
+    assert skin_mesh(window).active_scalars_name == "corrugator_L__gamma"
     bars = window.skin_view.scalar_bars
     assert "gamma, corrugator_L" in bars and "W (mm), total" not in bars  # W's bar is gone
     window.muscle_box.setCurrentText("total")  # only W has a total

@@ -225,13 +225,13 @@ def test_tangent_frames_follow_the_uvs(turn_deg, mirror):
 def test_colour_maps_padding_and_side_files(head, baked):
     names = sorted(p.name for p in baked.iterdir())
     assert names == ["displacement.json", "displacement.png",
-                     "field_frontalis_major_L.W.json", "field_frontalis_major_L.W.png",
-                     "field_frontalis_major_L.eps.json", "field_frontalis_major_L.eps.png",
+                     "field_frontalis_major_L__W.json", "field_frontalis_major_L__W.png",
+                     "field_frontalis_major_L__eps.json", "field_frontalis_major_L__eps.png",
                      "normal.json", "normal.png"]
-    meta = json.loads((baked / "field_frontalis_major_L.eps.json").read_text())
+    meta = json.loads((baked / "field_frontalis_major_L__eps.json").read_text())
     assert meta["field"] == "eps" and meta["muscle"] == "frontalis_major_L"
     assert meta["expression"] == "surprise" and meta["size"] == [SIZE, SIZE]
-    rgba = np.asarray(Image.open(baked / "field_frontalis_major_L.eps.png"))
+    rgba = np.asarray(Image.open(baked / "field_frontalis_major_L__eps.png"))
     assert rgba.shape == (SIZE, SIZE, 4)
     uvs = read_obj_uvs(HEAD, head.skin)
     raster = uv_raster(uvs, (SIZE, SIZE), padding=8)
@@ -309,7 +309,7 @@ def test_bake_replaces_its_folder_whole(tmp_path):
     argv = ["bake", "--skin", str(HEAD), "--layout", str(EXAMPLE), "--size", "64", "64",
             "-o", str(out)]
     assert main([*argv, "-f", "eps", "-m", "corrugator_L"]) == 0
-    assert (out / "field_corrugator_L.eps.png").is_file()
+    assert (out / "field_corrugator_L__eps.png").is_file()
     assert main(argv) == 0
     assert sorted(p.name for p in out.iterdir()) == [
         "displacement.json", "displacement.png", "field_W.json", "field_W.png",

@@ -32,8 +32,8 @@ def test_export_carries_every_field(tmp_path):
     out = tmp_path / "fear.vtp"
     assert main(["export", "-e", "fear", "-o", str(out)]) == 0
     mesh = pv.read(out)
-    assert "W" in mesh.point_data and "corrugator_L.eps" in mesh.point_data
-    assert np.isnan(mesh["corrugator_L.W"]).any() and np.nanmax(np.abs(mesh["W"])) > 0
+    assert "W" in mesh.point_data and "corrugator_L__eps" in mesh.point_data
+    assert np.isnan(mesh["corrugator_L__W"]).any() and np.nanmax(np.abs(mesh["W"])) > 0
 
 
 def test_export_all_layers(tmp_path):

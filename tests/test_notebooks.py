@@ -40,7 +40,7 @@ def test_state_plot_draws_the_field_of_a_muscle(wv_face, no_leaked_plotters):
     try:
         mesh = plotter.actors["skin"].mapper.dataset
         np.testing.assert_array_equal(mesh.points, state.points)
-        np.testing.assert_array_equal(mesh.point_data["frontalis_major_L.eps"],
+        np.testing.assert_array_equal(mesh.point_data["frontalis_major_L__eps"],
                                       state.fields["frontalis_major_L"]["eps"])
         assert plotter.actors["skin"].mapper.scalar_visibility
         assert not plotter.notebook and plotter.off_screen
@@ -111,7 +111,7 @@ def test_explorer_keeps_the_camera_and_redraws_for_a_new_field(explorer):
     camera = explorer.plotter.camera_position
     explorer.set(field="gamma")  # a muscle's field: the expression's first muscle
     assert explorer.values["muscle"] == "frontalis_inner_L"
-    assert "frontalis_inner_L.gamma" in explorer.mesh.point_data
+    assert "frontalis_inner_L__gamma" in explorer.mesh.point_data
     assert explorer.n_rebuilds == 2
     assert explorer.plotter.camera_position == camera
     explorer.set(field=None)

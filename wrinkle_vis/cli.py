@@ -142,7 +142,8 @@ def _parser() -> argparse.ArgumentParser:
                    help=f"frames per second of --sequence (1 to {MAX_FPS}; default 12; at "
                         f"most {_max_frames():,} frames in all)")
     p.add_argument("--output", "-o", type=Path, required=True,
-                   help="a .vtp (ParaView), .vtk or .ply file for the skin, .vtm for "
+                   help="a .vtp (ParaView), .vtu (also meshio), .vtk, .ply, .obj or .stl "
+                        "file for the skin, .vtm for "
                         "skin, skull and muscles, or .glb (glTF: the neutral skin with one "
                         "morph target per expression, or per --expression); with --sequence "
                         "NAME.pvd, NAME_####.obj or NAME_####.ply")
@@ -513,7 +514,7 @@ def _export(args) -> int:
     suffix = args.output.suffix.lower()
     if args.sequence:
         return _export_sequence(args)
-    if suffix in (".pvd", ".obj"):
+    if suffix == ".pvd":
         raise CliError(f"--output {args.output.name!r}: {suffix} is written as a sequence of "
                        "the expression's ramp; add --sequence")
     if args.fps is not None:

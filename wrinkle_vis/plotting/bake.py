@@ -25,7 +25,7 @@ Maps (:func:`bake_maps`, written by :func:`save_bake`)
     A field as colours (8-bit RGBA) with the colour map and range of
     :mod:`wrinkle_vis.plotting.fields`, undefined values in
     :data:`~wrinkle_vis.plotting.fields.NAN_COLOR`, transparent outside the islands and
-    their padding. ``<name>`` is the point-array name (``W``, ``corrugator_L.eps``).
+    their padding. ``<name>`` is the point-array name (``W``, ``corrugator_L__eps``).
 """
 
 from __future__ import annotations

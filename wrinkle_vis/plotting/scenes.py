@@ -191,9 +191,17 @@ def muscle_mesh(muscle, activation: float = 0.0) -> pv.PolyData:
     a tapered fibre for a linear muscle, a ribbon of seven fibres for a sheet, a fibre
     through the declared points for a type with no glyph of its own).
 
-    Point array ``activation`` holds the activation everywhere, for colouring.
+    Point arrays: ``activation``, the activation everywhere, for colouring, and
+    ``Normals``, the glyph's vertex normals when it has them (the active normals). What the
+    glyph's filters left behind (a tube's radii, texture coordinates) is dropped.
     """
     mesh = glyph_factory(type(muscle))(muscle)
+    normals = mesh.GetPointData().GetNormals()
+    normals = None if normals is None else np.array(pv.convert_array(normals), dtype=float)
+    mesh.clear_data()
+    if normals is not None:
+        mesh.point_data["Normals"] = normals
+        mesh.GetPointData().SetActiveNormals("Normals")
     mesh.point_data["activation"] = np.full(mesh.n_points, float(activation))
     return mesh
 
@@ -210,7 +218,10 @@ def to_multiblock(state: FaceState) -> pv.MultiBlock:
                              for m in face.muscles})
     blocks = {"skin": to_polydata(state), "muscles": muscles}
     if face.skull is not None:
-        blocks["skull"] = to_surface_polydata(face.skull)
+        skull = to_surface_polydata(face.skull)
+        skull.point_data["Normals"] = face.skull.vertex_normals()
+        skull.GetPointData().SetActiveNormals("Normals")
+        blocks["skull"] = skull
     return pv.MultiBlock(blocks)
 
 
