@@ -281,3 +281,73 @@ def test_trame_view_served_from_a_kernel_draws_in_headless_chromium(kernel_env, 
                 assert _drawn(image, box) > 0.3
 
     asyncio.run(run())
+
+
+# ---------------------------------------------------------------------- PyVista's conventions
+def test_plot_passes_mesh_options_on_and_show_options_to_show(wv_face, tmp_path,
+                                                               no_leaked_plotters):
+    """As pyvista.plot: cmap and the like go to add_mesh, screenshot and the like to
+    show; with return_plotter the options of show are refused, not dropped.
+    """
+    from matplotlib import colormaps
+
+    state = wv_face.evaluate("surprise")
+    path = tmp_path / "magma.png"
+    state.plot("W", cmap="magma", off_screen=True, screenshot=path, window_size=(120, 100))
+    assert path.is_file()
+    plotter = state.plot("W", cmap="magma", opacity=0.5, return_plotter=True,
+                         off_screen=True)
+    try:
+        actor = plotter.actors["skin"]
+        table = np.asarray(actor.mapper.lookup_table.values[:, :3], float) / 255
+        want = colormaps["magma"](np.linspace(0, 1, len(table)))[:, :3]
+        np.testing.assert_allclose(table, want, atol=1 / 255)
+        assert actor.prop.opacity == 0.5
+    finally:
+        plotter.close()
+    with pytest.raises(TypeError, match="screenshot: options of Plotter.show"):
+        state.plot("W", return_plotter=True, screenshot=path, off_screen=True)
+
+
+def test_pyvista_set_jupyter_backend_is_honoured(wv_face, monkeypatch, no_leaked_plotters):
+    import pyvista as pv
+
+    monkeypatch.delenv(nbmod.BACKEND_VARIABLE, raising=False)
+    assert default_backend() == "trame"
+    monkeypatch.setattr(pv.global_theme, "jupyter_backend", "static")
+    monkeypatch.setenv(nbmod.BACKEND_VARIABLE, "trame")  # PyVista's own setting wins
+    assert default_backend() == "static"
+    monkeypatch.setattr(nbmod, "in_notebook", lambda: True)
+    shown = []
+    monkeypatch.setattr("IPython.display.display", shown.append)
+    wv_face.plot("frown", "W", window_size=(160, 120))
+    assert len(shown) == 1 and shown[0].size == (160, 120)  # a PIL image, not a trame view
+
+
+def test_an_interactive_view_is_output_with_an_image(kernel_env, monkeypatch, tmp_path):
+    """With trame, an executed notebook keeps a PNG beside the view: nbconvert's HTML
+    (no widget state) and GitHub show that.
+    """
+    from nbformat.v4 import new_code_cell, new_notebook
+
+    monkeypatch.delenv(nbmod.BACKEND_VARIABLE, raising=False)
+    monkeypatch.delenv("PYVISTA_JUPYTER_BACKEND", raising=False)
+    nb = new_notebook(cells=[new_code_cell(
+        "import wrinkle_vis as wv\n"
+        "wv.datasets.load_face().plot('surprise', window_size=(200, 160))")])
+    _client(nb, tmp_path).execute()
+    shown = [o for o in nb.cells[0].outputs if o.output_type == "display_data"]
+    assert len(shown) == 1, nb.cells[0].outputs
+    data = shown[0]["data"]
+    assert "application/vnd.jupyter.widget-view+json" in data  # the trame view
+    png = base64.b64decode(data["image/png"])
+    assert png.startswith(b"\x89PNG")
+    from io import BytesIO
+
+    from PIL import Image
+
+    Image.open(BytesIO(png)).save(tmp_path / "fallback.png")
+    image = np.asarray(Image.open(BytesIO(png)).convert("RGB")).astype(int)
+    assert image.shape == (160, 200, 3)
+    assert (image.min(axis=2) < 235).mean() > 0.2  # the skin
+    assert ((image.max(axis=2) - image.min(axis=2)) > 80).sum() > 200  # W's colours

@@ -129,7 +129,8 @@ def evaluate(face: FaceModel, expression, intensity: float = 1.0, *, refine: boo
 
 def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
              muscle: str | None = None, *, opacity: float = 1.0, scalar_bar: bool = True,
-             show_edges: bool = False, points=None, edge_color=None, normals=None):
+             show_edges: bool = False, points=None, edge_color=None, normals=None,
+             **mesh_kwargs):
     """Add the final skin of ``state``, coloured by ``field`` (of ``muscle``, or total W).
 
     ``field=None`` draws plain, matte skin. Undefined values (NaN) take :data:`NAN_COLOR` and
@@ -138,7 +139,8 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
     (``(n, 3)``, e.g. ``state.normals``) shades the skin smoothly with these vertex normals
     (point array ``Normals``) and draws the mesh itself, with no normals filter between it
     and the mapper, so that a caller can write a new frame into it in place (the app's
-    views); by default PyVista's smooth shading computes them. Returns the actor.
+    views); by default PyVista's smooth shading computes them. ``mesh_kwargs`` go to
+    ``add_mesh`` and override the choices here (``cmap="magma"``). Returns the actor.
     """
     mesh = to_surface_polydata(state.face.skin, state.points if points is None else points)
     if normals is not None:
@@ -147,33 +149,37 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
     shading = _shading(mesh)
     if field is None:
         return add_skin_mesh(plotter, mesh, opacity=opacity, show_edges=show_edges,
-                             edge_color=edge_color)
+                             edge_color=edge_color, **mesh_kwargs)
     info = field_info(field)
     values = np.asarray(state.field_values(field, muscle))  # checks field and muscle
     array = field_array_name(field, muscle)
     mesh.point_data[array] = values  # only the field shown: the others stay in the core
     mesh.set_active_scalars(array)
-    actor = plotter.add_mesh(
-        mesh, scalars=array, cmap=info.cmap, clim=field_range(info, values),
+    options = dict(
+        scalars=array, cmap=info.cmap, clim=field_range(info, values),
         nan_color=NAN_COLOR, opacity=opacity, show_edges=show_edges,
         edge_color=edge_color, show_scalar_bar=scalar_bar, name="skin", render=False,
         **shading,
         scalar_bar_args=_scalar_bar(info.title(muscle, face_unit(state))) if scalar_bar
         else None)
-    if scalar_bar:
-        plotter.scalar_bars[info.title(muscle, face_unit(state))].SetNanAnnotation(
-            "undefined")
+    options.update(mesh_kwargs)
+    actor = plotter.add_mesh(mesh, **options)
+    title = (options.get("scalar_bar_args") or {}).get("title")
+    if options.get("show_scalar_bar") and title in plotter.scalar_bars:
+        plotter.scalar_bars[title].SetNanAnnotation("undefined")
     return actor
 
 
 def add_skin_mesh(plotter: pv.Plotter, mesh: pv.PolyData, *, opacity: float = 1.0,
-                  show_edges: bool = False, edge_color=None):
+                  show_edges: bool = False, edge_color=None, **mesh_kwargs):
     """Add ``mesh`` as plain, matte skin (actor ``skin``), shaded smoothly with its own
-    vertex normals if it has them (else PyVista computes them). Returns the actor.
+    vertex normals if it has them (else PyVista computes them); ``mesh_kwargs`` go to
+    ``add_mesh`` and override these choices. Returns the actor.
     """
-    return plotter.add_mesh(mesh, color=SKIN, opacity=opacity, show_edges=show_edges,
-                            edge_color=edge_color, specular=0.0, diffuse=1.0, ambient=0.0,
-                            name="skin", render=False, **_shading(mesh))
+    options = dict(color=SKIN, opacity=opacity, show_edges=show_edges,
+                   edge_color=edge_color, specular=0.0, diffuse=1.0, ambient=0.0,
+                   name="skin", render=False, **_shading(mesh))
+    return plotter.add_mesh(mesh, **{**options, **mesh_kwargs})
 
 
 def _shading(mesh: pv.PolyData) -> dict:
