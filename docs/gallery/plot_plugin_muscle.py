@@ -50,14 +50,17 @@ class RingMuscle(wv.Muscle):
 
     @property
     def strength_value(self) -> float:
+        """The peak pull, in lengths."""
         return self.strength
 
     @property
     def wrinkle_length(self) -> float:
+        """The length the rings span (Eq. 6's R)."""
         return self.radius
 
     @property
     def attenuation_range(self) -> tuple[float, float]:
+        """No attenuation before the rim."""
         return (self.radius, self.radius)
 
     def _geometry(self, points):
