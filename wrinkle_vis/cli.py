@@ -591,7 +591,8 @@ def _export_gltf(args) -> int:
     names = [args.expression] if args.expression else list(face.expressions)
     progress = partial(tqdm, desc=f"writing {args.output.name}", unit="expression",
                        delay=0.5)
-    written = save_gltf(face, args.output, names, unit=unit, progress=progress)
+    written = save_gltf(face, args.output, names, unit=unit, progress=progress,
+                        corner_uvs=_gltf_uvs(args, face))
     print(f"wrote {_wrote(args, written)}: {written.summary}")
     return 0
 
@@ -628,6 +629,18 @@ def _bake(args) -> int:
     print(f"wrote {args.output}: {written.summary}; W sampled back at the texel centres "
           f"within {100 * maps.check['texel_centres_max']:.3g} % of its range")
     return 0
+
+
+def _gltf_uvs(args, face):
+    """The skin's corner UVs when it has them (an OBJ with ``vt``, the built-in head),
+    for a glTF's ``TEXCOORD_0``; None for a skin without.
+    """
+    from wrinkle_vis.plotting.bake import UVError
+
+    try:
+        return _uvs(_uv_source(args), face)
+    except (CliError, UVError):
+        return None
 
 
 def _uv_source(args):
