@@ -129,12 +129,41 @@ def test_displacement_map_sampled_at_the_vertices(head, baked, raw_uv_triangles)
     assert np.mean(error < 0.02) > 0.995
 
 
+def _read_png16(path) -> np.ndarray:
+    """``(h, w, 3) float``: a 16-bit RGB PNG read by pypng (Pillow reads it as 8 bits)."""
+    import png
+
+    w, h, rows, info = png.Reader(bytes=Path(path).read_bytes()).read()
+    assert info["bitdepth"] == 16 and info["planes"] == 3 and not info.get("alpha")
+    return np.vstack([np.asarray(r, np.uint16) for r in rows]).reshape(h, w, 3).astype(float)
+
+
+def test_normal_map_is_16_bit(tmp_path):
+    """The wrinkles tilt the normal by a few degrees: 8 bits band them (steps of 0.45
+    degrees), 16 bits keep them. Read back by pypng, an independent PNG decoder.
+    """
+    from wrinkle_vis.datasets.lee_perry_smith import lee_perry_smith_uvs
+    from wrinkle_vis.plotting.bake import bake_maps, save_bake
+
+    head = wv.datasets.load_face("lee_perry_smith")
+    state = head.evaluate("surprise")
+    maps = bake_maps(state, lee_perry_smith_uvs(), (128, 96), padding=2)
+    save_bake(maps, tmp_path / "maps")
+    rgb = _read_png16(tmp_path / "maps" / "normal.png")
+    assert rgb.shape == (96, 128, 3)
+    np.testing.assert_array_equal(rgb, maps.images["normal.png"])
+    n = rgb / 32767.5 - 1.0
+    np.testing.assert_allclose(np.linalg.norm(n, axis=2), 1.0, atol=1e-4)
+    levels = np.unique(rgb[..., 0])
+    assert len(levels) > 256  # more than 8 bits of them
+    meta = json.loads((tmp_path / "maps" / "normal.json").read_text())
+    assert meta["bit_depth"] == 16 and meta["encode"] == "rgb = 65535 (n + 1) / 2"
+
+
 @needs_scans
 def test_normal_map_holds_the_wrinkles_in_tangent_space(head, baked, raw_uv_triangles):
     state = head.evaluate("surprise")
-    with Image.open(baked / "normal.png") as im:
-        assert im.mode == "RGB"
-        normal = np.asarray(im).astype(float) / 127.5 - 1.0
+    normal = _read_png16(baked / "normal.png") / 32767.5 - 1.0
     tri_uv, tri_vertex = raw_uv_triangles
     skin = head.skin
     base = skin.vertex_normals(state.deformed_points)
@@ -182,7 +211,7 @@ def test_normal_map_holds_the_wrinkles_in_tangent_space(head, baked, raw_uv_tria
     tilt = np.degrees(np.arccos(np.clip(expected[:, 2], -1, 1)))
     got_tilt = np.degrees(np.arccos(np.clip(got[:, 2], -1, 1)))
     assert tilt.max() > 10  # the wrinkles do tilt the normal
-    # how far: whatever the frame, within the 8-bit steps
+    # how far: whatever the frame, within a small fraction of a degree (16 bits)
     assert np.percentile(np.abs(got_tilt - tilt), 99) < 1.5
     # which way: the map's frame smooths +u over the triangles around a corner, while this
     # check takes each triangle's own, and the scan's UVs are uneven triangle by triangle
