@@ -101,3 +101,24 @@ def test_export_writes_one_mesh_as_obj_stl_and_vtu(suffix, tmp_path, capsys):
     assert main(["export", "-e", "frown", "-o", str(out)]) == 0
     assert "wrote" in capsys.readouterr().out
     assert pv.read(out).n_cells == wv.datasets.load_face().skin.n_triangles
+
+
+def test_taper_flag_tapers_every_muscle(wv_face, tmp_path, capsys):
+    """--taper turns the taper option on for every muscle: the exported W is the tapered
+    face's, and differs from the paper's at the ends of the wrinkling regions.
+    """
+    import dataclasses
+
+    out = tmp_path / "tapered.vtu"
+    assert main(["export", "--taper", "-e", "surprise", "-o", str(out)]) == 0
+    tapered = wv_face
+    for m in wv_face.muscles:
+        tapered = tapered.with_muscle(dataclasses.replace(m, taper=True))
+    want = tapered.evaluate("surprise").W
+    got = meshio.read(out).point_data["W"]
+    np.testing.assert_array_equal(got, want)
+    assert np.abs(want - wv_face.evaluate("surprise").W).max() > 0.05  # the seam is gone
+    capsys.readouterr()
+    with pytest.raises(SystemExit):
+        main(["export", "--help"])
+    assert "--taper" in capsys.readouterr().out

@@ -77,6 +77,11 @@ def _common(p: argparse.ArgumentParser, *, expression_many: bool = False,
     p.add_argument("--unit", choices=UNIT_CHOICES, default=None,
                    help="the unit of the face's lengths (default: the layout's; mm for the "
                         "built-in faces; guessed from a scan's size, with a note)")
+    p.add_argument("--taper", action="store_true",
+                   help="taper every muscle's wrinkle shape H to 0 at both ends of its "
+                        "wrinkling region (C1), removing the seam the paper's Eq. 5 leaves "
+                        "there (e.g. across the top of the forehead's wrinkles in surprise "
+                        "and fear); default: the paper's model, or the layout's choice")
 
 
 def _refine_options(p: argparse.ArgumentParser, what: str = "evaluate with adaptive "
@@ -405,6 +410,8 @@ def _load(args, *, refine: bool = False):
         where = (f"--layout {args.layout}" if args.layout else f"--skin {skin}" if skin
                  else f"--face {args.face}" if args.face else "the built-in face")
         raise CliError(f"{where}: {exc}") from None
+    if getattr(args, "taper", False):
+        face = _tapered(face)
     names = getattr(args, "expression", None)
     for name in names if isinstance(names, list) else [names] if names else []:
         if name not in face.expressions:
@@ -415,6 +422,16 @@ def _load(args, *, refine: bool = False):
         raise CliError(f"unknown muscle {muscle!r}; choose from: {', '.join(face.muscle_names)}")
     if not refine:
         _warn_undersampled(args, face, names)
+    return face
+
+
+def _tapered(face):
+    """``face`` with the ``taper`` option on for every muscle (``--taper``)."""
+    import dataclasses
+
+    for muscle in face.muscles:
+        if not muscle.taper:
+            face = face.with_muscle(dataclasses.replace(muscle, taper=True))
     return face
 
 
