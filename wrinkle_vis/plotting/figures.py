@@ -40,8 +40,7 @@ FRAME_DIRECTION = (0.0, 0.1, 1.0)
 
 def wrinkle_camera(states, aspect: float = 1.0, *, direction=FRAME_DIRECTION,
                    margin: float = 0.15, view_angle_deg: float = 30.0):
-    r"""A camera that sees every vertex the frames ``states`` wrinkle (:math:`W 
-e 0`),
+    r"""A camera that sees every vertex the frames ``states`` wrinkle (:math:`W \ne 0`),
     whichever muscles made them: forehead furrows and the mouth's alike.
 
     Parameters
@@ -65,10 +64,10 @@ e 0`),
     Notes
     -----
     With :math:`d` the unit direction, :math:`u` the unit +y made orthogonal to it and
-    :math:`r = u 	imes d`, the wrinkled points :math:`p` about their box's centre
+    :math:`r = u \times d`, the wrinkled points :math:`p` about their box's centre
     :math:`c` span :math:`h = \max |(p - c) \cdot u|` and :math:`w = \max |(p - c) \cdot r|`.
     The eye is at :math:`c + D d` with
-    :math:`D = (1 + m) \max(h, w / a, h_{min}) / 	an(	heta / 2) + \max (p - c) \cdot d`,
+    :math:`D = (1 + m) \max(h, w / a, h_{min}) / \tan(\theta / 2) + \max (p - c) \cdot d`,
     so every point is inside the view, nearer ones (the last term) included;
     :math:`h_{min}` is a tenth of the skin's height, so that a few wrinkled vertices are
     not blown up.
