@@ -401,3 +401,16 @@ def test_the_view_kind_comes_from_the_platform_or_the_environment(qapp, monkeypa
     monkeypatch.setenv("WRINKLE_VIS_VIEW", "opengl")
     with pytest.raises(ValueError, match="WRINKLE_VIS_VIEW='opengl' is not a view kind; use"):
         view_kind()
+
+
+def test_the_status_bar_warns_of_aliased_wrinkles(window):
+    """As the command line does: the frame's muscles whose wrinkles the skin cannot resolve
+    (frown's corrugators at 4,500 triangles), in the status bar with the line as tooltip.
+    """
+    window.expression_box.setCurrentText("frown")
+    assert "aliased wrinkles" in window.status_label.text()
+    tip = window.status_label.toolTip()
+    assert "'corrugator_L', 'corrugator_R'" in tip and "refine the skin" in tip
+    window.expression_box.setCurrentText("surprise")  # the frontalis' are resolved
+    assert "aliased" not in window.status_label.text()
+    assert window.status_label.toolTip() == ""

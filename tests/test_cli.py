@@ -354,3 +354,15 @@ def test_the_library_renders_headless_without_the_x_server_warning(tmp_path):
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert done.stderr == "" and (tmp_path / "w.png").is_file()
+
+
+def test_undersampled_wrinkles_of_several_muscles_are_one_line(capsys):
+    """summary on the default face: every muscle at work whose wrinkles alias (corrugators,
+    orbicularis oculi, orbicularis oris) in one warning line, not one line per twin pair.
+    """
+    assert main(["summary"]) == 0
+    err = [line for line in capsys.readouterr().err.splitlines() if "warning" in line]
+    assert len(err) == 1, err
+    for name in ("corrugator_L", "corrugator_R", "orbicularis_oculi_L", "orbicularis_oris"):
+        assert repr(name) in err[0]
+    assert "n_w 1 fits" in err[0] and "refine the skin (about" in err[0]

@@ -449,7 +449,11 @@ def _warn_undersampled(args, face, expressions) -> None:
     """One line for the muscles at work whose wrinkles the skin cannot resolve (n_w too
     large for the mesh): those the expressions activate, and ``--muscle``.
     """
-    from wrinkle_vis.core.sampling import UndersampledWrinklesWarning, warn_undersampled
+    from wrinkle_vis.core.sampling import (
+        UndersampledWrinklesWarning,
+        undersampled_line,
+        warn_undersampled,
+    )
 
     if isinstance(expressions, str):
         expressions = [expressions]
@@ -463,14 +467,9 @@ def _warn_undersampled(args, face, expressions) -> None:
     for w in caught:
         if not issubclass(w.category, UndersampledWrinklesWarning):
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-    groups: dict[str, list[str]] = {}  # twins share a line
-    for item in found:
-        text = item.message().split(": ", 1)[1]
-        groups.setdefault(text, []).append(item.muscle)
-    for text, names in groups.items():
-        who = "muscle" if len(names) == 1 else "muscles"
-        print(f"wrinkle-vis {args.command}: warning: {who} "
-              f"{', '.join(repr(n) for n in names)}: {text}", file=sys.stderr)
+    line = undersampled_line(found)  # one line for all of them
+    if line:
+        print(f"wrinkle-vis {args.command}: warning: {line}", file=sys.stderr)
 
 
 def _summary(args) -> int:

@@ -159,6 +159,19 @@ class Session:
         state = self.state() if state is None else state
         return state.field_values(self.field, self.muscle)
 
+    def undersampled_note(self, state: FaceState | None = None) -> str | None:
+        """One line (as the command line warns) when the muscles at work in ``state``
+        (default :attr:`state`) have wrinkles the skin cannot resolve, else None; None for
+        a refined frame, whose refinement resolves them.
+        """
+        from ..core.sampling import undersampled_line, undersampled_muscles
+
+        state = self.state if state is None else state
+        if state.face.skin is not self.face.skin:
+            return None
+        active = [m for m in self.face.muscles if state.activations.get(m.name, 0.0) > 0.0]
+        return undersampled_line(undersampled_muscles(self.face.skin, active))
+
     def set_fixed_range(self, lo_hi: tuple[float, float] | None) -> None:
         """Fix the colour range to ``(lo, hi)`` with ``lo < hi`` (None: automatic)."""
         if lo_hi is not None:

@@ -961,7 +961,9 @@ class MainWindow(QtWidgets.QMainWindow):
             f"{'' if s.time_s is None else f' at {s.time_s:.2f} s'}  |  W in "
             f"[{state.W.min():.3g}, {state.W.max():.3g}] {s.unit}  |  frame "
             f"{s.frame_ms:.2f} ms, drawn in {total_ms:.1f} ms  |  "
-            f"{_triangles(len(state.triangles), s.face.skin.n_triangles)}")
+            f"{_triangles(len(state.triangles), s.face.skin.n_triangles)}"
+            f"{'  |  ⚠ aliased wrinkles: refine' if (note := s.undersampled_note(state)) else ''}")
+        self.status_label.setToolTip(f"Warning: {note}" if note else "")
         self._update_title()
 
     def active_array(self) -> str | None:
