@@ -205,6 +205,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--padding", type=int, default=8,
                    help=f"texels of padding around each UV island (0 to {MAX_PADDING}; "
                         "default 8)")
+    _refine_options(p, "bake the adaptively refined skin (its new vertices get UVs "
+                       "interpolated in their triangle of the scan), so that large maps show "
+                       "no facets")
     p.add_argument("--output", "-o", type=Path, required=True,
                    help="the folder for the maps (made, or replaced whole if it holds only "
                         "maps)")
@@ -619,8 +622,12 @@ def _bake(args) -> int:
     from tqdm import tqdm
 
     from wrinkle_vis.core.files import OutputPathError
+    import numpy as np
+
+    from wrinkle_vis.core.parametric import refined_root_coordinates
     from wrinkle_vis.plotting.bake import bake_maps, check_bake_folder, save_bake
     from wrinkle_vis.plotting.exchange import face_unit
+    from wrinkle_vis.plotting.scenes import evaluate
 
     try:
         check_bake_folder(args.output)
@@ -633,14 +640,20 @@ def _bake(args) -> int:
     for name in fields:
         _check_field(name, args.muscle)
     source = _uv_source(args)  # no UVs: said before any work
-    face = _load(args)
+    face = _load(args, refine=args.refine)
     uvs = _uvs(source, face)
-    state = face.evaluate(args.expression, args.intensity)
+    state = evaluate(face, args.expression, args.intensity, refine=args.refine,
+                     **_refinement(args))
+    if state.face.skin is not face.skin:  # refined: each triangle's UVs from its root's
+        root, bary = refined_root_coordinates(face, state)
+        uvs = np.einsum("mij,mjk->mik", bary, uvs[root])
     progress = partial(tqdm, desc=f"baking {args.output.name}", unit="step", delay=0.5)
     maps = bake_maps(state, uvs, tuple(args.size), fields=[(f, args.muscle) for f in fields],
                      padding=args.padding, unit=args.unit or face_unit(face),
                      progress=progress,
-                     info={"expression": args.expression, "intensity": args.intensity})
+                     info={"expression": args.expression, "intensity": args.intensity,
+                           "triangles": state.face.skin.n_triangles,
+                           "refined": state.face.skin is not face.skin})
     written = save_bake(maps, args.output)
     print(f"wrote {args.output}: {written.summary}; W sampled back at the texel centres "
           f"within {100 * maps.check['texel_centres_max']:.3g} % of its range")
