@@ -619,11 +619,10 @@ def _export_gltf(args) -> int:
 def _bake(args) -> int:
     from functools import partial
 
+    import numpy as np
     from tqdm import tqdm
 
     from wrinkle_vis.core.files import OutputPathError
-    import numpy as np
-
     from wrinkle_vis.core.parametric import refined_root_coordinates
     from wrinkle_vis.plotting.bake import bake_maps, check_bake_folder, save_bake
     from wrinkle_vis.plotting.exchange import face_unit
