@@ -158,3 +158,15 @@ def test_the_plugin_example_runs_without_the_test_plugin(tmp_path):
                           timeout=300, cwd=tmp_path, env=_env(PYVISTA_OFF_SCREEN="true"))
     assert done.returncode == 0, done.stderr[-2000:]
     assert "example_ring" in done.stdout and "W != 0 at" in done.stdout
+
+
+def test_the_site_links_to_no_page_it_does_not_have():
+    """DESIGN.md lives beside the repository, not in the site: the docs and the
+    docstrings the API reference shows do not point to it.
+    """
+    root = DOCS.parent
+    sources = [*DOCS.rglob("*.md"), *DOCS.rglob("*.rst"), *DOCS.rglob("*.ipynb"),
+               *(root / "wrinkle_vis").rglob("*.py"), *(root / "widgets").rglob("*.py"),
+               *(root / "datasets").rglob("*.py")]
+    offending = [str(p.relative_to(root)) for p in sources if "DESIGN.md" in p.read_text()]
+    assert not offending

@@ -351,3 +351,26 @@ def test_an_interactive_view_is_output_with_an_image(kernel_env, monkeypatch, tm
     assert image.shape == (160, 200, 3)
     assert (image.min(axis=2) < 235).mean() > 0.2  # the skin
     assert ((image.max(axis=2) - image.min(axis=2)) > 80).sum() > 200  # W's colours
+
+
+def test_the_notebooks_counts_are_the_faces():
+    """Counts of muscles and expressions stated in a notebook's text are the built-in
+    face's (the tour said 14 muscles and five expressions after the face grew).
+    """
+    import re
+
+    face = wv.datasets.load_face()
+    words = {"five": 5, "six": 6, "seven": 7, "eight": 8, "nine": 9, "ten": 10}
+    found = 0
+    for path in NOTEBOOKS:
+        for cell in json.loads(path.read_text())["cells"]:
+            if cell["cell_type"] != "markdown":
+                continue
+            text = "".join(cell["source"])
+            for count, what in re.findall(r"\b(\d+|five|six|seven|eight|nine|ten) "
+                                          r"(muscles|expressions)\b", text):
+                n = words.get(count) or int(count)
+                want = len(face.muscles) if what == "muscles" else len(face.expressions)
+                assert n == want, f"{path.name}: '{count} {what}', the face has {want}"
+                found += 1
+    assert found >= 2
