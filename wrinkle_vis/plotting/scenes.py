@@ -7,6 +7,7 @@ import pyvista as pv
 
 from ..core.face import FaceModel, FaceState
 from ..core.units import face_unit
+from .bars import field_bar_args, fit_bar_labels
 from .fields import NAN_COLOR, field_info, field_range
 from .glyphs import glyph_factory
 from .polydata import field_array_name, to_polydata, to_surface_polydata
@@ -110,10 +111,17 @@ def add_raking_light(plotter: pv.Plotter, elevation_deg: float = 20.0,
     return key, head
 
 
-def _scalar_bar(title: str, nan: bool = True) -> dict:
-    return {"title": title, "nan_annotation": nan, "n_labels": 5, "fmt": "%.3g",
-            "vertical": False, "position_x": 0.2, "position_y": 0.07, "width": 0.6,
-            "height": 0.06}
+def _fit_bar(plotter: pv.Plotter, options: dict, nan: bool = True) -> None:
+    """After ``add_mesh(..., **options)``: the scalar bar's NaN label and its tick labels
+    fitted to the bar (:func:`~wrinkle_vis.plotting.bars.fit_bar_labels`).
+    """
+    title = (options.get("scalar_bar_args") or {}).get("title")
+    if not options.get("show_scalar_bar") or title not in plotter.scalar_bars:
+        return
+    bar = plotter.scalar_bars[title]
+    if nan:
+        bar.SetNanAnnotation("undefined")
+    fit_bar_labels(bar, plotter.renderer)
 
 
 def evaluate(face: FaceModel, expression, intensity: float = 1.0, *, refine: bool = False,
@@ -160,13 +168,11 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
         nan_color=NAN_COLOR, opacity=opacity, show_edges=show_edges,
         edge_color=edge_color, show_scalar_bar=scalar_bar, name="skin", render=False,
         **shading,
-        scalar_bar_args=_scalar_bar(info.title(muscle, face_unit(state))) if scalar_bar
+        scalar_bar_args=field_bar_args(info.title(muscle, face_unit(state))) if scalar_bar
         else None)
     options.update(mesh_kwargs)
     actor = plotter.add_mesh(mesh, **options)
-    title = (options.get("scalar_bar_args") or {}).get("title")
-    if options.get("show_scalar_bar") and title in plotter.scalar_bars:
-        plotter.scalar_bars[title].SetNanAnnotation("undefined")
+    _fit_bar(plotter, options)
     return actor
 
 
@@ -253,11 +259,12 @@ def add_muscle(plotter: pv.Plotter, muscle, activation: float = 0.0, *,
     mesh (see :func:`add_muscles`).
     """
     mesh = muscle_mesh(muscle, activation)
-    plotter.add_mesh(  # a tube has its own normals: a write of the activation is cheap
-        mesh, scalars="activation", cmap="Reds", clim=(0.0, 1.0), **_shading(mesh),
-        name=f"muscle:{muscle.name}", render=False, show_scalar_bar=scalar_bar,
-        reset_camera=False,
-        scalar_bar_args=_scalar_bar("activation", nan=False) if scalar_bar else None)
+    options = dict(scalars="activation", cmap="Reds", clim=(0.0, 1.0), **_shading(mesh),
+                   name=f"muscle:{muscle.name}", render=False, show_scalar_bar=scalar_bar,
+                   reset_camera=False, scalar_bar_args=field_bar_args("activation", nan=False)
+                   if scalar_bar else None)
+    plotter.add_mesh(mesh, **options)  # a tube has its own normals: a write is cheap
+    _fit_bar(plotter, options, nan=False)
     return mesh
 
 
