@@ -395,3 +395,10 @@ def test_the_window_fits_a_small_screen(window):
     assert fitted_size(None) == (1500, 800)
     hint = window.minimumSizeHint()
     assert hint.width() <= 1366 and hint.height() <= 728
+
+
+def test_the_field_box_names_each_field_by_its_symbol_and_meaning(window):
+    box = window.field_box
+    tips = {box.itemText(i): box.itemData(i, QtCore.Qt.ToolTipRole) for i in range(box.count())}
+    assert tips["lambda"].startswith("λ: ") and tips["eps"].startswith("ε: ")
+    assert tips["w"] != tips["W"] and "Eq. 7" in tips["w"] and "Eq. 4" in tips["W"]

@@ -248,6 +248,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self.field_box.addItems([*FIELD_NAMES, PLAIN])
         self.field_box.setItemData(len(FIELD_NAMES), "Plain skin, no field (try View > Raking "
                                    "light)", QtCore.Qt.ToolTipRole)
+        for i, key in enumerate(FIELD_NAMES):  # the symbol and meaning: w is not W
+            spec = field_info(key)
+            self.field_box.setItemData(i, f"{spec.symbol}: {spec.name}, {spec.meaning} "
+                                          f"({spec.equation})", QtCore.Qt.ToolTipRole)
         self.field_box.currentTextChanged.connect(self._on_field)
         view.addRow("Field", self.field_box)
         self.muscle_box = QtWidgets.QComboBox()
