@@ -166,7 +166,7 @@ class Session:
         """
         from ..core.sampling import undersampled_line, undersampled_muscles
 
-        state = self.state if state is None else state
+        state = self.state() if state is None else state
         if state.face.skin is not self.face.skin:
             return None
         active = [m for m in self.face.muscles if state.activations.get(m.name, 0.0) > 0.0]
