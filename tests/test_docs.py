@@ -170,3 +170,48 @@ def test_the_site_links_to_no_page_it_does_not_have():
                *(root / "datasets").rglob("*.py")]
     offending = [str(p.relative_to(root)) for p in sources if "DESIGN.md" in p.read_text()]
     assert not offending
+
+
+def test_wide_equations_scroll_instead_of_being_cut_off(site):
+    """model.md has two display equations wider than the text column; the theme hides a
+    div.math's overflow, so they were cut off: now they scroll.
+    """
+    html, _ = site
+    chromium = find_chromium()
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    server = subprocess.Popen([sys.executable, "-m", "http.server", str(port), "--bind",
+                               "127.0.0.1", "--directory", str(html)],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    for _ in range(100):  # until it listens
+        with socket.socket() as s:
+            if s.connect_ex(("127.0.0.1", port)) == 0:
+                break
+        time.sleep(0.1)
+    measure = """(() => Array.from(document.querySelectorAll('mjx-container[display="true"]'))
+      .map(el => { let a = el.parentElement;
+        while (a && getComputedStyle(a).overflowX === 'visible') a = a.parentElement;
+        const inner = el.firstElementChild.getBoundingClientRect();
+        const box = a ? a.getBoundingClientRect() : {left: 0, right: innerWidth};
+        return [inner.right - box.right > 1 || box.left - inner.left > 1,
+                a ? getComputedStyle(a).overflowX : 'visible']; }))()"""
+
+    async def run():
+        async with Browser(chromium) as browser:
+            await browser.goto(f"http://127.0.0.1:{port}/model.html")
+            for _ in range(120):
+                if await browser.evaluate(
+                        "document.querySelectorAll('mjx-container').length") >= 10:
+                    break
+                await asyncio.sleep(0.25)
+            return await browser.evaluate(measure)
+
+    try:
+        equations = asyncio.run(run())
+    finally:
+        server.terminate()
+        server.wait(10)
+    wide = [overflow for too_wide, overflow in equations if too_wide]
+    assert len(equations) >= 5 and wide, "no equation is wider than its column here"
+    assert all(overflow in ("auto", "scroll") for overflow in wide), wide
