@@ -85,11 +85,21 @@ class LinkedViews:
         this = weakref.ref(self)
         self._fit_observer = skin.renderer.AddObserver(
             "StartEvent", lambda *_: this() is not None and this()._fit_bar())
+        # and the muscles view's activation bar, so that it is laid out for the view's
+        # size whenever it was made (in place and rebuilt alike)
+        self._fit_muscles_observer = muscles.renderer.AddObserver(
+            "StartEvent", lambda *_: this() is not None and this()._fit_muscle_bars())
 
     def _fit_bar(self) -> None:
         bar = self._bar
         if bar is not None and self.skin_view.renderer.HasViewProp(bar):
             fit_bar_labels(bar, self.skin_view.renderer)
+
+    def _fit_muscle_bars(self) -> None:
+        renderer = self.muscle_view.renderer
+        for bar in list(self.muscle_view.scalar_bars.values()):
+            if renderer.HasViewProp(bar):
+                fit_bar_labels(bar, renderer)
 
     @property
     def plotters(self) -> tuple[pv.Plotter, pv.Plotter, pv.Plotter]:
