@@ -1562,15 +1562,17 @@ def fitted_size(available: QtCore.QSize | None, wanted=WINDOW_SIZE) -> tuple[int
 
 
 def _show_value(box: QtWidgets.QAbstractSpinBox, value) -> None:
-    """Show ``value`` in a parameter box with at least four significant digits: a small
-    value gets more decimals than the box's own (up to 10), as the box rounds what it holds
-    to its decimals (k0 = 0.02152 would read, and be, 0.022).
+    """Show ``value`` in a parameter box whole: the box's own decimals, or as many more
+    (up to 10) as the value needs not to be rounded, as the box rounds what it holds to
+    its decimals (k0 = 0.02152 would read, and be, 0.022).
     """
     if isinstance(box, QtWidgets.QDoubleSpinBox):
         base = box.property("base_decimals")
-        base = box.decimals() if base is None else int(base)
-        need = 3 - int(np.floor(np.log10(abs(value)))) if value else 0
-        box.setDecimals(int(min(10, max(base, need))))
+        decimals = box.decimals() if base is None else int(base)
+        while decimals < 10 and not np.isclose(round(value, decimals), value, rtol=1e-9,
+                                                 atol=0.0):
+            decimals += 1
+        box.setDecimals(decimals)
     box.setValue(value)
 
 
