@@ -122,7 +122,9 @@ html_theme_options = {
     "footer_start": ["copyright"],
     "footer_end": [],
 }
-html_static_path = []
+# wide-math.css: a display equation wider than the column scrolls instead of being cut off
+html_static_path = ["_static"]
+html_css_files = ["wide-math.css"]
 html_last_updated_fmt = None
 html_copy_source = False
 html_show_sourcelink = False

@@ -37,8 +37,8 @@ def test_a_camera_change_in_one_view_reaches_the_others_at_once(window):
 def test_switching_field_changes_the_active_array_and_scalar_bar(window):
     window.muscle_box.setCurrentText("corrugator_L")
     window.field_box.setCurrentText("gamma")
-    assert window.active_array() == "corrugator_L.gamma"
-    assert skin_mesh(window).active_scalars_name == "corrugator_L.gamma"
+    assert window.active_array() == "corrugator_L__gamma"
+    assert skin_mesh(window).active_scalars_name == "corrugator_L__gamma"
     bars = window.skin_view.scalar_bars
     assert "gamma, corrugator_L" in bars and "W (mm), total" not in bars  # W's bar is gone
     window.muscle_box.setCurrentText("total")  # only W has a total
@@ -412,3 +412,16 @@ def test_the_view_kind_comes_from_the_platform_or_the_environment(qapp, monkeypa
     monkeypatch.setenv("WRINKLE_VIS_VIEW", "opengl")
     with pytest.raises(ValueError, match="WRINKLE_VIS_VIEW='opengl' is not a view kind; use"):
         view_kind()
+
+
+def test_the_status_bar_warns_of_aliased_wrinkles(window):
+    """As the command line does: the frame's muscles whose wrinkles the skin cannot resolve
+    (frown's corrugators at 4,500 triangles), in the status bar with the line as tooltip.
+    """
+    window.expression_box.setCurrentText("frown")
+    assert "aliased wrinkles" in window.status_label.text()
+    tip = window.status_label.toolTip()
+    assert "'corrugator_L', 'corrugator_R'" in tip and "refine the skin" in tip
+    window.expression_box.setCurrentText("surprise")  # the frontalis' are resolved
+    assert "aliased" not in window.status_label.text()
+    assert window.status_label.toolTip() == ""

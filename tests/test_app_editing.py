@@ -394,3 +394,73 @@ def test_a_drag_with_real_qt_mouse_events(window, qtbot):
     after = np.array(window.session.face.muscle("zygomaticus_major_L").insertion)
     assert np.linalg.norm(after - before) > 1.0
     assert window.undo_stack.count() == 1
+
+
+# ---------------------------------------------------------------------- polish
+def test_duplicate_takes_the_originals_activation(window):
+    window.select_muscle("corrugator_L")
+    window.edit_actions["duplicate"].trigger()
+    face = window.session.face
+    for name, ex in face.expressions.items():
+        assert ex.activations.get("corrugator_L_copy") == ex.activations.get(
+            "corrugator_L"), name
+    assert face.expressions["frown"].activations["corrugator_L_copy"] > 0
+
+
+def test_mirror_names_a_sideless_muscle_for_its_side(window):
+    """Mirroring 'zygo' (on the subject's left) gives the pair zygo_L and zygo_R, not
+    zygo_mirrored; the copy keeps the original's activations.
+    """
+    window.select_muscle("zygomaticus_major_L")
+    window.rename_muscle("zygo")
+    window.edit_actions["mirror"].trigger()
+    names = window.session.face.muscle_names
+    assert "zygo_L" in names and "zygo_R" in names and "zygo" not in names
+    assert not any(n.endswith("_mirrored") for n in names)
+    assert window.session.muscle == "zygo_L"
+    smile = window.session.face.expressions["smile"].activations
+    assert smile["zygo_L"] == smile["zygo_R"] > 0
+    assert window.undo_stack.undoText() == "Mirror zygo to zygo_R (and name it zygo_L)"
+    window.undo_stack.undo()
+    assert "zygo" in window.session.face.muscle_names
+
+
+def test_mirroring_a_symmetric_pair_changes_nothing(window):
+    window.select_muscle("zygomaticus_major_L")
+    window.edit_actions["mirror_pair"].trigger()  # the built-in pair is symmetric
+    assert window.undo_stack.count() == 0 and not window.session.dirty
+    assert "mirror images already" in window.statusBar().currentMessage()
+
+
+def test_parameter_boxes_show_the_whole_value(window):
+    window.select_muscle("corrugator_L")
+    assert window.set_parameter("k0", 0.0002152)
+    box = window.param_widgets["k0"]
+    assert box.value() == pytest.approx(0.0002152, rel=1e-9)
+    assert "2152" in box.text()
+    assert window.set_parameter("k0", 3.25)
+    assert box.text() == "3.250" and box.decimals() == 3  # the box's own decimals
+
+
+def test_view_menu_names_cameras_without_underscores(window):
+    view = next(a.menu() for a in window.menuBar().actions() if a.text() == "&View")
+    cameras = [a.text() for a in view.actions() if a.text().startswith("Camera:")]
+    assert "Camera: three quarter" in cameras and "Camera: upper face" in cameras
+    assert not any("_" in c for c in cameras)
+
+
+def test_the_window_fits_a_small_screen(window):
+    from wrinkle_vis.app.window import fitted_size
+
+    assert fitted_size(QtCore.QSize(1366, 728)) == (1366, 728)
+    assert fitted_size(QtCore.QSize(1920, 1040)) == (1500, 800)
+    assert fitted_size(None) == (1500, 800)
+    hint = window.minimumSizeHint()
+    assert hint.width() <= 1366 and hint.height() <= 728
+
+
+def test_the_field_box_names_each_field_by_its_symbol_and_meaning(window):
+    box = window.field_box
+    tips = {box.itemText(i): box.itemData(i, QtCore.Qt.ToolTipRole) for i in range(box.count())}
+    assert tips["lambda"].startswith("λ: ") and tips["eps"].startswith("ε: ")
+    assert tips["w"] != tips["W"] and "Eq. 7" in tips["w"] and "Eq. 4" in tips["W"]

@@ -129,12 +129,41 @@ def test_displacement_map_sampled_at_the_vertices(head, baked, raw_uv_triangles)
     assert np.mean(error < 0.02) > 0.995
 
 
+def _read_png16(path) -> np.ndarray:
+    """``(h, w, 3) float``: a 16-bit RGB PNG read by pypng (Pillow reads it as 8 bits)."""
+    import png
+
+    w, h, rows, info = png.Reader(bytes=Path(path).read_bytes()).read()
+    assert info["bitdepth"] == 16 and info["planes"] == 3 and not info.get("alpha")
+    return np.vstack([np.asarray(r, np.uint16) for r in rows]).reshape(h, w, 3).astype(float)
+
+
+def test_normal_map_is_16_bit(tmp_path):
+    """The wrinkles tilt the normal by a few degrees: 8 bits band them (steps of 0.45
+    degrees), 16 bits keep them. Read back by pypng, an independent PNG decoder.
+    """
+    from wrinkle_vis.datasets.lee_perry_smith import lee_perry_smith_uvs
+    from wrinkle_vis.plotting.bake import bake_maps, save_bake
+
+    head = wv.datasets.load_face("lee_perry_smith")
+    state = head.evaluate("surprise")
+    maps = bake_maps(state, lee_perry_smith_uvs(), (128, 96), padding=2)
+    save_bake(maps, tmp_path / "maps")
+    rgb = _read_png16(tmp_path / "maps" / "normal.png")
+    assert rgb.shape == (96, 128, 3)
+    np.testing.assert_array_equal(rgb, maps.images["normal.png"])
+    n = rgb / 32767.5 - 1.0
+    np.testing.assert_allclose(np.linalg.norm(n, axis=2), 1.0, atol=1e-4)
+    levels = np.unique(rgb[..., 0])
+    assert len(levels) > 256  # more than 8 bits of them
+    meta = json.loads((tmp_path / "maps" / "normal.json").read_text())
+    assert meta["bit_depth"] == 16 and meta["encode"] == "rgb = 65535 (n + 1) / 2"
+
+
 @needs_scans
 def test_normal_map_holds_the_wrinkles_in_tangent_space(head, baked, raw_uv_triangles):
     state = head.evaluate("surprise")
-    with Image.open(baked / "normal.png") as im:
-        assert im.mode == "RGB"
-        normal = np.asarray(im).astype(float) / 127.5 - 1.0
+    normal = _read_png16(baked / "normal.png") / 32767.5 - 1.0
     tri_uv, tri_vertex = raw_uv_triangles
     skin = head.skin
     base = skin.vertex_normals(state.deformed_points)
@@ -183,7 +212,7 @@ def test_normal_map_holds_the_wrinkles_in_tangent_space(head, baked, raw_uv_tria
     got_tilt = np.degrees(np.arccos(np.clip(got[:, 2], -1, 1)))
     assert tilt.max() > 1.0  # the wrinkles do tilt the normal (about 1.4 deg at most on
     # the forehead; the 10+ deg this once saw were the eye sockets' roofs, issue 32)
-    # how far: whatever the frame, within the 8-bit steps
+    # how far: whatever the frame, within a small fraction of a degree (16 bits)
     assert np.percentile(np.abs(got_tilt - tilt), 99) < 1.5
     # which way: the map's frame smooths +u over the triangles around a corner, while this
     # check takes each triangle's own, and the scan's UVs are uneven triangle by triangle
@@ -226,13 +255,13 @@ def test_tangent_frames_follow_the_uvs(turn_deg, mirror):
 def test_colour_maps_padding_and_side_files(head, baked):
     names = sorted(p.name for p in baked.iterdir())
     assert names == ["displacement.json", "displacement.png",
-                     "field_frontalis_major_L.W.json", "field_frontalis_major_L.W.png",
-                     "field_frontalis_major_L.eps.json", "field_frontalis_major_L.eps.png",
+                     "field_frontalis_major_L__W.json", "field_frontalis_major_L__W.png",
+                     "field_frontalis_major_L__eps.json", "field_frontalis_major_L__eps.png",
                      "normal.json", "normal.png"]
-    meta = json.loads((baked / "field_frontalis_major_L.eps.json").read_text())
+    meta = json.loads((baked / "field_frontalis_major_L__eps.json").read_text())
     assert meta["field"] == "eps" and meta["muscle"] == "frontalis_major_L"
     assert meta["expression"] == "surprise" and meta["size"] == [SIZE, SIZE]
-    rgba = np.asarray(Image.open(baked / "field_frontalis_major_L.eps.png"))
+    rgba = np.asarray(Image.open(baked / "field_frontalis_major_L__eps.png"))
     assert rgba.shape == (SIZE, SIZE, 4)
     uvs = read_obj_uvs(HEAD, head.skin)
     raster = uv_raster(uvs, (SIZE, SIZE), padding=8)
@@ -310,7 +339,7 @@ def test_bake_replaces_its_folder_whole(tmp_path):
     argv = ["bake", "--skin", str(HEAD), "--layout", str(EXAMPLE), "--size", "64", "64",
             "-o", str(out)]
     assert main([*argv, "-f", "eps", "-m", "corrugator_L"]) == 0
-    assert (out / "field_corrugator_L.eps.png").is_file()
+    assert (out / "field_corrugator_L__eps.png").is_file()
     assert main(argv) == 0
     assert sorted(p.name for p in out.iterdir()) == [
         "displacement.json", "displacement.png", "field_W.json", "field_W.png",

@@ -32,8 +32,8 @@ def test_export_carries_every_field(tmp_path):
     out = tmp_path / "fear.vtp"
     assert main(["export", "-e", "fear", "-o", str(out)]) == 0
     mesh = pv.read(out)
-    assert "W" in mesh.point_data and "corrugator_L.eps" in mesh.point_data
-    assert np.isnan(mesh["corrugator_L.W"]).any() and np.nanmax(np.abs(mesh["W"])) > 0
+    assert "W" in mesh.point_data and "corrugator_L__eps" in mesh.point_data
+    assert np.isnan(mesh["corrugator_L__W"]).any() and np.nanmax(np.abs(mesh["W"])) > 0
 
 
 def test_export_all_layers(tmp_path):
@@ -65,7 +65,8 @@ def test_animate(tmp_path, suffix):
         (["render", "-f", "eps", "-o", "x.png"], "belongs to one muscle"),
         (["render", "-m", "nose", "-o", "x.png"], "unknown muscle 'nose'"),
         (["render", "-e", "laughing", "-o", "x.png"], "unknown expression 'laughing'"),
-        (["export", "-o", "x.stl"], "must end in .vtp, .vtk, .ply, .vtm or .glb"),
+        (["export", "-o", "x.step"], "must end in .vtp, .vtu, .vtk, .ply, .obj, .stl, .vtm "
+                                     "or .glb"),
         (["animate", "-o", "x.avi"], "must end in .gif or .mp4"),
     ],
 )
@@ -143,7 +144,8 @@ BAD_INPUTS = [
      "the layout (even 1 fps makes 100,003 frames)"),
     (["summary", "--triangles", "10"], "--triangles 10 is outside 500..250000"),
     (["export", "--triangles", "300000", "-o", "x.vtp"], "outside 500..250000"),
-    (["export", "-o", "x"], "--output must end in .vtp, .vtk, .ply, .vtm or .glb; got 'x'"),
+    (["export", "-o", "x"], "--output must end in .vtp, .vtu, .vtk, .ply, .obj, .stl, .vtm "
+                                "or .glb; got 'x'"),
     (["export", "-o", "file.txt/x.vtp"], "is not a folder"),
     (["figure", "fig9", "-o", "noext"], "--output must end in .png"),
     (["summary", "--layout", "badjson.json"], "badjson.json: line 1 column 33: expected valid"),
@@ -192,7 +194,7 @@ def test_layout_errors_in_a_real_process_are_one_line(tmp_path):
     for argv in (["summary", "--layout", "format.json"], ["summary", "--layout", "latin1.json"],
                  ["summary", "--layout", "deep.json"], ["summary", "--triangles", "10"],
                  ["render", "--size", "100000", "100000", "-o", "x.png"],
-                 ["summary", "--layout", "file.txt/x.json"], ["export", "-o", "x.stl"]):
+                 ["summary", "--layout", "file.txt/x.json"], ["export", "-o", "x.step"]):
         done = subprocess.run([str(CLI), *argv], cwd=tmp_path, capture_output=True,
                               text=True, timeout=300)
         assert done.returncode == 2, (argv, done.stderr)
@@ -354,3 +356,15 @@ def test_the_library_renders_headless_without_the_x_server_warning(tmp_path):
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert done.stderr == "" and (tmp_path / "w.png").is_file()
+
+
+def test_undersampled_wrinkles_of_several_muscles_are_one_line(capsys):
+    """summary on the default face: every muscle at work whose wrinkles alias (corrugators,
+    orbicularis oculi, orbicularis oris) in one warning line, not one line per twin pair.
+    """
+    assert main(["summary"]) == 0
+    err = [line for line in capsys.readouterr().err.splitlines() if "warning" in line]
+    assert len(err) == 1, err
+    for name in ("corrugator_L", "corrugator_R", "orbicularis_oculi_L", "orbicularis_oris"):
+        assert repr(name) in err[0]
+    assert "n_w 1 fits" in err[0] and "refine the skin (about" in err[0]

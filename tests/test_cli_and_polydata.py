@@ -36,4 +36,4 @@ def test_to_polydata_carries_every_field():
     np.testing.assert_array_equal(mesh["W"], state.W)
     for f in wv.FIELD_NAMES:
         np.testing.assert_array_equal(mesh[field_array_name(f, "lin")], state.fields["lin"][f])
-    assert "lin.lambda" in to_polydata(state).point_data
+    assert "lin__lambda" in to_polydata(state).point_data

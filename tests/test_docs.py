@@ -142,3 +142,76 @@ def test_the_equations_are_typeset_in_a_browser_without_network(site):
     finally:
         server.terminate()
         server.wait(10)
+
+
+def test_the_plugin_example_runs_without_the_test_plugin(tmp_path):
+    """The gallery's plug-in example (downloadable as a script and a notebook) defines its
+    muscle type itself: it runs in a clean install, where tests/plugins is not installed
+    (here: the package wrinkle_vis_ring cannot be imported).
+    """
+    example = DOCS / "gallery" / "plot_plugin_muscle.py"
+    code = ("import runpy, sys, warnings\n"
+            "sys.modules['wrinkle_vis_ring'] = None  # not installed\n"
+            "warnings.simplefilter('ignore')  # the registry's word on the broken plug-in\n"
+            f"runpy.run_path({str(example)!r}, run_name='__main__')\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=300, cwd=tmp_path, env=_env(PYVISTA_OFF_SCREEN="true"))
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "example_ring" in done.stdout and "W != 0 at" in done.stdout
+
+
+def test_the_site_links_to_no_page_it_does_not_have():
+    """DESIGN.md lives beside the repository, not in the site: the docs and the
+    docstrings the API reference shows do not point to it.
+    """
+    root = DOCS.parent
+    sources = [*DOCS.rglob("*.md"), *DOCS.rglob("*.rst"), *DOCS.rglob("*.ipynb"),
+               *(root / "wrinkle_vis").rglob("*.py"), *(root / "widgets").rglob("*.py"),
+               *(root / "datasets").rglob("*.py")]
+    offending = [str(p.relative_to(root)) for p in sources if "DESIGN.md" in p.read_text()]
+    assert not offending
+
+
+def test_wide_equations_scroll_instead_of_being_cut_off(site):
+    """model.md has two display equations wider than the text column; the theme hides a
+    div.math's overflow, so they were cut off: now they scroll.
+    """
+    html, _ = site
+    chromium = find_chromium()
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    server = subprocess.Popen([sys.executable, "-m", "http.server", str(port), "--bind",
+                               "127.0.0.1", "--directory", str(html)],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    for _ in range(100):  # until it listens
+        with socket.socket() as s:
+            if s.connect_ex(("127.0.0.1", port)) == 0:
+                break
+        time.sleep(0.1)
+    measure = """(() => Array.from(document.querySelectorAll('mjx-container[display="true"]'))
+      .map(el => { let a = el.parentElement;
+        while (a && getComputedStyle(a).overflowX === 'visible') a = a.parentElement;
+        const inner = el.firstElementChild.getBoundingClientRect();
+        const box = a ? a.getBoundingClientRect() : {left: 0, right: innerWidth};
+        return [inner.right - box.right > 1 || box.left - inner.left > 1,
+                a ? getComputedStyle(a).overflowX : 'visible']; }))()"""
+
+    async def run():
+        async with Browser(chromium) as browser:
+            await browser.goto(f"http://127.0.0.1:{port}/model.html")
+            for _ in range(120):
+                if await browser.evaluate(
+                        "document.querySelectorAll('mjx-container').length") >= 10:
+                    break
+                await asyncio.sleep(0.25)
+            return await browser.evaluate(measure)
+
+    try:
+        equations = asyncio.run(run())
+    finally:
+        server.terminate()
+        server.wait(10)
+    wide = [overflow for too_wide, overflow in equations if too_wide]
+    assert len(equations) >= 5 and wide, "no equation is wider than its column here"
+    assert all(overflow in ("auto", "scroll") for overflow in wide), wide

@@ -95,7 +95,6 @@ def test_sequences_are_bounded_like_animations(tmp_path, capsys):
 @pytest.mark.parametrize(("argv", "message"), [
     (["export", "-o", "x.pvd"], ".pvd is written as a sequence of the expression's ramp; "
                                 "add --sequence"),
-    (["export", "-o", "x.obj"], "add --sequence"),
     (["export", "--sequence", "-o", "x.vtp"], "--output must end in .pvd, .obj or .ply"),
     (["export", "--fps", "3", "-o", "x.vtp"], "--fps is the frame rate of --sequence"),
     (["export", "--sequence", "--fps", "500", "-o", "x.pvd"], "--fps 500 is outside 1..120"),
@@ -141,7 +140,7 @@ def test_numbered_sequence_counts_and_round_trips(tmp_path, face, suffix):
         expected = to_polydata(state)
         np.testing.assert_array_equal(back.points, state.points)
         np.testing.assert_array_equal(back.cells_dict["triangle"], face.skin.triangles)
-        for name in ("W", "corrugator_L.eps", "corrugator_R.W", "frontalis_major_L.lambda"):
+        for name in ("W", "corrugator_L__eps", "corrugator_R__W", "frontalis_major_L__lambda"):
             np.testing.assert_array_equal(back.point_data[name], expected[name])
         np.testing.assert_array_equal(back.point_data["deformation_y"],
                                       expected["deformation"][:, 1])
@@ -165,7 +164,7 @@ def test_numbered_sequence_refuses_a_frame_folder_with_other_files(tmp_path, cap
 
 # ---------------------------------------------------------------------- glTF
 _COMPONENTS = {5126: np.float32, 5125: np.uint32, 5123: np.uint16}
-_WIDTH = {"SCALAR": 1, "VEC3": 3}
+_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3}
 
 
 def _array(gltf, blob: bytes, index: int) -> np.ndarray:
@@ -248,3 +247,35 @@ def test_glb_of_one_expression(tmp_path):
     assert main(["export", "-e", "frown", "-o", str(out)]) == 0
     gltf, _ = read_glb(out)
     assert gltf["meshes"][0]["extras"]["targetNames"] == ["frown"]
+
+
+def test_glb_of_a_skin_with_uvs_has_texcoord_0(tmp_path, capsys):
+    """The built-in head has UVs: the .glb carries them as TEXCOORD_0 (v down, as glTF),
+    one vertex per side of a seam, so the maps `bake` writes fit it.
+    """
+    pygltflib = pytest.importorskip("pygltflib")
+    from wrinkle_vis.datasets.lee_perry_smith import lee_perry_smith_uvs
+
+    out = tmp_path / "head.glb"
+    assert main(["export", "--face", "lee_perry_smith", "-e", "surprise", "-o",
+                 str(out)]) == 0
+    assert "vertices with UVs" in capsys.readouterr().out
+    head = wv.datasets.load_face("lee_perry_smith")
+    corner_uvs = lee_perry_smith_uvs()
+    gltf = pygltflib.GLTF2().load(str(out))
+    blob = gltf.binary_blob()
+    (primitive,) = gltf.meshes[0].primitives
+    assert primitive.attributes.TEXCOORD_0 is not None
+    uv = _array(gltf, blob, primitive.attributes.TEXCOORD_0)
+    pos = _array(gltf, blob, primitive.attributes.POSITION)
+    tris = _array(gltf, blob, primitive.indices).reshape(-1, 3)
+    assert len(uv) == len(pos) > head.skin.n_points  # seams split
+    assert len(tris) == head.skin.n_triangles
+    # every corner: the position of its skin vertex and its UV, v flipped
+    np.testing.assert_allclose(pos[tris], head.skin.points[head.skin.triangles] * 1e-3,
+                               rtol=1e-6, atol=1e-9)
+    want = np.stack([corner_uvs[..., 0], 1.0 - corner_uvs[..., 1]], axis=-1)
+    np.testing.assert_allclose(uv[tris], want, atol=1e-7)
+    moved = pos + _array(gltf, blob, primitive.targets[0]["POSITION"])
+    np.testing.assert_allclose(moved[tris], head.evaluate("surprise").points[
+        head.skin.triangles] * 1e-3, rtol=0, atol=1e-6)

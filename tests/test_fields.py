@@ -73,7 +73,7 @@ def test_a_registered_field_is_computed_and_exported(hat_field, wv_face):
     with pytest.raises(ValueError, match="belongs to one muscle"):
         state.field_values("HAt")
     mesh = to_polydata(state)
-    np.testing.assert_array_equal(mesh["frontalis_major_L.HAt"], want)
+    np.testing.assert_array_equal(mesh["frontalis_major_L__HAt"], want)
 
 
 def test_a_registered_field_is_one_of_the_cli_choices(hat_field, tmp_path, capsys):
@@ -100,12 +100,12 @@ def test_a_registered_field_is_in_the_app_field_menu_and_drawn(hat_field, make_w
     assert window.probe_table.rowCount() == len(FIELD_NAMES)
     window.muscle_box.setCurrentText("frontalis_major_L")
     window.field_box.setCurrentText("HAt")
-    assert window.active_array() == "frontalis_major_L.HAt"
+    assert window.active_array() == "frontalis_major_L__HAt"
     mesh = skin_mesh(window)
-    assert mesh.active_scalars_name == "frontalis_major_L.HAt"
+    assert mesh.active_scalars_name == "frontalis_major_L__HAt"
     state = window.session.state()
     f = state.fields["frontalis_major_L"]
-    np.testing.assert_allclose(mesh["frontalis_major_L.HAt"], f["H"] * f["At"])
+    np.testing.assert_allclose(mesh["frontalis_major_L__HAt"], f["H"] * f["At"])
     assert "HAt (mm), frontalis_major_L" in window.skin_view.scalar_bars
     window.muscle_box.setCurrentText("total")  # HAt has no total: back to W
     assert window.field_box.currentText() == "W"

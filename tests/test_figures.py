@@ -42,7 +42,8 @@ def test_fig9_shows_each_expression_without_and_with_wrinkles(tmp_path, capsys):
         diff = np.abs(with_ - without)[TITLE:]
         changed = np.flatnonzero(diff.max(axis=1) > 10) + TITLE
         assert changed.size > 5, "the wrinkles do not show"
-        assert changed.max() < 0.7 * PANEL, "wrinkles below the brows"  # forehead and brows
+        # the camera frames the wrinkles (forehead to brows here): none at the bottom edge
+        assert changed.max() < PANEL - 10, "wrinkles cut off at the bottom"
     surprise = _panels(_gray(out), 3)[0]
     band = np.abs(surprise[1] - surprise[0])[TITLE:PANEL // 2]  # the forehead furrows
     assert (band > 10).mean() > 0.01
@@ -130,3 +131,47 @@ def test_raking_light_replaces_the_active_renderers_lights():
                                    [np.cos(np.pi / 6), 0.0, 0.5], atol=1e-12)
     finally:
         plotter.close()
+
+
+def _outside_view(points, camera_position, aspect, view_angle_deg=30.0) -> int:
+    """How many ``points`` a perspective camera leaves out of its view."""
+    eye, focus, up = (np.asarray(v, float) for v in camera_position)
+    d = (focus - eye) / np.linalg.norm(focus - eye)
+    up = up - (up @ d) * d
+    up /= np.linalg.norm(up)
+    right = np.cross(d, up)
+    rel = points - eye
+    depth = rel @ d
+    t = np.tan(np.radians(view_angle_deg / 2))
+    return int(((np.abs(rel @ up) > depth * t) | (np.abs(rel @ right) > depth * t * aspect)
+                | (depth <= 0)).sum())
+
+
+@pytest.mark.parametrize("expressions", [["smile"], ["pucker"], ["surprise", "smile"],
+                                         ["surprise", "frown", "fear"]])
+def test_fig9_camera_sees_every_wrinkle(wv_face, expressions):
+    """fig9 frames the wrinkles of its expressions, whichever muscles made them: the
+    mouth's as well as the forehead's (the upper_face camera cut the mouth's off).
+    """
+    from wrinkle_vis.plotting.figures import wrinkle_camera
+
+    states = [wv_face.evaluate(e) for e in expressions]
+    wrinkled = np.vstack([s.points[s.W != 0] for s in states])
+    aspect = 440 / 400
+    camera = wrinkle_camera(states, aspect)
+    assert _outside_view(wrinkled, camera, aspect) == 0
+    # and it is no wider than it needs: the wrinkles fill a good part of the view
+    eye, focus, _ = (np.asarray(v) for v in camera)
+    half = np.linalg.norm(focus - eye) * np.tan(np.radians(15))
+    extent = np.ptp(wrinkled[:, 1])
+    assert extent > 0.5 * half or extent < 0.1 * np.ptp(wv_face.skin.points[:, 1])
+    if expressions == ["smile"]:  # what the fixed camera did
+        plotter = pv.Plotter(off_screen=True, window_size=[440, 400])
+        try:
+            from wrinkle_vis.plotting import set_camera
+
+            set_camera(plotter, "upper_face", wv_face)
+            assert _outside_view(wrinkled, plotter.camera_position, aspect) > 0
+        finally:
+            plotter.close()
+    assert wrinkle_camera([wv_face.evaluate("neutral")]) is None

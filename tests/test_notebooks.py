@@ -40,7 +40,7 @@ def test_state_plot_draws_the_field_of_a_muscle(wv_face, no_leaked_plotters):
     try:
         mesh = plotter.actors["skin"].mapper.dataset
         np.testing.assert_array_equal(mesh.points, state.points)
-        np.testing.assert_array_equal(mesh.point_data["frontalis_major_L.eps"],
+        np.testing.assert_array_equal(mesh.point_data["frontalis_major_L__eps"],
                                       state.fields["frontalis_major_L"]["eps"])
         assert plotter.actors["skin"].mapper.scalar_visibility
         assert not plotter.notebook and plotter.off_screen
@@ -111,7 +111,7 @@ def test_explorer_keeps_the_camera_and_redraws_for_a_new_field(explorer):
     camera = explorer.plotter.camera_position
     explorer.set(field="gamma")  # a muscle's field: the expression's first muscle
     assert explorer.values["muscle"] == "frontalis_inner_L"
-    assert "frontalis_inner_L.gamma" in explorer.mesh.point_data
+    assert "frontalis_inner_L__gamma" in explorer.mesh.point_data
     assert explorer.n_rebuilds == 2
     assert explorer.plotter.camera_position == camera
     explorer.set(field=None)
@@ -281,3 +281,96 @@ def test_trame_view_served_from_a_kernel_draws_in_headless_chromium(kernel_env, 
                 assert _drawn(image, box) > 0.3
 
     asyncio.run(run())
+
+
+# ---------------------------------------------------------------------- PyVista's conventions
+def test_plot_passes_mesh_options_on_and_show_options_to_show(wv_face, tmp_path,
+                                                               no_leaked_plotters):
+    """As pyvista.plot: cmap and the like go to add_mesh, screenshot and the like to
+    show; with return_plotter the options of show are refused, not dropped.
+    """
+    from matplotlib import colormaps
+
+    state = wv_face.evaluate("surprise")
+    path = tmp_path / "magma.png"
+    state.plot("W", cmap="magma", off_screen=True, screenshot=path, window_size=(120, 100))
+    assert path.is_file()
+    plotter = state.plot("W", cmap="magma", opacity=0.5, return_plotter=True,
+                         off_screen=True)
+    try:
+        actor = plotter.actors["skin"]
+        table = np.asarray(actor.mapper.lookup_table.values[:, :3], float) / 255
+        want = colormaps["magma"](np.linspace(0, 1, len(table)))[:, :3]
+        np.testing.assert_allclose(table, want, atol=1 / 255)
+        assert actor.prop.opacity == 0.5
+    finally:
+        plotter.close()
+    with pytest.raises(TypeError, match="screenshot: options of Plotter.show"):
+        state.plot("W", return_plotter=True, screenshot=path, off_screen=True)
+
+
+def test_pyvista_set_jupyter_backend_is_honoured(wv_face, monkeypatch, no_leaked_plotters):
+    import pyvista as pv
+
+    monkeypatch.delenv(nbmod.BACKEND_VARIABLE, raising=False)
+    assert default_backend() == "trame"
+    monkeypatch.setattr(pv.global_theme, "jupyter_backend", "static")
+    monkeypatch.setenv(nbmod.BACKEND_VARIABLE, "trame")  # PyVista's own setting wins
+    assert default_backend() == "static"
+    monkeypatch.setattr(nbmod, "in_notebook", lambda: True)
+    shown = []
+    monkeypatch.setattr("IPython.display.display", shown.append)
+    wv_face.plot("frown", "W", window_size=(160, 120))
+    assert len(shown) == 1 and shown[0].size == (160, 120)  # a PIL image, not a trame view
+
+
+def test_an_interactive_view_is_output_with_an_image(kernel_env, monkeypatch, tmp_path):
+    """With trame, an executed notebook keeps a PNG beside the view: nbconvert's HTML
+    (no widget state) and GitHub show that.
+    """
+    from nbformat.v4 import new_code_cell, new_notebook
+
+    monkeypatch.delenv(nbmod.BACKEND_VARIABLE, raising=False)
+    monkeypatch.delenv("PYVISTA_JUPYTER_BACKEND", raising=False)
+    nb = new_notebook(cells=[new_code_cell(
+        "import wrinkle_vis as wv\n"
+        "wv.datasets.load_face().plot('surprise', window_size=(200, 160))")])
+    _client(nb, tmp_path).execute()
+    shown = [o for o in nb.cells[0].outputs if o.output_type == "display_data"]
+    assert len(shown) == 1, nb.cells[0].outputs
+    data = shown[0]["data"]
+    assert "application/vnd.jupyter.widget-view+json" in data  # the trame view
+    png = base64.b64decode(data["image/png"])
+    assert png.startswith(b"\x89PNG")
+    from io import BytesIO
+
+    from PIL import Image
+
+    Image.open(BytesIO(png)).save(tmp_path / "fallback.png")
+    image = np.asarray(Image.open(BytesIO(png)).convert("RGB")).astype(int)
+    assert image.shape == (160, 200, 3)
+    assert (image.min(axis=2) < 235).mean() > 0.2  # the skin
+    assert ((image.max(axis=2) - image.min(axis=2)) > 80).sum() > 200  # W's colours
+
+
+def test_the_notebooks_counts_are_the_faces():
+    """Counts of muscles and expressions stated in a notebook's text are the built-in
+    face's (the tour said 14 muscles and five expressions after the face grew).
+    """
+    import re
+
+    face = wv.datasets.load_face()
+    words = {"five": 5, "six": 6, "seven": 7, "eight": 8, "nine": 9, "ten": 10}
+    found = 0
+    for path in NOTEBOOKS:
+        for cell in json.loads(path.read_text())["cells"]:
+            if cell["cell_type"] != "markdown":
+                continue
+            text = "".join(cell["source"])
+            for count, what in re.findall(r"\b(\d+|five|six|seven|eight|nine|ten) "
+                                          r"(muscles|expressions)\b", text):
+                n = words.get(count) or int(count)
+                want = len(face.muscles) if what == "muscles" else len(face.expressions)
+                assert n == want, f"{path.name}: '{count} {what}', the face has {want}"
+                found += 1
+    assert found >= 2

@@ -368,7 +368,7 @@ def test_the_panel_switches_both_options_each_one_undo_step(window, name):
     box.click()
     assert window.session.face.muscle(name).taper is True
     assert window.undo_stack.count() == steps + 1
-    assert window.undo_stack.undoText() == f"Set taper H of {name} to on"
+    assert window.undo_stack.undoText() == f"Set taper H at the ends of {name} to on"
     assert window.session.dirty and window.windowTitle().endswith("*")
     h_after = window.session.state().fields[name]["H"]
     assert not np.array_equal(np.nan_to_num(h_after), np.nan_to_num(h_before))

@@ -245,7 +245,7 @@ def test_the_options_are_declared_with_their_metadata_too():
         assert p.unit == "option" and p.choices == OPTIONS[p.name] and p.doc and p.label
     assert specs[0].is_flag and not specs[1].is_flag
     assert specs[1].labelled_choices == {"edges": "edges (Eq. 10)", "gradient": "gradient"}
-    assert PANEL_OPTIONS == (("taper", "taper H", None),
+    assert PANEL_OPTIONS == (("taper", "taper H at the ends", None),
                              ("compression", "eps from", specs[1].labelled_choices))
     assert wv.SheetMuscle.parameter("compression") == specs[1]
     assert "taper" not in [p.name for p in wv.SheetMuscle.parameters()]  # options apart

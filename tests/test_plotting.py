@@ -85,3 +85,32 @@ def test_a_named_camera_looks_the_same_whatever_came_before(wv_face):
         assert p.camera.view_angle == pytest.approx(fresh)
     finally:
         p.close()
+
+
+@pytest.mark.parametrize("size", [(240, 240), (400, 400), (600, 240)])
+def test_scalar_bar_title_and_tick_labels_keep_apart(wv_face, size, no_leaked_plotters):
+    """The bar's title and its tick labels are separate lines of text, whatever the view's
+    size (VTK's fitted fonts squeezed the title onto the labels), with fixed font sizes.
+    """
+    from wrinkle_vis.plotting import add_skin
+    from wrinkle_vis.plotting.bars import BAR_FONT_PX, BAR_TITLE_PX
+
+    plotter = pv.Plotter(off_screen=True, window_size=list(size))
+    try:
+        plotter.set_background("white")
+        add_skin(plotter, wv_face.evaluate("frown"), "gamma", "corrugator_L")
+        plotter.camera_position = [(0, 0, -1e4), (0, 0, -2e4), (0, 1, 0)]  # skin unseen
+        image = plotter.screenshot(return_img=True).astype(int)
+        (bar,) = plotter.scalar_bars.values()
+        assert bar.GetUnconstrainedFontSize()
+        assert bar.GetLabelTextProperty().GetFontSize() == BAR_FONT_PX
+        assert bar.GetTitleTextProperty().GetFontSize() == BAR_TITLE_PX
+    finally:
+        plotter.close()
+    coloured = (image.max(axis=2) - image.min(axis=2)) > 60  # the colour bar (viridis)
+    bar_rows = np.flatnonzero(coloured.sum(axis=1) > 0.2 * size[0])
+    assert len(bar_rows)
+    text = (image.max(axis=2) < 160)[:bar_rows.min()]  # dark text above the colour bar
+    rows = text.any(axis=1)
+    runs = np.count_nonzero(rows[1:] & ~rows[:-1]) + int(rows[0])
+    assert runs >= 2, "the title runs into the tick labels"

@@ -53,3 +53,17 @@ def test_the_warning_is_an_error_where_warnings_are(recwarn):
         warnings.simplefilter("error", UndersampledWrinklesWarning)
         with pytest.raises(UndersampledWrinklesWarning, match="'lin'"):
             warn_undersampled(face.skin, face.muscles)
+
+
+def test_the_sessions_note_names_the_frames_aliased_muscles(wv_face):
+    from wrinkle_vis.app.session import Session
+
+    session = Session(wv_face)
+    session.set_expression("frown")
+    note = session.undersampled_note()  # the session's own frame
+    assert note.startswith("muscles 'corrugator_L', 'corrugator_R': wrinkle half period")
+    session.set_expression("surprise")
+    assert session.undersampled_note() is None
+    session.set_expression("frown")
+    session.set_refine(True)  # refinement resolves them
+    assert session.undersampled_note() is None

@@ -261,7 +261,7 @@ def test_cli_ply_export_of_a_face_keeps_every_field(tmp_path, capsys):
     for key, values in props.items():
         np.testing.assert_array_equal(back.point_data[key], values)
     np.testing.assert_array_equal(back.point_data["W"], state.W)
-    np.testing.assert_array_equal(back.point_data["corrugator_L.eps"],
+    np.testing.assert_array_equal(back.point_data["corrugator_L__eps"],
                                   state.fields["corrugator_L"]["eps"])
 
 

@@ -126,6 +126,11 @@ def _common(p: argparse.ArgumentParser, *, expression_many: bool = False,
     p.add_argument("--unit", choices=UNIT_CHOICES, default=None,
                    help="the unit of the face's lengths (default: the layout's; mm for the "
                         "built-in faces; guessed from a scan's size, with a note)")
+    p.add_argument("--taper", action="store_true",
+                   help="taper every muscle's wrinkle shape H to 0 at both ends of its "
+                        "wrinkling region (C1), removing the seam the paper's Eq. 5 leaves "
+                        "there (e.g. across the top of the forehead's wrinkles in surprise "
+                        "and fear); default: the paper's model, or the layout's choice")
 
 
 def _refine_options(p: argparse.ArgumentParser, what: str = "evaluate with adaptive "
@@ -212,7 +217,8 @@ def _parser() -> argparse.ArgumentParser:
                         f"{TRACK_FPS} with --track; at most {_max_frames():,} frames in all)")
     _track_options(p, "with --sequence, write")
     p.add_argument("--output", "-o", type=Path, required=True,
-                   help="a .vtp (ParaView), .vtk or .ply file for the skin, .vtm for "
+                   help="a .vtp (ParaView), .vtu (also meshio), .vtk, .ply, .obj or .stl "
+                        "file for the skin, .vtm for "
                         "skin, skull and muscles, or .glb (glTF: the neutral skin with one "
                         "morph target per expression, or per --expression); with --sequence "
                         "NAME.pvd, NAME_####.obj or NAME_####.ply")
@@ -275,6 +281,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--padding", type=int, default=8,
                    help=f"texels of padding around each UV island (0 to {MAX_PADDING}; "
                         "default 8)")
+    _refine_options(p, "bake the adaptively refined skin (its new vertices get UVs "
+                       "interpolated in their triangle of the scan), so that large maps show "
+                       "no facets")
     p.add_argument("--output", "-o", type=Path, required=True,
                    help="the folder for the maps (made, or replaced whole if it holds only "
                         "maps)")
@@ -534,6 +543,8 @@ def _load(args, *, refine: bool = False):
         where = (f"--layout {args.layout}" if args.layout else f"--skin {skin}" if skin
                  else f"--face {args.face}" if args.face else "the built-in face")
         raise CliError(f"{where}: {exc}") from None
+    if getattr(args, "taper", False):
+        face = _tapered(face)
     names = getattr(args, "expression", None)
     for name in names if isinstance(names, list) else [] if names is None else [names]:
         if name not in face.expressions:
@@ -591,6 +602,16 @@ SKULL_S_PER_MTRI = 250.0
 FIRST_FRAME_S_PER_MTRI = 30.0
 
 
+def _tapered(face):
+    """``face`` with the ``taper`` option on for every muscle (``--taper``)."""
+    import dataclasses
+
+    for muscle in face.muscles:
+        if not muscle.taper:
+            face = face.with_muscle(dataclasses.replace(muscle, taper=True))
+    return face
+
+
 def _layout_meshes(layout, path) -> dict:
     """A layout's own skin and skull, resolved against its file's folder (a Layout object
     given to load_face has no folder).
@@ -605,7 +626,11 @@ def _warn_undersampled(args, face, expressions) -> None:
     """One line for the muscles at work whose wrinkles the skin cannot resolve (n_w too
     large for the mesh): those the expressions activate, and ``--muscle``.
     """
-    from wrinkle_vis.core.sampling import UndersampledWrinklesWarning, warn_undersampled
+    from wrinkle_vis.core.sampling import (
+        UndersampledWrinklesWarning,
+        undersampled_line,
+        warn_undersampled,
+    )
 
     if isinstance(expressions, str):
         expressions = [expressions]
@@ -619,14 +644,9 @@ def _warn_undersampled(args, face, expressions) -> None:
     for w in caught:
         if not issubclass(w.category, UndersampledWrinklesWarning):
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-    groups: dict[str, list[str]] = {}  # twins share a line
-    for item in found:
-        text = item.message().split(": ", 1)[1]
-        groups.setdefault(text, []).append(item.muscle)
-    for text, names in groups.items():
-        who = "muscle" if len(names) == 1 else "muscles"
-        print(f"wrinkle-vis {args.command}: warning: {who} "
-              f"{', '.join(repr(n) for n in names)}: {text}", file=sys.stderr)
+    line = undersampled_line(found)  # one line for all of them
+    if line:
+        print(f"wrinkle-vis {args.command}: warning: {line}", file=sys.stderr)
 
 
 def _check_track(args) -> None:
@@ -787,7 +807,7 @@ def _export(args) -> int:
         return _export_sequence(args)
     if args.track is not None:
         raise CliError("--track writes the performance as a sequence; add --sequence")
-    if suffix in (".pvd", ".obj"):
+    if suffix == ".pvd":
         raise CliError(f"--output {args.output.name!r}: {suffix} is written as a sequence of "
                        "the expression's ramp; add --sequence")
     if args.fps is not None:
@@ -867,7 +887,8 @@ def _export_gltf(args) -> int:
     names = [args.expression] if args.expression else list(face.expressions)
     progress = partial(tqdm, desc=f"writing {args.output.name}", unit="expression",
                        delay=0.5)
-    written = save_gltf(face, args.output, names, unit=unit, progress=progress)
+    written = save_gltf(face, args.output, names, unit=unit, progress=progress,
+                        corner_uvs=_gltf_uvs(args, face))
     print(f"wrote {_wrote(args, written)}: {written.summary}")
     return 0
 
@@ -875,11 +896,14 @@ def _export_gltf(args) -> int:
 def _bake(args) -> int:
     from functools import partial
 
+    import numpy as np
     from tqdm import tqdm
 
     from wrinkle_vis.core.files import OutputPathError
+    from wrinkle_vis.core.parametric import refined_root_coordinates
     from wrinkle_vis.plotting.bake import bake_maps, check_bake_folder, save_bake
     from wrinkle_vis.plotting.exchange import face_unit
+    from wrinkle_vis.plotting.scenes import evaluate
 
     try:
         check_bake_folder(args.output)
@@ -894,18 +918,36 @@ def _bake(args) -> int:
     for name in fields:
         _check_field(name, args.muscle)
     source = _uv_source(args)  # no UVs: said before any work
-    face = _load(args)
+    face = _load(args, refine=args.refine)
     uvs = _uvs(source, face)
-    state = face.evaluate(args.expression, args.intensity)
+    state = evaluate(face, args.expression, args.intensity, refine=args.refine,
+                     **_refinement(args))
+    if state.face.skin is not face.skin:  # refined: each triangle's UVs from its root's
+        root, bary = refined_root_coordinates(face, state)
+        uvs = np.einsum("mij,mjk->mik", bary, uvs[root])
     progress = partial(tqdm, desc=f"baking {args.output.name}", unit="step", delay=0.5)
     maps = bake_maps(state, uvs, tuple(args.size), fields=[(f, args.muscle) for f in fields],
                      padding=args.padding, unit=args.unit or face_unit(face),
                      progress=progress,
-                     info={"expression": args.expression, "intensity": args.intensity})
+                     info={"expression": args.expression, "intensity": args.intensity,
+                           "triangles": state.face.skin.n_triangles,
+                           "refined": state.face.skin is not face.skin})
     written = save_bake(maps, args.output)
     print(f"wrote {args.output}: {written.summary}; W sampled back at the texel centres "
           f"within {100 * maps.check['texel_centres_max']:.3g} % of its range")
     return 0
+
+
+def _gltf_uvs(args, face):
+    """The skin's corner UVs when it has them (an OBJ with ``vt``, the built-in head),
+    for a glTF's ``TEXCOORD_0``; None for a skin without.
+    """
+    from wrinkle_vis.plotting.bake import UVError
+
+    try:
+        return _uvs(_uv_source(args), face)
+    except (CliError, UVError):
+        return None
 
 
 def _uv_source(args):

@@ -1,6 +1,8 @@
 """A pytest plugin for off-screen image tests of wrinkle fields (entry point ``pytest11``).
 
-Installed with wrinkle-vis, it gives every test session these fixtures:
+Installed with wrinkle-vis, it gives every test session these fixtures (the image
+comparison, ``verify_image_cache``, is pytest-pyvista's: ``pip install
+"wrinkle-vis[testing]"`` brings it):
 
 ``wv_face``
     The built-in face (4,500 triangles), built once per session.

@@ -244,6 +244,19 @@ class Session:
         state = self.state() if state is None else state
         return state.field_values(self.field, self.muscle)
 
+    def undersampled_note(self, state: FaceState | None = None) -> str | None:
+        """One line (as the command line warns) when the muscles at work in ``state``
+        (default :attr:`state`) have wrinkles the skin cannot resolve, else None; None for
+        a refined frame, whose refinement resolves them.
+        """
+        from ..core.sampling import undersampled_line, undersampled_muscles
+
+        state = self.state() if state is None else state
+        if state.face.skin is not self.face.skin:
+            return None
+        active = [m for m in self.face.muscles if state.activations.get(m.name, 0.0) > 0.0]
+        return undersampled_line(undersampled_muscles(self.face.skin, active))
+
     def set_fixed_range(self, lo_hi: tuple[float, float] | None) -> None:
         """Fix the colour range to ``(lo, hi)`` with ``lo < hi`` (None: automatic)."""
         if lo_hi is not None:
@@ -333,24 +346,68 @@ class Session:
         return self.face.without_muscle(muscle)
 
     def duplicated(self, muscle: str) -> tuple[FaceModel, str]:
-        """The face with a copy of ``muscle`` under a free name; returns it and the name."""
+        """The face with a copy of ``muscle`` under a free name, taking the original's
+        activation in every expression; returns it and the name.
+        """
         name = unique_name(f"{muscle}_copy", self.face.muscle_names)
-        return self.face.with_muscle(self.face.muscle(muscle).replace(name=name)), name
+        face = self.face.with_muscle(self.face.muscle(muscle).replace(name=name))
+        return _sharing_activations(face, muscle, name), name
 
     def mirrored(self, muscle: str) -> tuple[FaceModel, str]:
         """The face with the twin of ``muscle`` across its symmetry plane, its points snapped
         onto their surfaces; the twin replaces a muscle of its name (``_L`` <-> ``_R``) or is
-        added, taking the original's activation in every expression. Returns the face and
-        the twin's name.
+        added, taking the original's activation in every expression. A muscle whose name
+        has no side is renamed for the side it lies on (``X`` to ``X_L`` on the subject's
+        left) and its twin named for the other (``X_R``). Returns the face and the twin's
+        name.
         """
-        twin = self._mirror_image(muscle)
-        face = self.face.with_muscle(twin)
-        if twin.name not in self.face.muscle_names:
-            face = face.with_expressions({
-                k: dataclasses.replace(ex, activations={
-                    **ex.activations, twin.name: ex.activations[muscle]})
-                if muscle in ex.activations else ex for k, ex in face.expressions.items()})
+        face, muscle = self._sided(muscle)
+        twin = _mirror_image(face, muscle)
+        new = twin.name not in face.muscle_names
+        face = face.with_muscle(twin)
+        if new:
+            face = _sharing_activations(face, muscle, twin.name)
         return face, twin.name
+
+    def _sided(self, muscle: str) -> tuple[FaceModel, str]:
+        """The face with ``muscle`` renamed for its side when its name has none
+        (:func:`~wrinkle_vis.core.editing.mirror_name` would add ``_mirrored``), and the
+        name it has there.
+        """
+        if mirror_name(muscle) != muscle + "_mirrored":
+            return self.face, muscle
+        point, normal = self.face.symmetry_plane()
+        m = self.face.muscle(muscle)
+        points = np.vstack([np.asarray(getattr(m, p), float).reshape(-1, 3)
+                            for p in m.point_parameters] or [np.zeros((1, 3))])
+        side = "_L" if float(np.mean((points - point) @ normal)) >= 0 else "_R"
+        taken = set(self.face.muscle_names) - {muscle}
+        if f"{muscle}{side}" in taken or mirror_name(f"{muscle}{side}") in taken:
+            return self.face, muscle  # the sided names are taken: keep X_mirrored
+        return self.face.with_muscle(m.replace(name=f"{muscle}{side}"), muscle), \
+            f"{muscle}{side}"
+
+    def same_muscles(self, face: FaceModel) -> bool:
+        """Whether ``face`` has this session's muscles, parameters equal and points within
+        2 % of the skin's median edge length: an edit that changes nothing one could see,
+        e.g. mirroring a pair that is already symmetric (snapped onto a skin that is not
+        quite, the points move by about 1 % of an edge each time).
+        """
+        if face.muscle_names != self.face.muscle_names:
+            return False
+        tol = 0.02 * float(np.median(self.face.skin.rest_edge_lengths))
+        for a, b in zip(self.face.muscles, face.muscles, strict=True):
+            if type(a) is not type(b):
+                return False
+            for f in dataclasses.fields(a):
+                x, y = getattr(a, f.name), getattr(b, f.name)
+                if f.name in a.point_parameters:
+                    if not np.allclose(np.asarray(x, float), np.asarray(y, float), rtol=0,
+                                       atol=tol):
+                        return False
+                elif not _equal(x, y):
+                    return False
+        return face.expressions == self.face.expressions
 
     def twin_of(self, muscle: str) -> str | None:
         """The name of ``muscle``'s twin across the symmetry plane (``_L`` <-> ``_R``,
@@ -377,10 +434,7 @@ class Session:
         """``muscle`` reflected across the face's symmetry plane and snapped onto its
         surfaces, called ``name`` (default its twin's name).
         """
-        point, normal = self.face.symmetry_plane()
-        source = self.face.muscle(muscle)
-        return snapped(mirrored(source, point, normal, name=name),
-                       {"skin": self.face.skin, "skull": self.face.skull}, like=source)
+        return _mirror_image(self.face, muscle, name)
 
     def added(self, type_name: str, at) -> tuple[FaceModel, str]:
         """The face with a new muscle of type ``type_name``, its insertion on the skin at
@@ -616,3 +670,28 @@ def load_session(path: str | Path | None = None, n_triangles: int | None = None,
     face = load_face(n, layout=layout, skin=layout.resolve("skin", path.parent),
                      skull=layout.resolve("skull", path.parent), unit=layout.unit or unit)
     return Session(face, path, layout=layout, disk=disk)
+
+
+def _mirror_image(face: FaceModel, muscle: str, name: str | None = None):
+    """``muscle`` of ``face`` reflected across its symmetry plane and snapped onto its
+    surfaces, called ``name`` (default its twin's name).
+    """
+    point, normal = face.symmetry_plane()
+    source = face.muscle(muscle)
+    return snapped(mirrored(source, point, normal, name=name),
+                   {"skin": face.skin, "skull": face.skull}, like=source)
+
+
+def _sharing_activations(face: FaceModel, muscle: str, other: str) -> FaceModel:
+    """``face`` with ``other`` activated as ``muscle`` in every expression that has it."""
+    return face.with_expressions({
+        k: dataclasses.replace(ex, activations={**ex.activations,
+                                                other: ex.activations[muscle]})
+        if muscle in ex.activations else ex for k, ex in face.expressions.items()})
+
+
+def _equal(x, y) -> bool:
+    """``x == y`` for parameters (arrays compared element-wise)."""
+    if isinstance(x, np.ndarray) or isinstance(y, np.ndarray):
+        return np.array_equal(np.asarray(x), np.asarray(y))
+    return bool(x == y)

@@ -15,13 +15,11 @@ without the placement widget.
 from __future__ import annotations
 
 import weakref
-from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
 import pyvista as pv
-import vtkmodules.vtkRenderingFreeType  # noqa: F401 (the text renderer's implementation)
-from vtkmodules.vtkRenderingCore import vtkCamera, vtkTextRenderer
+from vtkmodules.vtkRenderingCore import vtkCamera
 
 from ..core.face import FaceState
 from ..plotting import (
@@ -38,6 +36,7 @@ from ..plotting import (
     muscle_mesh,
     replace_mesh,
 )
+from ..plotting.bars import add_field_bar, fit_bar_labels
 from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
 from ..plotting.writers import save_image
@@ -50,77 +49,6 @@ VIEWS = ("skin", "muscles", "skull")
 #: The name of the probe marker's actor in the skin view (``_picked``: saved images leave
 #: it out, as PyVista's own picked point).
 PROBE_ACTOR = "_picked_probe"
-#: Tick labels of a field's scalar bar, the first that keeps them apart on the bar as
-#: drawn: (number of labels, printf format). None fitting, the bar has no tick labels.
-BAR_LABELS = ((3, "%.3g"), (3, "%.2g"), (2, "%.3g"), (2, "%.2g"))
-BAR_GAP_PX = 8  # at least this much space between two labels
-BAR_FONT_PX, BAR_TITLE_PX = 12, 13  # fixed sizes, so that the labels can be measured
-_TEXT = vtkTextRenderer()
-
-
-def add_field_bar(plotter: pv.Plotter, mapper, title: str):
-    """Add the horizontal scalar bar of a field (``undefined`` for NaN) under the view; its
-    tick labels are fitted to the bar by :func:`fit_bar_labels`.
-    """
-    bar = plotter.add_scalar_bar(
-        title, mapper=mapper, n_labels=BAR_LABELS[0][0], fmt=BAR_LABELS[0][1],
-        nan_annotation=True, vertical=False, position_x=0.2, position_y=0.07, width=0.6,
-        height=0.06, label_font_size=BAR_FONT_PX, title_font_size=BAR_TITLE_PX,
-        unconstrained_font_size=True, render=False)
-    bar.SetNanAnnotation("undefined")
-    fit_bar_labels(bar, plotter.renderer)
-    return bar
-
-
-def bar_label_spans(bar, renderer, n: int | None = None, fmt: str | None = None,
-                    bar_px: tuple[float, float] | None = None) -> list[tuple[float, float]]:
-    """Where the tick labels of horizontal scalar bar ``bar`` lie, in pixels: ``(x0, x1)``
-    of each, centred on its value along the bar (VTK's layout).
-
-    ``n`` and ``fmt`` default to the bar's own; ``bar_px`` ``(x, width)`` of the colour bar
-    to the rectangle VTK drew it in at the last render.
-    """
-    n = bar.GetNumberOfLabels() if n is None else n
-    fmt = bar.GetLabelFormat() if fmt is None else fmt
-    if bar_px is None:
-        rect = [0, 0, 0, 0]
-        bar.GetScalarBarRect(rect, renderer)
-        bar_px = (rect[0], rect[2])
-    x, width = bar_px
-    lo, hi = bar.GetLookupTable().GetRange()
-    dpi = renderer.GetRenderWindow().GetDPI() if renderer.GetRenderWindow() else 72
-    spans = []
-    for i in range(n):
-        value = lo + (hi - lo) * i / max(n - 1, 1)
-        box = [0, 0, 0, 0]
-        _TEXT.GetBoundingBox(bar.GetLabelTextProperty(), fmt % value, box, dpi)
-        centre, half = x + width * i / max(n - 1, 1), 0.5 * (box[1] - box[0])
-        spans.append((centre - half, centre + half))
-    return spans
-
-
-def fit_bar_labels(bar, renderer) -> int:
-    """Choose the tick labels of ``bar`` (:data:`BAR_LABELS`) that keep at least
-    :data:`BAR_GAP_PX` apart on the bar at the view's present size; returns their number
-    (0: the bar shows none, it is too narrow for two).
-    """
-    frame_px = bar.GetWidth() * renderer.GetSize()[0]
-    rect = [0, 0, 0, 0]
-    bar.GetScalarBarRect(rect, renderer)  # as drawn at the last render, if any
-    last_frame = getattr(bar, "_fitted_frame_px", 0.0)
-    ratio = rect[2] / last_frame if 0 < rect[2] <= last_frame else 0.75
-    bar._fitted_frame_px = frame_px
-    bar_px = (0.0, 0.95 * ratio * frame_px)  # the colour bar is 0.75 to 0.9 of its frame
-    for n, fmt in BAR_LABELS:
-        spans = bar_label_spans(bar, renderer, n, fmt, bar_px)
-        if all(b[0] - a[1] >= BAR_GAP_PX for a, b in pairwise(spans)):
-            if (n, fmt) != (bar.GetNumberOfLabels(), bar.GetLabelFormat()):
-                bar.SetNumberOfLabels(n)
-                bar.SetLabelFormat(fmt)
-            bar.SetDrawTickLabels(True)
-            return n
-    bar.SetDrawTickLabels(False)
-    return 0
 
 
 class LinkedViews:
@@ -163,11 +91,21 @@ class LinkedViews:
         this = weakref.ref(self)
         self._fit_observer = skin.renderer.AddObserver(
             "StartEvent", lambda *_: this() is not None and this()._fit_bar())
+        # and the muscles view's activation bar, so that it is laid out for the view's
+        # size whenever it was made (in place and rebuilt alike)
+        self._fit_muscles_observer = muscles.renderer.AddObserver(
+            "StartEvent", lambda *_: this() is not None and this()._fit_muscle_bars())
 
     def _fit_bar(self) -> None:
         bar = self._bar
         if bar is not None and self.skin_view.renderer.HasViewProp(bar):
             fit_bar_labels(bar, self.skin_view.renderer)
+
+    def _fit_muscle_bars(self) -> None:
+        renderer = self.muscle_view.renderer
+        for bar in list(self.muscle_view.scalar_bars.values()):
+            if renderer.HasViewProp(bar):
+                fit_bar_labels(bar, renderer)
 
     @property
     def plotters(self) -> tuple[pv.Plotter, pv.Plotter, pv.Plotter]:

@@ -21,7 +21,7 @@ import numpy as np
 from qtpy import QtCore, QtGui, QtWidgets
 from vtkmodules.vtkRenderingCore import vtkPropPicker
 
-from ..core.editing import with_point
+from ..core.editing import mirror_name, with_point
 from ..core.face import FIELD_NAMES
 from ..core.layout import Layout, LayoutError, load_layout
 from ..core.muscle import MuscleParameterError
@@ -151,7 +151,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self._drawn_face = None
         self._press = None
         self.setWindowTitle("wrinkle-vis")
-        self.resize(1500, 800)
+        screen = self.screen() or QtGui.QGuiApplication.primaryScreen()
+        self.resize(*fitted_size(screen.availableGeometry().size() if screen else None))
         self._syncing = False
         self._updating_controls = False
         self.plain_skin = False  # the skin view shows no field
@@ -266,6 +267,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self.field_box.addItems([*FIELD_NAMES, PLAIN])
         self.field_box.setItemData(len(FIELD_NAMES), "Plain skin, no field (try View > Raking "
                                    "light)", QtCore.Qt.ToolTipRole)
+        for i, key in enumerate(FIELD_NAMES):  # the symbol and meaning: w is not W
+            spec = field_info(key)
+            self.field_box.setItemData(i, f"{spec.symbol}: {spec.name}, {spec.meaning} "
+                                          f"({spec.equation})", QtCore.Qt.ToolTipRole)
         self.field_box.currentTextChanged.connect(self._on_field)
         view.addRow("Field", self.field_box)
         self.muscle_box = QtWidgets.QComboBox()
@@ -401,8 +406,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self._build_face_menu()
         view_menu = self.menuBar().addMenu("&View")
         for name, key in (("front", "1"), ("three_quarter", "2"), ("side", "3"),
-                          ("forehead", "4")):
-            self._action(view_menu, f"Camera: {name}", key, _weak(self.set_camera, name))
+                          ("forehead", "4"), ("upper_face", "5")):
+            self._action(view_menu, f"Camera: {name.replace('_', ' ')}", key,
+                         _weak(self.set_camera, name))
         self._action(view_menu, "Play / pause", "Space", self.play_button.toggle)
         self.aa_action = view_menu.addAction("&Anti-aliasing (slower drawing)")
         self.aa_action.setCheckable(True)
@@ -502,7 +508,7 @@ class MainWindow(QtWidgets.QMainWindow):
             return
         for param, widget in self.param_widgets.items():
             widget.blockSignals(True)
-            widget.setValue(muscle.resolved(param))
+            _show_value(widget, muscle.resolved(param))
             widget.blockSignals(False)
         for param, widget in self.option_widgets.items():
             _show_option(widget, getattr(muscle, param))
@@ -523,7 +529,7 @@ class MainWindow(QtWidgets.QMainWindow):
         muscle = self.session.face.muscle(name)
         for spec in editable(muscle):  # what the type declares (core.params)
             w = _parameter_box(spec, self.session.unit)
-            w.setValue(muscle.resolved(spec.name))
+            _show_value(w, muscle.resolved(spec.name))
             w.setKeyboardTracking(False)
             w.valueChanged.connect(_weak(self.set_parameter, spec.name, keep=1))
             w.installEventFilter(self._undo_keys)  # Ctrl+Z undoes the edit, not the typing
@@ -726,7 +732,7 @@ class MainWindow(QtWidgets.QMainWindow):
                 return False
             widget = self.param_widgets[param]
             widget.blockSignals(True)
-            widget.setValue(muscle.resolved(param))
+            _show_value(widget, muscle.resolved(param))
             widget.blockSignals(False)
             return False
         self.param_error.setText("")
@@ -987,7 +993,16 @@ class MainWindow(QtWidgets.QMainWindow):
         except (MuscleParameterError, ValueError) as exc:
             QtWidgets.QMessageBox.warning(self, title, str(exc))
             return None
-        self.edit(text.format(name, twin), face)
+        if self.session.same_muscles(face):  # already mirror images: nothing to undo
+            self.statusBar().showMessage(f"{name} and {twin} are mirror images already; "
+                                         "nothing changed", 5000)
+            return twin
+        if name in face.muscle_names:
+            self.edit(text.format(name, twin), face)
+        else:  # a muscle without a side was named for its side: X -> X_L, twin X_R
+            sided = mirror_name(twin)
+            self.edit(f"{text.format(name, twin)} (and name it {sided})", face,
+                      select=sided)
         return twin
 
     # ------------------------------------------------------------------ placement
@@ -1058,7 +1073,9 @@ class MainWindow(QtWidgets.QMainWindow):
             f"{'' if s.time_s is None else f' at {s.time_s:.2f} s'}  |  W in "
             f"[{state.W.min():.3g}, {state.W.max():.3g}] {s.unit}  |  frame "
             f"{s.frame_ms:.2f} ms, drawn in {total_ms:.1f} ms  |  "
-            f"{_triangles(len(state.triangles), s.face.skin.n_triangles)}")
+            f"{_triangles(len(state.triangles), s.face.skin.n_triangles)}"
+            f"{'  |  ⚠ aliased wrinkles: refine' if (note := s.undersampled_note(state)) else ''}")
+        self.status_label.setToolTip(f"Warning: {note}" if note else "")
         self._update_title()
 
     def active_array(self) -> str | None:
@@ -1774,11 +1791,41 @@ def _parameter_box(spec, unit: str) -> QtWidgets.QAbstractSpinBox:
         box.setDecimals(3)
         box.setRange(-1e6, 1e6)
         box.setSingleStep(spec.step)
+    if isinstance(box, QtWidgets.QDoubleSpinBox):
+        box.setProperty("base_decimals", box.decimals())
     shown = {"length": unit, "deg": "deg", "1": "", "count": ""}[spec.unit]
     derived = "; left out, derived from the others" if spec.optional else ""
     box.setToolTip(f"{spec.symbol}: {spec.doc}" + (f" ({shown})" if shown else "")
                    + f"; allowed {spec.range_text()}{derived}")
     return box
+
+
+#: The window's size where the screen has room (pixels).
+WINDOW_SIZE = (1500, 800)
+
+
+def fitted_size(available: QtCore.QSize | None, wanted=WINDOW_SIZE) -> tuple[int, int]:
+    """The window's first size: ``wanted``, shrunk to the screen's ``available`` area (a
+    1366 x 768 laptop screen less its panels), so that the window opens whole.
+    """
+    if available is None or available.isEmpty():
+        return wanted
+    return min(wanted[0], available.width()), min(wanted[1], available.height())
+
+
+def _show_value(box: QtWidgets.QAbstractSpinBox, value) -> None:
+    """Show ``value`` in a parameter box whole: the box's own decimals, or as many more
+    (up to 10) as the value needs not to be rounded, as the box rounds what it holds to
+    its decimals (k0 = 0.02152 would read, and be, 0.022).
+    """
+    if isinstance(box, QtWidgets.QDoubleSpinBox):
+        base = box.property("base_decimals")
+        decimals = box.decimals() if base is None else int(base)
+        while decimals < 10 and not np.isclose(round(value, decimals), value, rtol=1e-9,
+                                                 atol=0.0):
+            decimals += 1
+        box.setDecimals(decimals)
+    box.setValue(value)
 
 
 def run(argv=None, layout: str | Path | None = None) -> int:

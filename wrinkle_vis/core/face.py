@@ -1,4 +1,4 @@
-r"""The face model: skin, skull and muscles, evaluated frame by frame (DESIGN.md data flow).
+r"""The face model: skin, skull and muscles, evaluated frame by frame (see :doc:`/model`).
 
 Everything that depends only on the rest skin and a muscle's parameters is computed once per
 muscle and cached (:class:`_MuscleData`). Everything that depends on which muscles are active

@@ -324,9 +324,12 @@ class Muscle:
 
     name: str
     taper: bool = parameter(
-        False, label="taper H", symbol="T", unit="option", choices=OPTIONS["taper"],
-        doc="Taper H to 0, C1, over the first and last half period of the wrinkling region "
-            "(off: the paper's Eq. 5, which jumps to the furrow bottom there)")
+        False, label="taper H at the ends", symbol="T", unit="option",
+        choices=OPTIONS["taper"],
+        doc="Remove the seam at the ends of the wrinkling region: the paper's Eq. 5 (off) "
+            "jumps from no wrinkle to the furrow bottom where the region starts and ends, "
+            "which shows as a line (e.g. across the top of the forehead's wrinkles); on, "
+            "H tapers to 0, C1, over the region's first and last half period")
     compression: str = parameter(
         "edges", label="eps from", symbol="ε", unit="option", choices=OPTIONS["compression"],
         choice_labels=("edges (Eq. 10)", "gradient"),

@@ -11,15 +11,15 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from .mesh import TriangleSurface
 
-__all__ = ["Undersampled", "UndersampledWrinklesWarning", "undersampled_muscles",
-           "warn_undersampled"]
+__all__ = ["Undersampled", "UndersampledWrinklesWarning", "undersampled_line",
+           "undersampled_muscles", "warn_undersampled"]
 
 
 class UndersampledWrinklesWarning(UserWarning):
@@ -104,3 +104,33 @@ def warn_undersampled(skin: TriangleSurface, muscles: Iterable,
     for item in found:
         warnings.warn(item.message(), UndersampledWrinklesWarning, stacklevel=stacklevel + 1)
     return found
+
+
+def undersampled_line(found: Sequence[Undersampled]) -> str | None:
+    """One line for all of ``found`` (:func:`undersampled_muscles`), or None if empty.
+
+    Muscles with the same half period and :math:`n_w` (a left and right twin) share a
+    group; one group reads as :meth:`Undersampled.message` (its muscles named together),
+    several as one sentence naming each group's :math:`u`, :math:`n_w` and the
+    :math:`n_w` that would fit, with the largest triangle count any of them needs.
+    """
+    if not found:
+        return None
+    groups: dict[tuple, list[Undersampled]] = {}
+    for item in found:
+        groups.setdefault((item.u, item.n_wrinkles, item.max_n_wrinkles), []).append(item)
+    if len(groups) == 1:
+        first, names = found[0], [item.muscle for item in found]
+        who = "muscle" if len(names) == 1 else "muscles"
+        text = first.message().split(": ", 1)[1]
+        return f"{who} {', '.join(map(repr, names))}: {text}"
+    parts = []
+    for (u, n_w, fits), items in groups.items():
+        lower = f"n_w {fits} fits" if fits >= 1 else "shorten lambda_w"
+        parts.append(f"{', '.join(repr(i.muscle) for i in items)} (u = {u:.3g}, n_w = {n_w}; "
+                     f"{lower})")
+    n_tri = max(item.n_triangles for item in found)
+    return (f"muscles {', '.join(parts)}: wrinkle half periods (Eq. 6) below the skin's "
+            f"median edge length {found[0].edge_length:.3g}, so their wrinkles alias into "
+            f"noise; refine the skin (about {n_tri:,} triangles, or adaptive refinement) or "
+            "lower their n_w")

@@ -17,15 +17,17 @@ Maps (:func:`bake_maps`, written by :func:`save_bake`)
     with ``offset`` and ``scale`` in the JSON (and Blender's Displace modifier settings:
     ``midlevel = -offset / scale``, ``strength = scale``). Background: W = 0.
 ``normal.png``, ``normal.json``
-    The wrinkles as a tangent-space normal map (8-bit RGB, ``rgb = 255 (n + 1) / 2``):
+    The wrinkles as a tangent-space normal map (16-bit RGB, ``rgb = 65535 (n + 1) / 2``:
+    the wrinkles tilt the normal by a few degrees, and 8 bits would band them in steps
+    of about 0.45 degrees):
     the final skin's normal in the frame of the smooth deformed skin (the expression
     without its wrinkles), x along +u, y along +v (OpenGL's and Blender's convention,
-    "green up"), z along the normal. Flat skin is ``(128, 128, 255)``.
+    "green up"), z along the normal. Flat skin is ``(32768, 32768, 65535)``.
 ``field_<name>.png``, ``field_<name>.json``
     A field as colours (8-bit RGBA) with the colour map and range of
     :mod:`wrinkle_vis.plotting.fields`, undefined values in
     :data:`~wrinkle_vis.plotting.fields.NAN_COLOR`, transparent outside the islands and
-    their padding. ``<name>`` is the point-array name (``W``, ``corrugator_L.eps``).
+    their padding. ``<name>`` is the point-array name (``W``, ``corrugator_L__eps``).
 """
 
 from __future__ import annotations
@@ -319,7 +321,7 @@ class BakedMaps:
     Attributes
     ----------
     images : dict of str to ndarray
-        ``"displacement.png"``: ``(h, w) uint16``; ``"normal.png"``: ``(h, w, 3) uint8``;
+        ``"displacement.png"``: ``(h, w) uint16``; ``"normal.png"``: ``(h, w, 3) uint16``;
         ``"field_<name>.png"``: ``(h, w, 4) uint8``.
     sidecars : dict of str to dict
         The JSON beside each image (``"displacement.json"``, ...).
@@ -527,12 +529,12 @@ def bake_maps(state: FaceState, corner_uvs: np.ndarray, size: tuple[int, int] = 
         deformed = np.asarray(state.deformed_points, float)
         ts = tangent_space_normals(r, deformed, tris, corner_uvs,
                                    skin.vertex_normals(deformed), np.asarray(state.normals))
-        rgb = np.clip(np.round((ts + 1.0) * 127.5), 0, 255).astype(np.uint8)
-        out.images["normal.png"] = r.image(rgb, np.array([128, 128, 255], np.uint8))
+        rgb = np.clip(np.round((ts + 1.0) * 32767.5), 0, 65535).astype(np.uint16)
+        out.images["normal.png"] = r.image(rgb, np.array([32768, 32768, 65535], np.uint16))
         out.sidecars["normal.json"] = {
-            "map": "normal.png", "space": "tangent",
+            "map": "normal.png", "space": "tangent", "bit_depth": 16,
             "convention": "OpenGL (green up): x along +u, y along +v, z along the normal",
-            "encode": "rgb = 255 (n + 1) / 2",
+            "encode": "rgb = 65535 (n + 1) / 2",
             "base": "the smooth deformed skin (the expression without its wrinkles)",
             **common}
 
@@ -598,15 +600,68 @@ def check_bake_folder(path: str | os.PathLike) -> Path:
 def _png_bytes(image: np.ndarray) -> bytes:
     from PIL import Image
 
+    image = np.ascontiguousarray(image)
+    if image.dtype == np.uint16 and image.ndim == 3:
+        return _rgb16_png_bytes(image)
     buffer = BytesIO()
-    Image.fromarray(np.ascontiguousarray(image)).save(buffer, format="PNG")
+    Image.fromarray(image).save(buffer, format="PNG")
     return buffer.getvalue()
+
+
+def _png_chunk(kind: bytes, data: bytes) -> bytes:
+    import zlib
+
+    return (len(data).to_bytes(4, "big") + kind + data
+            + zlib.crc32(kind + data).to_bytes(4, "big"))
+
+
+def _rgb16_png_bytes(image: np.ndarray) -> bytes:
+    """A 16-bit RGB PNG of ``image`` ``(h, w, 3) uint16`` (Pillow writes none): big-endian
+    samples, each row with filter type 0, zlib-compressed.
+    """
+    import zlib
+
+    h, w, _ = image.shape
+    rows = np.zeros((h, 1 + 6 * w), np.uint8)
+    rows[:, 1:] = image.astype(">u2").view(np.uint8).reshape(h, 6 * w)
+    header = w.to_bytes(4, "big") + h.to_bytes(4, "big") + bytes([16, 2, 0, 0, 0])
+    return (b"\x89PNG\r\n\x1a\n" + _png_chunk(b"IHDR", header)
+            + _png_chunk(b"IDAT", zlib.compress(rows.tobytes(), 6))
+            + _png_chunk(b"IEND", b""))
+
+
+def _read_rgb16_png(data: bytes) -> np.ndarray:
+    """``(h, w, 3) uint16`` from a PNG as :func:`_rgb16_png_bytes` writes it (its CRCs
+    checked; any other filter than 0 is refused).
+    """
+    import zlib
+
+    pos, header, idat = 8, None, []
+    while pos < len(data):
+        n = int.from_bytes(data[pos:pos + 4], "big")
+        kind, body = data[pos + 4:pos + 8], data[pos + 8:pos + 8 + n]
+        if zlib.crc32(kind + body) != int.from_bytes(data[pos + 8 + n:pos + 12 + n], "big"):
+            raise ValueError(f"bad CRC in the {kind!r} chunk")
+        header = body if kind == b"IHDR" else header
+        if kind == b"IDAT":
+            idat.append(body)
+        pos += 12 + n
+    w, h = int.from_bytes(header[:4], "big"), int.from_bytes(header[4:8], "big")
+    if header[8:10] != bytes([16, 2]):
+        raise ValueError("not a 16-bit RGB PNG")
+    rows = np.frombuffer(zlib.decompress(b"".join(idat)), np.uint8).reshape(h, 1 + 6 * w)
+    if rows[:, 0].any():
+        raise ValueError("a row filter other than 0")
+    return rows[:, 1:].copy().view(">u2").reshape(h, w, 3).astype(np.uint16)
 
 
 def _read_png(path: Path) -> np.ndarray:
     from PIL import Image
 
-    with Image.open(path) as im:
+    data = path.read_bytes()
+    if data[24:26] == bytes([16, 2]):  # the IHDR's bit depth and colour type
+        return _read_rgb16_png(data)
+    with Image.open(BytesIO(data)) as im:
         return np.asarray(im)
 
 

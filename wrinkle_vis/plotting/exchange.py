@@ -21,7 +21,8 @@ Formats
 ``NAME.glb``
     Binary glTF 2.0: the neutral skin as the mesh (positions, normals, triangles) and one
     morph target per expression, the expression's wrinkled surface at full intensity as
-    ``POSITION`` (and ``NORMAL``) displacements from the neutral skin. The target names are
+    ``POSITION`` (and ``NORMAL``) displacements from the neutral skin; a skin with UVs
+    (a scan) has them as ``TEXCOORD_0``, so baked maps fit it. The target names are
     in ``mesh.extras.targetNames`` (Blender and three.js read them). glTF lengths are
     metres: the face's lengths are scaled by its unit (the built-in face is in
     millimetres, so by 0.001); +y is up and the face looks along +z, as in glTF.
@@ -326,9 +327,30 @@ _FLOAT, _UINT16, _UINT32 = 5126, 5123, 5125
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
 
 
+def _split_at_seams(triangles: np.ndarray,
+                    corner_uvs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One glTF vertex per distinct (skin vertex, UV) pair: a vertex on a UV seam becomes
+    one per side.
+
+    Returns
+    -------
+    vertex : (k,) int
+        The skin vertex of each glTF vertex.
+    uv : (k, 2) float
+        Its UV (OBJ's convention, ``v`` up).
+    triangles : (m, 3) int
+        The triangles on the glTF vertices.
+    """
+    corners = np.asarray(triangles).reshape(-1)
+    key = np.column_stack([corners.astype(float), np.asarray(corner_uvs, float).reshape(-1, 2)])
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    return corners[first], key[first, 1:], inverse.reshape(-1, 3)
+
+
 def gltf_bytes(face: FaceModel, expressions: Sequence[str] | None = None, *,
                unit: str | None = None,
-               progress: Callable[[Iterable], Iterable] | None = None) -> tuple[bytes, dict]:
+               progress: Callable[[Iterable], Iterable] | None = None,
+               corner_uvs: np.ndarray | None = None) -> tuple[bytes, dict]:
     r"""Binary glTF 2.0 of ``face``: the neutral skin with one morph target per expression.
 
     Parameters
@@ -342,6 +364,12 @@ def gltf_bytes(face: FaceModel, expressions: Sequence[str] | None = None, *,
         :func:`face_unit`); glTF lengths are metres.
     progress : callable, optional
         Wraps the iterable of expression names (e.g. ``tqdm``), to show progress.
+    corner_uvs : (m, 3, 2) float, optional
+        The UVs of every corner of the skin's triangles
+        (:func:`~wrinkle_vis.plotting.bake.read_obj_uvs`): written as ``TEXCOORD_0``, so
+        the maps of :func:`~wrinkle_vis.plotting.bake.bake_maps` fit the mesh. glTF's
+        ``v`` points down (``(u, 1 - v)`` of OBJ's), and a vertex on a UV seam becomes
+        one glTF vertex per side (its position, normal and morph targets repeated).
 
     Returns
     -------
@@ -365,9 +393,16 @@ def gltf_bytes(face: FaceModel, expressions: Sequence[str] | None = None, *,
         raise ValueError(f"unknown unit {unit!r}; choose from {', '.join(METRES_PER_UNIT)}")
     scale = METRES_PER_UNIT[unit]
     base = face.evaluate({})
-    x0 = np.asarray(base.points, float)
-    n0 = np.asarray(base.normals, float)
     tris = np.asarray(face.skin.triangles)
+    if corner_uvs is not None:
+        corner_uvs = np.asarray(corner_uvs, float)
+        if corner_uvs.shape != (len(tris), 3, 2):
+            raise ValueError(f"corner_uvs is {corner_uvs.shape}; expected ({len(tris)}, 3, 2)")
+        vertex, uv, tris = _split_at_seams(tris, corner_uvs)
+    else:
+        vertex, uv = np.arange(face.skin.n_points), None
+    x0 = np.asarray(base.points, float)[vertex]
+    n0 = np.asarray(base.normals, float)[vertex]
     chunks: list[bytes] = []
     views: list[dict] = []
     accessors: list[dict] = []
@@ -390,7 +425,10 @@ def gltf_bytes(face: FaceModel, expressions: Sequence[str] | None = None, *,
     p0 = (x0 * scale).astype(np.float32)
     attributes = {"POSITION": add(p0, "VEC3", _FLOAT, _ARRAY_BUFFER, True),
                   "NORMAL": add(n0.astype(np.float32), "VEC3", _FLOAT, _ARRAY_BUFFER, False)}
-    small = face.skin.n_points < 65535
+    if uv is not None:
+        texcoord = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]).astype(np.float32)
+        attributes["TEXCOORD_0"] = add(texcoord, "VEC2", _FLOAT, _ARRAY_BUFFER, False)
+    small = len(vertex) < 65535
     indices = add(tris.astype(np.uint16 if small else np.uint32).reshape(-1, 1), "SCALAR",
                   _UINT16 if small else _UINT32, _ELEMENT_ARRAY_BUFFER, False)
     accessors[indices]["count"] = int(tris.size)
@@ -399,9 +437,9 @@ def gltf_bytes(face: FaceModel, expressions: Sequence[str] | None = None, *,
         state = face.evaluate(name)
         # float32 displacements from the float32 base: base + target is the float32
         # nearest the wrinkled point
-        moved = (np.asarray(state.points) * scale).astype(np.float32)
+        moved = (np.asarray(state.points)[vertex] * scale).astype(np.float32)
         dp = (moved.astype(np.float64) - p0).astype(np.float32)
-        dn = (np.asarray(state.normals) - n0).astype(np.float32)
+        dn = (np.asarray(state.normals)[vertex] - n0).astype(np.float32)
         targets.append({"POSITION": add(dp, "VEC3", _FLOAT, _ARRAY_BUFFER, True),
                         "NORMAL": add(dn, "VEC3", _FLOAT, _ARRAY_BUFFER, False)})
     primitive = {"attributes": attributes, "indices": indices, "mode": 4, "material": 0}
@@ -472,7 +510,7 @@ def read_glb(path: str | os.PathLike) -> tuple[dict, bytes]:
     if not 0 <= n_bin - gltf["buffers"][0]["byteLength"] < 4:
         raise ValueError("the buffer's byteLength is not the BIN chunk's")
     sizes = {_FLOAT: 4, _UINT16: 2, _UINT32: 4}
-    widths = {"SCALAR": 1, "VEC3": 3}
+    widths = {"SCALAR": 1, "VEC2": 2, "VEC3": 3}
     for view in gltf["bufferViews"]:
         if view["byteOffset"] % 4 or view["byteOffset"] + view["byteLength"] > n_bin:
             raise ValueError(f"buffer view {view} is misaligned or outside the buffer")
@@ -492,9 +530,11 @@ def _check_glb(tmp: Path, expected: dict) -> None:
 
 def save_gltf(face: FaceModel, path: str | os.PathLike,
               expressions: Sequence[str] | None = None, *, unit: str | None = None,
-              progress: Callable[[Iterable], Iterable] | None = None) -> Written:
+              progress: Callable[[Iterable], Iterable] | None = None,
+              corner_uvs: np.ndarray | None = None) -> Written:
     """Write ``face`` as binary glTF with one morph target per expression
-    (:func:`gltf_bytes`), atomically; the file is read back and its structure checked.
+    (:func:`gltf_bytes`; with ``corner_uvs`` its UVs as ``TEXCOORD_0``), atomically; the
+    file is read back and its structure checked.
 
     Raises
     ------
@@ -511,10 +551,14 @@ def save_gltf(face: FaceModel, path: str | os.PathLike,
     if unknown:
         raise ValueError(f"unknown expression(s) {', '.join(map(repr, unknown))}; choose "
                          f"from: {', '.join(face.expressions)}")
-    data, gltf = gltf_bytes(face, names, unit=unit, progress=progress)
+    data, gltf = gltf_bytes(face, names, unit=unit, progress=progress, corner_uvs=corner_uvs)
     atomic_write_bytes(real, data, check=lambda tmp: _check_glb(tmp, gltf))
     scale = gltf["extras"]["metres_per_source_unit"]
-    return Written(real, f"{face.skin.n_points} points, {face.skin.n_triangles} triangles, "
+    n_vertices = gltf["accessors"][gltf["meshes"][0]["primitives"][0]["attributes"][
+        "POSITION"]]["count"]
+    uvs = "" if corner_uvs is None else f" ({n_vertices} vertices with UVs)"
+    return Written(real, f"{face.skin.n_points} points{uvs}, {face.skin.n_triangles} "
+                         f"triangles, "
                          f"{len(names)} morph targets ({', '.join(names)}); lengths in "
                          f"metres ({gltf['extras']['source_unit']} times {scale:g})")
 

@@ -17,7 +17,7 @@ from .scenes import add_raking_light, add_skin, evaluate, set_camera
 from .writers import IMAGE_SUFFIXES, check_target, save_image
 
 __all__ = ["EDGE_COLOR", "PANEL_SIZE", "figure_dynamics", "figure_expressions",
-           "figure_refinement"]
+           "figure_refinement", "wrinkle_camera"]
 
 #: Pixel size of one panel of :func:`figure_expressions` when no size is given.
 PANEL_SIZE = (440, 400)
@@ -35,13 +35,69 @@ def _title(plotter: pv.Plotter, text: str, width: int) -> None:
     prop.SetBackgroundOpacity(0.75)
 
 
+#: The direction fig. 9's framed camera looks from (as the ``upper_face`` camera's).
+FRAME_DIRECTION = (0.0, 0.1, 1.0)
+
+
+def wrinkle_camera(states, aspect: float = 1.0, *, direction=FRAME_DIRECTION,
+                   margin: float = 0.15, view_angle_deg: float = 30.0):
+    r"""A camera that sees every vertex the frames ``states`` wrinkle (:math:`W \ne 0`),
+    whichever muscles made them: forehead furrows and the mouth's alike.
+
+    Parameters
+    ----------
+    states : sequence of FaceState
+        The frames (one camera for all).
+    aspect : float
+        Width over height of the view.
+    direction : (3,) float
+        From the wrinkles' centre towards the eye.
+    margin : float
+        Room around the wrinkles, a fraction of their extent.
+    view_angle_deg : float
+        The camera's vertical view angle (VTK's default, 30).
+
+    Returns
+    -------
+    list or None
+        ``[position, focal point, view up]``; None when nothing is wrinkled.
+
+    Notes
+    -----
+    With :math:`d` the unit direction, :math:`u` the unit +y made orthogonal to it and
+    :math:`r = u \times d`, the wrinkled points :math:`p` about their box's centre
+    :math:`c` span :math:`h = \max |(p - c) \cdot u|` and :math:`w = \max |(p - c) \cdot r|`.
+    The eye is at :math:`c + D d` with
+    :math:`D = (1 + m) \max(h, w / a, h_{min}) / \tan(\theta / 2) + \max (p - c) \cdot d`,
+    so every point is inside the view, nearer ones (the last term) included;
+    :math:`h_{min}` is a tenth of the skin's height, so that a few wrinkled vertices are
+    not blown up.
+    """
+    wrinkled = [np.asarray(s.points)[np.asarray(s.W) != 0] for s in states]
+    points = np.vstack([p for p in wrinkled if len(p)] or [np.zeros((0, 3))])
+    if not len(points):
+        return None
+    d = np.asarray(direction, float) / np.linalg.norm(direction)
+    up = np.array([0.0, 1.0, 0.0]) - d[1] * d
+    up /= np.linalg.norm(up)
+    right = np.cross(up, d)
+    center = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    rel = points - center
+    lo, hi = states[0].face.skin.bounds()
+    half = max(float(np.abs(rel @ up).max()), float(np.abs(rel @ right).max()) / aspect,
+               0.1 * float(hi[1] - lo[1]))
+    distance = ((1.0 + margin) * half / np.tan(np.radians(0.5 * view_angle_deg))
+                + max(float((rel @ d).max()), 0.0))
+    return [tuple(center + distance * d), tuple(center), tuple(up)]
+
+
 def _label(expression) -> str:
     return expression if isinstance(expression, str) else "custom"
 
 
 def figure_expressions(face: FaceModel, expressions=("surprise", "frown", "fear"),
                        filename=None, *, size=None, intensity: float = 1.0,
-                       refine: bool = False, camera: str = "upper_face",
+                       refine: bool = False, camera: str | None = None,
                        elevation_deg: float = 20.0, azimuth_deg: float = 35.0,
                        theme=None, refine_angle_deg: float | None = None,
                        refine_levels: int | None = None) -> np.ndarray:
@@ -67,8 +123,10 @@ def figure_expressions(face: FaceModel, expressions=("surprise", "frown", "fear"
         Scales every activation, in ``[0, 1]``.
     refine : bool
         Evaluate with adaptive refinement (both panels show the refined mesh).
-    camera : str
-        One of :data:`~wrinkle_vis.plotting.CAMERAS`; the default frames forehead to nose.
+    camera : str, optional
+        One of :data:`~wrinkle_vis.plotting.CAMERAS`; default: framed on every wrinkle of
+        the expressions (:func:`wrinkle_camera`: the forehead for surprise, the mouth for
+        a smile), or ``upper_face`` when there is none.
     refine_angle_deg, refine_levels : optional
         The refinement's bending threshold and most levels (None: the model's defaults,
         :meth:`FaceModel.evaluate`).
@@ -90,6 +148,8 @@ def figure_expressions(face: FaceModel, expressions=("surprise", "frown", "fear"
     states = [evaluate(face, e, intensity, refine=refine, refine_angle_deg=refine_angle_deg,
                        refine_levels=refine_levels) for e in expressions]
     width, height = size or (2 * PANEL_SIZE[0], len(expressions) * PANEL_SIZE[1])
+    framed = None if camera is not None else wrinkle_camera(
+        states, (width / 2) / (height / len(expressions)))
     plotter = pv.Plotter(off_screen=True, shape=(len(expressions), 2), border=False,
                          window_size=[int(width), int(height)], theme=theme)
     try:
@@ -101,7 +161,12 @@ def figure_expressions(face: FaceModel, expressions=("surprise", "frown", "fear"
                 add_skin(plotter, state, None, points=points)
                 add_raking_light(plotter, elevation_deg, azimuth_deg)
                 _title(plotter, f"{_label(expression)}: {what}", width // 2)
-                set_camera(plotter, camera, face)
+                if framed is None:
+                    set_camera(plotter, camera or "upper_face", face)
+                else:
+                    plotter.camera_position = framed
+                    plotter.camera.view_angle = 30.0
+                    plotter.reset_camera_clipping_range()
         image = plotter.screenshot(None, return_img=True)
     finally:
         plotter.close()

@@ -4,9 +4,16 @@
 and :meth:`FaceModel.plot <wrinkle_vis.core.face.FaceModel.plot>`) draws the final skin
 coloured by a field. In a notebook it is shown with PyVista's ``trame`` backend when
 ``trame``, ``trame-vtk``, ``trame-vuetify`` and ``trame-pyvista`` are installed
-(interactive: rotate, zoom), else as a static image; :func:`default_backend` says which,
-and ``$WRINKLE_VIS_JUPYTER_BACKEND`` (``trame``, ``static``, ...) overrides it. Outside a
+(interactive: rotate, zoom), else as a static image; :func:`default_backend` says which:
+``pyvista.set_jupyter_backend(...)`` (or ``$PYVISTA_JUPYTER_BACKEND``) chooses, as for
+PyVista's own plots, and ``$WRINKLE_VIS_JUPYTER_BACKEND`` (``trame``, ``static``, ...)
+chooses for wrinkle-vis alone. An interactive view is output with a PNG of it beside, so a
+notebook shown statically (nbconvert's HTML, GitHub) still has its figures. Outside a
 notebook the plotter opens a window, or renders off screen where there is no display.
+
+As with ``pyvista.plot``, keyword arguments of ``Plotter.show`` (``screenshot``,
+``return_viewer``, ``jupyter_kwargs``, ...) go to ``show`` and the others to ``add_mesh``
+(``cmap``, ``opacity``, ``scalar_bar_args``, ...).
 
 :class:`FaceExplorer` is an ipywidgets panel (expression, intensity, field, muscle,
 refine) over one view that it updates in place: a new frame is written into the drawn
@@ -17,6 +24,7 @@ from __future__ import annotations
 
 import base64
 import importlib.util
+import inspect
 import io
 import os
 
@@ -30,7 +38,7 @@ from .offscreen import display_available, headless_rendering
 from .polydata import field_array_name, to_surface_polydata
 from .scenes import add_raking_light, add_skin, clear_scene, replace_mesh, set_camera
 
-__all__ = ["BACKEND_VARIABLE", "TRAME_PACKAGES", "FaceExplorer", "default_backend",
+__all__ = ["BACKEND_VARIABLE", "SHOW_OPTIONS", "TRAME_PACKAGES", "FaceExplorer", "default_backend",
            "has_display", "in_notebook", "notebook_plotter", "plot_face", "plot_state"]
 
 #: The import names of the packages PyVista's ``trame`` backend needs here.
@@ -44,12 +52,19 @@ WINDOW_SIZE = (640, 560)
 EDGE_COLOR = "#a0826d"
 
 
+#: The keyword arguments of ``pyvista.Plotter.show`` (the others go to ``add_mesh``).
+SHOW_OPTIONS = frozenset(inspect.signature(pv.Plotter.show).parameters) - {
+    "self", "kwargs", "window_size", "title"} | {"jupyter_kwargs"}
+
+
 def default_backend() -> str:
-    """The notebook backend :func:`plot_state` uses: ``$WRINKLE_VIS_JUPYTER_BACKEND`` if
-    set, else ``"trame"`` when every package of :data:`TRAME_PACKAGES` is installed, else
-    ``"static"``.
+    """The notebook backend :func:`plot_state` uses: PyVista's, when set
+    (``pyvista.set_jupyter_backend(...)`` or ``$PYVISTA_JUPYTER_BACKEND``: the theme's
+    ``jupyter_backend``), else ``$WRINKLE_VIS_JUPYTER_BACKEND`` if set, else ``"trame"``
+    when every package of :data:`TRAME_PACKAGES` is installed, else ``"static"``.
     """
-    chosen = os.environ.get(BACKEND_VARIABLE, "").strip().lower()
+    chosen = str(pv.global_theme.jupyter_backend or "").strip().lower()
+    chosen = chosen or os.environ.get(BACKEND_VARIABLE, "").strip().lower()
     if chosen:
         return chosen
     if all(importlib.util.find_spec(name) is not None for name in TRAME_PACKAGES):
@@ -84,13 +99,15 @@ def notebook_plotter(window_size=WINDOW_SIZE, *, off_screen: bool | None = None,
 
 
 def _draw(plotter: pv.Plotter, state: FaceState, field, muscle, *, camera, raking_light,
-          show_edges: bool, clim, title):
-    """Draw ``state``'s skin (replacing the plotter's scene); returns the skin actor."""
+          show_edges: bool, clim, title, **mesh_kwargs):
+    """Draw ``state``'s skin (replacing the plotter's scene; ``mesh_kwargs`` go to
+    ``add_mesh``); returns the skin actor.
+    """
     if field is None and muscle is not None:
         raise ValueError("plain skin (field=None) shows no muscle's field; give a field")
     clear_scene(plotter)
     actor = add_skin(plotter, state, field, muscle, show_edges=show_edges,
-                     edge_color=EDGE_COLOR if show_edges else None)
+                     edge_color=EDGE_COLOR if show_edges else None, **mesh_kwargs)
     if field is not None and clim is not None:
         actor.mapper.scalar_range = tuple(clim)
     if (field is None) if raking_light is None else raking_light:
@@ -107,7 +124,7 @@ def plot_state(state: FaceState, field: str | None = "W", muscle: str | None = N
                jupyter_backend: str | None = None, camera: str | None = "front",
                window_size=WINDOW_SIZE, raking_light: bool | None = None,
                show_edges: bool = False, clim=None, title: str | None = None,
-               off_screen: bool | None = None, return_plotter: bool = False, **show_kwargs):
+               off_screen: bool | None = None, return_plotter: bool = False, **kwargs):
     """Show the final skin of ``state`` coloured by ``field``.
 
     Parameters
@@ -138,24 +155,39 @@ def plot_state(state: FaceState, field: str | None = "W", muscle: str | None = N
     off_screen : bool, optional
         Render off screen; default: in a notebook and where there is no display.
     return_plotter : bool, default False
-        Return the plotter with the scene drawn, not shown (add to it, then ``show()``).
-    **show_kwargs
-        Passed to ``pyvista.Plotter.show`` (e.g. ``screenshot="skin.png"``,
-        ``return_viewer=True`` for the notebook widget, ``jupyter_kwargs``).
+        Return the plotter with the scene drawn, not shown (add to it, then ``show()``,
+        which takes the options of ``show``: giving them here is an error).
+    **kwargs
+        As for ``pyvista.plot``: the keyword arguments of ``pyvista.Plotter.show``
+        (:data:`SHOW_OPTIONS`: ``screenshot="skin.png"``, ``return_viewer=True`` for the
+        notebook widget, ``jupyter_kwargs``, ...) go to ``show``, the others to
+        ``add_mesh`` (``cmap="magma"``, ``opacity``, ``scalar_bar_args``, ...).
 
     Returns
     -------
     object
         The plotter with ``return_plotter``, else what ``Plotter.show`` returns (None in
         a notebook, where the view is displayed, unless ``return_viewer`` is given). A
-        static image in a notebook closes its plotter once shown.
+        static image in a notebook closes its plotter once shown; an interactive view is
+        displayed with a PNG of it for frontends that cannot run it.
+
+    Raises
+    ------
+    TypeError
+        For an option of ``show`` with ``return_plotter=True``, or one ``add_mesh`` does
+        not take.
     """
     if not isinstance(state, FaceState):
         raise TypeError(f"state must be a FaceState; got {type(state).__name__}")
+    show_kwargs = {k: v for k, v in kwargs.items() if k in SHOW_OPTIONS}
+    mesh_kwargs = {k: v for k, v in kwargs.items() if k not in SHOW_OPTIONS}
+    if return_plotter and show_kwargs:
+        raise TypeError(f"{', '.join(sorted(show_kwargs))}: options of Plotter.show(); with "
+                        "return_plotter=True give them to the returned plotter's show()")
     plotter = notebook_plotter(window_size, off_screen=off_screen)
     try:
         _draw(plotter, state, field, muscle, camera=camera, raking_light=raking_light,
-              show_edges=show_edges, clim=clim, title=title)
+              show_edges=show_edges, clim=clim, title=title, **mesh_kwargs)
     except BaseException:
         plotter.close()
         raise
@@ -164,12 +196,46 @@ def plot_state(state: FaceState, field: str | None = "W", muscle: str | None = N
     if not plotter.notebook:
         return plotter.show(**show_kwargs)
     backend = show_kwargs.setdefault("jupyter_backend", jupyter_backend or default_backend())
-    if backend != "static" or show_kwargs.get("return_viewer"):
+    if backend == "none" or show_kwargs.get("return_viewer"):
         return plotter.show(**show_kwargs)  # the view lives on: PyVista keeps the plotter
+    if backend != "static":
+        return _show_with_image(plotter, show_kwargs)
     try:  # the image is shown: free the render window (PyVista keeps notebook plotters)
         return plotter.show(**show_kwargs)
     finally:
         plotter.close()
+
+
+class _ViewWithImage:
+    """A notebook view and a PNG of it in one output: frontends that run widgets show the
+    view, the others (nbconvert's HTML without widget state, GitHub) the image.
+    """
+
+    def __init__(self, view, png: bytes):
+        self.view, self.png = view, png
+
+    def _repr_mimebundle_(self, include=None, exclude=None):
+        view = self.view
+        if hasattr(view, "_repr_mimebundle_"):
+            bundle = dict(view._repr_mimebundle_(include=include, exclude=exclude) or {})
+        else:
+            bundle = {"text/plain": repr(view)}
+            if hasattr(view, "_repr_html_"):
+                bundle["text/html"] = view._repr_html_()
+        bundle["image/png"] = base64.b64encode(self.png).decode("ascii")
+        return bundle
+
+
+def _show_with_image(plotter: pv.Plotter, show_kwargs: dict) -> None:
+    """Display ``plotter``'s interactive notebook view with a PNG of it (the scene as
+    drawn, before any interaction).
+    """
+    import IPython.display
+
+    plotter.render()
+    png = _png(plotter.screenshot(return_img=True))
+    view = plotter.show(**show_kwargs, return_viewer=True)
+    IPython.display.display(_ViewWithImage(view, png))
 
 
 def plot_face(face: FaceModel, expression="surprise", field: str | None = "W",

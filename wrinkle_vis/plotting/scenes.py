@@ -7,6 +7,7 @@ import pyvista as pv
 
 from ..core.face import FaceModel, FaceState
 from ..core.units import face_unit
+from .bars import field_bar_args, fit_bar_labels
 from .fields import NAN_COLOR, field_info, field_range
 from .finite import require_finite
 from .glyphs import glyph_factory
@@ -111,10 +112,17 @@ def add_raking_light(plotter: pv.Plotter, elevation_deg: float = 20.0,
     return key, head
 
 
-def _scalar_bar(title: str, nan: bool = True) -> dict:
-    return {"title": title, "nan_annotation": nan, "n_labels": 5, "fmt": "%.3g",
-            "vertical": False, "position_x": 0.2, "position_y": 0.07, "width": 0.6,
-            "height": 0.06}
+def _fit_bar(plotter: pv.Plotter, options: dict, nan: bool = True) -> None:
+    """After ``add_mesh(..., **options)``: the scalar bar's NaN label and its tick labels
+    fitted to the bar (:func:`~wrinkle_vis.plotting.bars.fit_bar_labels`).
+    """
+    title = (options.get("scalar_bar_args") or {}).get("title")
+    if not options.get("show_scalar_bar") or title not in plotter.scalar_bars:
+        return
+    bar = plotter.scalar_bars[title]
+    if nan:
+        bar.SetNanAnnotation("undefined")
+    fit_bar_labels(bar, plotter.renderer)
 
 
 def evaluate(face: FaceModel, expression, intensity: float = 1.0, *, refine: bool = False,
@@ -134,7 +142,8 @@ def evaluate(face: FaceModel, expression, intensity: float = 1.0, *, refine: boo
 
 def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
              muscle: str | None = None, *, opacity: float = 1.0, scalar_bar: bool = True,
-             show_edges: bool = False, points=None, edge_color=None, normals=None):
+             show_edges: bool = False, points=None, edge_color=None, normals=None,
+             **mesh_kwargs):
     """Add the final skin of ``state``, coloured by ``field`` (of ``muscle``, or total W).
 
     ``field=None`` draws plain, matte skin. Undefined values (NaN) take :data:`NAN_COLOR` and
@@ -143,7 +152,8 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
     (``(n, 3)``, e.g. ``state.normals``) shades the skin smoothly with these vertex normals
     (point array ``Normals``) and draws the mesh itself, with no normals filter between it
     and the mapper, so that a caller can write a new frame into it in place (the app's
-    views); by default PyVista's smooth shading computes them. Returns the actor.
+    views); by default PyVista's smooth shading computes them. ``mesh_kwargs`` go to
+    ``add_mesh`` and override the choices here (``cmap="magma"``). Returns the actor.
     """
     mesh = to_surface_polydata(state.face.skin, state.points if points is None else points)
     if normals is not None:
@@ -152,33 +162,35 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
     shading = _shading(mesh)
     if field is None:
         return add_skin_mesh(plotter, mesh, opacity=opacity, show_edges=show_edges,
-                             edge_color=edge_color)
+                             edge_color=edge_color, **mesh_kwargs)
     info = field_info(field)
     values = np.asarray(state.field_values(field, muscle))  # checks field and muscle
     array = field_array_name(field, muscle)
     mesh.point_data[array] = values  # only the field shown: the others stay in the core
     mesh.set_active_scalars(array)
-    actor = plotter.add_mesh(
-        mesh, scalars=array, cmap=info.cmap, clim=field_range(info, values),
+    options = dict(
+        scalars=array, cmap=info.cmap, clim=field_range(info, values),
         nan_color=NAN_COLOR, opacity=opacity, show_edges=show_edges,
         edge_color=edge_color, show_scalar_bar=scalar_bar, name="skin", render=False,
         **shading,
-        scalar_bar_args=_scalar_bar(info.title(muscle, face_unit(state))) if scalar_bar
+        scalar_bar_args=field_bar_args(info.title(muscle, face_unit(state))) if scalar_bar
         else None)
-    if scalar_bar:
-        plotter.scalar_bars[info.title(muscle, face_unit(state))].SetNanAnnotation(
-            "undefined")
+    options.update(mesh_kwargs)
+    actor = plotter.add_mesh(mesh, **options)
+    _fit_bar(plotter, options)
     return actor
 
 
 def add_skin_mesh(plotter: pv.Plotter, mesh: pv.PolyData, *, opacity: float = 1.0,
-                  show_edges: bool = False, edge_color=None):
+                  show_edges: bool = False, edge_color=None, **mesh_kwargs):
     """Add ``mesh`` as plain, matte skin (actor ``skin``), shaded smoothly with its own
-    vertex normals if it has them (else PyVista computes them). Returns the actor.
+    vertex normals if it has them (else PyVista computes them); ``mesh_kwargs`` go to
+    ``add_mesh`` and override these choices. Returns the actor.
     """
-    return plotter.add_mesh(mesh, color=SKIN, opacity=opacity, show_edges=show_edges,
-                            edge_color=edge_color, specular=0.0, diffuse=1.0, ambient=0.0,
-                            name="skin", render=False, **_shading(mesh))
+    options = dict(color=SKIN, opacity=opacity, show_edges=show_edges,
+                   edge_color=edge_color, specular=0.0, diffuse=1.0, ambient=0.0,
+                   name="skin", render=False, **_shading(mesh))
+    return plotter.add_mesh(mesh, **{**options, **mesh_kwargs})
 
 
 def _shading(mesh: pv.PolyData) -> dict:
@@ -196,9 +208,17 @@ def muscle_mesh(muscle, activation: float = 0.0) -> pv.PolyData:
     a tapered fibre for a linear muscle, a ribbon of seven fibres for a sheet, a fibre
     through the declared points for a type with no glyph of its own).
 
-    Point array ``activation`` holds the activation everywhere, for colouring.
+    Point arrays: ``activation``, the activation everywhere, for colouring, and
+    ``Normals``, the glyph's vertex normals when it has them (the active normals). What the
+    glyph's filters left behind (a tube's radii, texture coordinates) is dropped.
     """
     mesh = glyph_factory(type(muscle))(muscle)
+    normals = mesh.GetPointData().GetNormals()
+    normals = None if normals is None else np.array(pv.convert_array(normals), dtype=float)
+    mesh.clear_data()
+    if normals is not None:
+        mesh.point_data["Normals"] = normals
+        mesh.GetPointData().SetActiveNormals("Normals")
     mesh.point_data["activation"] = np.full(mesh.n_points, float(activation))
     return mesh
 
@@ -215,7 +235,10 @@ def to_multiblock(state: FaceState) -> pv.MultiBlock:
                              for m in face.muscles})
     blocks = {"skin": to_polydata(state), "muscles": muscles}
     if face.skull is not None:
-        blocks["skull"] = to_surface_polydata(face.skull)
+        skull = to_surface_polydata(face.skull)
+        skull.point_data["Normals"] = face.skull.vertex_normals()
+        skull.GetPointData().SetActiveNormals("Normals")
+        blocks["skull"] = skull
     return pv.MultiBlock(blocks)
 
 
@@ -241,11 +264,12 @@ def add_muscle(plotter: pv.Plotter, muscle, activation: float = 0.0, *,
     mesh (see :func:`add_muscles`).
     """
     mesh = muscle_mesh(muscle, activation)
-    plotter.add_mesh(  # a tube has its own normals: a write of the activation is cheap
-        mesh, scalars="activation", cmap="Reds", clim=(0.0, 1.0), **_shading(mesh),
-        name=f"muscle:{muscle.name}", render=False, show_scalar_bar=scalar_bar,
-        reset_camera=False,
-        scalar_bar_args=_scalar_bar("activation", nan=False) if scalar_bar else None)
+    options = dict(scalars="activation", cmap="Reds", clim=(0.0, 1.0), **_shading(mesh),
+                   name=f"muscle:{muscle.name}", render=False, show_scalar_bar=scalar_bar,
+                   reset_camera=False, scalar_bar_args=field_bar_args("activation", nan=False)
+                   if scalar_bar else None)
+    plotter.add_mesh(mesh, **options)  # a tube has its own normals: a write is cheap
+    _fit_bar(plotter, options, nan=False)
     return mesh
 
 

@@ -11,8 +11,18 @@ to memory and Python writes, so every I/O error is an exception.
 Formats
 -------
 ``.vtp``, ``.vtk``
-    The skin with every point array (VTK XML with zlib-compressed base64 data, or legacy
-    binary VTK).
+    The skin with every point array and its field data (VTK XML with zlib-compressed
+    base64 data, or legacy binary VTK). Neither is a format meshio reads (it reads no
+    PolyData); write ``.vtu`` for it.
+``.vtu``
+    The same as an unstructured grid of triangles (VTK XML), which meshio reads too; its
+    field data keeps only the numeric arrays (meshio cannot read VTK string arrays).
+``.obj``
+    Wavefront OBJ: positions, vertex normals (the ``Normals`` point array, else computed)
+    and triangles; the unit in a comment.
+``.stl``
+    Binary STL: triangles with their facet normals; the unit in the 80-byte header (STL
+    has no other place for it).
 ``.ply``
     Binary little-endian PLY: ``x y z`` and one vertex property per component of every
     point array (``W``; a vector array ``deformation`` as ``deformation_x``,
@@ -64,7 +74,7 @@ __all__ = ["ANIMATION_SUFFIXES", "IMAGE_SUFFIXES", "MESH_SUFFIXES", "Written",
 
 #: Mesh formats :func:`save_mesh` writes (``.vtm`` for a ``MultiBlock``, the others for one
 #: ``PolyData``).
-MESH_SUFFIXES = (".vtp", ".vtk", ".ply", ".vtm")
+MESH_SUFFIXES = (".vtp", ".vtu", ".vtk", ".ply", ".obj", ".stl", ".vtm")
 #: Image formats :func:`save_image` writes.
 IMAGE_SUFFIXES = (".png",)
 #: Animation formats :func:`save_animation` writes.
@@ -117,16 +127,25 @@ def save_mesh(mesh: pv.PolyData | pv.MultiBlock, path: str | os.PathLike) -> Wri
     require_finite(path, mesh)
     suffix = real.suffix.lower()
     if isinstance(mesh, pv.MultiBlock) != (suffix == ".vtm"):
-        raise OutputPathError(
-            f"{str(path)!r}: a {type(mesh).__name__} is written as "
-            f"{'.vtm' if isinstance(mesh, pv.MultiBlock) else '.vtp, .vtk or .ply'}; "
-            "change the extension")
+        kinds = (".vtm" if isinstance(mesh, pv.MultiBlock)
+                 else ".vtp, .vtu, .vtk, .ply, .obj or .stl")
+        raise OutputPathError(f"{str(path)!r}: a {type(mesh).__name__} is written as {kinds}; "
+                              "change the extension")
     if suffix == ".vtm":
         return _save_multiblock(mesh, real)
     if suffix == ".ply":
         data, n_props = _ply_bytes(mesh)
         atomic_write_bytes(real, data, check=lambda tmp: _check_ply(tmp, mesh))
         what = f"{len(mesh.point_data)} point arrays ({n_props} vertex properties)"
+    elif suffix in (".obj", ".stl"):
+        data = _obj_bytes(mesh) if suffix == ".obj" else _stl_bytes(mesh)
+        atomic_write_bytes(real, data, check=lambda tmp: _check_vtk(tmp, mesh, arrays=False))
+        what = ("positions, vertex normals and triangles" if suffix == ".obj"
+                else "triangles and facet normals")
+    elif suffix == ".vtu":
+        grid = _unstructured(mesh)
+        atomic_write_bytes(real, _xml_bytes(grid), check=lambda tmp: _check_vtk(tmp, grid))
+        what = f"{len(mesh.point_data)} point arrays"
     else:
         data = _xml_bytes(mesh) if suffix == ".vtp" else _legacy_bytes(mesh)
         atomic_write_bytes(real, data, check=lambda tmp: _check_vtk(tmp, mesh))
@@ -172,11 +191,75 @@ def _legacy_bytes(mesh: pv.PolyData) -> bytes:
     return bytes(writer.GetOutputStdString())
 
 
-def _check_vtk(tmp: Path, mesh) -> None:
+def _unstructured(mesh: pv.PolyData) -> pv.UnstructuredGrid:
+    """``mesh`` as an unstructured grid, its string field arrays left out (meshio)."""
+    grid = mesh.cast_to_unstructured_grid()
+    for name in list(grid.field_data):
+        if grid.GetFieldData().GetAbstractArray(name).IsA("vtkStringArray"):
+            grid.field_data.remove(name)
+    return grid
+
+
+def _unit_of(mesh: pv.DataSet) -> str | None:
+    """The unit recorded in ``mesh``'s field data ``unit`` (as ``to_polydata`` puts it)."""
+    if "unit" not in mesh.field_data:
+        return None
+    return str(np.asarray(mesh.field_data["unit"]).ravel()[0])
+
+
+def _triangles(mesh: pv.PolyData) -> tuple[pv.PolyData, np.ndarray]:
+    if not mesh.is_all_triangles:
+        mesh = mesh.triangulate()
+    return mesh, np.asarray(mesh.faces).reshape(-1, 4)[:, 1:]
+
+
+def _obj_bytes(mesh: pv.PolyData, comment: str = "") -> bytes:
+    """Wavefront OBJ of ``mesh``: ``v``, ``vn`` (its active normals, else computed) and
+    ``f v//vn`` lines, one-based; a comment line names the unit.
+    """
+    mesh, tris = _triangles(mesh)
+    normals = mesh.GetPointData().GetNormals()
+    if normals is None:
+        normals = mesh.compute_normals(cell_normals=False, split_vertices=False,
+                                       consistent_normals=False)["Normals"]
+    else:
+        normals = pv.convert_array(normals)
+    unit = _unit_of(mesh)
+    buffer = BytesIO()
+    head = comment or "written by wrinkle-vis"
+    buffer.write(f"# {head}{f'; lengths in {unit}' if unit else ''}\n".encode())
+    np.savetxt(buffer, np.asarray(mesh.points, float), fmt="v %.10g %.10g %.10g")
+    np.savetxt(buffer, np.asarray(normals, float), fmt="vn %.7g %.7g %.7g")
+    np.savetxt(buffer, np.repeat(tris + 1, 2, axis=1), fmt="f %d//%d %d//%d %d//%d")
+    return buffer.getvalue()
+
+
+def _stl_bytes(mesh: pv.PolyData) -> bytes:
+    """Binary STL of ``mesh``: an 80-byte header naming the unit, the triangle count and
+    per triangle its unit normal, its three corners (float32) and a zero attribute.
+    """
+    mesh, tris = _triangles(mesh)
+    corners = np.asarray(mesh.points, float)[tris]  # (m, 3, 3)
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    length = np.linalg.norm(normal, axis=1, keepdims=True)
+    normal = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
+    record = np.zeros(len(tris), dtype=[("n", "<f4", (3,)), ("v", "<f4", (3, 3)),
+                                        ("a", "<u2")])
+    record["n"], record["v"] = normal, corners
+    unit = _unit_of(mesh)
+    header = f"wrinkle-vis{f'; lengths in {unit}' if unit else ''}".encode()[:80]
+    return header.ljust(80, b" ") + len(tris).to_bytes(4, "little") + record.tobytes()
+
+
+def _check_vtk(tmp: Path, mesh, arrays: bool = True) -> None:
     back = quiet_read(tmp)
+    if back.n_points != mesh.n_points and not arrays:  # STL: three corners per triangle
+        back = back.clean(tolerance=0.0)
     if back.n_points != mesh.n_points or back.n_cells != mesh.n_cells:
         raise ValueError(f"{back.n_points} points and {back.n_cells} cells instead of "
                          f"{mesh.n_points} and {mesh.n_cells}")
+    if not arrays:
+        return
     missing = set(mesh.point_data) - set(back.point_data)
     if missing:
         raise ValueError(f"arrays missing: {', '.join(sorted(missing))}")
