@@ -4,6 +4,7 @@ from fractions import Fraction
 from itertools import combinations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -14,6 +15,14 @@ from wrinkle_vis.core.certificate import (
     orient,
     turned_over,
 )
+from wrinkle_vis.core.foldguard import (
+    FoldGuard,
+    guard_frame,
+    medial_radii,
+    skin_scale,
+    soft_clamp,
+)
+from wrinkle_vis.core.mesh import TriangleSurface
 
 # --- brute force: separating axes in rational arithmetic --------------------------------
 
@@ -174,3 +183,103 @@ def test_fold_report_counts_only_what_the_frame_adds():
     flipped = dome.points * [1, -1, -1]  # half a turn about x: every triangle turned over
     assert len(turned_over(dome.points, flipped, dome.triangles)) == dome.n_triangles
     assert len(turned_over(dome.points, dome.points, dome.triangles)) == 0
+
+
+# --- the fold guard on synthetic scenes -------------------------------------------------
+
+
+
+def _sheet(nx, ny, height, flip=False, width=20.0):
+    """A ``width x 20`` sheet ``z = height(x, y)``, facing +z (or -z with ``flip``), its
+    heights jittered by 1e-4 (a grid on a translation surface has exactly planar quads: the
+    certificate's slow rational path)."""
+    x, y = np.meshgrid(np.linspace(-width / 2, width / 2, nx), np.linspace(-10, 10, ny))
+    jitter = 1e-4 * np.random.default_rng(nx * ny).standard_normal(x.shape)
+    pts = np.c_[x.ravel(), y.ravel(), (height(x, y) + jitter).ravel()]
+    idx = np.arange(nx * ny).reshape(ny, nx)
+    a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
+    c, d = idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
+    tri = np.r_[np.c_[a, b, c], np.c_[a, c, d]]
+    return pts, (tri[:, ::-1] if flip else tri)
+
+
+def valley():
+    """A narrow valley (walls 8 high, 3 wide at half height) with wrinkles on both walls
+    bulging into it (W up to 2, along the outward normal)."""
+    pts, tri = _sheet(161, 41, lambda x, y: 8.0 * np.tanh(np.abs(x)) ** 2 + 0.01 * y * y,
+                      width=40.0)
+    skin = TriangleSurface(pts, tri)
+    x, y = pts[:, 0], pts[:, 1]
+    W = 2.0 * np.exp(-((np.abs(x) - 1.5) / 0.8) ** 2) * (0.5 + 0.5 * np.cos(np.pi * y / 2.5))
+    return skin, W
+
+
+def lips():
+    """Two gently curved sheets 2 apart facing each other, with a band of wrinkled bulges
+    (1.4 high) towards each other."""
+    a, ta = _sheet(81, 41, lambda x, y: 0.002 * (x * x + y * y), width=40.0)
+    b, tb = _sheet(81, 41, lambda x, y: 2.0 - 0.002 * (x * x + y * y), flip=True, width=40.0)
+    skin = TriangleSurface(np.vstack([a, b]), np.vstack([ta, tb + len(a)]))
+    x, y = skin.points[:, 0], skin.points[:, 1]
+    W = 1.4 * np.exp(-x * x / 2.0) * np.maximum(np.cos(np.pi * y / 3.0), 0.0)
+    return skin, W
+
+
+@pytest.mark.parametrize("scene", [valley, lips])
+def test_the_guard_keeps_wrinkles_pushed_into_each_other_apart(scene):
+    skin, W = scene()
+    n = skin.vertex_normals()
+    raw = skin.points + W[:, None] * n
+    assert len(fold_report(skin.points, raw, skin.triangles).added) > 0  # unguarded: folds
+    radii = medial_radii(skin.points, n)
+    g = guard_frame(skin.points, skin.points, raw, W, skin.triangles, radii)
+    assert fold_report(skin.points, g.points, skin.triangles).ok
+    changed = g.W != W
+    assert 0 < changed.sum() <= 0.1 * len(W)
+    np.testing.assert_array_equal(g.points[~changed], raw[~changed])  # untouched elsewhere
+
+
+def test_soft_clamp_is_the_identity_below_the_knee_and_c1():
+    x = np.linspace(-3, 3, 6001)
+    c = soft_clamp(x, np.full_like(x, 1.0), 0.5)
+    inside = np.abs(x) <= 0.5
+    np.testing.assert_array_equal(c[inside], x[inside])
+    assert np.all(np.abs(c) < 1.0) and np.all(np.diff(c) > 0)
+    slope = np.diff(c) / np.diff(x)
+    assert np.max(np.abs(np.diff(slope))) < 1e-2  # no kink at the knee
+
+
+def test_medial_radii_of_a_sphere_and_a_slab():
+    from meshes import sphere
+
+    ball = sphere(4, radius=3.0)
+    radial = ball.points / 3.0
+    r = medial_radii(ball.points, radial)
+    np.testing.assert_allclose(r[:, 1], 3.0, rtol=1e-9)  # inside: the ball itself
+    assert np.all(r[:, 0] > 9.0)  # outside: empty up to the cap (the box diagonal)
+    r = medial_radii(ball.points, ball.vertex_normals())  # normals a little off radial
+    assert np.all(r[:, 1] <= 3.0 + 1e-9) and np.all(r[:, 1] > 0.8 * 3.0)
+    skin, _ = lips()
+    r = medial_radii(skin.points, skin.vertex_normals())
+    centre = np.linalg.norm(skin.points[:, :2], axis=1) < 1.0
+    np.testing.assert_allclose(r[centre, 0], 1.0, rtol=0.05)  # half the gap
+
+
+def test_the_pull_guard_keeps_triangles_from_turning_over():
+    pts, tri = _sheet(41, 41, lambda x, y: 0.02 * x * x)
+    x = pts[:, 0]
+    pull = np.zeros_like(pts)
+    pull[:, 0] = -6.0 * np.exp(-((x - 2.0) / 1.5) ** 2)  # drags skin over its neighbour
+    bent = pts + pull
+    assert len(turned_over(pts, bent, tri)) > 0
+    f = skin_scale(pts, bent, tri)
+    guarded = pts + f[:, None] * pull
+    assert fold_report(pts, guarded, tri).ok
+    assert 0.1 < f.min() < 1.0
+    np.testing.assert_array_equal(f[pull[:, 0] == 0.0], 1.0)  # nothing to scale
+    e = np.vstack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    size = np.linalg.norm(pull, axis=1)
+    shear = np.abs(f[e[:, 0]] - f[e[:, 1]]) * np.maximum(size[e[:, 0]], size[e[:, 1]])
+    edge = np.linalg.norm(pts[e[:, 0]] - pts[e[:, 1]], axis=1)
+    assert np.max(shear / edge) < 0.75  # the factor varies slowly against the pull
+    assert FoldGuard().min_area == 0.2

@@ -37,6 +37,7 @@ from .equations import (
 )
 from .expressions import Expression, paper_expressions
 from .fields import FIELD_NAMES, check_field, field_spec
+from .foldguard import guarded
 from .hierarchy import Hierarchy, canonical_order, six_entries
 from .mesh import (
     MeshError,
@@ -537,7 +538,8 @@ class FaceModel:
         return {n: float(activations.get(n, 0.0)) for n in self.muscle_names}
 
     def evaluate(self, activations=None, intensity: float = 1.0, *, refine: bool = False,
-                 refine_angle_deg: float = 3.0, refine_levels: int = 3) -> FaceState:
+                 refine_angle_deg: float = 3.0, refine_levels: int = 3,
+                 fold_guard: bool = True) -> FaceState:
         r"""One frame of the wrinkle model.
 
         Parameters
@@ -570,6 +572,13 @@ class FaceModel:
             ``benchmarks/bench_refine_fidelity.py``).
         refine_levels : int, default 3
             At most this many levels.
+        fold_guard : bool, default True
+            Keep the skin from passing through itself (:mod:`wrinkle_vis.core.foldguard`):
+            each pull is limited where a triangle would keep less than a fifth of its rest
+            signed area, and :math:`|W|` is kept below half the radius of the empty ball
+            that touches the rest skin on the side :math:`W` pushes to, by clamps that are
+            the identity far from those bounds. ``state.W_raw`` is the unguarded :math:`W`
+            and ``state.fold_guard`` how much the guard took away (0 where it did not act).
 
         Returns
         -------
@@ -579,13 +588,13 @@ class FaceModel:
         """
         acts = self.activations_for({} if activations is None else activations, intensity)
         state = self._frame(acts)
-        if not refine:
-            return state
-        if not (0.0 < refine_angle_deg < 180.0):
-            raise ValueError(f"refine_angle_deg = {refine_angle_deg:g} is outside (0, 180)")
-        if int(refine_levels) < 0:
-            raise ValueError(f"refine_levels = {refine_levels} must be >= 0")
-        return self._refined_frame(state, acts, refine_angle_deg, int(refine_levels))
+        if refine:
+            if not (0.0 < refine_angle_deg < 180.0):
+                raise ValueError(f"refine_angle_deg = {refine_angle_deg:g} is outside (0, 180)")
+            if int(refine_levels) < 0:
+                raise ValueError(f"refine_levels = {refine_levels} must be >= 0")
+            state = self._refined_frame(state, acts, refine_angle_deg, int(refine_levels))
+        return guarded(self, state) if fold_guard else state
 
     def plot(self, expression="surprise", field: str | None = "W", muscle: str | None = None,
              *, intensity: float = 1.0, refine: bool = False, **kwargs):
@@ -897,6 +906,8 @@ class FaceState:
         self.deformed_points = _readonly(deformed)
         self.points = _readonly(points)
         self.W = _readonly(total)
+        self.W_raw = self.W  # the fold guard replaces W and keeps the raw one here
+        self.fold_guard = np.zeros(len(self.W))  # how much the guard took away, in [0, 1]
         self.fields = _StateFields(_Frame(face, self.deformed_points, assembly, compact,
                                           source))
 
