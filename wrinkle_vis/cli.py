@@ -77,6 +77,10 @@ def _common(p: argparse.ArgumentParser, *, expression_many: bool = False,
     p.add_argument("--unit", choices=UNIT_CHOICES, default=None,
                    help="the unit of the face's lengths (default: the layout's; mm for the "
                         "built-in faces; guessed from a scan's size, with a note)")
+    p.add_argument("--fold-guard", choices=("on", "off"), default="on",
+                   help="keep the skin from passing through itself: limit the pulls where "
+                        "a triangle would turn over and |W| below half the empty-ball "
+                        "radius on its side (default on; off: the paper's model as is)")
 
 
 def _refine_options(p: argparse.ArgumentParser, what: str = "evaluate with adaptive "
@@ -414,6 +418,7 @@ def _load(args, *, refine: bool = False):
         raise CliError(f"unknown muscle {muscle!r}; choose from: {', '.join(face.muscle_names)}")
     if not refine:
         _warn_undersampled(args, face, names)
+    face.fold_guard = getattr(args, "fold_guard", "on") == "on"
     return face
 
 

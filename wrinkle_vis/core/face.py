@@ -390,8 +390,12 @@ class FaceModel:
     Notes
     -----
     The model is immutable. :meth:`with_muscle` and :meth:`without_muscle` return a new
-    model that shares the per-muscle caches of the unchanged muscles.
+    model that shares the per-muscle caches of the unchanged muscles. One setting is not
+    part of the model: :attr:`fold_guard` (default True), the default of :meth:`evaluate`'s
+    ``fold_guard`` for this object (the command line's ``--fold-guard``).
     """
+
+    fold_guard: bool = True
 
     def __init__(self, skin: TriangleSurface, skull: TriangleSurface | None = None,
                  muscles: Iterable[Muscle] = (), expressions=None, *, name: str = "face",
@@ -539,7 +543,7 @@ class FaceModel:
 
     def evaluate(self, activations=None, intensity: float = 1.0, *, refine: bool = False,
                  refine_angle_deg: float = 3.0, refine_levels: int = 3,
-                 fold_guard: bool = True) -> FaceState:
+                 fold_guard: bool | None = None) -> FaceState:
         r"""One frame of the wrinkle model.
 
         Parameters
@@ -572,8 +576,8 @@ class FaceModel:
             ``benchmarks/bench_refine_fidelity.py``).
         refine_levels : int, default 3
             At most this many levels.
-        fold_guard : bool, default True
-            Keep the skin from passing through itself (:mod:`wrinkle_vis.core.foldguard`):
+        fold_guard : bool, optional
+            Default: the face's :attr:`fold_guard` (True). Keep the skin from passing through itself (:mod:`wrinkle_vis.core.foldguard`):
             each pull is limited where a triangle would keep less than a fifth of its rest
             signed area, and :math:`|W|` is kept below half the radius of the empty ball
             that touches the rest skin on the side :math:`W` pushes to, by clamps that are
@@ -594,6 +598,8 @@ class FaceModel:
             if int(refine_levels) < 0:
                 raise ValueError(f"refine_levels = {refine_levels} must be >= 0")
             state = self._refined_frame(state, acts, refine_angle_deg, int(refine_levels))
+        if fold_guard is None:
+            fold_guard = self.fold_guard
         return guarded(self, state) if fold_guard else state
 
     def plot(self, expression="surprise", field: str | None = "W", muscle: str | None = None,

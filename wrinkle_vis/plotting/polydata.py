@@ -26,12 +26,16 @@ def to_surface_polydata(surface: TriangleSurface, points=None) -> pv.PolyData:
 def to_polydata(state: FaceState) -> pv.PolyData:
     """The final skin of ``state`` with every field as a named point array.
 
-    Arrays: ``W`` (total), ``deformation`` (``(n, 3)``: deformed minus rest), ``rest_points``
+    Arrays: ``W`` (total), ``W_raw`` (before the fold guard), ``fold_guard`` (how much the
+    guard took away, 0 where it did not act), ``deformation`` (``(n, 3)``: deformed minus rest), ``rest_points``
     (``(n, 3)``), and for every muscle ``"<muscle>.<field>"`` for each field of
     :data:`~wrinkle_vis.core.face.FIELD_NAMES` (``nan`` where the muscle does not define it).
     """
     mesh = to_surface_polydata(state.face.skin, state.points)
     mesh.point_data["W"] = np.asarray(state.W)
+    mesh.point_data["W_raw"] = np.asarray(getattr(state, "W_raw", state.W))
+    mesh.point_data["fold_guard"] = np.asarray(getattr(state, "fold_guard",
+                                                       np.zeros(len(state.W))))
     mesh.point_data["deformation"] = state.deformed_points - state.rest_points
     mesh.point_data["rest_points"] = np.asarray(state.rest_points)
     for muscle in state.face.muscle_names:
