@@ -577,12 +577,14 @@ class FaceModel:
         refine_levels : int, default 3
             At most this many levels.
         fold_guard : bool, optional
-            Default: the face's :attr:`fold_guard` (True). Keep the skin from passing through itself (:mod:`wrinkle_vis.core.foldguard`):
-            each pull is limited where a triangle would keep less than a fifth of its rest
-            signed area, and :math:`|W|` is kept below half the radius of the empty ball
-            that touches the rest skin on the side :math:`W` pushes to, by clamps that are
-            the identity far from those bounds. ``state.W_raw`` is the unguarded :math:`W`
-            and ``state.fold_guard`` how much the guard took away (0 where it did not act).
+            Default: the face's :attr:`fold_guard` (True). Keep the skin from passing
+            through itself (:mod:`wrinkle_vis.core.foldguard`): on an unrefined frame each
+            pull is limited where a triangle would keep less than a fifth of its rest
+            signed area; on every frame :math:`|W|` is kept below half the radius of the
+            empty ball that touches the rest skin on the side :math:`W` pushes to; both by
+            clamps that are the identity far from those bounds. ``state.W_raw`` is the
+            unguarded :math:`W` and ``state.fold_guard`` how much the guard took away (0
+            where it did not act).
 
         Returns
         -------

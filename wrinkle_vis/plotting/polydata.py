@@ -27,9 +27,10 @@ def to_polydata(state: FaceState) -> pv.PolyData:
     """The final skin of ``state`` with every field as a named point array.
 
     Arrays: ``W`` (total), ``W_raw`` (before the fold guard), ``fold_guard`` (how much the
-    guard took away, 0 where it did not act), ``deformation`` (``(n, 3)``: deformed minus rest), ``rest_points``
-    (``(n, 3)``), and for every muscle ``"<muscle>.<field>"`` for each field of
-    :data:`~wrinkle_vis.core.face.FIELD_NAMES` (``nan`` where the muscle does not define it).
+    guard took away, 0 where it did not act), ``deformation`` (``(n, 3)``: deformed minus
+    rest), ``rest_points`` (``(n, 3)``), and for every muscle ``"<muscle>.<field>"`` for
+    each field of :data:`~wrinkle_vis.core.face.FIELD_NAMES` (``nan`` where the muscle does
+    not define it).
     """
     mesh = to_surface_polydata(state.face.skin, state.points)
     mesh.point_data["W"] = np.asarray(state.W)
