@@ -30,7 +30,7 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 __all__ = ["FoldGuard", "GuardResult", "fold_radii", "guard_frame", "guard_wrinkles",
-           "guarded", "medial_radii", "ring_radii", "skin_scale", "soft_clamp"]
+           "guarded", "medial_radii", "pull_terms", "ring_radii", "skin_scale", "soft_clamp"]
 
 
 @dataclass(frozen=True)
@@ -122,13 +122,49 @@ def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | 
     return out
 
 
+def pull_terms(rest: np.ndarray, triangles: np.ndarray) -> dict:
+    r"""What :func:`skin_scale` needs of the rest skin ``(n, 3)``, ``(m, 3)``, computed once:
+    the corners as rows, :math:`N / |N|^2` and the rows
+    :math:`A_1 = N \times e_1 / |N|^2`, :math:`A_2 = e_2 \times N / |N|^2` (so that
+    :math:`b = \delta_2 \cdot A_1 + \delta_1 \cdot A_2`), each ``(3, m)``.
+    """
+    rest = np.asarray(rest, dtype=float)
+    tri = np.asarray(triangles, dtype=np.intp)
+    r = rest[tri]
+    e1, e2 = r[:, 1] - r[:, 0], r[:, 2] - r[:, 0]
+    N = np.cross(e1, e2)
+    nn = np.einsum("ij,ij->i", N, N)
+    nn = np.where(nn > 0, nn, np.inf)[:, None]
+    return {"corners": np.ascontiguousarray(tri.T),
+            "N": np.ascontiguousarray((N / nn).T),
+            "A1": np.ascontiguousarray((np.cross(N, e1) / nn).T),
+            "A2": np.ascontiguousarray((np.cross(e2, N) / nn).T),
+            "centre": r.mean(axis=1)}
+
+
+def _quadratic(pull_t: np.ndarray, terms: dict) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(m,)`` twice: :math:`b` and :math:`c` of :math:`\sigma_t(s) = 1 + b s + c s^2` for
+    the pull ``(3, n)``.
+    """
+    c0, c1, c2 = terms["corners"]
+    p0 = np.take(pull_t, c0, axis=1)
+    d1 = np.take(pull_t, c1, axis=1) - p0
+    d2 = np.take(pull_t, c2, axis=1) - p0
+    A1, A2, N = terms["A1"], terms["A2"], terms["N"]
+    b = (d2 * A1).sum(axis=0) + (d1 * A2).sum(axis=0)
+    c = (N[0] * (d1[1] * d2[2] - d1[2] * d2[1]) + N[1] * (d1[2] * d2[0] - d1[0] * d2[2])
+         + N[2] * (d1[0] * d2[1] - d1[1] * d2[0]))
+    return b, c
+
+
 def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
                min_area: float = 0.2, knee: float = 0.5, iterations: int = 6,
-               reach: float = 4.0) -> np.ndarray:
+               reach: float = 4.0, terms: dict | None = None) -> np.ndarray:
     r"""``(n,)`` in ``(0, 1]``: the factor on each vertex's pull ``deformed - rest``
     ``(n, 3)`` that keeps every triangle ``(m, 3)`` at :math:`\sigma_t \ge`
     ``min_area`` (module notes); exactly 1 where no triangle near the vertex comes within
-    the knee.
+    the knee (no triangle reaches ``min_area`` before the pull is :math:`1/\kappa` times
+    what it is).
 
     Scaling one vertex's pull and not its neighbours' would shear the skin and turn other
     triangles over, so the factor varies slowly: a triangle :math:`t` whose pull may only go
@@ -137,41 +173,39 @@ def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
     times the largest pull at its corners (a gradient of the factor times the pull stays
     below 1 / ``reach``), and the factor is :func:`soft_clamp` of 1 below :math:`F_v`. The
     step is repeated ``iterations`` times on the scaled pull (the factors only decrease).
+    ``terms``: :func:`pull_terms` of the rest skin, when cached.
     """
     rest = np.asarray(rest, dtype=float)
     tri = np.asarray(triangles, dtype=np.intp)
-    pull = np.asarray(deformed, dtype=float) - rest
+    if terms is None:
+        terms = pull_terms(rest, tri)
+    pull_t = np.ascontiguousarray((np.asarray(deformed, dtype=float) - rest).T)
     f = np.ones(len(rest))
-    moving = np.flatnonzero((pull != 0.0).any(axis=1)[tri].any(axis=1))
-    if not len(moving):
-        return f
-    tri = tri[moving]
-    r = rest[tri]
-    e1, e2 = r[:, 1] - r[:, 0], r[:, 2] - r[:, 0]
-    N = np.cross(e1, e2)
-    nn = np.einsum("ij,ij->i", N, N)
-    nn = np.where(nn > 0, nn, 1.0)
-    centre = r.mean(axis=1)
-    size = np.linalg.norm(pull, axis=1)
+    size = None
     tree = None
+    top = 1.0 / knee
     for _ in range(iterations):
-        u = (f[:, None] * pull)[tri]
-        d1, d2 = u[:, 1] - u[:, 0], u[:, 2] - u[:, 0]
-        b = np.einsum("ij,ij->i", N, np.cross(e1, d2) + np.cross(d1, e2)) / nn
-        c = np.einsum("ij,ij->i", N, np.cross(d1, d2)) / nn
-        s_star = _first_root(1.0 - min_area, b, c)  # 1 + b s + c s^2 = min_area
-        bad = np.flatnonzero(s_star < 1.0 / knee)
+        b, c = _quadratic(pull_t * f if size is not None else pull_t, terms)
+        low = 1.0 + b * top + c * top * top  # sigma at the knee's reach, and at the vertex
+        vertex = np.where(c > 0, -b / np.where(c > 0, 2.0 * c, 1.0), 0.0)
+        inside = (vertex > 0) & (vertex < top)
+        low = np.where(inside, np.minimum(low, 1.0 - b * b / np.where(c > 0, 4.0 * c, 1.0)),
+                       low)
+        bad = np.flatnonzero(low < min_area)
         if not len(bad):
             break
-        if tree is None:
+        s_star = _first_root(1.0 - min_area, b[bad], c[bad])
+        if size is None:
+            size = np.sqrt((pull_t * pull_t).sum(axis=0))
             tree = cKDTree(rest)
-        L = np.maximum(reach * (f * size)[tri[bad]].max(axis=1), 1e-300)
+        corners = tri[bad]
+        L = np.maximum(reach * (f * size)[corners].max(axis=1), 1e-300)
         limit = np.full(len(rest), np.inf)
-        for k, ids in enumerate(tree.query_ball_point(centre[bad], L * (1.0 / knee))):
-            ids = np.asarray(ids, dtype=np.intp)
-            ids = np.union1d(ids, tri[bad[k]])
-            dist = np.linalg.norm(rest[ids] - centre[bad[k]], axis=1)
-            np.minimum.at(limit, ids, s_star[bad[k]] + dist / L[k])
+        centre = terms["centre"][bad]
+        for k, ids in enumerate(tree.query_ball_point(centre, L * top)):
+            ids = np.union1d(np.asarray(ids, dtype=np.intp), corners[k])
+            dist = np.linalg.norm(rest[ids] - centre[k], axis=1)
+            np.minimum.at(limit, ids, s_star[k] + dist / L[k])
         near = np.flatnonzero(np.isfinite(limit))
         step = soft_clamp(np.ones(len(near)), limit[near], knee)
         if np.all(step == 1.0):
@@ -273,7 +307,7 @@ class GuardResult:
 
 def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
                 triangles: np.ndarray, radii: np.ndarray, guard: FoldGuard = FoldGuard(),
-                pulls: bool = True) -> GuardResult:
+                pulls: bool = True, terms: dict | None = None) -> GuardResult:
     r"""Both guards on one frame: ``rest``, ``deformed`` (before :math:`W`) and final
     ``points`` ``(n, 3)``, ``W`` ``(n,)``, ``triangles`` ``(m, 3)``, rest ``radii``
     ``(n, 2)`` (:func:`medial_radii`).
@@ -286,7 +320,7 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
     """
     tri = np.asarray(triangles, dtype=np.intp)
     rest = np.asarray(rest, dtype=float)
-    f = (skin_scale(rest, deformed, tri, guard.min_area, guard.knee) if pulls
+    f = (skin_scale(rest, deformed, tri, guard.min_area, guard.knee, terms=terms) if pulls
          else np.ones(len(rest)))
     W = np.asarray(W, dtype=float)
     W2 = guard_wrinkles(W, radii, guard)
@@ -351,8 +385,14 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
     if not np.any(state.W) and state.deformed_points is state.rest_points:
         return state
     radii = fold_radii(face, state.face)
+    pulls = state.face is face
+    terms = None
+    if pulls:
+        terms = getattr(face._rest, "pull_terms", None)
+        if terms is None:
+            terms = face._rest.pull_terms = pull_terms(face.skin.points, face.skin.triangles)
     g = guard_frame(state.rest_points, state.deformed_points, state.points, state.W,
-                    state.triangles, radii, guard, pulls=state.face is face)
+                    state.triangles, radii, guard, pulls=pulls, terms=terms)
     if not g.acted.any():
         return state
     W = np.asarray(state.W)
