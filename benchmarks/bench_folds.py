@@ -55,9 +55,9 @@ def guard(rounds: int) -> dict:
         for refine in (False, True):
             for expr in ("surprise", "smile", "pucker"):
                 face.evaluate(expr, refine=refine)  # radii, caches, hierarchy: once
-                off = median_seconds(lambda e=expr, r=refine: face.evaluate(
+                off = median_seconds(lambda e=expr, r=refine, f=face: f.evaluate(
                     e, refine=r, fold_guard=False), 5, rounds)
-                on = median_seconds(lambda e=expr, r=refine: face.evaluate(
+                on = median_seconds(lambda e=expr, r=refine, f=face: f.evaluate(
                     e, refine=r, fold_guard=True), 5, rounds)
                 s = face.evaluate(expr, refine=refine)
                 key = f"{face.name.split(' (')[0]} {'refined' if refine else 'unrefined'} {expr}"

@@ -139,7 +139,7 @@ def pull_terms(rest: np.ndarray, triangles: np.ndarray) -> dict:
             "N": np.ascontiguousarray((N / nn).T),
             "A1": np.ascontiguousarray((np.cross(N, e1) / nn).T),
             "A2": np.ascontiguousarray((np.cross(e2, N) / nn).T),
-            "centre": r.mean(axis=1)}
+            "centre": r.mean(axis=1), "tree": cKDTree(rest)}
 
 
 def _quadratic(pull_t: np.ndarray, terms: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -197,15 +197,18 @@ def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
         s_star = _first_root(1.0 - min_area, b[bad], c[bad])
         if size is None:
             size = np.sqrt((pull_t * pull_t).sum(axis=0))
-            tree = cKDTree(rest)
+            tree = terms["tree"] if "tree" in terms else cKDTree(rest)
         corners = tri[bad]
         L = np.maximum(reach * (f * size)[corners].max(axis=1), 1e-300)
-        limit = np.full(len(rest), np.inf)
         centre = terms["centre"][bad]
-        for k, ids in enumerate(tree.query_ball_point(centre, L * top)):
-            ids = np.union1d(np.asarray(ids, dtype=np.intp), corners[k])
-            dist = np.linalg.norm(rest[ids] - centre[k], axis=1)
-            np.minimum.at(limit, ids, s_star[k] + dist / L[k])
+        near_m = cKDTree(centre).sparse_distance_matrix(tree, float((L * top).max()),
+                                                        output_type="coo_matrix")
+        keep = near_m.data <= L[near_m.row] * top
+        rows = np.concatenate([near_m.row[keep], np.repeat(np.arange(len(bad)), 3)])
+        cols = np.concatenate([near_m.col[keep], corners.ravel()])
+        dist = np.linalg.norm(rest[cols] - centre[rows], axis=1)
+        limit = np.full(len(rest), np.inf)
+        np.minimum.at(limit, cols, s_star[rows] + dist / L[rows])
         near = np.flatnonzero(np.isfinite(limit))
         step = soft_clamp(np.ones(len(near)), limit[near], knee)
         if np.all(step == 1.0):
