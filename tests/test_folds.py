@@ -67,9 +67,10 @@ def _convex_disjoint(P, Q) -> bool:
 
 
 def brute_force(points, triangles) -> set:
-    """Every pair, in rational arithmetic (general position): no shared vertex: the closed
-    triangles meet; one shared vertex: the opposite edge of either meets the other; a shared
-    edge: never (general position)."""
+    """Every pair, in rational arithmetic: no shared vertex: the closed triangles meet (no
+    separating axis); one shared vertex: the opposite edge of either meets the other (for
+    triangles with area, also when coplanar); a shared edge: the free corners coplanar and
+    on the same side of it."""
     out = set()
     for i, j in combinations(range(len(triangles)), 2):
         a, b = list(triangles[i]), list(triangles[j])
@@ -83,7 +84,13 @@ def brute_force(points, triangles) -> set:
             sb = [_q(points[x]) for x in b if x != v]
             hit = not _convex_disjoint(sa, B) or not _convex_disjoint(sb, A)
         else:
-            hit = False
+            u, v = sorted(common)
+            fa = _q(points[next(x for x in a if x not in common)])
+            fb = _q(points[next(x for x in b if x not in common)])
+            pu, pv = _q(points[u]), _q(points[v])
+            e = _sub(pv, pu)
+            ca, cb = _cross(e, _sub(fa, pu)), _cross(e, _sub(fb, pu))
+            hit = _dot(_cross(ca, cb), e) == 0 and not any(_cross(ca, cb)) and _dot(ca, cb) > 0
         if hit:
             out.add((i, j))
     return out
@@ -124,6 +131,31 @@ def test_certificate_matches_a_rational_brute_force(mesh):
         return
     got = {tuple(p) for p in intersecting_pairs(pts, tris).tolist()}
     assert got == brute_force(pts, tris)
+
+
+@st.composite
+def lattice_meshes(draw):
+    """Corners on the lattice {0, 1, 2}^3: coplanar and collinear configurations abound."""
+    n = draw(st.integers(4, 9))
+    pts = np.array(draw(st.lists(st.tuples(*[st.integers(0, 2)] * 3), min_size=n,
+                                 max_size=n, unique=True)), float)
+    tris = []
+    for _ in range(draw(st.integers(2, 10))):
+        t = draw(st.lists(st.integers(0, n - 1), min_size=3, max_size=3, unique=True))
+        if np.any(np.cross(pts[t[1]] - pts[t[0]], pts[t[2]] - pts[t[0]])):  # has area
+            tris.append(t)
+    return pts * 0.1, np.array(tris, dtype=int).reshape(-1, 3)
+
+
+@settings(max_examples=200, deadline=None)
+@given(lattice_meshes())
+def test_certificate_is_exact_on_degenerate_configurations(mesh):
+    pts, tris = mesh
+    if len({tuple(sorted(t)) for t in tris.tolist()}) < len(tris):
+        return
+    got, degenerate = intersecting_pairs(pts, tris, with_degenerate=True)
+    assert not degenerate.any()
+    assert {tuple(p) for p in got.tolist()} == brute_force(pts, tris)
 
 
 @settings(max_examples=60, deadline=None)

@@ -26,10 +26,13 @@ holds every double exactly), so a sign is never wrong.
   opposite edge of its triangle). Two triangles with a common edge intersect elsewhere only
   when folded flat onto each other: coplanar with their free corners on the same side of the
   edge.
-* Degenerate configurations (a pair of triangles with all four relevant points coplanar, or a
-  segment in the other's plane) are reported as *contact*, conservatively, except the folded
-  pair above, which is decided exactly. A certificate of no intersection is therefore never
-  wrong; a contact report may be a mere touch.
+* Coplanar configurations are decided exactly as well: a segment lying in the other
+  triangle's plane is tested against it in 2D (projected on the coordinate plane its normal
+  is least parallel to, 2D orientations with their own static bound and rational fallback);
+  an edge through the shared vertex lying in the other's plane enters the other iff its ray
+  lies in the other's closed cone at that vertex. Only pairs involving a triangle with no
+  area are reported as *contact*, conservatively. A certificate of no intersection is
+  therefore never wrong.
 
 :func:`fold_report` compares a frame with its rest skin: the pairs that intersect in the frame
 and not at rest (a scan may cross itself at rest), and the triangles turned over (their normal
@@ -87,6 +90,85 @@ def orient(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> np.nda
     for k in unsure:
         sign[k] = _exact_orient(a[k], b[k], c[k], d[k])
     return sign
+
+
+_ERR2 = (3.0 + 16.0 * _EPS) * _EPS
+
+
+def _exact_orient2(a, b, c) -> int:
+    a, b, c = ([Fraction(float(x)) for x in p] for p in (a, b, c))
+    det = (a[0] - c[0]) * (b[1] - c[1]) - (a[1] - c[1]) * (b[0] - c[0])
+    return (det > 0) - (det < 0)
+
+
+def orient2(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """``(k,)`` int8: the exact sign of the 2D orientation of rows ``(k, 2)``: positive when
+    ``a, b, c`` turn counter-clockwise.
+    """
+    left = (a[:, 0] - c[:, 0]) * (b[:, 1] - c[:, 1])
+    right = (a[:, 1] - c[:, 1]) * (b[:, 0] - c[:, 0])
+    det = left - right
+    bound = _ERR2 * (np.abs(left) + np.abs(right))
+    sign = np.sign(det).astype(np.int8)
+    for k in np.flatnonzero((np.abs(det) <= bound) & (bound > 0)):
+        sign[k] = _exact_orient2(a[k], b[k], c[k])
+    return sign
+
+
+def _drop_axis(tc: np.ndarray) -> np.ndarray:
+    """``(k, 2)`` int: the coordinates kept when projecting the plane of triangles
+    ``(k, 3, 3)`` onto the coordinate plane its normal is least parallel to.
+    """
+    n = _cross(tc[:, 1] - tc[:, 0], tc[:, 2] - tc[:, 0])
+    axis = np.abs(n).argmax(axis=1)
+    return np.array([[1, 2], [0, 2], [0, 1]])[axis]
+
+
+def _flat(x: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """``(k, 2)``: points ``(k, 3)`` with only the coordinates ``keep`` ``(k, 2)``."""
+    return np.take_along_axis(x, keep, axis=1)
+
+
+def _segments_meet2(p, q, u, v) -> np.ndarray:
+    """``(k,) bool``: closed 2D segments ``p q`` and ``u v`` share a point (exact)."""
+    d1, d2 = orient2(u, v, p), orient2(u, v, q)
+    d3, d4 = orient2(p, q, u), orient2(p, q, v)
+    cross = (d1 * d2 <= 0) & (d3 * d4 <= 0)
+    collinear = (d1 == 0) & (d2 == 0)
+    lo1, hi1 = np.minimum(p, q), np.maximum(p, q)
+    lo2, hi2 = np.minimum(u, v), np.maximum(u, v)
+    overlap = (np.maximum(lo1, lo2) <= np.minimum(hi1, hi2)).all(axis=1)
+    return np.where(collinear, overlap, cross)
+
+
+def _inside2(p, a, b, c, s) -> np.ndarray:
+    """``(k,) bool``: 2D point ``p`` in the closed triangle ``a b c`` of orientation ``s``."""
+    return ((orient2(a, b, p) * s >= 0) & (orient2(b, c, p) * s >= 0)
+            & (orient2(c, a, p) * s >= 0))
+
+
+def _coplanar_segment_meets(p, q, tc) -> tuple[np.ndarray, np.ndarray]:
+    """``(k,) bool`` twice: segments ``p q`` ``(k, 3)`` lying in the planes of triangles
+    ``tc`` ``(k, 3, 3)`` meet them (closed, exact), and the triangle has no area.
+    """
+    keep = _drop_axis(tc)
+    a, b, c = (_flat(tc[:, i], keep) for i in range(3))
+    p2, q2 = _flat(p, keep), _flat(q, keep)
+    s = orient2(a, b, c)
+    hit = _inside2(p2, a, b, c, s) | _inside2(q2, a, b, c, s)
+    for u, v in ((a, b), (b, c), (c, a)):
+        hit |= _segments_meet2(p2, q2, u, v)
+    return hit & (s != 0), s == 0
+
+
+def _ray_in_cone(v, p, b1, b2, tc) -> np.ndarray:
+    """``(k,) bool``: the ray from ``v`` through ``p`` lies in the closed cone of ``v b1 b2``
+    (all ``(k, 3)``, coplanar; ``tc`` the triangles ``(k, 3, 3)`` whose plane they share).
+    """
+    keep = _drop_axis(tc)
+    v2, p2, c1, c2 = (_flat(x, keep) for x in (v, p, b1, b2))
+    s = orient2(v2, c1, c2)
+    return (orient2(v2, c1, p2) * s >= 0) & (orient2(v2, p2, c2) * s >= 0) & (s != 0)
 
 
 def _boxes(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -154,8 +236,15 @@ def _segment_meets(p, q, tri_idx, corners, normal, perm):
     sp = _side(p, t0, n, pm, corners, tri_idx)
     sq = _side(q, t0, n, pm, corners, tri_idx)
     reach = (sp * sq) <= 0
-    degenerate = (sp == 0) & (sq == 0)
-    hit = reach & ~degenerate
+    in_plane = (sp == 0) & (sq == 0)
+    hit = reach & ~in_plane
+    degenerate = np.zeros(len(p), bool)
+    flat_rows = np.flatnonzero(in_plane)
+    if len(flat_rows):
+        h, d = _coplanar_segment_meets(p[flat_rows], q[flat_rows],
+                                       corners[tri_idx[flat_rows]])
+        degenerate[flat_rows] = d
+        hit_flat = h
     cand = np.flatnonzero(hit)
     if len(cand):
         tc = corners[tri_idx[cand]]
@@ -167,6 +256,8 @@ def _segment_meets(p, q, tri_idx, corners, normal, perm):
         flat = (s1 == 0) & (s2 == 0) & (s3 == 0)
         hit[cand] = inside & ~flat
         degenerate[cand] |= flat
+    if len(flat_rows):
+        hit[flat_rows] = hit_flat
     return hit, degenerate, sp, sq
 
 
@@ -271,13 +362,22 @@ def _one_shared(pts, pairs, ta, tb, eq, corners, normal, perm):
     rows = np.arange(len(pairs))
     hit = np.zeros(len(pairs), bool)
     degen = np.zeros(len(pairs), bool)
-    for tv, slot, other in ((ta, ia, 1), (tb, ib, 0)):
+    for tv, slot, other, ot, oslot in ((ta, ia, 1, tb, ib), (tb, ib, 0, ta, ia)):
         p = pts[tv[rows, (slot + 1) % 3]]
         q = pts[tv[rows, (slot + 2) % 3]]
         h, d, sp, sq = _segment_meets(p, q, pairs[:, other], corners, normal, perm)
         hit |= h
-        # an edge through the shared vertex lying in the other's plane: coplanar contact
-        degen |= d | (sp == 0) | (sq == 0)
+        degen |= d
+        # an edge v p in the other's plane: it enters the other iff its ray lies in the
+        # other's cone at v (exact); both edges in the plane: the triangles are coplanar
+        for x, side in ((p, sp), (q, sq)):
+            rows_in = np.flatnonzero(side == 0)
+            if len(rows_in):
+                k = rows_in
+                v = pts[ot[k, oslot[k]]]
+                b1 = pts[ot[k, (oslot[k] + 1) % 3]]
+                b2 = pts[ot[k, (oslot[k] + 2) % 3]]
+                hit[k] |= _ray_in_cone(v, x[k], b1, b2, corners[pairs[k, other]])
     return hit, degen & ~hit
 
 
