@@ -131,6 +131,10 @@ def _common(p: argparse.ArgumentParser, *, expression_many: bool = False,
                         "wrinkling region (C1), removing the seam the paper's Eq. 5 leaves "
                         "there (e.g. across the top of the forehead's wrinkles in surprise "
                         "and fear); default: the paper's model, or the layout's choice")
+    p.add_argument("--fold-guard", choices=("on", "off"), default="on",
+                   help="keep the skin from passing through itself: limit the pulls where "
+                        "a triangle would turn over and |W| below half the empty-ball "
+                        "radius on its side (default on; off: the paper's model as is)")
 
 
 def _refine_options(p: argparse.ArgumentParser, what: str = "evaluate with adaptive "
@@ -556,7 +560,9 @@ def _load(args, *, refine: bool = False):
     if not refine:
         _warn_undersampled(args, face, names)
     model = getattr(args, "skin_model", None)
-    return face if model in (None, face.skin_model) else face.with_skin_model(model)
+    face = face if model in (None, face.skin_model) else face.with_skin_model(model)
+    face.fold_guard = getattr(args, "fold_guard", "on") == "on"
+    return face
 
 
 #: A skin file this large (bytes) is announced before it is read; a skin of this many

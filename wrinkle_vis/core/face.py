@@ -37,6 +37,7 @@ from .equations import (
 )
 from .expressions import Expression, paper_expressions
 from .fields import FIELD_NAMES, check_field, field_spec
+from .foldguard import guarded
 from .hierarchy import Hierarchy, canonical_order, six_entries
 from .mesh import (
     MeshError,
@@ -416,8 +417,12 @@ class FaceModel:
     Notes
     -----
     The model is immutable. :meth:`with_muscle` and :meth:`without_muscle` return a new
-    model that shares the per-muscle caches of the unchanged muscles.
+    model that shares the per-muscle caches of the unchanged muscles. One setting is not
+    part of the model: :attr:`fold_guard` (default True), the default of :meth:`evaluate`'s
+    ``fold_guard`` for this object (the command line's ``--fold-guard``).
     """
+
+    fold_guard: bool = True
 
     def __init__(self, skin: TriangleSurface, skull: TriangleSurface | None = None,
                  muscles: Iterable[Muscle] = (), expressions=None, *, name: str = "face",
@@ -702,8 +707,8 @@ class FaceModel:
 
     def evaluate(self, activations=None, intensity: float = 1.0, *, refine: bool = False,
                  refine_angle_deg: float = 3.0, refine_levels: int = 3,
-                 skin: str | None = None, material: SkinMaterial | None = None
-                 ) -> FaceState:
+                 skin: str | None = None, material: SkinMaterial | None = None,
+                 fold_guard: bool | None = None) -> FaceState:
         r"""One frame of the wrinkle model.
 
         Parameters
@@ -736,6 +741,15 @@ class FaceModel:
             ``benchmarks/bench_refine_fidelity.py``).
         refine_levels : int, default 3
             At most this many levels.
+        fold_guard : bool, optional
+            Default: the face's :attr:`fold_guard` (True). Keep the skin from passing
+            through itself (:mod:`wrinkle_vis.core.foldguard`): on an unrefined frame each
+            pull is limited where a triangle would keep less than a fifth of its rest
+            signed area; on every frame :math:`|W|` is kept below half the radius of the
+            empty ball that touches the rest skin on the side :math:`W` pushes to; both by
+            clamps that are the identity far from those bounds. ``state.W_raw`` is the
+            unguarded :math:`W` and ``state.fold_guard`` how much the guard took away (0
+            where it did not act).
 
         skin : {"geometric", "physical"}, optional
             The skin model (default the face's :attr:`skin_model`): the muscles' summed
@@ -756,17 +770,26 @@ class FaceModel:
             springs = self.physical_skin(material)
             x = springs.equilibrium(self.muscle_displacement(acts))
             state = self.physical_state(acts, x, velocities=np.zeros_like(x))
-            return (self._refined_physical(state, refine_angle_deg, refine_levels)
-                    if refine else state)
+            if refine:
+                state = self._refined_physical(state, refine_angle_deg, refine_levels)
+            return self._guarded(state, fold_guard)
         state = self._frame(acts)
-        if not refine:
-            return state
-        if not (0.0 < refine_angle_deg < 180.0):
-            raise ValueError(f"refine_angle_deg = {refine_angle_deg:g} is outside (0, 180)")
-        if isinstance(refine_levels, bool) or not isinstance(refine_levels, (int, np.integer)) \
-                or refine_levels < 0:
-            raise ValueError(f"refine_levels = {refine_levels!r} must be a whole number >= 0")
-        return self._refined_frame(state, acts, refine_angle_deg, int(refine_levels))
+        if refine:
+            if not (0.0 < refine_angle_deg < 180.0):
+                raise ValueError(f"refine_angle_deg = {refine_angle_deg:g} is outside (0, 180)")
+            if isinstance(refine_levels, bool) or \
+                    not isinstance(refine_levels, (int, np.integer)) or refine_levels < 0:
+                raise ValueError(f"refine_levels = {refine_levels!r} must be a whole number "
+                                 ">= 0")
+            state = self._refined_frame(state, acts, refine_angle_deg, int(refine_levels))
+        return self._guarded(state, fold_guard)
+
+    def _guarded(self, state: FaceState, fold_guard: bool | None) -> FaceState:
+        """``state`` through the fold guard (:func:`~wrinkle_vis.core.foldguard.guarded`)
+        when ``fold_guard`` (None: the face's :attr:`fold_guard`) says so, on either skin.
+        """
+        on = self.fold_guard if fold_guard is None else fold_guard
+        return guarded(self, state) if on else state
 
     def play(self, track: Track, fps: float | None = None, *, smooth_s: float = 0.0,
              mapping: TrackMapping | None = None, **evaluate_options) -> Iterator[FaceState]:
@@ -1126,6 +1149,8 @@ class FaceState:
         self.deformed_points = _readonly(deformed)
         self.points = _readonly(points)
         self.W = _readonly(total)
+        self.W_raw = self.W  # the fold guard replaces W and keeps the raw one here
+        self.fold_guard = np.zeros(len(self.W))  # how much the guard took away, in [0, 1]
         self.fields = _StateFields(_Frame(face, self.deformed_points, assembly, compact,
                                           source))
 

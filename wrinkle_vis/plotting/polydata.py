@@ -38,8 +38,10 @@ def to_polydata(state: FaceState) -> pv.PolyData:
     """The final skin of ``state`` with every field as a named point array.
 
     Point arrays: ``Normals`` (``(n, 3)``, the final skin's unit vertex normals, set as the
-    active normals so that viewers shade smoothly), ``W`` (total), ``deformation``
-    (``(n, 3)``: deformed minus rest), ``rest_points`` (``(n, 3)``), and for every muscle
+    active normals so that viewers shade smoothly), ``W`` (total), ``W_raw`` (before the
+    fold guard), ``fold_guard`` (how much the guard took away, 0 where it did not act),
+    ``deformation`` (``(n, 3)``: deformed minus rest), ``rest_points`` (``(n, 3)``), and
+    for every muscle
     ``"<muscle>__<field>"`` (:func:`field_array_name`) for each field of
     :data:`~wrinkle_vis.core.face.FIELD_NAMES` (``nan`` where the muscle does not define it).
 
@@ -52,6 +54,9 @@ def to_polydata(state: FaceState) -> pv.PolyData:
     mesh.point_data["Normals"] = np.asarray(state.normals, dtype=float)
     mesh.GetPointData().SetActiveNormals("Normals")
     mesh.point_data["W"] = np.asarray(state.W)
+    mesh.point_data["W_raw"] = np.asarray(getattr(state, "W_raw", state.W))
+    mesh.point_data["fold_guard"] = np.asarray(getattr(state, "fold_guard",
+                                                       np.zeros(len(state.W))))
     mesh.point_data["deformation"] = state.deformed_points - state.rest_points
     mesh.point_data["rest_points"] = np.asarray(state.rest_points)
     unit = face_unit(state)

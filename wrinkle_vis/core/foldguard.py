@@ -1,0 +1,409 @@
+r"""The fold guard: keep the skin from passing through itself (the paper's future work).
+
+Two guards, each a function of the rest skin, the skin deformed by the muscles' pulls, the
+wrinkle amplitude :math:`W` and the triangles, so any skin model can use them:
+
+* **Wrinkles** (:func:`guard_wrinkles`). Each vertex moves by :math:`W` along its normal.
+  With :math:`r_\pm(x)` the radius of the largest ball empty of the skin that touches it at
+  :math:`x` on the side :math:`\pm n` (the medial ball, :func:`medial_radii`), the point
+  :math:`x + t\,n(x)` with :math:`0 \le t < r_+(x)` (or :math:`-r_-(x) < t \le 0`) has
+  :math:`x` as its unique closest skin point. Two skin points moved by less than their own
+  medial radius therefore never land on the same place, whatever the neighbour does: the
+  displaced skin is injective (``docs/model.md`` has the proof). The guard bounds
+  :math:`|W|` by :math:`B = \eta\, r_{\operatorname{sign} W}` with the soft clamp
+  :func:`soft_clamp`, the identity up to a knee :math:`\kappa B`, so :math:`W` stays the
+  paper's, bit for bit, wherever it is far from any collision.
+* **Pulls** (:func:`skin_scale`). A pull that drags skin over its neighbour turns triangles
+  over before any wrinkle. Each triangle's signed area along its rest normal,
+  :math:`\sigma_t(s) = N_t \cdot (e_1 + s\,\delta_1) \times (e_2 + s\,\delta_2) / |N_t|^2`
+  for the pull scaled by :math:`s` (a quadratic with :math:`\sigma_t(0) = 1`), must stay
+  above :math:`\sigma_{\min}`; the first :math:`s^*_t` where it would not bounds the pull of
+  the triangle's corners, again through :func:`soft_clamp` (the pull is untouched where every
+  triangle around the vertex keeps :math:`\sigma_{\min}` up to :math:`1/\kappa` times it).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+__all__ = ["FoldGuard", "GuardResult", "fold_radii", "guard_frame", "guard_wrinkles",
+           "guarded", "medial_radii", "pull_terms", "ring_radii", "skin_scale", "soft_clamp"]
+
+
+@dataclass(frozen=True)
+class FoldGuard:
+    r"""The guard's parameters.
+
+    Attributes
+    ----------
+    eta : float
+        :math:`|W| \le \eta\, r_\pm`, in ``(0, 1)``.
+    knee : float
+        The clamps are the identity up to ``knee`` times their bound, in ``(0, 1)``.
+    min_area : float
+        :math:`\sigma_{\min}`: the fraction of its rest signed area a triangle keeps under
+        the pulls, in ``(0, 1)``.
+    """
+
+    eta: float = 0.5
+    knee: float = 0.5
+    min_area: float = 0.2
+
+    def __post_init__(self):
+        for name in ("eta", "knee", "min_area"):
+            v = getattr(self, name)
+            if not 0.0 < v < 1.0:
+                raise ValueError(f"FoldGuard.{name} = {v:g} is outside (0, 1)")
+
+
+def soft_clamp(x: np.ndarray, bound: np.ndarray, knee: float) -> np.ndarray:
+    r"""``(n,)``: ``x`` ``(n,)`` with :math:`|x|` kept below ``bound`` ``(n,)`` (> 0), C1:
+
+    .. math::
+
+        c(x) = \begin{cases} x & |x| \le \kappa B \\
+        \operatorname{sign}(x) \left(\kappa B + (1 - \kappa) B
+        \tanh\frac{|x| - \kappa B}{(1 - \kappa) B}\right) & \text{else} \end{cases}
+
+    The identity (bit for bit) below the knee :math:`\kappa B`, slope 1 at the knee,
+    monotone, and :math:`|c(x)| < B`.
+    """
+    x = np.asarray(x, dtype=float)
+    bound = np.broadcast_to(np.asarray(bound, dtype=float), x.shape)
+    out = x.copy()
+    over = np.flatnonzero(np.abs(x) > knee * bound)
+    if len(over):
+        b, a = bound[over], np.abs(x[over])
+        soft = (1.0 - knee) * b
+        out[over] = np.sign(x[over]) * (knee * b + soft * np.tanh((a - knee * b) / soft))
+    return out
+
+
+def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | None = None,
+                 r_max: float | None = None, iterations: int = 40) -> np.ndarray:
+    r"""``(n, 2)``: radii :math:`(r_+, r_-)` of the largest balls empty of ``samples`` that
+    touch ``points`` ``(n, 3)`` on the side of unit ``normals`` ``(n, 3)`` and against it.
+
+    The shrinking-ball search: start with radius ``r_max`` (the samples' bounding-box
+    diagonal), centre :math:`c = x \pm r n`; while the sample :math:`q` nearest
+    to :math:`c` is closer than :math:`r` (and is not :math:`x`), shrink to the ball through
+    :math:`x` and :math:`q` tangent at :math:`x`,
+    :math:`r = |q - x|^2 / (2 |n \cdot (q - x)|)`. ``samples`` ``(s, 3)`` default to
+    ``points``.
+    """
+    pts = np.asarray(points, dtype=float)
+    nrm = np.asarray(normals, dtype=float)
+    smp = pts if samples is None else np.asarray(samples, dtype=float)
+    tree = cKDTree(smp)
+    if r_max is None:
+        r_max = float(np.linalg.norm(smp.max(axis=0) - smp.min(axis=0)))
+    out = np.empty((len(pts), 2))
+    for col, side in enumerate((1.0, -1.0)):
+        r = np.full(len(pts), r_max)
+        active = np.arange(len(pts))
+        for _ in range(iterations):
+            if not len(active):
+                break
+            x, n = pts[active], nrm[active]
+            c = x + side * r[active, None] * n
+            dist, idx = tree.query(c)
+            q = smp[idx]
+            d = q - x
+            dd = np.einsum("ij,ij->i", d, d)
+            h = side * np.einsum("ij,ij->i", d, n)
+            shrink = (dist < r[active] * (1.0 - 1e-9)) & (dd > 0) & (h > 0)
+            new = np.where(shrink, dd / (2.0 * np.where(h > 0, h, 1.0)), r[active])
+            r[active] = np.minimum(r[active], new)
+            active = active[shrink]
+        out[:, col] = r
+    return out
+
+
+def pull_terms(rest: np.ndarray, triangles: np.ndarray) -> dict:
+    r"""What :func:`skin_scale` needs of the rest skin ``(n, 3)``, ``(m, 3)``, computed once:
+    the corners as rows, :math:`N / |N|^2` and the rows
+    :math:`A_1 = N \times e_1 / |N|^2`, :math:`A_2 = e_2 \times N / |N|^2` (so that
+    :math:`b = \delta_2 \cdot A_1 + \delta_1 \cdot A_2`), each ``(3, m)``.
+    """
+    rest = np.asarray(rest, dtype=float)
+    tri = np.asarray(triangles, dtype=np.intp)
+    r = rest[tri]
+    e1, e2 = r[:, 1] - r[:, 0], r[:, 2] - r[:, 0]
+    N = np.cross(e1, e2)
+    nn = np.einsum("ij,ij->i", N, N)
+    nn = np.where(nn > 0, nn, np.inf)[:, None]
+    return {"corners": np.ascontiguousarray(tri.T),
+            "N": np.ascontiguousarray((N / nn).T),
+            "A1": np.ascontiguousarray((np.cross(N, e1) / nn).T),
+            "A2": np.ascontiguousarray((np.cross(e2, N) / nn).T),
+            "centre": r.mean(axis=1), "tree": cKDTree(rest)}
+
+
+def _quadratic(pull_t: np.ndarray, terms: dict) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(m,)`` twice: :math:`b` and :math:`c` of :math:`\sigma_t(s) = 1 + b s + c s^2` for
+    the pull ``(3, n)``.
+    """
+    c0, c1, c2 = terms["corners"]
+    p0 = np.take(pull_t, c0, axis=1)
+    d1 = np.take(pull_t, c1, axis=1) - p0
+    d2 = np.take(pull_t, c2, axis=1) - p0
+    A1, A2, N = terms["A1"], terms["A2"], terms["N"]
+    b = (d2 * A1).sum(axis=0) + (d1 * A2).sum(axis=0)
+    c = (N[0] * (d1[1] * d2[2] - d1[2] * d2[1]) + N[1] * (d1[2] * d2[0] - d1[0] * d2[2])
+         + N[2] * (d1[0] * d2[1] - d1[1] * d2[0]))
+    return b, c
+
+
+def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
+               min_area: float = 0.2, knee: float = 0.5, iterations: int = 6,
+               reach: float = 4.0, terms: dict | None = None) -> np.ndarray:
+    r"""``(n,)`` in ``(0, 1]``: the factor on each vertex's pull ``deformed - rest``
+    ``(n, 3)`` that keeps every triangle ``(m, 3)`` at :math:`\sigma_t \ge`
+    ``min_area`` (module notes); exactly 1 where no triangle near the vertex comes within
+    the knee (no triangle reaches ``min_area`` before the pull is :math:`1/\kappa` times
+    what it is).
+
+    Scaling one vertex's pull and not its neighbours' would shear the skin and turn other
+    triangles over, so the factor varies slowly: a triangle :math:`t` whose pull may only go
+    to :math:`s^*_t` bounds the vertices around it by
+    :math:`F_v = \min_t \big(s^*_t + |x_v - c_t| / L_t\big)`, :math:`L_t` = ``reach``
+    times the largest pull at its corners (a gradient of the factor times the pull stays
+    below 1 / ``reach``), and the factor is :func:`soft_clamp` of 1 below :math:`F_v`. The
+    step is repeated ``iterations`` times on the scaled pull (the factors only decrease).
+    ``terms``: :func:`pull_terms` of the rest skin, when cached.
+    """
+    rest = np.asarray(rest, dtype=float)
+    tri = np.asarray(triangles, dtype=np.intp)
+    if terms is None:
+        terms = pull_terms(rest, tri)
+    pull_t = np.ascontiguousarray((np.asarray(deformed, dtype=float) - rest).T)
+    f = np.ones(len(rest))
+    size = None
+    tree = None
+    top = 1.0 / knee
+    for _ in range(iterations):
+        b, c = _quadratic(pull_t * f if size is not None else pull_t, terms)
+        low = 1.0 + b * top + c * top * top  # sigma at the knee's reach, and at the vertex
+        vertex = np.where(c > 0, -b / np.where(c > 0, 2.0 * c, 1.0), 0.0)
+        inside = (vertex > 0) & (vertex < top)
+        low = np.where(inside, np.minimum(low, 1.0 - b * b / np.where(c > 0, 4.0 * c, 1.0)),
+                       low)
+        bad = np.flatnonzero(low < min_area)
+        if not len(bad):
+            break
+        s_star = _first_root(1.0 - min_area, b[bad], c[bad])
+        if size is None:
+            size = np.sqrt((pull_t * pull_t).sum(axis=0))
+            tree = terms["tree"] if "tree" in terms else cKDTree(rest)
+        corners = tri[bad]
+        L = np.maximum(reach * (f * size)[corners].max(axis=1), 1e-300)
+        centre = terms["centre"][bad]
+        near_m = cKDTree(centre).sparse_distance_matrix(tree, float((L * top).max()),
+                                                        output_type="coo_matrix")
+        keep = near_m.data <= L[near_m.row] * top
+        rows = np.concatenate([near_m.row[keep], np.repeat(np.arange(len(bad)), 3)])
+        cols = np.concatenate([near_m.col[keep], corners.ravel()])
+        dist = np.linalg.norm(rest[cols] - centre[rows], axis=1)
+        limit = np.full(len(rest), np.inf)
+        np.minimum.at(limit, cols, s_star[rows] + dist / L[rows])
+        near = np.flatnonzero(np.isfinite(limit))
+        step = soft_clamp(np.ones(len(near)), limit[near], knee)
+        if np.all(step == 1.0):
+            break
+        f[near] *= step
+    return f
+
+
+def _first_root(a: float, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    r"""``(t,)``: the smallest :math:`s > 0` with :math:`a + b s + c s^2 = 0` (``a`` > 0),
+    ``inf`` where there is none.
+    """
+    out = np.full(len(b), np.inf)
+    lin = np.abs(c) <= 1e-12 * np.maximum(np.abs(b), 1e-300)
+    m = lin & (b < 0)
+    out[m] = -a / b[m]
+    q = ~lin
+    disc = b[q] * b[q] - 4.0 * a * c[q]
+    ok = disc >= 0
+    sq = np.sqrt(np.where(ok, disc, 0.0))
+    cq = c[q]
+    r1 = (-b[q] - sq) / (2.0 * cq)
+    r2 = (-b[q] + sq) / (2.0 * cq)
+    r1 = np.where(r1 > 0, r1, np.inf)
+    r2 = np.where(r2 > 0, r2, np.inf)
+    out[q] = np.where(ok, np.minimum(r1, r2), np.inf)
+    return out
+
+
+def ring_radii(points: np.ndarray, triangles: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    r"""``(k, 2)``: the medial radii :math:`(r_+, r_-)` of ``points`` ``(n, 3)`` at vertices
+    ``ids`` ``(k,)`` seen by their own ring only: the shrinking ball's bound
+    :math:`|d|^2 / (2 |n \cdot d|)` over the edges :math:`d` from the vertex, with
+    :math:`n` its area-weighted normal in ``points`` (``inf`` where no edge bends that way).
+
+    Cheap, per frame: the bend the pulls give the skin before :math:`W` (a pucker curls the
+    lips far tighter than at rest), which the rest skin's radii cannot know.
+    """
+    tri = np.asarray(triangles, dtype=np.intp)
+    use = np.flatnonzero(np.isin(tri, ids).any(axis=1))
+    t = tri[use]
+    c = points[t]
+    fn = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
+    slot = np.full(len(points), -1, np.intp)
+    slot[ids] = np.arange(len(ids))
+    normal = np.zeros((len(ids), 3))
+    for k in range(3):
+        own = slot[t[:, k]]
+        ok = own >= 0
+        np.add.at(normal, own[ok], fn[ok])
+    normal /= np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
+    out = np.full((len(ids), 2), np.inf)
+    for a, b in ((0, 1), (1, 2), (2, 0), (1, 0), (2, 1), (0, 2)):
+        own = slot[t[:, a]]
+        ok = np.flatnonzero(own >= 0)
+        d = points[t[ok, b]] - points[t[ok, a]]
+        h = np.einsum("ij,ij->i", d, normal[own[ok]])
+        dd = np.einsum("ij,ij->i", d, d)
+        r = dd / np.maximum(2.0 * np.abs(h), 1e-300)
+        np.minimum.at(out[:, 0], own[ok][h > 0], r[h > 0])
+        np.minimum.at(out[:, 1], own[ok][h < 0], r[h < 0])
+    return out
+
+
+def guard_wrinkles(W: np.ndarray, radii: np.ndarray, guard: FoldGuard = FoldGuard()
+                   ) -> np.ndarray:
+    r"""``(n,)``: :math:`W` ``(n,)`` kept below :math:`\eta\, r_{\operatorname{sign} W}`
+    (``radii`` ``(n, 2)``: :math:`r_+, r_-`) by :func:`soft_clamp`.
+    """
+    W = np.asarray(W, dtype=float)
+    bound = guard.eta * np.where(W >= 0, radii[:, 0], radii[:, 1])
+    return soft_clamp(W, np.maximum(bound, 1e-300), guard.knee)
+
+
+@dataclass(frozen=True)
+class GuardResult:
+    """A guarded frame.
+
+    Attributes
+    ----------
+    deformed : (n, 3) float
+        The deformed skin with each pull scaled by ``scale``.
+    points : (n, 3) float
+        The final skin.
+    W : (n,) float
+        The guarded wrinkle amplitude.
+    scale : (n,) float
+        The factor on each vertex's pull (1 where the pull guard does not act).
+    acted : (n,) bool
+        Where either guard changed the frame.
+    """
+
+    deformed: np.ndarray
+    points: np.ndarray
+    W: np.ndarray
+    scale: np.ndarray
+    acted: np.ndarray
+
+
+def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
+                triangles: np.ndarray, radii: np.ndarray, guard: FoldGuard = FoldGuard(),
+                pulls: bool = True, terms: dict | None = None) -> GuardResult:
+    r"""Both guards on one frame: ``rest``, ``deformed`` (before :math:`W`) and final
+    ``points`` ``(n, 3)``, ``W`` ``(n,)``, ``triangles`` ``(m, 3)``, rest ``radii``
+    ``(n, 2)`` (:func:`medial_radii`).
+
+    Where neither guard acts, the frame's points are returned as they are (bit for bit).
+    Elsewhere the final point is :math:`x' + W' n'`, with :math:`x'` the scaled pull and
+    :math:`n'` the area-weighted unit normal of the guarded deformed skin; a vertex whose
+    deformed ring moved keeps its own :math:`W` along the new normal. ``pulls=False``
+    guards :math:`W` only.
+    """
+    tri = np.asarray(triangles, dtype=np.intp)
+    rest = np.asarray(rest, dtype=float)
+    f = (skin_scale(rest, deformed, tri, guard.min_area, guard.knee, terms=terms) if pulls
+         else np.ones(len(rest)))
+    W = np.asarray(W, dtype=float)
+    W2 = guard_wrinkles(W, radii, guard)
+    moved = f < 1.0
+    changed_w = W2 != W
+    if not moved.any() and not changed_w.any():
+        return GuardResult(np.asarray(deformed), np.asarray(points), W, f, moved | changed_w)
+    d2 = np.array(deformed, dtype=float, copy=True)
+    d2[moved] = rest[moved] + f[moved, None] * (d2[moved] - rest[moved])
+    ring = np.zeros(len(rest), bool)
+    ring[tri[moved[tri].any(axis=1)].ravel()] = True
+    redo = np.flatnonzero((ring & (W2 != 0.0)) | changed_w)
+    p2 = np.array(points, dtype=float, copy=True)
+    p2[moved] = d2[moved]
+    if len(redo):
+        n = _vertex_normals(d2, tri, redo)
+        p2[redo] = d2[redo] + W2[redo, None] * n
+    return GuardResult(d2, p2, W2, f, moved | changed_w)
+
+
+def _vertex_normals(points: np.ndarray, tri: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """``(k, 3)``: unit area-weighted normals of ``points`` at vertices ``ids`` ``(k,)``."""
+    use = np.flatnonzero(np.isin(tri, ids).any(axis=1))
+    t = tri[use]
+    c = points[t]
+    fn = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
+    inc = sp.csr_matrix((np.ones(3 * len(t)), (t.ravel(), np.repeat(np.arange(len(t)), 3))),
+                        shape=(len(points), len(t)))
+    n = (inc @ fn)[ids]
+    return n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+
+
+def fold_radii(face, skin_face=None) -> np.ndarray:
+    r"""``(n, 2)``: :math:`(r_+, r_-)` on the rest skin of ``skin_face`` (default ``face``),
+    computed once per skin and cached with the face's rest frame.
+
+    A refined skin takes, at each vertex, the smallest radii of the three nearest vertices
+    of ``face``'s own skin (its vertices lie on the smooth surface through them).
+    """
+    rest = face._rest
+    radii = getattr(rest, "fold_radii", None)
+    if radii is None:
+        radii = rest.fold_radii = medial_radii(face.skin.points, rest.normals)
+    if skin_face is None or skin_face is face or skin_face.skin is face.skin:
+        return radii
+    fine = skin_face._rest
+    out = getattr(fine, "fold_radii", None)
+    if out is None or len(out) != skin_face.skin.n_points:
+        _, idx = face.skin.kdtree.query(skin_face.skin.points, k=3)
+        out = fine.fold_radii = radii[idx].min(axis=1)
+    return out
+
+
+def guarded(face, state, guard: FoldGuard = FoldGuard()):
+    """Apply :func:`guard_frame` to a frame ``state`` of ``face`` (unrefined or refined) in
+    place: its ``deformed_points``, ``points`` and ``W`` become the guarded ones,
+    ``W_raw`` keeps the raw :math:`W` and ``fold_guard`` ``(n,)`` in ``[0, 1]`` says how
+    much the guard took away (the larger of the pull's reduction and :math:`W`'s). Returns
+    ``state``. On a refined frame only :math:`W` is guarded (the refined skin's pulls come
+    from the subdivision hierarchy; guarding them is not done yet).
+    """
+    if not np.any(state.W) and state.deformed_points is state.rest_points:
+        return state
+    radii = fold_radii(face, state.face)
+    pulls = state.face is face
+    terms = None
+    if pulls:
+        terms = getattr(face._rest, "pull_terms", None)
+        if terms is None:
+            terms = face._rest.pull_terms = pull_terms(face.skin.points, face.skin.triangles)
+    g = guard_frame(state.rest_points, state.deformed_points, state.points, state.W,
+                    state.triangles, radii, guard, pulls=pulls, terms=terms)
+    if not g.acted.any():
+        return state
+    W = np.asarray(state.W)
+    ratio = np.divide(np.abs(g.W), np.abs(W), out=np.ones(len(W)), where=W != 0)
+    amount = np.maximum(1.0 - g.scale, 1.0 - ratio)
+    for name, value in (("W_raw", W), ("deformed_points", g.deformed), ("points", g.points),
+                        ("W", g.W), ("fold_guard", amount)):
+        value = np.asarray(value)
+        value.setflags(write=False)
+        setattr(state, name, value)
+    return state
