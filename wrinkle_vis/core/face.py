@@ -637,7 +637,8 @@ class FaceModel:
         sim = self.simulator(timeline, material=material)
         for state in sim.run(duration, dt):
             if refine:
-                state = self._refined_physical(state, refine_angle_deg, refine_levels)
+                state = self.guarded(
+                    self._refined_physical(state, refine_angle_deg, refine_levels), None)
             yield state
 
     def expression_states(self, expression: Expression, times, intensity: float = 1.0, *,
@@ -662,8 +663,9 @@ class FaceModel:
         for t in times:
             states = list(sim.run(max(0.0, t - sim.time)))
             state = states[-1] if states else sim.state()
-            yield (self._refined_physical(state, refine_angle_deg, refine_levels) if refine
-                   else state)
+            yield (self.guarded(self._refined_physical(state, refine_angle_deg,
+                                                        refine_levels), None)
+                   if refine else state)
 
     def _refined_physical(self, state: FaceState, angle_deg: float, levels: int) -> FaceState:
         if not (0.0 < angle_deg < 180.0):
@@ -772,7 +774,7 @@ class FaceModel:
             state = self.physical_state(acts, x, velocities=np.zeros_like(x))
             if refine:
                 state = self._refined_physical(state, refine_angle_deg, refine_levels)
-            return self._guarded(state, fold_guard)
+            return self.guarded(state, fold_guard)
         state = self._frame(acts)
         if refine:
             if not (0.0 < refine_angle_deg < 180.0):
@@ -782,9 +784,9 @@ class FaceModel:
                 raise ValueError(f"refine_levels = {refine_levels!r} must be a whole number "
                                  ">= 0")
             state = self._refined_frame(state, acts, refine_angle_deg, int(refine_levels))
-        return self._guarded(state, fold_guard)
+        return self.guarded(state, fold_guard)
 
-    def _guarded(self, state: FaceState, fold_guard: bool | None) -> FaceState:
+    def guarded(self, state: FaceState, fold_guard: bool | None = None) -> FaceState:
         """``state`` through the fold guard (:func:`~wrinkle_vis.core.foldguard.guarded`)
         when ``fold_guard`` (None: the face's :attr:`fold_guard`) says so, on either skin.
         """

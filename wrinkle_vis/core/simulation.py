@@ -99,9 +99,13 @@ class Simulation:
         return self.state()
 
     def state(self):
-        """The :class:`~wrinkle_vis.core.face.FaceState` of the current state."""
-        return self.face.physical_state(self._named(self.activations), self.x,
-                                        time=self.time, velocities=self.v)
+        """The :class:`~wrinkle_vis.core.face.FaceState` of the current state, through the
+        face's fold guard (:attr:`~wrinkle_vis.core.face.FaceModel.fold_guard`; the
+        simulated positions :attr:`x` are left as they are).
+        """
+        state = self.face.physical_state(self._named(self.activations), self.x,
+                                         time=self.time, velocities=self.v)
+        return self.face.guarded(state, None)
 
     def energy(self) -> float:
         """Kinetic plus potential energy of the current state (for the current
