@@ -8,16 +8,12 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable, Mapping
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .mesh import closest_points
 from .muscle import Muscle
 from .units import millimetre
-
-if TYPE_CHECKING:
-    from .face import FaceModel
 
 __all__ = ["created", "mirror_name", "mirrored", "reflect", "snapped", "symmetry_plane",
            "unique_name", "with_point"]
@@ -175,12 +171,12 @@ def snapped(muscle: Muscle, surfaces: Mapping, *, like: Muscle | None = None,
     return muscle.replace(**changes) if changes else muscle
 
 
-def created(muscle_type: type[Muscle], name: str, face: FaceModel, at) -> Muscle:
+def created(muscle_type: type[Muscle], name: str, face, at) -> Muscle:
     """A new muscle of ``muscle_type`` called ``name`` with its insertion at ``at`` ``(3,)``
-    on ``face``'s skin: the type's own :meth:`Muscle.create`, whose starting lengths are in
-    millimetres, made on the face scaled to millimetres and scaled back when the face is in
-    another unit (:func:`~wrinkle_vis.core.units.millimetre`), so that a new muscle on a scan
-    in metres is not 1000 times too big.
+    on the skin of ``face`` (a ``FaceModel``): the type's own :meth:`Muscle.create`, whose
+    starting lengths are in millimetres, made on the face scaled to millimetres and scaled
+    back when the face is in another unit (:func:`~wrinkle_vis.core.units.millimetre`), so
+    that a new muscle on a scan in metres is not 1000 times too big.
     """
     mm = millimetre(face)
     if mm == 1.0:

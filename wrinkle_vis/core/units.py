@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from .face import FaceModel
     from .mesh import TriangleSurface
 
 __all__ = ["DEFAULT_UNIT", "HEAD_METRES", "LENGTH_UNITS", "UnitWarning", "check_unit", "face_unit",
@@ -116,8 +115,8 @@ def face_unit_of(skin: TriangleSurface, unit: str | None = None) -> str:
     return guess or "mm"
 
 
-def millimetre(face: FaceModel) -> float:
-    """A millimetre in ``face``'s unit (:func:`face_unit`): the lengths a new muscle starts
-    with are given in millimetres, the built-in face's unit.
+def millimetre(face) -> float:
+    """A millimetre in ``face``'s unit (a ``FaceModel``, :func:`face_unit`): the lengths a
+    new muscle starts with are given in millimetres, the built-in face's unit.
     """
     return LENGTH_UNITS["mm"] / LENGTH_UNITS[face_unit(face)]
