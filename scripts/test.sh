@@ -16,4 +16,5 @@ fi
 source "$(dirname "$0")/_env.sh" test
 .venv/bin/ruff check .
 .venv/bin/python scripts/lint_imports.py --no-logo
+.venv/bin/mypy
 exec .venv/bin/python -m pytest "$@"
