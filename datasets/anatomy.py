@@ -13,13 +13,21 @@ reconstruction", Forensic Sci. Int. 159S (2006) S126-S146; Stephan and Simpson, 
 soft tissue depths in craniofacial identification", J. Forensic Sci. 53 (2008)): about
 4-6 mm on the forehead and glabella, 6-7 mm at nasion and the orbital rims, 6-8 mm on the
 zygoma, 10-13 mm at the philtrum, lips and chin, and 18-25 mm over the mid cheek.
+
+The built-in face's muscle layout is shipped beside this module (:data:`BUILTIN_LAYOUT`,
+written from :func:`~wrinkle_vis.datasets.face.builtin_layout`).
 """
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from .sdf import capsule, ellipsoid, mirrored, smooth_difference, smooth_union, sphere
+
+#: The built-in face's layout file: its muscles, expressions, landmarks and track mapping.
+BUILTIN_LAYOUT = Path(__file__).with_name("builtin_layout.json")
 
 #: Regional tissue depth landmarks: name, position (mm, left side mirrored), depth (mm).
 TISSUE_DEPTHS = (

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import hashlib
 import os
 import warnings
 from pathlib import Path
@@ -20,119 +19,24 @@ from wrinkle_vis.core import (
     paper_expressions,
 )
 from wrinkle_vis.core.editing import mirrored, snapped
-from wrinkle_vis.core.files import atomic_write_bytes
 from wrinkle_vis.core.sphincter import SphincterMuscle
+from wrinkle_vis.core.units import face_unit_of
 
-from . import anatomy, sdf
+from . import anatomy
+from ._cache import cached
+from .anatomy import BUILTIN_LAYOUT
+from .landmarks import builtin_landmarks
+from .lee_perry_smith import load_lee_perry_smith
+from .scans import orient_outward, read_surface, transfer_layout
+from .sdf import contour, front_hit, project_to_surface
+from .skull import scan_skull
 
 __all__ = ["BUILTIN_LAYOUT", "FACES", "build_skin", "build_skull", "builtin_expressions",
            "builtin_landmarks", "builtin_layout", "builtin_muscles", "load_face"]
 
-_SOURCES = (Path(anatomy.__file__), Path(sdf.__file__), Path(__file__))
 DEFAULT_TRIANGLES = 4500
 #: The built-in skin's supported resolutions (``n_triangles`` of :func:`load_face`).
 MIN_TRIANGLES, MAX_TRIANGLES = 500, 250_000
-
-
-def _cache_dir() -> Path:
-    root = os.environ.get("WRINKLE_VIS_CACHE") or os.path.join(
-        os.environ.get("XDG_CACHE_HOME", os.path.expanduser("~/.cache")), "wrinkle-vis")
-    return Path(root)
-
-
-def _key(*parts) -> str:
-    h = hashlib.sha256()
-    for src in _SOURCES:
-        h.update(src.read_bytes())
-    h.update(repr(parts).encode())
-    return h.hexdigest()[:20]
-
-
-def _surface_arrays(arrays: dict) -> dict:
-    """``arrays`` if it holds a triangle surface: ``points`` ``(n, 3)`` finite floats and
-    ``triangles`` ``(m, 3)`` integers in ``[0, n)``, ``n, m > 0``; else ``ValueError``.
-    """
-    points, triangles = arrays["points"], arrays["triangles"]
-    if points.ndim != 2 or points.shape[1] != 3 or not len(points) or \
-            points.dtype.kind != "f" or not np.isfinite(points).all():
-        raise ValueError(f"points of shape {points.shape} ({points.dtype})")
-    if triangles.ndim != 2 or triangles.shape[1] != 3 or not len(triangles) or \
-            triangles.dtype.kind not in "iu" or triangles.min() < 0 or \
-            triangles.max() >= len(points):
-        raise ValueError(f"triangles of shape {triangles.shape} ({triangles.dtype})")
-    return arrays
-
-
-def _cached(name: str, parts: tuple, build, check=_surface_arrays):
-    """``build()`` -> dict of arrays, cached on disk under a key of the code and ``parts``.
-
-    An entry that does not load (truncated, empty, not a zip) or that ``check`` refuses (a
-    member missing, a wrong shape or type, indices out of range) is rebuilt and written
-    again.
-    """
-    path = _cache_dir() / f"{name}-{_key(name, *parts)}.npz"
-    if path.exists():
-        try:
-            with open(path, "rb") as fh, np.load(fh) as data:  # closed if np.load fails
-                return check({k: data[k] for k in data.files})
-        except Exception:  # BadZipFile, EOFError, KeyError, zlib.error, ValueError, ...
-            pass  # a damaged cache entry is rebuilt
-    arrays = build()
-    try:  # synced before the rename; on a failure (a full disk) no temporary stays
-        path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_bytes(path, lambda fh: np.savez(fh, **arrays))
-    except (OSError, ValueError):
-        pass  # a read-only home still gets a face, only slower
-    return arrays
-
-
-def project_to_surface(field, points: np.ndarray, steps: int = 4) -> np.ndarray:
-    """``(n, 3)``: points moved onto the zero set of ``field`` by Newton steps."""
-    p = np.array(points, dtype=float)
-    eps = 1e-3
-    for _ in range(steps):
-        d = field(p)
-        grad = np.stack([(field(p + e) - field(p - e)) / (2 * eps)
-                         for e in np.eye(3) * eps], axis=1)
-        p -= (d / np.maximum(np.einsum("ij,ij->i", grad, grad), 1e-12))[:, None] * grad
-    return p
-
-
-def sample_narrow_band(field, lo, dims, spacing: float, coarse: int = 4) -> np.ndarray:
-    """``dims``-shaped samples of ``field`` (x fastest), exact within a band around its zero
-    set and trilinearly interpolated from a grid ``coarse`` times sparser elsewhere.
-
-    Far from the surface only the sign matters to the contouring, and the coarse samples
-    have the right sign there, so this gives the same surface at a fraction of the cost.
-    """
-    from scipy.ndimage import map_coordinates
-
-    lo = np.asarray(lo, float)
-    dims = np.asarray(dims)
-    cdims = (dims - 1) // coarse + 2
-    axes = [lo[i] + coarse * spacing * np.arange(cdims[i]) for i in range(3)]
-    cz, cy, cx = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
-    cvals = field(np.c_[cx.ravel(), cy.ravel(), cz.ravel()]).reshape(cz.shape)
-    fine = [np.arange(dims[i]) / coarse for i in (2, 1, 0)]
-    fz, fy, fx = np.meshgrid(*fine, indexing="ij")
-    values = map_coordinates(cvals, [fz.ravel(), fy.ravel(), fx.ravel()], order=1)
-    band = np.abs(values) < 1.5 * coarse * spacing
-    idx = np.flatnonzero(band)
-    k, rest = np.divmod(idx, dims[0] * dims[1])
-    j, i = np.divmod(rest, dims[0])
-    pts = lo + spacing * np.c_[i, j, k]
-    values[idx] = field(pts)
-    return values
-
-
-def _contour(field, lo, hi, spacing):
-    import pyvista as pv
-
-    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    dims = np.ceil((hi - lo) / spacing).astype(int) + 1
-    grid = pv.ImageData(dimensions=dims, spacing=(spacing,) * 3, origin=lo)
-    grid.point_data["d"] = sample_narrow_band(field, lo, dims, spacing)
-    return grid.contour([0.0], scalars="d", method="flying_edges")
 
 
 def _remesh(surface, n_points: int, subdivide: int = 0):
@@ -251,7 +155,7 @@ def build_skin(n_triangles: int = DEFAULT_TRIANGLES) -> TriangleSurface:
     n_triangles = int(n_triangles)
 
     def build():
-        raw = _contour(anatomy.skin_sdf, (-82, -118, -22), (82, 128, 112), 1.6)
+        raw = contour(anatomy.skin_sdf, (-82, -118, -22), (82, 128, 112), 1.6)
         raw = raw.clip(normal=(0, 0, -1), origin=(0, 0, -15))
         raw = raw.clip(normal=(0, -1, 0), origin=(0, -112, 0)).extract_surface(
             algorithm="dataset_surface")
@@ -262,42 +166,29 @@ def build_skin(n_triangles: int = DEFAULT_TRIANGLES) -> TriangleSurface:
                                surf.triangles).oriented()
         return {"points": surf.points, "triangles": surf.triangles}
 
-    arrays = _cached("skin", (n_triangles,), build)
+    arrays = cached("skin", (n_triangles,), build)
     return TriangleSurface(arrays["points"], arrays["triangles"])
 
 
 def build_skull(n_triangles: int = 12000) -> TriangleSurface:
     """The skull: a closed surface from :func:`~wrinkle_vis.datasets.anatomy.skull_sdf`."""
     def build():
-        raw = _contour(anatomy.skull_sdf, (-80, -125, -110), (80, 125, 110), 2.5)
+        raw = contour(anatomy.skull_sdf, (-80, -125, -110), (80, 125, 110), 2.5)
         surf = _remesh(raw.triangulate().clean(), _triangles_to_points(n_triangles, False))
         surf = TriangleSurface(project_to_surface(anatomy.skull_sdf, surf.points),
                                surf.triangles).oriented()
         return {"points": surf.points, "triangles": surf.triangles}
 
-    arrays = _cached("skull", (int(n_triangles),), build)
+    arrays = cached("skull", (int(n_triangles),), build)
     return TriangleSurface(arrays["points"], arrays["triangles"])
 
 
-def _front_hit(field, x: float, y: float, z_start: float = 140.0) -> np.ndarray:
-    """``(3,)``: the first point of ``field``'s zero set seen from the front at ``(x, y)``."""
-    p = np.array([[x, y, z_start]])
-    for _ in range(2000):
-        d = float(field(p)[0])
-        if abs(d) < 1e-4:
-            return project_to_surface(field, p)[0]
-        p[0, 2] -= max(d, 0.05) if d > 0 else d
-        if p[0, 2] < -z_start:
-            break
-    raise ValueError(f"no surface in front of (x, y) = ({x:g}, {y:g}); move the point")
-
-
 def _on_skin(x, y):
-    return _front_hit(anatomy.skin_sdf, x, y)
+    return front_hit(anatomy.skin_sdf, x, y)
 
 
 def _on_skull(x, y):
-    return _front_hit(anatomy.skull_sdf, x, y)
+    return front_hit(anatomy.skull_sdf, x, y)
 
 
 #: The frontalis: (name, centre x, width W_s, h^c) of each left sheet, mm. Neighbours'
@@ -509,15 +400,6 @@ def builtin_expressions() -> dict[str, Expression]:
     return ex
 
 
-def builtin_landmarks() -> dict[str, tuple]:
-    """Named landmarks on the built-in skin (see :data:`~.scans.LANDMARKS`), mm."""
-    at = {"nasion": (0.0, 8.0), "nose_tip": (0.0, -29.0), "chin": (0.0, -95.0),
-          "eye_inner_L": (19.0, 0.0), "eye_inner_R": (-19.0, 0.0),
-          "eye_outer_L": (45.0, -1.0), "eye_outer_R": (-45.0, -1.0),
-          "mouth_corner_L": (23.0, -59.0), "mouth_corner_R": (-23.0, -59.0)}
-    return {k: tuple(map(float, _on_skin(*xy))) for k, xy in at.items()}
-
-
 def builtin_layout() -> Layout:
     """The built-in face's layout, computed from the code (the shipped file is a copy),
     with the default track mapping (:func:`~wrinkle_vis.core.tracks.default_mapping`).
@@ -527,9 +409,6 @@ def builtin_layout() -> Layout:
     return Layout(name="built-in face", muscles=tuple(builtin_muscles()),
                   expressions=builtin_expressions(), landmarks=builtin_landmarks(),
                   mapping=default_mapping())
-
-
-BUILTIN_LAYOUT = Path(__file__).with_name("builtin_layout.json")
 
 
 #: The built-in faces :func:`load_face` knows by name.
@@ -543,48 +422,6 @@ def _as_layout(layout) -> tuple[Layout | None, Path | None]:
         return layout, None
     path = Path(layout)
     return load_layout(path), path.parent
-
-
-def face_unit_of(skin: TriangleSurface, unit: str | None = None) -> str:
-    """``unit`` checked, or the unit guessed from the skin's height (with a
-    :class:`~wrinkle_vis.core.units.UnitWarning`; ``"mm"`` when nothing fits).
-
-    A skin no unit makes a head of (its largest extent outside 1 cm .. 10 m in every unit of
-    :data:`~wrinkle_vis.core.units.LENGTH_UNITS`, e.g. 4e29 or 4e-31 units) is refused when
-    no unit is given, and warned about when one is.
-
-    Raises
-    ------
-    ValueError
-        One line: the skin's size, and that no unit makes it a head; or an unknown unit.
-    """
-    from wrinkle_vis.core.units import LENGTH_UNITS, UnitWarning, check_unit, guess_unit
-
-    lo, hi = skin.bounds()
-    height = float(hi[1] - lo[1])
-    extent = float(np.max(hi - lo))
-    possible = any(HEAD_METRES[0] <= extent * f <= HEAD_METRES[1]
-                   for f in LENGTH_UNITS.values())
-    if unit is not None:
-        unit = check_unit(unit)
-        if not possible:
-            warnings.warn(f"the skin is {extent:.4g} {unit} across "
-                          f"({extent * LENGTH_UNITS[unit]:.3g} m), a head in no unit; check "
-                          "the file", UnitWarning, stacklevel=3)
-        return unit
-    if not possible:
-        raise ValueError(f"the skin is {extent:.4g} units across, a head in no unit "
-                         f"({', '.join(LENGTH_UNITS)}); the file's coordinates are damaged "
-                         "or scaled: check it, or scale it to millimetres")
-    guess = guess_unit(height)
-    warnings.warn(f"the skin's unit is not given; a face {height:.4g} units tall reads as "
-                  f"{guess or 'mm'}: pass unit=... (or \"unit\" in its layout) to say",
-                  UnitWarning, stacklevel=3)
-    return guess or "mm"
-
-
-#: The sizes in metres a skin's largest extent may have (a face to a bust, generously).
-HEAD_METRES = (0.01, 10.0)
 
 
 def _check_fits(lay: Layout, skin: TriangleSurface, what: str) -> None:
@@ -615,7 +452,8 @@ def _check_fits(lay: Layout, skin: TriangleSurface, what: str) -> None:
 
 
 def load_face(name: str | int | None = None, n_triangles: int | None = None, *, skin=None,
-              skull=None, layout=None, landmarks=None, unit: str | None = None) -> FaceModel:
+              skull=None, layout=None, landmarks=None, unit: str | None = None,
+              base: str | os.PathLike | None = None) -> FaceModel:
     """A face ready to evaluate: a built-in one (by name), or a scan of your own.
 
     Parameters
@@ -654,6 +492,10 @@ def load_face(name: str | int | None = None, n_triangles: int | None = None, *, 
         The unit of the skin's lengths (``"mm"``, ``"cm"``, ``"m"``, ...); default the
         layout's, else ``"mm"`` for the built-in faces and, for a scan, a guess from its
         height (with a :class:`~wrinkle_vis.core.units.UnitWarning`).
+    base : path, optional
+        The folder a layout's ``skin`` and ``skull`` paths are relative to; default the
+        layout file's folder, or the current folder for a ``Layout`` object (give the
+        folder of the file it was read from).
 
     Returns
     -------
@@ -684,52 +526,82 @@ def load_face(name: str | int | None = None, n_triangles: int | None = None, *, 
     Licence: the procedural face, the same as wrinkle-vis; the Lee Perry-Smith head,
     CC BY 3.0 (see :mod:`~wrinkle_vis.datasets.lee_perry_smith`).
     """
+    name, n_triangles = _name_and_resolution(name, n_triangles)
+    lay, folder = _as_layout(layout)
+    folder = Path(base) if base is not None else folder
+    name = _face_name(name, lay, skin)
+    if name == "lee_perry_smith":
+        return _skinned(_lee_perry_smith_face(lay, skin, skull), lay)
+    used = lay if lay is not None else load_layout(BUILTIN_LAYOUT)
+    skin, skull = _layout_surfaces(used, folder, skin, skull)
+    if skin is None:
+        face = _procedural_face(used, lay is not None, n_triangles, skull, landmarks, unit)
+    else:
+        skin_mesh = _surface(skin)
+        unit = face_unit_of(skin_mesh, unit or used.unit)
+        face = _scan_face(skin_mesh, _surface(skull), used, lay is None, landmarks, unit)
+    return _skinned(face, lay)
+
+
+def _name_and_resolution(name, n_triangles: int | None) -> tuple[object, int | None]:
+    """``(name, n_triangles)``, with a number given as the name taken as ``n_triangles``."""
     if isinstance(name, (int, np.integer)) and not isinstance(name, bool):
         if n_triangles is not None:
             raise ValueError("give the resolution once: load_face(n_triangles=...)")
-        name, n_triangles = None, int(name)
-    lay, base = _as_layout(layout)
+        return None, int(name)
+    return name, n_triangles
+
+
+def _face_name(name, lay: Layout | None, skin) -> str | None:
+    """The built-in face asked for: ``name``, else the one a layout without a skin names;
+    checked against :data:`FACES`.
+    """
     if name is None and lay is not None and skin is None and lay.skin is None:
         name = lay.face
     if name is not None and (not isinstance(name, str) or name not in FACES):
         raise ValueError(f"no built-in face {name!r}; the built-in faces are: "
                          f"{', '.join(FACES)}")
-    if name == "lee_perry_smith":
-        if skin is not None:
-            raise ValueError("the lee_perry_smith face has its own skin; drop skin=... or "
-                             "the name")
-        from .lee_perry_smith import load_lee_perry_smith
+    return name
 
-        return _skinned(load_lee_perry_smith(layout=lay, skull=_surface(skull)), lay)
-    if lay is None:
-        lay_used = load_layout(BUILTIN_LAYOUT)
-    else:
-        lay_used = lay
-    if skin is None and lay_used.skin is not None:
-        skin = (base or Path.cwd()) / lay_used.skin
-    if skull is None and lay_used.skull is not None:
-        skull = (base or Path.cwd()) / lay_used.skull
-    if skin is None:
-        if n_triangles is None:
-            n_triangles = (lay_used.n_triangles if lay_used.n_triangles is not None
-                           else DEFAULT_TRIANGLES)
-        n = int(n_triangles)
-        if not (MIN_TRIANGLES <= n <= MAX_TRIANGLES):
-            raise ValueError(f"n_triangles = {n} is outside the supported "
-                             f"{MIN_TRIANGLES}..{MAX_TRIANGLES}; choose a number in that "
-                             "range")
-        skin_mesh = build_skin(n)
-        if lay is not None:
-            _check_fits(lay_used, skin_mesh, f"layout {lay_used.name!r} on the built-in face")
-        return _skinned(FaceModel(skin_mesh, _surface(skull) or build_skull(),
-                                  lay_used.muscles, lay_used.expressions, name=lay_used.name,
-                                  landmarks=lay_used.landmarks if landmarks is None
-                                  else landmarks, unit=unit or lay_used.unit or "mm",
-                                  mapping=lay_used.mapping), lay)
-    skin_mesh = _surface(skin)
-    unit = face_unit_of(skin_mesh, unit or lay_used.unit)
-    return _skinned(_scan_face(skin_mesh, _surface(skull), lay_used, lay is None, landmarks,
-                               unit), lay)
+
+def _lee_perry_smith_face(lay: Layout | None, skin, skull) -> FaceModel:
+    """The Lee Perry-Smith head, with ``lay``'s muscles when given (its skin is its own)."""
+    if skin is not None:
+        raise ValueError("the lee_perry_smith face has its own skin; drop skin=... or "
+                         "the name")
+    return load_lee_perry_smith(layout=lay, skull=_surface(skull))
+
+
+def _layout_surfaces(lay: Layout, folder: Path | None, skin, skull) -> tuple:
+    """``(skin, skull)``: those given, else the files ``lay`` names, relative to
+    ``folder`` (the layout file's; the current folder for a ``Layout`` object).
+    """
+    if skin is None and lay.skin is not None:
+        skin = (folder or Path.cwd()) / lay.skin
+    if skull is None and lay.skull is not None:
+        skull = (folder or Path.cwd()) / lay.skull
+    return skin, skull
+
+
+def _procedural_face(lay: Layout, given: bool, n_triangles: int | None, skull, landmarks,
+                     unit: str | None) -> FaceModel:
+    """The procedural skin at ``n_triangles`` (default the layout's, else 4,500) with
+    ``lay``'s muscles; a layout that was ``given`` is checked to fit the skin.
+    """
+    if n_triangles is None:
+        n_triangles = (lay.n_triangles if lay.n_triangles is not None
+                       else DEFAULT_TRIANGLES)
+    n = int(n_triangles)
+    if not (MIN_TRIANGLES <= n <= MAX_TRIANGLES):
+        raise ValueError(f"n_triangles = {n} is outside the supported "
+                         f"{MIN_TRIANGLES}..{MAX_TRIANGLES}; choose a number in that "
+                         "range")
+    skin = build_skin(n)
+    if given:
+        _check_fits(lay, skin, f"layout {lay.name!r} on the built-in face")
+    return FaceModel(skin, _surface(skull) or build_skull(), lay.muscles, lay.expressions,
+                     name=lay.name, landmarks=lay.landmarks if landmarks is None else landmarks,
+                     unit=unit or lay.unit or "mm", mapping=lay.mapping)
 
 
 def _skinned(face: FaceModel, layout) -> FaceModel:
@@ -741,8 +613,6 @@ def _skinned(face: FaceModel, layout) -> FaceModel:
 
 def _surface(value):
     """A skin or skull given as a path (read) or a surface, oriented outward."""
-    from .scans import orient_outward, read_surface
-
     if value is None:
         return None
     if isinstance(value, TriangleSurface):
@@ -751,9 +621,10 @@ def _surface(value):
 
 
 def _scan_face(skin, skull, lay, builtin_layout_used, landmarks, unit):
-    from .scans import transfer_layout
-    from .skull import scan_skull
-
+    """A face on a scanned ``skin``: the level-set skull unless one is given, and ``lay``'s
+    muscles, moved onto the skin from ``landmarks`` when ``lay`` is the built-in layout
+    (none without landmarks).
+    """
     landmarks = dict(landmarks) if landmarks is not None else (
         None if builtin_layout_used else dict(lay.landmarks) or None)
     if skull is None:

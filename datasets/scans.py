@@ -9,14 +9,14 @@ import numpy as np
 
 from wrinkle_vis.core import Layout, MeshError, TriangleSurface, load_layout
 from wrinkle_vis.core.mesh import closest_points
+from wrinkle_vis.core.units import face_unit_of
+
+from .anatomy import BUILTIN_LAYOUT
+from .landmarks import LANDMARKS, fit_landmarks, similarity_transform
+from .skull import scan_skull
 
 __all__ = ["LANDMARKS", "fit_landmarks", "orient_outward", "read_landmarks", "read_surface",
            "scan_layout", "similarity_transform", "transfer_layout"]
-
-#: The landmarks ``transfer_layout`` understands (L is the subject's left, +x).
-LANDMARKS = ("nasion", "nose_tip", "chin", "eye_inner_L", "eye_inner_R", "eye_outer_L",
-             "eye_outer_R", "mouth_corner_L", "mouth_corner_R")
-
 
 def read_surface(path: str | os.PathLike, *, weld_tolerance: float = 0.0) -> TriangleSurface:
     """Read a triangle surface from OBJ, PLY, STL, VTP, VTK (PyVista) or what meshio reads.
@@ -192,95 +192,6 @@ def _fan(polys: np.ndarray) -> np.ndarray:
     return np.concatenate([polys[:, [0, i, i + 1]] for i in range(1, k - 1)])
 
 
-def similarity_transform(source, target) -> tuple[np.ndarray, float, np.ndarray]:
-    r"""Least-squares similarity :math:`y = s R x + t` from ``(k, 3)`` source to target
-    landmarks (Umeyama 1991), ``k >= 3``.
-
-    Returns
-    -------
-    rotation : (3, 3) float
-    scale : float
-    translation : (3,) float
-    """
-    x, y = np.asarray(source, float), np.asarray(target, float)
-    mx, my = x.mean(axis=0), y.mean(axis=0)
-    xc, yc = x - mx, y - my
-    u, sig, vt = np.linalg.svd(yc.T @ xc / len(x))
-    d = np.ones(3)
-    if np.linalg.det(u) * np.linalg.det(vt) < 0:
-        d[-1] = -1
-    rot = u @ np.diag(d) @ vt
-    scale = float((sig * d).sum() / (xc**2).sum(axis=1).mean())
-    return rot, scale, my - scale * rot @ mx
-
-
-#: How far a landmark may lie from where the best similarity puts it, as a fraction of the
-#: landmarks' spread (their RMS distance from their mean): real scans against the built-in
-#: face stay under 0.3; two swapped landmarks are off by more than 1.
-MAX_LANDMARK_MISFIT = 0.75
-
-
-def fit_landmarks(source: dict, target: dict) -> tuple[np.ndarray, float, np.ndarray]:
-    r"""The similarity :math:`y = s R x + t` from ``source`` to ``target`` landmarks (their
-    shared names, :func:`similarity_transform`), after checking that it means something.
-
-    Refused, each in one line naming the landmarks: fewer than 4 shared names; target
-    landmarks at one point or on one line (no rotation follows from them); landmarks that
-    a mirror image fits and no rotation does (left and right swapped); landmarks that lie
-    more than :data:`MAX_LANDMARK_MISFIT` of the landmarks' spread from where the fit puts
-    them (swapped or misplaced: the worst named first).
-
-    Raises
-    ------
-    ValueError
-        As above, with the way out.
-    """
-    names = _shared_landmarks(source, target)
-    x = np.array([source[n] for n in names], float)
-    y = np.array([target[n] for n in names], float)
-    spread = float(np.sqrt(((y - y.mean(axis=0)) ** 2).sum(axis=1).mean()))
-    sv = np.linalg.svd(y - y.mean(axis=0), compute_uv=False)
-    if not spread > 1e-9 * max(1.0, float(np.abs(y).max())):
-        raise ValueError(f"the landmarks {', '.join(names)} are all at one point; place each "
-                         "on its own feature of the face")
-    if sv[1] < 0.05 * sv[0]:
-        raise ValueError(f"the landmarks {', '.join(names)} lie on one line; place them on "
-                         "the face's features (the eyes' corners are left and right of the "
-                         "nose, the chin below it)")
-    rot, scale, shift = similarity_transform(x, y)
-    off = np.linalg.norm(scale * x @ rot.T + shift - y, axis=1) / spread
-    if off.max() <= MAX_LANDMARK_MISFIT:
-        return rot, scale, shift
-    if _mirror_misfit(x, y, spread).max() <= MAX_LANDMARK_MISFIT:
-        raise ValueError("the landmarks are a mirror image of the face's: _L and _R are "
-                         "swapped (_L is the subject's left, on your right as you face "
-                         "them); swap them")
-    worst = [f"{names[i]} ({off[i]:.2f})" for i in np.argsort(-off)
-             if off[i] > MAX_LANDMARK_MISFIT]
-    raise ValueError(f"the landmarks {', '.join(worst)} lie far from where the others put "
-                     f"them (by that fraction of the landmarks' spread; at most "
-                     f"{MAX_LANDMARK_MISFIT:g} fits a face): are they swapped or misplaced? "
-                     "Check them on the scan")
-
-
-def _mirror_misfit(x: np.ndarray, y: np.ndarray, spread: float) -> np.ndarray:
-    """``(k,)``: each landmark's distance from the best fit that may mirror, over ``spread``."""
-    mx, my = x.mean(axis=0), y.mean(axis=0)
-    u, sig, vt = np.linalg.svd((y - my).T @ (x - mx) / len(x))
-    m = u @ vt  # orthogonal, possibly a reflection
-    scale = float(sig.sum() / ((x - mx) ** 2).sum(axis=1).mean())
-    return np.linalg.norm(scale * (x - mx) @ m.T + my - y, axis=1) / spread
-
-
-def _shared_landmarks(source: dict, target: dict) -> list[str]:
-    names = [n for n in source if n in target]
-    if len(names) < 4:
-        raise ValueError(
-            f"transfer needs at least 4 landmarks named in both the layout and the target; "
-            f"shared: {names or 'none'}. Known names: {', '.join(LANDMARKS)}")
-    return names
-
-
 def transfer_layout(layout: Layout, target_skin: TriangleSurface, landmarks: dict,
                     target_skull: TriangleSurface | None = None) -> Layout:
     """Move a muscle layout onto another face from a handful of named landmarks.
@@ -309,8 +220,6 @@ def transfer_layout(layout: Layout, target_skin: TriangleSurface, landmarks: dic
     """
     rot, scale, shift = fit_landmarks(layout.landmarks, landmarks)
     if target_skull is None:
-        from .skull import scan_skull
-
         target_skull = scan_skull(target_skin, landmarks)
     surfaces = {"skin": target_skin, "skull": target_skull}
     muscles = []
@@ -401,9 +310,6 @@ def scan_layout(skin: str | os.PathLike, landmarks: dict, *,
     layout : Layout, optional
         The muscles to move; default the built-in face's.
     """
-    from .face import BUILTIN_LAYOUT, face_unit_of
-    from .skull import scan_skull
-
     skin_path = Path(skin).resolve()
     surface = read_surface(skin_path)
     marks = {k: tuple(float(x) for x in v) for k, v in dict(landmarks).items()}

@@ -18,7 +18,7 @@ the signed distance to the region under the face, in the built-in frame: in fron
 ears (:math:`z \ge` :data:`EAR_PLANE_Z`) and above the neck (:math:`y \ge`
 :data:`NECK_PLANE_Y`). Its zero set is extracted by VTK's flying edges on a grid of
 :data:`SPACING_MM` (scaled), sampled exactly in a band around the surface
-(:func:`~wrinkle_vis.datasets.face.sample_narrow_band`), and the largest component is kept.
+(:func:`~wrinkle_vis.datasets.sdf.sample_narrow_band`), and the largest component is kept.
 Marching cubes gives a closed, manifold, self-intersection-free surface that lies on the
 level set to within the grid's interpolation error, so the skull is the tissue depth (4.5 to
 21 mm on an adult face) inside the skin, never a per-vertex offset that tears where the skin
@@ -32,6 +32,10 @@ from pathlib import Path
 import numpy as np
 
 from wrinkle_vis.core import MeshError, TriangleSurface
+
+from ._cache import cached
+from .landmarks import builtin_landmarks, fit_landmarks
+from .sdf import sample_narrow_band
 
 __all__ = ["EAR_PLANE_Z", "NECK_PLANE_Y", "SPACING_MM", "exterior", "scan_skull",
            "skull_field"]
@@ -47,9 +51,6 @@ NECK_PLANE_Y = -104.0
 
 def _frame(landmarks):
     """The similarity ``(rot, scale, shift)`` from the built-in face onto the landmarks."""
-    from .face import builtin_landmarks
-    from .scans import fit_landmarks
-
     return fit_landmarks(builtin_landmarks(), landmarks)
 
 
@@ -220,10 +221,8 @@ def scan_skull(skin: TriangleSurface, landmarks=None) -> TriangleSurface:
     """
     import hashlib
 
-    from .face import _cached
-
     digest = hashlib.sha256(Path(__file__).read_bytes())
-    digest.update(Path(__file__).with_name("scans.py").read_bytes())  # the similarity
+    digest.update(Path(__file__).with_name("landmarks.py").read_bytes())  # the similarity
     digest.update(np.ascontiguousarray(skin.points, float).tobytes())
     digest.update(np.ascontiguousarray(skin.triangles, np.int64).tobytes())
     marks = sorted((str(k), tuple(map(float, v))) for k, v in dict(landmarks or {}).items())
@@ -233,15 +232,13 @@ def scan_skull(skin: TriangleSurface, landmarks=None) -> TriangleSurface:
         surf = _build_skull(skin, landmarks)
         return {"points": surf.points, "triangles": surf.triangles}
 
-    arrays = _cached("scan-skull", (digest.hexdigest(),), build)
+    arrays = cached("scan-skull", (digest.hexdigest(),), build)
     return TriangleSurface(arrays["points"], arrays["triangles"])
 
 
 def _build_skull(skin: TriangleSurface, landmarks) -> TriangleSurface:
     """:func:`scan_skull` without its cache."""
     import pyvista as pv
-
-    from .face import sample_narrow_band
 
     field, lo, hi, spacing = skull_field(skin, landmarks)
     dims = np.ceil((hi - lo) / spacing).astype(int) + 1

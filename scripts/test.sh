@@ -15,5 +15,6 @@ if [ -n "$missing" ]; then
 fi
 source "$(dirname "$0")/_env.sh" test
 .venv/bin/ruff check .
-.venv/bin/lint-imports
+.venv/bin/python scripts/lint_imports.py --no-logo
+.venv/bin/mypy
 exec .venv/bin/python -m pytest "$@"

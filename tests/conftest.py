@@ -1,16 +1,31 @@
 """Shared test set-up: nothing a test does may write into the user's home, and every
 window and plotter a test makes is closed and freed.
+
+Importing this file imports neither Qt nor PyVista nor the app: a test of the model pays for
+them only when it uses them (the Qt fixtures import Qt when they are set up). pytest-qt
+itself imports Qt when pytest starts; ``pytest -p no:pytestqt -p no:xvfb`` runs Qt-free test
+files without it.
 """
 
 import gc
+import os
+import sys
+import tempfile
 import weakref
 
 import numpy as np
 import pytest
-from qtpy import QtCore, QtWidgets
 
-from wrinkle_vis.app.recovery import Recovery
-from wrinkle_vis.app.session import Session
+
+def pytest_configure(config):
+    """Built faces and skulls are cached in pytest's cache folder (kept between runs, in the
+    repository's ``.pytest_cache``), never in ``~/.cache/wrinkle-vis``: set before any test
+    module is imported, and inherited by the processes the tests start. A test that wants
+    another folder sets ``WRINKLE_VIS_CACHE`` itself.
+    """
+    cache = config.cache.mkdir("wrinkle-vis") if getattr(config, "cache", None) else \
+        tempfile.mkdtemp(prefix="wrinkle-vis-cache-")
+    os.environ["WRINKLE_VIS_CACHE"] = str(cache)
 
 
 @pytest.hookimpl(wrapper=True)
@@ -23,6 +38,11 @@ def pytest_runtest_makereport(item, call):
     return report
 
 
+#: The fixtures through which a test gets a Qt application (and so may build windows).
+QT_FIXTURES = {"qapp", "qtbot"}
+PLOTTERS = "pyvista.plotting.plotter"
+
+
 @pytest.fixture(autouse=True)
 def no_leaks(request):
     """Every main window and every PyVista plotter a test builds is freed once the test
@@ -30,33 +50,46 @@ def no_leaks(request):
     reference gone and the garbage collected, its weak reference is dead, without any
     deferred delete. Set up before every other fixture (it must not use monkeypatch), so
     that it checks after they are all torn down.
+
+    Windows are watched in tests that use a Qt fixture (or when the app's window module is
+    loaded already); plotters once PyVista is loaded. A test that loads PyVista itself
+    is checked for plotters it left open (a closed one it still holds is not seen).
     """
-    import pyvista.plotting.plotter as plotter_module
-
-    from wrinkle_vis.app import window as window_module
-
     made = []
-    original_init = window_module.MainWindow.__init__
+    window_module = None
+    if QT_FIXTURES & set(request.fixturenames) or "wrinkle_vis.app.window" in sys.modules:
+        from wrinkle_vis.app import window as window_module
+    plotter_module = sys.modules.get(PLOTTERS)
+    if window_module is not None:
+        original_init = window_module.MainWindow.__init__
 
-    def recording_init(self, *args, **kwargs):
-        made.append((type(self).__name__, weakref.ref(self)))
-        original_init(self, *args, **kwargs)
+        def recording_init(self, *args, **kwargs):
+            made.append((type(self).__name__, weakref.ref(self)))
+            original_init(self, *args, **kwargs)
+
+        window_module.MainWindow.__init__ = recording_init
 
     class Recording(dict):
         def __setitem__(self, key, plotter):
             made.append((f"{type(plotter).__name__} {key}", weakref.ref(plotter)))
             super().__setitem__(key, plotter)
 
-    original_plotters = plotter_module._ALL_PLOTTERS
-    plotter_module._ALL_PLOTTERS = Recording(original_plotters)
-    window_module.MainWindow.__init__ = recording_init
+    if plotter_module is not None:
+        original_plotters = plotter_module._ALL_PLOTTERS
+        plotter_module._ALL_PLOTTERS = Recording(original_plotters)
     try:
         yield
     finally:
-        window_module.MainWindow.__init__ = original_init
-        recorded, plotter_module._ALL_PLOTTERS = plotter_module._ALL_PLOTTERS, original_plotters
-        original_plotters.clear()
-        original_plotters.update(recorded)
+        if window_module is not None:
+            window_module.MainWindow.__init__ = original_init
+        if plotter_module is not None:
+            recorded = plotter_module._ALL_PLOTTERS
+            plotter_module._ALL_PLOTTERS = original_plotters
+            original_plotters.clear()
+            original_plotters.update(recorded)
+        elif PLOTTERS in sys.modules:  # loaded by the test: the plotters it made are here
+            made += [(f"{type(p).__name__} {key}", weakref.ref(p))
+                     for key, p in sys.modules[PLOTTERS]._ALL_PLOTTERS.items()]
     call = getattr(request.node, "report_call", None)
     if made and call is not None and call.passed:
         request.node.funcargs.clear()  # the test's arguments: pytest drops them right after
@@ -108,12 +141,16 @@ def no_leaked_plotters():
 @pytest.fixture
 def settings(tmp_path):
     """A private QSettings file (recent files, anti-aliasing)."""
+    from qtpy import QtCore
+
     return QtCore.QSettings(str(tmp_path / "settings.ini"), QtCore.QSettings.IniFormat)
 
 
 @pytest.fixture
 def recovery(tmp_path):
     """A private recovery folder."""
+    from wrinkle_vis.app.recovery import Recovery
+
     return Recovery(tmp_path / "recovery")
 
 
@@ -124,6 +161,7 @@ def make_window(qtbot, wv_face, settings, recovery):
     test with its changes discarded. Closed only, never deleteLater'd (as pytest-qt's
     ``addWidget`` does), so that the leak check sees closing alone free it.
     """
+    from wrinkle_vis.app.session import Session
     from wrinkle_vis.app.window import MainWindow
 
     made = []
@@ -155,6 +193,8 @@ class StrayDialogs:
     """
 
     def __init__(self):
+        from qtpy import QtCore
+
         self.closed: list[str] = []
         self._seen = None
         self._ticks = 0
@@ -164,6 +204,8 @@ class StrayDialogs:
         self.timer.start()
 
     def _poll(self) -> None:
+        from qtpy import QtWidgets
+
         dialog = QtWidgets.QApplication.activeModalWidget()
         if dialog is None or not dialog.isVisible():
             self._seen, self._ticks = None, 0
@@ -201,6 +243,8 @@ class DialogAnswers:
     """
 
     def __init__(self):
+        from qtpy import QtCore
+
         self.answers: list = []
         self.asked: list[str] = []
         self.timer = QtCore.QTimer()
@@ -214,6 +258,8 @@ class DialogAnswers:
         return self
 
     def _poll(self) -> None:
+        from qtpy import QtWidgets
+
         dialog = QtWidgets.QApplication.activeModalWidget()
         if dialog is None or not dialog.isVisible() or not self.answers:
             return

@@ -246,7 +246,7 @@ def test_temporaries_from_before_the_pid_was_in_their_names_go_when_old(tmp_path
 def test_a_full_cache_disk_leaves_no_partial_entry(tmp_path, monkeypatch):
     import errno
 
-    from wrinkle_vis.datasets import face as builtin
+    from wrinkle_vis.datasets._cache import cached
 
     monkeypatch.setenv("WRINKLE_VIS_CACHE", str(tmp_path / "cache"))
     def full(file, **arrays):  # part of an entry, then the disk is full
@@ -257,13 +257,13 @@ def test_a_full_cache_disk_leaves_no_partial_entry(tmp_path, monkeypatch):
         raise OSError(errno.ENOSPC, "No space left on device")
 
     monkeypatch.setattr(np, "savez", full)
-    arrays = builtin._cached("skin", (1,), lambda: {"a": np.arange(5)})
+    arrays = cached("skin", (1,), lambda: {"a": np.arange(5)})
     np.testing.assert_array_equal(arrays["a"], np.arange(5))  # still built
     assert list((tmp_path / "cache").iterdir()) == []
 
 
 def test_a_cache_entry_is_synced_before_it_is_renamed_into_place(tmp_path, monkeypatch):
-    from wrinkle_vis.datasets import face as builtin
+    from wrinkle_vis.datasets._cache import cached
 
     monkeypatch.setenv("WRINKLE_VIS_CACHE", str(tmp_path / "cache"))
     synced, real_fsync, real_replace = [], os.fsync, os.replace
@@ -278,7 +278,7 @@ def test_a_cache_entry_is_synced_before_it_is_renamed_into_place(tmp_path, monke
 
     monkeypatch.setattr(os, "fsync", fsync)
     monkeypatch.setattr(os, "replace", replace)
-    builtin._cached("skin", (2,), lambda: {"a": np.arange(5)})
+    cached("skin", (2,), lambda: {"a": np.arange(5)})
     (entry,) = (tmp_path / "cache").iterdir()
     with np.load(entry) as data:
         np.testing.assert_array_equal(data["a"], np.arange(5))

@@ -5,7 +5,7 @@ import os
 import numpy as np
 import pytest
 
-from wrinkle_vis.datasets import face as face_module
+from wrinkle_vis.datasets._cache import cached
 
 POINTS = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
 TRIANGLES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
@@ -59,16 +59,16 @@ def test_a_damaged_cache_entry_is_rebuilt_and_written_again(tmp_path, monkeypatc
         built.append(1)
         return {"points": POINTS.copy(), "triangles": TRIANGLES.copy()}
 
-    first = face_module._cached("skin", (4,), build)
+    first = cached("skin", (4,), build)
     (path,) = tmp_path.glob("skin-*.npz")
-    assert face_module._cached("skin", (4,), build) and len(built) == 1  # a hit
+    assert cached("skin", (4,), build) and len(built) == 1  # a hit
     damage(path)
-    again = face_module._cached("skin", (4,), build)
+    again = cached("skin", (4,), build)
     assert len(built) == 2  # rebuilt, no traceback
     for key in ("points", "triangles"):
         np.testing.assert_array_equal(again[key], first[key])
     with np.load(path) as data:  # and written again, whole
         np.testing.assert_array_equal(data["points"], POINTS)
         np.testing.assert_array_equal(data["triangles"], TRIANGLES)
-    face_module._cached("skin", (4,), build)
+    cached("skin", (4,), build)
     assert len(built) == 2

@@ -61,12 +61,12 @@ def test_swapped_landmarks_name_only_the_swapped_ones():
 
 def test_a_scan_with_collinear_landmarks_is_refused_before_the_skull(wv_face, monkeypatch):
     """The finding: accepted after 144 s and 1 GB; now refused before any skull work."""
-    import wrinkle_vis.datasets.face as face_module
+    import wrinkle_vis.datasets.skull as skull_module
 
     def no_skull(*args):
         raise AssertionError("the level-set skull's field was sampled")
 
-    monkeypatch.setattr(face_module, "sample_narrow_band", no_skull)
+    monkeypatch.setattr(skull_module, "sample_narrow_band", no_skull)
     marks = {k: (0.0, 10.0 * i, 0.0) for i, k in enumerate(SCAN)}
     with pytest.raises(ValueError, match="lie on one line"):
         wv.datasets.load_face(skin=wv_face.skin, landmarks=marks, unit="mm")

@@ -1,5 +1,6 @@
 """A layout that names its mesh file and landmarks is a whole face: it reopens bit for bit."""
 
+import dataclasses
 import json
 import shutil
 from pathlib import Path
@@ -86,3 +87,27 @@ def test_a_layout_for_another_unit_is_refused_on_the_builtin_skin():
     """The shipped example (metres, skin null) on the millimetre face: a clear error."""
     with pytest.raises(ValueError, match="made for a face in another unit"):
         wv.datasets.load_face(layout=EXAMPLE)
+
+
+def _write_obj(path: Path, surface) -> None:
+    lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in surface.points.tolist()]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in surface.triangles.tolist()]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_a_layout_object_reads_its_meshes_relative_to_base(tmp_path, monkeypatch, wv_face):
+    """``base`` says where a ``Layout`` object's skin and skull files are (an object has no
+    file of its own): one rule in ``load_face`` instead of one per caller.
+    """
+    folder = tmp_path / "face"
+    folder.mkdir()
+    _write_obj(folder / "skin.obj", wv_face.skin)
+    _write_obj(folder / "skull.obj", wv_face.skull)
+    layout = dataclasses.replace(wv.load_layout(wv.datasets.BUILTIN_LAYOUT), skin="skin.obj",
+                                 skull="skull.obj", unit="mm")
+    monkeypatch.chdir(tmp_path)  # not the folder of the meshes
+    face = wv.datasets.load_face(layout=layout, base=folder)
+    direct = wv.datasets.load_face(layout=layout, skin=folder / "skin.obj",
+                                   skull=folder / "skull.obj")
+    assert_same_face(face, direct)
+    assert face.skin.n_triangles == wv_face.skin.n_triangles

@@ -21,6 +21,7 @@ import pyvista as pv
 import vtk
 
 from wrinkle_vis.core import editing
+from wrinkle_vis.core.editing import created
 from wrinkle_vis.core.face import FaceModel, FaceState
 from wrinkle_vis.core.mesh import (
     TriangleSurface,
@@ -30,6 +31,7 @@ from wrinkle_vis.core.mesh import (
 )
 from wrinkle_vis.core.muscle import Muscle
 from wrinkle_vis.core.registry import TypeLookup
+from wrinkle_vis.core.units import millimetre as millimetre  # moved there; kept here
 
 __all__ = ["GenericWidget", "Handle", "LinearWidget", "PlacementWidget", "SheetWidget",
            "boundary_lines", "handles_for", "layer_of", "register_widget", "snapped",
@@ -418,31 +420,6 @@ def snapped(muscle: Muscle, face: FaceModel, like: Muscle | None = None) -> Musc
 def snapped_points(surface, points) -> tuple:
     """``((3,), ...)``: the closest points of ``surface`` to ``points``, as tuples."""
     return tuple(map(tuple, closest_points(surface, np.asarray(points, float))))
-
-
-def created(muscle_type: type, name: str, face: FaceModel, at) -> Muscle:
-    """A new muscle of ``muscle_type`` called ``name`` with its insertion at ``at`` ``(3,)``
-    on ``face``'s skin: the type's own :meth:`Muscle.create`, whose starting lengths are in
-    millimetres, made on the face scaled to millimetres and scaled back when the face is in
-    another unit (:func:`millimetre`), so that a new muscle on a scan in metres is not 1000
-    times too big.
-    """
-    mm = millimetre(face)
-    if mm == 1.0:
-        return muscle_type.create(name, at, face.skin, face.skull)
-    skull = None if face.skull is None else face.skull.with_points(face.skull.points / mm)
-    made = muscle_type.create(name, np.asarray(at, float) / mm,
-                              face.skin.with_points(face.skin.points / mm), skull)
-    return made.transformed(lambda p: np.asarray(p) * mm, mm)
-
-
-def millimetre(face: FaceModel) -> float:
-    """A millimetre in ``face``'s unit (:func:`~wrinkle_vis.core.units.face_unit`): the
-    lengths a new muscle starts with are given in millimetres, the built-in face's unit.
-    """
-    from wrinkle_vis.core.units import LENGTH_UNITS, face_unit
-
-    return LENGTH_UNITS["mm"] / LENGTH_UNITS[face_unit(face)]
 
 
 #: The widget factories by muscle type (:func:`register_widget`, :func:`widget_factory`).

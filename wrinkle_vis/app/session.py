@@ -439,9 +439,9 @@ class Session:
     def added(self, type_name: str, at) -> tuple[FaceModel, str]:
         """The face with a new muscle of type ``type_name``, its insertion on the skin at
         ``at`` ``(3,)``, made by the type itself (:meth:`Muscle.create`) in the face's unit
-        (:func:`~wrinkle_vis.widgets.placement.created`).
+        (:func:`~wrinkle_vis.core.editing.created`).
         """
-        from wrinkle_vis.widgets.placement import created
+        from ..core.editing import created
 
         cls = get_muscle_type(type_name)
         name = unique_name(f"{type_name}_1", self.face.muscle_names)

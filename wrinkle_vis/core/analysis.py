@@ -434,13 +434,14 @@ def furrow_runs(surface: TriangleSurface, W, offsets, normal_axis=0, mask=None,
     p = surface.points if points is None else np.asarray(points, dtype=float)
     bottoms = []  # per section: (k, 3) points and (k,) depths
     for c in offsets:
-        pts, dep = [], []
+        found: list[np.ndarray] = []
+        depths: list[np.ndarray] = []
         for line in section(surface, Wv, c * n, n, mask, points=p, order_axis=order_axis):
             f = furrows(line.s, line.values, prominence)
-            pts.append(line.points[f.index])
-            dep.append(f.depth)
-        bottoms.append((np.concatenate(pts) if pts else np.zeros((0, 3)),
-                        np.concatenate(dep) if dep else np.zeros(0)))
+            found.append(line.points[f.index])
+            depths.append(f.depth)
+        bottoms.append((np.concatenate(found) if found else np.zeros((0, 3)),
+                        np.concatenate(depths) if depths else np.zeros(0)))
     run_of = [np.full(len(b[0]), -1) for b in bottoms]
     runs: list[list[tuple[int, int]]] = []
     for k, (pts, _) in enumerate(bottoms):
@@ -466,10 +467,10 @@ def furrow_runs(surface: TriangleSurface, W, offsets, normal_axis=0, mask=None,
     out = []
     for run in runs:
         sec = np.array([k for k, _ in run])
-        pts = np.array([bottoms[k][0][q] for k, q in run])
-        dep = np.array([bottoms[k][1][q] for k, q in run])
-        length = float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
-        out.append(FurrowRun(points=pts, sections=sec, depth=dep, length=length))
+        run_points = np.array([bottoms[k][0][q] for k, q in run])
+        run_depth = np.array([bottoms[k][1][q] for k, q in run])
+        length = float(np.linalg.norm(np.diff(run_points, axis=0), axis=1).sum())
+        out.append(FurrowRun(points=run_points, sections=sec, depth=run_depth, length=length))
     out.sort(key=lambda r: -r.length)
     return out
 

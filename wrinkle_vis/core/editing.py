@@ -13,9 +13,10 @@ import numpy as np
 
 from .mesh import closest_points
 from .muscle import Muscle
+from .units import millimetre
 
-__all__ = ["mirror_name", "mirrored", "reflect", "snapped", "symmetry_plane", "unique_name",
-           "with_point"]
+__all__ = ["created", "mirror_name", "mirrored", "reflect", "snapped", "symmetry_plane",
+           "unique_name", "with_point"]
 
 _SIDES = (("_L", "_R"), ("_l", "_r"), ("left", "right"), ("Left", "Right"))
 
@@ -168,3 +169,19 @@ def snapped(muscle: Muscle, surfaces: Mapping, *, like: Muscle | None = None,
         rows[~keep] = closest_points(surface, rows[~keep])
         changes[param] = rows.reshape(arr.shape)
     return muscle.replace(**changes) if changes else muscle
+
+
+def created(muscle_type: type[Muscle], name: str, face, at) -> Muscle:
+    """A new muscle of ``muscle_type`` called ``name`` with its insertion at ``at`` ``(3,)``
+    on the skin of ``face`` (a ``FaceModel``): the type's own :meth:`Muscle.create`, whose
+    starting lengths are in millimetres, made on the face scaled to millimetres and scaled
+    back when the face is in another unit (:func:`~wrinkle_vis.core.units.millimetre`), so
+    that a new muscle on a scan in metres is not 1000 times too big.
+    """
+    mm = millimetre(face)
+    if mm == 1.0:
+        return muscle_type.create(name, at, face.skin, face.skull)
+    skull = None if face.skull is None else face.skull.with_points(face.skull.points / mm)
+    made = muscle_type.create(name, np.asarray(at, float) / mm,
+                              face.skin.with_points(face.skin.points / mm), skull)
+    return made.transformed(lambda p: np.asarray(p) * mm, mm)

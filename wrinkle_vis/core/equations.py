@@ -278,18 +278,20 @@ def compression_operator(rest_points, edges, directions, rows=None) -> sp.csr_ma
     unit_dir = np.zeros_like(directions)
     unit_dir[ok] = directions[ok] / dnorm[ok, None]
 
-    r_idx, c_idx, vals = [], [], []
+    r_parts: list[np.ndarray] = []
+    c_parts: list[np.ndarray] = []
+    v_parts: list[np.ndarray] = []
     for end in (0, 1):
         vertex = edges[:, end]
         pos = position[vertex]
         keep = pos >= 0
         weight = np.abs(np.einsum("ij,ij->i", unit_edge[keep], unit_dir[vertex[keep]]))
-        r_idx.append(pos[keep])
-        c_idx.append(np.flatnonzero(keep))
-        vals.append(weight)
-    r_idx = np.concatenate(r_idx)
-    c_idx = np.concatenate(c_idx)
-    vals = np.concatenate(vals)
+        r_parts.append(pos[keep])
+        c_parts.append(np.flatnonzero(keep))
+        v_parts.append(weight)
+    r_idx = np.concatenate(r_parts)
+    c_idx = np.concatenate(c_parts)
+    vals = np.concatenate(v_parts)
     total = np.bincount(r_idx, weights=vals, minlength=len(rows))
     with np.errstate(divide="ignore", invalid="ignore"):
         vals = np.where(total[r_idx] > 0, vals / total[r_idx], 0.0)

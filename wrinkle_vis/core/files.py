@@ -39,7 +39,7 @@ import socket
 import stat
 import tempfile
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence, Set
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -298,6 +298,7 @@ def clean_stale(folder: str | os.PathLike) -> list[str]:
     names of these shapes are touched; errors are ignored (a folder that cannot be listed
     or written is left as it is).
     """
+    folder = os.fspath(folder)
     removed: list[str] = []
     now = time.time()
     try:
@@ -558,7 +559,7 @@ def replace_indexed(version: Path, folder: Path, index_tmp: Path, index: Path) -
     tidy_versions(folder, index, old - {version.name})
 
 
-def tidy_versions(folder: Path, index: Path, old: set[str] = frozenset()) -> None:
+def tidy_versions(folder: Path, index: Path, old: Set[str] = frozenset()) -> None:
     """Remove from ``folder`` the entries ``old`` (an index's former pieces) unless the
     ``index`` now refers to them, and the version folders it does not refer to that no
     writer is working on (of processes that are gone, or of this one and not being written).

@@ -545,8 +545,8 @@ def refined_topology(hier: Hierarchy, split: np.ndarray, new: np.ndarray):
             ext[frontier] = True
             looked.append(frontier)
         done += looked[1:]
-        looked = np.concatenate(looked)
-        frontier = looked[~hier.node_ready[looked]]  # the others saw all they border
+        seen = np.concatenate(looked)
+        frontier = seen[~hier.node_ready[seen]]  # the others saw all they border
         if hier.ensure(frontier):
             ext = _with_sentinel(ext[:-1], hier)
     return ext[:-1], np.concatenate(done)

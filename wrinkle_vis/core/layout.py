@@ -154,7 +154,7 @@ class Layout:
     def __eq__(self, other) -> bool:
         return isinstance(other, Layout) and self.to_dict() == other.to_dict()
 
-    __hash__ = None
+    __hash__ = None  # type: ignore[assignment]  # equal by value, so unhashable
 
     def to_dict(self) -> dict:
         """The JSON-ready form of the file (``n_triangles``, ``unit`` and ``face`` only
@@ -207,8 +207,8 @@ class Layout:
                 "a string without control characters", name)
         for key in ("skin", "skull"):
             value = data.get(key)
-            _expect(value is None or (isinstance(value, str) and value), source, f"$.{key}",
-                    "a mesh path or null", value)
+            _expect(value is None or (isinstance(value, str) and bool(value)), source,
+                    f"$.{key}", "a mesh path or null", value)
         n_triangles = data.get("n_triangles")
         _expect(n_triangles is None or (isinstance(n_triangles, int)
                                         and not isinstance(n_triangles, bool)
@@ -219,7 +219,7 @@ class Layout:
         _expect(unit is None or (isinstance(unit, str) and unit in LENGTH_UNITS), source, "$.unit",
                 f"a length unit ({', '.join(LENGTH_UNITS)}) or null", unit)
         face = data.get("face")
-        _expect(face is None or (isinstance(face, str) and face), source, "$.face",
+        _expect(face is None or (isinstance(face, str) and bool(face)), source, "$.face",
                 "the name of a built-in face or null", face)
         skin_model = data.get("skin_model")
         _expect(skin_model is None or skin_model in SKIN_MODELS, source, "$.skin_model",
@@ -293,7 +293,7 @@ def _muscles(items: Any, source: str) -> tuple[Muscle, ...]:
     return tuple(out)
 
 
-def _expected(cls: type, param: str | None) -> str:
+def _expected(cls: type[Muscle], param: str | None) -> str:
     """What a layout's muscle parameter should be, from the type's declared metadata."""
     try:
         spec = cls.parameter(param) if param else None
@@ -433,9 +433,13 @@ def _object(pairs: list) -> dict:
     out = dict(pairs)
     if len(out) == len(pairs):
         return out
-    seen = set()
     dup = _Duplicated(out)
-    dup.key = next(k for k, _ in pairs if k in seen or seen.add(k))
+    seen = set()
+    for key, _ in pairs:  # the first key given twice
+        if key in seen:
+            dup.key = key
+            break
+        seen.add(key)
     return dup
 
 

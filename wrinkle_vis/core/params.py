@@ -200,7 +200,7 @@ def parameter_table(muscle_type, length_unit: str = "face units") -> list[tuple[
         allowed range, default (``required``, a value, or ``derived``), meaning.
     """
     defaults = {f.name: f.default for f in dataclasses.fields(muscle_type)}
-    rows = []
+    rows: list[tuple[str, ...]] = []
     for p in muscle_type.parameters():
         default = defaults.get(p.name, dataclasses.MISSING)
         if p.optional:

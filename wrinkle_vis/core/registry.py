@@ -11,6 +11,10 @@ from __future__ import annotations
 import importlib
 import warnings
 from importlib.metadata import entry_points
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .muscle import Muscle
 
 __all__ = [
     "ENTRY_POINT_GROUP",
@@ -197,7 +201,7 @@ def muscle_types() -> dict[str, type]:
     return dict(sorted(_REGISTRY.items()))
 
 
-def get_muscle_type(name: str) -> type:
+def get_muscle_type(name: str) -> type[Muscle]:
     """The muscle class registered as ``name``.
 
     Raises

@@ -384,9 +384,9 @@ class SpringSkin:
         """
         xt = np.asarray(x).T
         d = np.empty((3, len(self.L)))
-        for c in range(3):
-            row = np.ascontiguousarray(xt[c])
-            np.subtract(row.take(self.i), row.take(self.j), out=d[c])
+        for axis in range(3):
+            row = np.ascontiguousarray(xt[axis])
+            np.subtract(row.take(self.i), row.take(self.j), out=d[axis])
         length = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
         ne, c, L = self.n_edges, self.material.biphasic_strain, self.L[: self.n_edges]
         wanted = self.kL.copy()

@@ -245,7 +245,7 @@ class Track:
                 and np.array_equal(self.times, other.times)
                 and np.array_equal(self.values, other.values))
 
-    __hash__ = None
+    __hash__ = None  # type: ignore[assignment]  # equal by value, so unhashable
 
 
 # ---------------------------------------------------------------------------- reading
@@ -892,7 +892,7 @@ class Performance(Expression):
                 and np.array_equal(self.times, other.times)
                 and np.array_equal(self.table, other.table))
 
-    __hash__ = None
+    __hash__ = None  # type: ignore[assignment]  # equal by value, so unhashable
 
 
 def performance(track: Track, mapping: TrackMapping, muscles: Sequence[str], *,

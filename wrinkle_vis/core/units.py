@@ -9,9 +9,16 @@ millimetres and converted to the face's unit (:data:`LENGTH_UNITS`).
 from __future__ import annotations
 
 import math
+import warnings
+from typing import TYPE_CHECKING
 
-__all__ = ["DEFAULT_UNIT", "LENGTH_UNITS", "UnitWarning", "check_unit", "face_unit",
-           "guess_unit"]
+import numpy as np
+
+if TYPE_CHECKING:
+    from .mesh import TriangleSurface
+
+__all__ = ["DEFAULT_UNIT", "HEAD_METRES", "LENGTH_UNITS", "UnitWarning", "check_unit", "face_unit",
+           "face_unit_of", "guess_unit", "millimetre"]
 
 #: The unit of a face that does not say: the built-in face is in millimetres.
 DEFAULT_UNIT = "mm"
@@ -66,3 +73,50 @@ def face_unit(face) -> str:
         face = face.face
     unit = getattr(face, "unit", None)
     return str(unit) if unit else DEFAULT_UNIT
+
+
+#: The sizes in metres a skin's largest extent may have (a face to a bust, generously).
+HEAD_METRES = (0.01, 10.0)
+
+
+def face_unit_of(skin: TriangleSurface, unit: str | None = None) -> str:
+    """``unit`` checked, or the unit guessed from the skin's height (with a
+    :class:`UnitWarning`; ``"mm"`` when nothing fits).
+
+    A skin no unit makes a head of (its largest extent outside :data:`HEAD_METRES` in every
+    unit of :data:`LENGTH_UNITS`, e.g. 4e29 or 4e-31 units) is refused when no unit is given,
+    and warned about when one is.
+
+    Raises
+    ------
+    ValueError
+        One line: the skin's size, and that no unit makes it a head; or an unknown unit.
+    """
+    lo, hi = skin.bounds()
+    height = float(hi[1] - lo[1])
+    extent = float(np.max(hi - lo))
+    possible = any(HEAD_METRES[0] <= extent * f <= HEAD_METRES[1]
+                   for f in LENGTH_UNITS.values())
+    if unit is not None:
+        unit = check_unit(unit)
+        if not possible:
+            warnings.warn(f"the skin is {extent:.4g} {unit} across "
+                          f"({extent * LENGTH_UNITS[unit]:.3g} m), a head in no unit; check "
+                          "the file", UnitWarning, stacklevel=3)
+        return unit
+    if not possible:
+        raise ValueError(f"the skin is {extent:.4g} units across, a head in no unit "
+                         f"({', '.join(LENGTH_UNITS)}); the file's coordinates are damaged "
+                         "or scaled: check it, or scale it to millimetres")
+    guess = guess_unit(height)
+    warnings.warn(f"the skin's unit is not given; a face {height:.4g} units tall reads as "
+                  f"{guess or 'mm'}: pass unit=... (or \"unit\" in its layout) to say",
+                  UnitWarning, stacklevel=3)
+    return guess or "mm"
+
+
+def millimetre(face) -> float:
+    """A millimetre in ``face``'s unit (a ``FaceModel``, :func:`face_unit`): the lengths a
+    new muscle starts with are given in millimetres, the built-in face's unit.
+    """
+    return LENGTH_UNITS["mm"] / LENGTH_UNITS[face_unit(face)]
