@@ -238,9 +238,8 @@ def test_core_sources_import_only_the_standard_library_numpy_and_scipy():
     root = pathlib.Path(wv.core.__file__).parent
     allowed = set(sys.stdlib_module_names) | {"numpy", "scipy"}
     config = tomllib.loads((root.parents[1] / "pyproject.toml").read_text())
-    (contract,) = [c for c in config["tool"]["importlinter"]["contracts"]
-                   if c["source_modules"] == ["wrinkle_vis.core"]]
-    declared = {tuple(s.split(" -> ")) for s in contract.get("ignore_imports", [])}
+    declared = {tuple(s.split(" -> ")) for c in config["tool"]["importlinter"]["contracts"]
+                for s in c.get("ignore_imports", []) if s.startswith("wrinkle_vis.core")}
     assert declared == {("wrinkle_vis.core.face", "wrinkle_vis.plotting")}
     seen = set()
     for path in root.glob("*.py"):

@@ -257,8 +257,8 @@ def ring_radii(points: np.ndarray, triangles: np.ndarray, ids: np.ndarray) -> np
     normal = np.zeros((len(ids), 3))
     for k in range(3):
         own = slot[t[:, k]]
-        ok = own >= 0
-        np.add.at(normal, own[ok], fn[ok])
+        has = own >= 0
+        np.add.at(normal, own[has], fn[has])
     normal /= np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
     out = np.full((len(ids), 2), np.inf)
     for a, b in ((0, 1), (1, 2), (2, 0), (1, 0), (2, 1), (0, 2)):

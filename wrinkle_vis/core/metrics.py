@@ -110,7 +110,8 @@ def fibre_section(state, muscle: str, region=None) -> Polyline | None:
     d = np.nan_to_num(np.asarray(reg["direction"], float)[pick]).mean(axis=0)
     n = skin.vertex_normals()[pick].mean(axis=0)
     normal = np.cross(d, n)
-    if not np.linalg.norm(normal) > 1e-9 * max(np.linalg.norm(d) * np.linalg.norm(n), 1e-300):
+    scale = float(np.linalg.norm(d) * np.linalg.norm(n))
+    if not np.linalg.norm(normal) > 1e-9 * max(scale, 1e-300):
         return None
     values = np.nan_to_num(np.asarray(state.fields[muscle]["W"], float), nan=0.0)
     lines = section(skin, values, rest[pick].mean(axis=0), normal, inside, order_axis=d)
@@ -141,7 +142,7 @@ def muscle_metrics(state, muscle: str, prominence: float = 0.1) -> dict:
     line = fibre_section(state, muscle)
     out = {"crests": 0, "n_w": int(getattr(m, "n_wrinkles", 0)), "depths": [],
            "side_slopes_deg": []}
-    if line is None or len(line) < 3:
+    if line is None or line.values is None or len(line) < 3:
         return out
     span = float(np.ptp(line.values))
     if not span > 0.0:
