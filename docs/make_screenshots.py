@@ -1,12 +1,15 @@
 """Regenerate the screenshots of the user guide and README (needs a display, or Xvfb).
 
-Usage:  xvfb-run -a .venv/bin/python docs/make_screenshots.py [--newface]
+Usage:  xvfb-run -a .venv/bin/python docs/make_screenshots.py [--newface | --physical]
 
 ``--newface``: only the New-face flow's landmark step (on the Lee Perry-Smith head scan in
-``../shared/realmeshes`` beside the checkout).
+``../shared/realmeshes`` beside the checkout). ``--physical``: only the app playing surprise
+on the physically based skin (``app_physical.png``). Under Xvfb ``window.grab()`` sees
+the views only with ``WRINKLE_VIS_VIEW=qopenglwidget`` (native VTK windows grab black).
 """
 
 import sys
+import time
 import warnings
 from pathlib import Path
 
@@ -60,10 +63,40 @@ def newface_screenshot(app, settings):
     window.close()
 
 
+def physical_screenshot(app, settings, at_s: float = 0.8):
+    """The physically based skin playing surprise at the paper's size, grabbed while Play
+    runs the simulation in real time, once it has simulated ``at_s`` seconds (the forehead
+    furrows forming): ``app_physical.png``.
+    """
+    window = MainWindow(Session(wv.datasets.load_face()), settings,
+                        Recovery(OUT / ".recovery"))
+    window.resize(1600, 820)
+    window.show()
+    settle(app)
+    window.skin_box.setCurrentText("physical")
+    window.set_camera("forehead")
+    window.time_slider.setValue(0)
+    window.play_button.setChecked(True)
+    deadline = time.perf_counter() + 60.0
+    while (window.session.physics.time or 0.0) < at_s and time.perf_counter() < deadline:
+        app.processEvents(QtCore.QEventLoop.AllEvents, 10)
+    app.processEvents()  # still playing
+    window.grab().save(str(OUT / "app_physical.png"))
+    print(f"app_physical.png: simulated {window.session.physics.time:.3f} s, status "
+          f"{window.status_label.text()!r}")
+    window.play_button.setChecked(False)
+    window.session.dirty = False
+    window.close()
+
+
 def main():
     """Write the app and field-map screenshots."""
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
     settings = QtCore.QSettings(str(OUT / ".screenshots.ini"), QtCore.QSettings.IniFormat)
+    if "--physical" in sys.argv:
+        physical_screenshot(app, settings)
+        (OUT / ".screenshots.ini").unlink(missing_ok=True)
+        return
     newface_screenshot(app, settings)
     if "--newface" in sys.argv:
         (OUT / ".screenshots.ini").unlink(missing_ok=True)
@@ -91,6 +124,7 @@ def main():
     window.grab().save(str(OUT / "app_placement.png"))
     window.session.dirty = False
     window.close()
+    physical_screenshot(app, settings)
     (OUT / ".screenshots.ini").unlink(missing_ok=True)
     for expression in ("surprise", "frown", "fear"):
         render_field(face, expression, "W", camera="forehead", size=(500, 500),

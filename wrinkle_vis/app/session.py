@@ -20,9 +20,11 @@ from ..core.layout import Layout, load_layout, save_layout
 from ..core.muscle import Muscle
 from ..core.params import Parameter
 from ..core.registry import get_muscle_type
+from ..core.skin import SkinMaterial
 from ..core.tracks import Performance
 from ..core.units import face_unit
 from ..plotting.fields import field_info, field_range
+from .physics import PhysicalPlayback
 
 __all__ = ["OPTIONS", "TIMELINE_STEPS", "FileStamp", "Session", "SurfacePoint", "editable",
            "load_session",
@@ -142,13 +144,20 @@ class Session:
         self.frame_ms = 0.0  # how long the last evaluation took
         self.performance: Performance | None = None  # a recorded track, shown by its name
         self._state: FaceState | None = None
+        # Play on the physical skin: the simulation (:mod:`wrinkle_vis.app.physics`)
+        self.physics = PhysicalPlayback(self.activations_at,
+                                        lambda: self.current_expression().duration_s)
 
     # ------------------------------------------------------------------ what to show
     def activations(self) -> dict[str, float]:
         """The activations of the current expression, intensity and time, with the ones set
         by hand (:meth:`set_activation`) in their place.
         """
-        return {**self._expression_at(self.time_s), **self.overrides}
+        return self.activations_at(self.time_s)
+
+    def activations_at(self, t: float | None) -> dict[str, float]:
+        """:meth:`activations` at time ``t`` of the timeline (None: the peak)."""
+        return {**self._expression_at(t), **self.overrides}
 
     def _expression_at(self, t: float | None) -> dict[str, float]:
         """The current expression's activations at ``t`` (None: its peak), intensity
@@ -176,7 +185,7 @@ class Session:
         self.expression = performance.name
         self.time_s = 0.0
         self.overrides.clear()
-        self._changed()
+        self._command_changed()
 
     def set_activation(self, muscle: str, value: float | None) -> None:
         """Set one muscle's activation by hand (None: back to the expression's)."""
@@ -187,18 +196,91 @@ class Session:
             if not 0.0 <= value <= 1.0:
                 raise ValueError(f"activation of {muscle!r} = {value:g} is outside [0, 1]")
             self.overrides[muscle] = float(value)
-        self._changed()
+        self._command_changed()
 
     def state(self) -> FaceState:
         """The evaluated frame (cached until something changes)."""
         if self._state is None:
             t0 = time.perf_counter()
-            self._state = self.face.evaluate(self.activations(), refine=self.refine)
+            if self.simulating:
+                state = self.physics.state()
+                self._state = self.face._refined_physical(state, 3.0, 3) if self.refine \
+                    else state
+            else:  # a still frame: on the physical skin, the equilibrium
+                self._state = self.face.evaluate(self.activations(), refine=self.refine)
             self.frame_ms = 1e3 * (time.perf_counter() - t0)
         return self._state
 
     def _changed(self) -> None:
         self._state = None
+
+    def _command_changed(self) -> None:
+        """The face, expression, intensity or hand-set activations changed: a running
+        simulation follows (:meth:`PhysicalPlayback.follow`).
+        """
+        self.physics.follow(self.face)
+        self._changed()
+
+    # ------------------------------------------------------------------ physical skin
+    @property
+    def simulating(self) -> bool:
+        """Whether the frame shown is the physical skin's running simulation (playing or
+        paused) rather than a still frame.
+        """
+        return self.physics.live and self.face.skin_model == "physical"
+
+    def _timeline_time(self) -> float:
+        """The timeline's time shown, in seconds (the peak's when :attr:`time_s` is None)."""
+        if self.time_s is not None:
+            return self.time_s
+        ex = self.current_expression()
+        return ex.onset_s + 0.5 * ex.hold_s if ex is not self.performance else 0.0
+
+    def play(self, now: float) -> None:
+        """Play on the physical skin from wall-clock time ``now`` (seconds): the running
+        simulation goes on, else one starts at the timeline's time.
+        """
+        self.physics.play(self.face, self._timeline_time(), now)
+        self.time_s = self.physics.time
+        self._changed()
+
+    def pause(self) -> None:
+        """Pause the physical skin's simulation (its state stays on display)."""
+        self.physics.pause()
+
+    def tick(self, now: float) -> bool:
+        """Advance the playing simulation to wall-clock ``now``
+        (:meth:`PhysicalPlayback.tick`); returns whether the frame changed.
+        """
+        moved = self.physics.tick(now)
+        if moved:
+            self.time_s = self.physics.time
+            self._changed()
+        return moved
+
+    def reset_simulation(self) -> None:
+        """The physical skin back to rest at :math:`t = 0` (a simulation, shown)."""
+        self.physics.reset(self.face)
+        self.time_s = 0.0
+        self._changed()
+
+    def set_skin_model(self, skin_model: str) -> None:
+        """Evaluate the face with ``skin_model`` (an edit of the layout)."""
+        self.set_face(self.with_skin_model(skin_model))
+        self.dirty = True
+
+    def with_skin_model(self, skin_model: str) -> FaceModel:
+        """The face with ``skin_model`` (``"geometric"`` or ``"physical"``; raises
+        otherwise), its material kept.
+        """
+        return self.face.with_skin_model(skin_model)
+
+    def with_material(self, param: str, value) -> FaceModel:
+        """The face with one parameter of the physical skin's material changed (raises
+        ``ValueError`` with the reason if invalid).
+        """
+        return self.face.with_skin_model(
+            self.face.skin_model, dataclasses.replace(self.face.material, **{param: value}))
 
     def set_expression(self, name: str) -> None:
         """Show expression ``name`` (``KeyError`` lists the face's expressions)."""
@@ -208,18 +290,23 @@ class Session:
                            f"{', '.join(self.face.expressions)}")
         self.expression = name
         self.overrides.clear()
-        self._changed()
+        self._command_changed()
 
     def set_intensity(self, value: float) -> None:
         """Scale every activation by ``value`` in ``[0, 1]``."""
         if not 0.0 <= value <= 1.0:
             raise ValueError(f"intensity = {value:g} is outside [0, 1]")
         self.intensity = float(value)
-        self._changed()
+        self._command_changed()
 
     def set_time(self, t: float | None) -> None:
-        """Show the expression's ramp at ``t`` seconds (None: at its peak)."""
+        """Show the expression's ramp at ``t`` seconds (None: at its peak); a running
+        simulation of the physical skin is re-simulated to it (a scrub,
+        :meth:`PhysicalPlayback.scrub`).
+        """
         self.time_s = None if t is None else float(t)
+        if self.simulating:
+            self.physics.scrub(self.face, self._timeline_time())
         self._changed()
 
     def set_refine(self, on: bool) -> None:
@@ -305,7 +392,7 @@ class Session:
         if self.muscle is not None and self.muscle not in face.muscle_names:
             self.muscle, self.field = None, "W"
         self.overrides = {k: v for k, v in self.overrides.items() if k in face.muscle_names}
-        self._changed()
+        self._command_changed()
 
     def set_parameter(self, muscle: str, param: str, value) -> None:
         """Change one parameter of a muscle; an invalid value raises and changes nothing."""
@@ -560,8 +647,22 @@ class Session:
         layout = dataclasses.replace(base, name=self.face.name, muscles=self.face.muscles,
                                      expressions=self.face.expressions,
                                      landmarks=self.face.landmarks or base.landmarks,
-                                     unit=self.face.unit or base.unit, **extra)
+                                     unit=self.face.unit or base.unit, **extra,
+                                     **self._skin_record(base))
         return layout if folder is ... else self._relocated(layout, folder)
+
+    def _skin_record(self, base: Layout) -> dict:
+        """The layout's ``skin_model`` (left out, None, for a geometric face whose layout
+        recorded none) and ``skin_material`` (the parameters that differ from their
+        defaults).
+        """
+        model = self.face.skin_model
+        default = SkinMaterial()
+        material = {p.name: getattr(self.face.material, p.name)
+                    for p in SkinMaterial.parameters()
+                    if getattr(self.face.material, p.name) != getattr(default, p.name)}
+        keep = model == "geometric" and base.skin_model is None
+        return {"skin_model": None if keep else model, "skin_material": material}
 
     def _relocated(self, layout: Layout, folder: str | Path | None) -> Layout:
         """``layout`` with its relative mesh paths rewritten to start at ``folder`` (None:

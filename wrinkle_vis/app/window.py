@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import ctypes
 import dataclasses
+import math
 import re
 import sys
 import time
@@ -26,6 +27,7 @@ from ..core.face import FIELD_NAMES
 from ..core.layout import Layout, LayoutError, load_layout
 from ..core.muscle import MuscleParameterError
 from ..core.registry import muscle_types
+from ..core.skin import SKIN_MODELS, SkinMaterial
 from ..core.tracks import TrackError, TrackWarning, default_mapping, performance, read_track
 from ..core.units import DEFAULT_UNIT, LENGTH_UNITS, guess_unit
 from ..plotting import set_camera
@@ -168,6 +170,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.timer.setInterval(PLAY_TICK_MS)
         self.timer.timeout.connect(self._tick)
         self._play_start = (0, 0.0)  # timeline position and clock when Play was pressed
+        self.clock = time.perf_counter  # the physical skin's wall clock (tests fake it)
         self._populate()
         self.refresh(reset_camera=True)
 
@@ -260,8 +263,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self.time_slider = QtWidgets.QSlider(QtCore.Qt.Horizontal)
         self.time_slider.setRange(0, TIMELINE_STEPS)
         self.time_slider.valueChanged.connect(self._on_time)
+        self.reset_button = QtWidgets.QPushButton("Reset")
+        self.reset_button.setToolTip("Physical skin: back to rest at t = 0")
+        self.reset_button.clicked.connect(_weak(self.reset_simulation))
         row.addWidget(self.play_button)
         row.addWidget(self.time_slider)
+        row.addWidget(self.reset_button)
         view.addRow("Timeline", row)
         self.field_box = QtWidgets.QComboBox()
         self.field_box.addItems([*FIELD_NAMES, PLAIN])
@@ -309,6 +316,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.range_error = _error_label()
         view.addRow(self.range_error)
         form.addLayout(view)
+        self._build_skin_controls(view, form)
 
         self.param_group = QtWidgets.QGroupBox("Parameters of the selected muscle")
         self.param_form = QtWidgets.QFormLayout(self.param_group)
@@ -489,6 +497,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.muscle_panel.set_muscles(s.face.muscle_names, s.muscle)
         self._update_edit_actions()
         self._build_parameter_panel()
+        self._sync_skin_controls()
 
     def _update_edit_actions(self) -> None:
         for key in ("delete", "duplicate", "rename", "mirror"):
@@ -628,9 +637,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self.play_button.setText("Pause" if playing else "Play")
         if playing:
             self._play_start = (self.time_slider.value(), time.perf_counter())
+            if self.session.face.skin_model == "physical":
+                self.session.play(self.clock())  # the simulation (app.physics)
+                self._show_time()
             self.timer.start()
         else:
             self.timer.stop()
+            self.session.pause()  # a simulation keeps its state
         self.refresh()  # the colour range: over the ramp while playing, else the frame's
 
     def _on_range_mode(self, mode: str) -> None:
@@ -679,10 +692,113 @@ class MainWindow(QtWidgets.QMainWindow):
         """Play: move the timeline to where the expression is now (a frame is drawn when
         the position changes; one that took long skips positions).
         """
+        if self.session.face.skin_model == "physical":
+            self._tick_physical()
+            return
         start, t0 = self._play_start
         ex = self.session.current_expression()
         self.time_slider.setValue(playback_position(start, time.perf_counter() - t0,
                                                     ex.duration_s))
+
+    # ------------------------------------------------------------------ physical skin
+    def _build_skin_controls(self, view: QtWidgets.QFormLayout,
+                             form: QtWidgets.QVBoxLayout) -> None:
+        """The skin-model switch (a row of ``view``) and the physical skin's material, one
+        box per parameter that :class:`~wrinkle_vis.core.skin.SkinMaterial` declares (as
+        the muscles' boxes are made from their types' declarations).
+        """
+        self.skin_box = QtWidgets.QComboBox()
+        self.skin_box.addItems(list(SKIN_MODELS))
+        self.skin_box.setToolTip("geometric: the muscles' pulls, each frame on its own; "
+                                 "physical: a simulated mass-spring skin bound to the skull "
+                                 "(Play runs it in real time; still frames show its "
+                                 "equilibrium)")
+        self.skin_box.currentTextChanged.connect(_weak(self.set_skin_model, keep=1))
+        view.insertRow(view.rowCount() - 1, "Skin", self.skin_box)  # above the range error
+        self.skin_group = QtWidgets.QGroupBox("Physical skin")
+        skin_form = QtWidgets.QFormLayout(self.skin_group)
+        self.skin_widgets: dict[str, QtWidgets.QAbstractSpinBox] = {}
+        for spec in SkinMaterial.parameters():  # what the material declares (core.params)
+            w = _parameter_box(spec, self.session.unit)
+            w.setKeyboardTracking(False)
+            w.valueChanged.connect(_weak(self.set_material, spec.name, keep=1))
+            w.installEventFilter(self._undo_keys)  # Ctrl+Z undoes the edit, not the typing
+            self.skin_widgets[spec.name] = w
+            skin_form.addRow(spec.label, w)
+        self.skin_error = _error_label()
+        skin_form.addRow(self.skin_error)
+        form.addWidget(self.skin_group)
+
+    def _sync_skin_controls(self) -> None:
+        """Show the face's skin model and material (no signal); the material and Reset
+        only on the physical skin.
+        """
+        face = self.session.face
+        physical = face.skin_model == "physical"
+        self.skin_box.blockSignals(True)
+        self.skin_box.setCurrentText(face.skin_model)
+        self.skin_box.blockSignals(False)
+        for name, w in self.skin_widgets.items():
+            w.blockSignals(True)
+            w.setValue(getattr(face.material, name))
+            w.blockSignals(False)
+        self.skin_group.setVisible(physical)
+        self.reset_button.setEnabled(physical)
+
+    def set_skin_model(self, skin_model: str) -> bool:
+        """Evaluate the face with ``skin_model`` ("geometric" or "physical"): an undoable
+        edit of the layout (saved as its ``skin_model``).
+        """
+        if skin_model == self.session.face.skin_model:
+            return False
+        self.edit(f"Use the {skin_model} skin", self.session.with_skin_model(skin_model))
+        return True
+
+    def set_material(self, param: str, value) -> bool:
+        """Set one parameter of the physical skin's material (an undoable edit, saved as
+        the layout's ``skin_material``); an invalid value is refused with its reason shown
+        under the panel, and the box is put back.
+        """
+        spec = {p.name: p for p in SkinMaterial.parameters()}[param]
+        value = int(value) if spec.unit == "count" else float(value)
+        try:
+            face = self.session.with_material(param, value)
+        except ValueError as exc:
+            self.skin_error.setText(str(exc))
+            self._sync_skin_controls()
+            return False
+        self.skin_error.setText("")
+        self.edit(f"Set {spec.label} of the skin to {value:g}", face)
+        return True
+
+    def reset_simulation(self) -> None:
+        """Physical skin: back to rest at t = 0 (playing on if playing)."""
+        if self.session.face.skin_model != "physical":
+            return
+        self.session.reset_simulation()
+        self._show_time()
+        self.refresh()
+
+    def _tick_physical(self) -> None:
+        """Play on the physical skin: advance the simulation by the wall-clock time since
+        the last tick (:meth:`PhysicalPlayback.tick`) and draw it if it moved.
+        """
+        s = self.session
+        if not s.physics.playing:  # switched to the physical skin, or a layout opened
+            s.play(self.clock())
+        if s.tick(self.clock()):
+            self._show_time()
+            self.refresh()
+
+    def _show_time(self) -> None:
+        """Put the timeline at the session's time without a scrub."""
+        self._updating_controls = True
+        try:
+            self.time_slider.setValue(self._slider_for_time(self.session.time_s))
+        finally:
+            self._updating_controls = False
+        if self.track_plot is not None:
+            self.track_plot.set_time(self.session.time_s)
 
     def _on_field(self, _=None) -> None:
         if self._updating_controls:
@@ -890,6 +1006,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self._populate()
         else:
             self._sync_parameter_panel()
+            self._sync_skin_controls()
         self.refresh()
 
     def _on_clean_changed(self, clean: bool) -> None:
@@ -1074,7 +1191,8 @@ class MainWindow(QtWidgets.QMainWindow):
             f"[{state.W.min():.3g}, {state.W.max():.3g}] {s.unit}  |  frame "
             f"{s.frame_ms:.2f} ms, drawn in {total_ms:.1f} ms  |  "
             f"{_triangles(len(state.triangles), s.face.skin.n_triangles)}"
-            f"{'  |  ⚠ aliased wrinkles: refine' if (note := s.undersampled_note(state)) else ''}")
+            f"{'  |  ⚠ aliased wrinkles: refine' if (note := s.undersampled_note(state)) else ''}"
+            + _skin_status(s))
         self.status_label.setToolTip(f"Warning: {note}" if note else "")
         self._update_title()
 
@@ -1735,6 +1853,15 @@ def _guide_text() -> str:
                 "every action.")
 
 
+def _skin_status(session: Session) -> str:
+    """The status line's word on the physical skin ("" on the geometric one)."""
+    if session.face.skin_model != "physical":
+        return ""
+    if session.simulating:
+        return f"  |  physical skin, simulated to {session.physics.time:.3f} s"
+    return "  |  physical skin, equilibrium"
+
+
 def _triangles(drawn: int, skin: int) -> str:
     """The status bar's triangle count: ``4500 triangles``, ``34162 triangles (refined
     from 4500)``.
@@ -1772,7 +1899,8 @@ def _show_option(widget: QtWidgets.QWidget, value) -> None:
 
 def _parameter_box(spec, unit: str) -> QtWidgets.QAbstractSpinBox:
     """A spin box for one declared parameter (:class:`~wrinkle_vis.core.params.Parameter`):
-    whole numbers for a count, else three decimals; its step from the metadata, and a
+    whole numbers for a count, else three decimals (more for an SI unit with a small step,
+    as the physical skin's thickness); its step from the metadata, and a
     tooltip with its symbol, meaning, unit and range. The box takes any value, so that one
     out of range is refused by the core with its reason, not clipped silently.
     """
@@ -1786,14 +1914,20 @@ def _parameter_box(spec, unit: str) -> QtWidgets.QAbstractSpinBox:
         box.setDecimals(3 + max(0, round(-np.log10(mm))))
         box.setRange(-1e6, 1e6)
         box.setSingleStep(spec.step * mm)
-    else:
+    elif spec.unit in ("1", "deg"):
         box = QtWidgets.QDoubleSpinBox()
         box.setDecimals(3)
         box.setRange(-1e6, 1e6)
         box.setSingleStep(spec.step)
+    else:  # an SI unit (the physical skin's material): digits from the step
+        box = QtWidgets.QDoubleSpinBox()
+        box.setDecimals(max(3, 2 - math.floor(math.log10(spec.step))) if spec.step > 0
+                        else 6)
+        box.setRange(-1e12, 1e12)
+        box.setSingleStep(spec.step)
     if isinstance(box, QtWidgets.QDoubleSpinBox):
         box.setProperty("base_decimals", box.decimals())
-    shown = {"length": unit, "deg": "deg", "1": "", "count": ""}[spec.unit]
+    shown = {"length": unit, "deg": "deg", "1": "", "count": ""}.get(spec.unit, spec.unit)
     derived = "; left out, derived from the others" if spec.optional else ""
     box.setToolTip(f"{spec.symbol}: {spec.doc}" + (f" ({shown})" if shown else "")
                    + f"; allowed {spec.range_text()}{derived}")

@@ -86,6 +86,14 @@ class Simulation:
         """Advance by ``dt`` seconds (default the material's ``time_step``) and return the
         new :class:`~wrinkle_vis.core.face.FaceState` (with ``time`` and ``velocities``).
         """
+        self.advance(dt)
+        return self.state()
+
+    def advance(self, dt: float | None = None) -> None:
+        """Advance by ``dt`` seconds (default the material's ``time_step``) without
+        computing the fields (:meth:`step` does both; the app takes several steps a frame
+        and draws the last).
+        """
         h = self.material.time_step if dt is None else float(dt)
         if not (h > 0.0 and np.isfinite(h)):
             raise ValueError(f"time step dt = {dt!r} must be a positive number of seconds")
@@ -96,7 +104,6 @@ class Simulation:
         target = self.face.muscle_displacement(acts)
         self.x, self.v = self.skin.step(self.x, self.v, target, h)
         self.time = t1
-        return self.state()
 
     def state(self):
         """The :class:`~wrinkle_vis.core.face.FaceState` of the current state, through the
