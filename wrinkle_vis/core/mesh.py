@@ -497,11 +497,15 @@ def occluded(surface: TriangleSurface, points, direction, min_distance: float,
     e1_axis = np.cross(d, [1.0, 0.0, 0.0] if abs(d[0]) < 0.9 else [0.0, 1.0, 0.0])
     e1_axis /= np.linalg.norm(e1_axis)
     axes = np.stack([e1_axis, np.cross(d, e1_axis)])  # (2, 3): the plane normal to d
-    tris = surface.triangles[ids]
     uv = surface.points @ axes.T  # (n, 2): every vertex on the plane
+    puv = p @ axes.T
+    # a triangle over the rays' span has its corners within an edge's length of it
+    reach = 1.001 * float(surface.rest_edge_lengths.max(initial=0.0))
+    near = ((uv >= puv.min(axis=0) - reach) & (uv <= puv.max(axis=0) + reach)).all(axis=1)
+    ids = ids[near[surface.triangles[ids]].all(axis=1)]
+    tris = surface.triangles[ids]
     a, b, c = uv[tris[:, 0]], uv[tris[:, 1]], uv[tris[:, 2]]
     lo, hi = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
-    puv = p @ axes.T
     over = ((hi >= puv.min(axis=0)) & (lo <= puv.max(axis=0))).all(axis=1)  # the rays' span
     if not over.any():
         return np.zeros(len(p), bool)
@@ -669,7 +673,7 @@ def tangent_bases(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return u, np.cross(n, u)
 
 
-def shape_operators(surface: TriangleSurface, normals=None) -> np.ndarray:
+def shape_operators(surface: TriangleSurface, normals=None, at=None) -> np.ndarray:
     r"""``(n, 3, 3)``: the shape operator :math:`S` of the surface at each vertex.
 
     Parameters
@@ -678,6 +682,9 @@ def shape_operators(surface: TriangleSurface, normals=None) -> np.ndarray:
         The surface.
     normals : (n, 3) float, optional
         Unit vertex normals; default :meth:`TriangleSurface.vertex_normals`.
+    at : (k,) int, optional
+        Only at these vertices (``(k, 3, 3)``, the same values to the bit as the rows
+        ``at`` of all of them).
 
     Returns
     -------
@@ -693,18 +700,26 @@ def shape_operators(surface: TriangleSurface, normals=None) -> np.ndarray:
     e = surface.edges
     i = np.concatenate([e[:, 0], e[:, 1]])
     j = np.concatenate([e[:, 1], e[:, 0]])
-    u, v = tangent_bases(nrm)
+    n = surface.n_points
+    row = i  # each edge's row of the output
+    if at is not None:  # the edges from the vertices ``at``, in the same order
+        at = np.asarray(at, dtype=np.intp)
+        position = np.full(n, -1, np.intp)
+        position[at] = np.arange(len(at))
+        keep = np.flatnonzero(position[i] >= 0)
+        i, j = i[keep], j[keep]
+        row, n = position[i], len(at)
+    u, v = tangent_bases(nrm if at is None else nrm[at])
     pts = surface.points
     d = np.take(pts, j, axis=0) - np.take(pts, i, axis=0)
     dn = np.take(nrm, j, axis=0) - np.take(nrm, i, axis=0)
-    ui, vi = np.take(u, i, axis=0), np.take(v, i, axis=0)
+    ui, vi = np.take(u, row, axis=0), np.take(v, row, axis=0)
     eu, ev = np.einsum("ij,ij->i", d, ui), np.einsum("ij,ij->i", d, vi)
     nu, nv = np.einsum("ij,ij->i", dn, ui), np.einsum("ij,ij->i", dn, vi)
     # unknowns (a, b, c) of [[a, b], [b, c]]: rows [eu, ev, 0] -> nu and [0, eu, ev] -> nv
-    n = surface.n_points
 
     def acc(w):
-        return np.bincount(i, weights=w, minlength=n)
+        return np.bincount(row, weights=w, minlength=n)
 
     m = np.empty((n, 3, 3))
     m[:, 0, 0] = acc(eu * eu)
