@@ -501,8 +501,10 @@ def occluded(surface: TriangleSurface, points, direction, min_distance: float,
     puv = p @ axes.T
     # a triangle over the rays' span has its corners within an edge's length of it
     reach = 1.001 * float(surface.rest_edge_lengths.max(initial=0.0))
-    near = ((uv >= puv.min(axis=0) - reach) & (uv <= puv.max(axis=0) + reach)).all(axis=1)
-    ids = ids[near[surface.triangles[ids]].all(axis=1)]
+    lo, hi = puv.min(axis=0) - reach, puv.max(axis=0) + reach
+    near = (uv[:, 0] >= lo[0]) & (uv[:, 0] <= hi[0]) & (uv[:, 1] >= lo[1]) & (uv[:, 1] <= hi[1])
+    t = surface.triangles[ids]
+    ids = ids[near[t[:, 0]] & near[t[:, 1]] & near[t[:, 2]]]
     tris = surface.triangles[ids]
     a, b, c = uv[tris[:, 0]], uv[tris[:, 1]], uv[tris[:, 2]]
     lo, hi = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
@@ -789,7 +791,9 @@ def cotangent_laplacian(surface: TriangleSurface) -> tuple[sp.csr_matrix, np.nda
         A third of the area of each vertex's triangles.
     """
     p, t = surface.points, surface.triangles
-    rows, cols, vals = [], [], []
+    # the corner k faces the edge of corners k + 1, k + 2: triangle_edges' column k + 1
+    facing = surface.triangle_edges[:, [1, 2, 0]]
+    weight = np.zeros(len(surface.edges))
     for k in range(3):
         i, j, o = t[:, (k + 1) % 3], t[:, (k + 2) % 3], t[:, k]
         po = np.take(p, o, axis=0)
@@ -798,11 +802,11 @@ def cotangent_laplacian(surface: TriangleSurface) -> tuple[sp.csr_matrix, np.nda
         cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx  # np.cross's
         cross = np.sqrt(cx * cx + cy * cy + cz * cz)  # its norm, to the bit
         cot = np.einsum("ij,ij->i", u, v) / np.maximum(cross, 1e-300)
-        rows += [i, j]
-        cols += [j, i]
-        vals += [-0.5 * cot, -0.5 * cot]
+        weight += np.bincount(facing[:, k], weights=-0.5 * cot, minlength=len(weight))
     n = surface.n_points
-    off = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+    e = surface.edges
+    off = sp.csr_matrix((np.concatenate([weight, weight]),
+                         (np.concatenate([e[:, 0], e[:, 1]]), np.concatenate([e[:, 1], e[:, 0]]))),
                         shape=(n, n))
     stiffness = off - sp.diags(np.asarray(off.sum(axis=1)).ravel())
     return stiffness.tocsr(), surface.incidence @ surface.triangle_areas() / 3.0
@@ -870,10 +874,12 @@ def two_level_preconditioner(system: sp.csr_matrix, points: np.ndarray, size: fl
     except RuntimeError:  # singular coarse matrix: Jacobi alone
         return lambda r: dinv[:, None] * r
 
+    wdinv = omega * dinv[:, None]
+
     def cycle(r: np.ndarray) -> np.ndarray:
-        z = omega * dinv[:, None] * r
+        z = wdinv * r
         z += prolong @ coarse.solve(np.asarray(restrict @ (r - system @ z)))
-        return z + omega * dinv[:, None] * (r - system @ z)
+        return z + wdinv * (r - system @ z)
 
     return cycle
 
@@ -894,9 +900,9 @@ def block_pcg(system: sp.csr_matrix, rhs: np.ndarray, guess: np.ndarray, precond
     z = precondition(r)
     p = z.copy()
     rz = np.einsum("ij,ij->j", r, z)
-    limit = rtol * np.linalg.norm(rhs, axis=0)
+    limit = (rtol * np.linalg.norm(rhs, axis=0))**2
     for _ in range(maxiter):
-        if np.all(np.linalg.norm(r, axis=0) <= limit):
+        if np.all(np.einsum("ij,ij->j", r, r) <= limit):  # a column's norm, squared
             break
         ap = system @ p
         alpha = rz / np.maximum(np.einsum("ij,ij->j", p, ap), 1e-300)
