@@ -4,8 +4,10 @@ by side: the two run alternately, each in a fresh process, round after round (is
 Run:  .venv/bin/python benchmarks/bench_first_frame.py [--baseline REF] [--levels 4]
       [--rounds 3] [--json out.json]
 
-``--baseline`` is a git revision whose ``wrinkle_vis`` and ``datasets`` are extracted into a
-temporary folder (``git archive``); ``--levels`` midpoint subdivisions of the 5,100-triangle
+``--baseline`` is a git revision whose ``wrinkle_vis`` is extracted into a
+temporary folder (``git archive``; ``wrinkle_vis.datasets``, which the editable install maps
+to this tree's ``datasets``, is this tree's for both: only the procedural face is loaded,
+from its cache); ``--levels`` midpoint subdivisions of the 5,100-triangle
 procedural face (3: 326 k triangles, 4: 1.3 M). A round times each version once: a fresh
 ``FaceModel`` on the subdivided skin (its edges and incidence built beforehand, as loading a
 mesh does), its first ``evaluate`` with every muscle at 0.7, with tracemalloc running (its
@@ -74,7 +76,7 @@ def main() -> None:
         old = Path(tmp) / "baseline"
         old.mkdir()
         archive = subprocess.run(["git", "-C", str(ROOT), "archive", args.baseline,
-                                  "wrinkle_vis", "datasets"], check=True,
+                                  "wrinkle_vis"], check=True,
                                  capture_output=True).stdout
         subprocess.run(["tar", "-x", "-C", str(old)], input=archive, check=True)
         trees = {"baseline": old, "this tree": ROOT}
