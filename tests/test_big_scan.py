@@ -165,3 +165,19 @@ def test_unique_ids_are_numpys_unique():
     want, want_inverse = np.unique(ids, return_inverse=True)
     assert np.array_equal(union, want) and np.array_equal(inverse, want_inverse)
     assert np.array_equal(_unique_ids(np.zeros(0, np.intp)), np.zeros(0, np.intp))
+
+
+def test_cli_shows_the_muscles_set_up_of_a_large_face_as_it_goes(capsys, monkeypatch):
+    """M12: a big scan's first frame printed nothing while it was set up. (The thresholds
+    are lowered so that the built-in face counts as large.)"""
+    import wrinkle_vis.cli as cli
+
+    monkeypatch.setattr(cli, "LARGE_SKIN_TRIANGLES", 1000)
+    monkeypatch.setattr(cli, "PROGRESS_DELAY_S", 0.0)
+    assert cli.main(["summary", "-e", "surprise"]) == 0
+    err = capsys.readouterr().err
+    n = len(wv.datasets.load_face().muscles)
+    assert "wrinkle-vis summary: muscles:" in err and f"/{n} " in err
+    monkeypatch.setattr(cli, "LARGE_SKIN_TRIANGLES", 10**9)
+    assert cli.main(["summary", "-e", "surprise"]) == 0
+    assert capsys.readouterr().err == ""  # a small face: no bar

@@ -494,8 +494,24 @@ def _load(args, *, refine: bool = False):
         raise CliError(f"unknown muscle {muscle!r}; choose from: {', '.join(face.muscle_names)}")
     if not refine:
         _warn_undersampled(args, face, names)
+    if face.skin.n_triangles >= LARGE_SKIN_TRIANGLES:
+        _prepare_muscles(args, face)
     return face
 
+
+def _prepare_muscles(args, face) -> None:
+    """Build every muscle's data on a large skin with a progress bar on stderr (the first
+    step also smooths the skin's normals): the first frame's set-up, shown as it goes.
+    """
+    from tqdm import tqdm
+
+    for muscle in tqdm(face.muscles, desc=f"wrinkle-vis {args.command}: muscles",
+                       unit="muscle", delay=PROGRESS_DELAY_S, leave=False):
+        face.muscle_data(muscle)
+
+
+#: A step that takes longer than this (seconds) shows a progress bar.
+PROGRESS_DELAY_S = 2.0
 
 #: A skin file this large (bytes) is announced before it is read; a skin of this many
 #: triangles gets an estimate of the time its skull and first frame take.
