@@ -876,10 +876,16 @@ def two_level_preconditioner(system: sp.csr_matrix, points: np.ndarray, size: fl
 
     wdinv = omega * dinv[:, None]
 
-    def cycle(r: np.ndarray) -> np.ndarray:
+    def cycle(r: np.ndarray) -> np.ndarray:  # in place where it can: big scans
         z = wdinv * r
-        z += prolong @ coarse.solve(np.asarray(restrict @ (r - system @ z)))
-        return z + wdinv * (r - system @ z)
+        s = system @ z
+        np.subtract(r, s, out=s)
+        z += prolong @ coarse.solve(np.asarray(restrict @ s))
+        s = system @ z
+        np.subtract(r, s, out=s)
+        s *= wdinv
+        z += s
+        return z
 
     return cycle
 
@@ -907,10 +913,12 @@ def block_pcg(system: sp.csr_matrix, rhs: np.ndarray, guess: np.ndarray, precond
         ap = system @ p
         alpha = rz / np.maximum(np.einsum("ij,ij->j", p, ap), 1e-300)
         x += alpha * p
-        r -= alpha * ap
+        ap *= alpha
+        r -= ap
         z = precondition(r)
         rz_new = np.einsum("ij,ij->j", r, z)
-        p = z + (rz_new / np.where(rz == 0, 1.0, rz)) * p
+        p *= rz_new / np.where(rz == 0, 1.0, rz)
+        p += z  # p = z + beta p, in place
         rz = rz_new
     return x
 
