@@ -503,8 +503,8 @@ def occluded(surface: TriangleSurface, points, direction, min_distance: float,
     reach = 1.001 * float(surface.rest_edge_lengths.max(initial=0.0))
     lo, hi = puv.min(axis=0) - reach, puv.max(axis=0) + reach
     near = (uv[:, 0] >= lo[0]) & (uv[:, 0] <= hi[0]) & (uv[:, 1] >= lo[1]) & (uv[:, 1] <= hi[1])
-    t = surface.triangles[ids]
-    ids = ids[near[t[:, 0]] & near[t[:, 1]] & near[t[:, 2]]]
+    t = surface._corners if triangles is None else surface.triangles[ids].T  # (3, k)
+    ids = ids[near[t[0]] & near[t[1]] & near[t[2]]]
     tris = surface.triangles[ids]
     a, b, c = uv[tris[:, 0]], uv[tris[:, 1]], uv[tris[:, 2]]
     lo, hi = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
