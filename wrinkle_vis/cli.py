@@ -545,15 +545,17 @@ def _read_skin(args, path: Path):
 def _estimate_s(n_triangles: int) -> float:
     """Seconds a scan of ``n_triangles`` takes from its read to its first frame, roughly:
     the skull (level set, about n^1.2: 313 s at 1.13 M triangles on 2 idle cores, issue 33)
-    and the first frame (about n^1.1: ~35 s at 1.13 M with the two-level solve,
-    ``benchmarks/bench_smoothed_normals.py``); a busy machine takes longer.
+    and the first frame (about n^1.1: 2/3 of the ~35 s the two-level solve alone left at
+    1.13 M, ``benchmarks/bench_smoothed_normals.py``, since the muscles are set up near their
+    areas of influence only, ``benchmarks/bench_first_frame.py``); a busy machine takes
+    longer.
     """
     m = n_triangles / 1e6
     return SKULL_S_PER_MTRI * m**1.2 + FIRST_FRAME_S_PER_MTRI * m**1.1
 
 
 SKULL_S_PER_MTRI = 250.0
-FIRST_FRAME_S_PER_MTRI = 30.0
+FIRST_FRAME_S_PER_MTRI = 20.0
 
 
 def _layout_meshes(layout, path) -> dict:
