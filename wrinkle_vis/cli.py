@@ -562,8 +562,24 @@ def _load(args, *, refine: bool = False):
     model = getattr(args, "skin_model", None)
     face = face if model in (None, face.skin_model) else face.with_skin_model(model)
     face.fold_guard = getattr(args, "fold_guard", "on") == "on"
+    if face.skin.n_triangles >= LARGE_SKIN_TRIANGLES:
+        _prepare_muscles(args, face)
     return face
 
+
+def _prepare_muscles(args, face) -> None:
+    """Build every muscle's data on a large skin with a progress bar on stderr (the first
+    step also smooths the skin's normals): the first frame's set-up, shown as it goes.
+    """
+    from tqdm import tqdm
+
+    for muscle in tqdm(face.muscles, desc=f"wrinkle-vis {args.command}: muscles",
+                       unit="muscle", delay=PROGRESS_DELAY_S, leave=False):
+        face.muscle_data(muscle)
+
+
+#: A step that takes longer than this (seconds) shows a progress bar.
+PROGRESS_DELAY_S = 2.0
 
 #: A skin file this large (bytes) is announced before it is read; a skin of this many
 #: triangles gets an estimate of the time its skull and first frame take.
@@ -597,15 +613,17 @@ def _read_skin(args, path: Path):
 def _estimate_s(n_triangles: int) -> float:
     """Seconds a scan of ``n_triangles`` takes from its read to its first frame, roughly:
     the skull (level set, about n^1.2: 313 s at 1.13 M triangles on 2 idle cores, issue 33)
-    and the first frame (about n^1.1: ~35 s at 1.13 M with the two-level solve,
-    ``benchmarks/bench_smoothed_normals.py``); a busy machine takes longer.
+    and the first frame (about n^1.1: 2/3 of the ~35 s the two-level solve alone left at
+    1.13 M, ``benchmarks/bench_smoothed_normals.py``, since the muscles are set up near their
+    areas of influence only, ``benchmarks/bench_first_frame.py``); a busy machine takes
+    longer.
     """
     m = n_triangles / 1e6
     return SKULL_S_PER_MTRI * m**1.2 + FIRST_FRAME_S_PER_MTRI * m**1.1
 
 
 SKULL_S_PER_MTRI = 250.0
-FIRST_FRAME_S_PER_MTRI = 30.0
+FIRST_FRAME_S_PER_MTRI = 20.0
 
 
 def _tapered(face):

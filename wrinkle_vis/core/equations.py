@@ -13,6 +13,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from .mesh import vector_lengths
+
 __all__ = [
     "anisotropy",
     "attenuation",
@@ -271,9 +273,9 @@ def compression_operator(rest_points, edges, directions, rows=None) -> sp.csr_ma
     rows, position = _row_positions(len(rest_points), rows)
 
     vec = rest_points[edges[:, 1]] - rest_points[edges[:, 0]]
-    length = np.linalg.norm(vec, axis=1)
+    length = vector_lengths(vec)  # np.linalg.norm's, to the bit, faster
     unit_edge = np.divide(vec, length[:, None], out=np.zeros_like(vec), where=length[:, None] > 0)
-    dnorm = np.linalg.norm(directions, axis=1)
+    dnorm = vector_lengths(directions)
     ok = np.isfinite(dnorm) & (dnorm > 0)
     unit_dir = np.zeros_like(directions)
     unit_dir[ok] = directions[ok] / dnorm[ok, None]
@@ -369,7 +371,7 @@ def gradient_compression_operator(rest_points, triangles, directions, rows=None)
     tri_ids = np.flatnonzero((position[triangles] >= 0).any(axis=1))
     tri = triangles[tri_ids]
 
-    dnorm = np.linalg.norm(directions, axis=1)
+    dnorm = vector_lengths(directions)
     ok = np.isfinite(dnorm) & (dnorm > 0)
     unit_dir = np.zeros_like(directions)
     unit_dir[ok] = directions[ok] / dnorm[ok, None]

@@ -91,13 +91,18 @@ class _MuscleData:
 
     @classmethod
     def build(cls, skin: TriangleSurface, muscle: Muscle, normals: np.ndarray) -> _MuscleData:
-        reg = muscle.region(skin.points)
-        in_aoi = reg["in_aoi"].copy()
-        inside = np.flatnonzero(in_aoi)
-        in_aoi[inside[muscle.hidden(skin.points[inside], skin)]] = False  # skin behind skin
-        aoi = np.flatnonzero(in_aoi)
-        region_pos = np.flatnonzero(reg["in_region"][aoi])
-        directions = np.nan_to_num(reg["direction"], nan=0.0)
+        cand = muscle.candidates(skin)  # the AOI's neighbourhood: a big scan's is small
+        reg = muscle.region(skin.points[cand])
+        in_cand = reg["in_aoi"].copy()
+        inside = np.flatnonzero(in_cand)
+        in_cand[inside[muscle.hidden(skin.points[cand[inside]], skin)]] = False  # skin behind
+        at = np.flatnonzero(in_cand)  # the AOI's positions in cand
+        aoi = cand[at]
+        in_aoi = np.zeros(skin.n_points, bool)
+        in_aoi[aoi] = True
+        region_pos = np.flatnonzero(reg["in_region"][at])
+        directions = np.zeros((skin.n_points, 3))
+        directions[cand] = np.nan_to_num(reg["direction"], nan=0.0)
         if muscle.compression == "gradient":
             edge_ids = np.zeros(0, np.intp)
             op = sp.csr_matrix((len(aoi), 0))
@@ -110,9 +115,9 @@ class _MuscleData:
             tri_ids, coef = np.zeros(0, np.intp), np.zeros((0, 2))
             grad_op = sp.csr_matrix((len(aoi), 0))
         unit = tangential(muscle.unit_displacement(skin.points[aoi]), normals[aoi])
-        return cls(aoi=aoi, region_pos=region_pos, unit_disp=unit, lam=reg["lam"][aoi],
-                   gamma=reg["gamma"][aoi], l=reg["l"][aoi], at=reg["At"][aoi],
-                   w=reg["w"][aoi][region_pos], h=reg["H"][aoi][region_pos],
+        return cls(aoi=aoi, region_pos=region_pos, unit_disp=unit, lam=reg["lam"][at],
+                   gamma=reg["gamma"][at], l=reg["l"][at], at=reg["At"][at],
+                   w=reg["w"][at][region_pos], h=reg["H"][at][region_pos],
                    edge_ids=edge_ids, eps_op=op, tri_ids=tri_ids, tri_coef=coef,
                    grad_op=grad_op)
 
@@ -138,10 +143,25 @@ def tangential(vectors: np.ndarray, normals: np.ndarray) -> np.ndarray:
 def _summing(ids_list: list[np.ndarray]) -> tuple[np.ndarray, sp.csr_matrix]:
     """Union of id arrays and the ``(union, sum of lengths)`` 0/1 matrix that sums into it."""
     stacked = np.concatenate(ids_list) if ids_list else np.zeros(0, np.intp)
-    union, inverse = np.unique(stacked, return_inverse=True)
-    mat = sp.csr_matrix((np.ones(len(stacked)), (inverse.ravel(), np.arange(len(stacked)))),
+    union, inverse = _unique_ids(stacked, return_inverse=True)
+    mat = sp.csr_matrix((np.ones(len(stacked)), (inverse, np.arange(len(stacked)))),
                         shape=(len(union), len(stacked)))
     return union, mat
+
+
+def _unique_ids(ids: np.ndarray, return_inverse: bool = False):
+    """``np.unique`` of non-negative integer ids ``(k,)`` (with the inverse ``(k,)``), by a
+    mask as long as the largest id rather than a sort: the same values, ascending.
+    """
+    ids = np.asarray(ids)
+    seen = np.zeros(int(ids.max(initial=-1)) + 1, bool)
+    seen[ids] = True
+    union = np.flatnonzero(seen)
+    if not return_inverse:
+        return union
+    position = np.zeros(len(seen), np.intp)
+    position[union] = np.arange(len(union))
+    return union, position[ids]
 
 
 def morton_order(points: np.ndarray, bits: int = 10) -> np.ndarray:
@@ -203,8 +223,8 @@ class _Assembly:
         k_counts = np.array([len(d.aoi) for d in datas], dtype=np.intp)
         k_offsets = np.concatenate([[0], np.cumsum(k_counts)])
         r_offsets = np.concatenate([[0], np.cumsum([len(d.region_pos) for d in datas])])
-        edge_union, inverse = np.unique(np.concatenate([d.edge_ids for d in datas]),
-                                        return_inverse=True)
+        edge_union, inverse = _unique_ids(np.concatenate([d.edge_ids for d in datas]),
+                                          return_inverse=True)
         blocks, start = [], 0
         for d in datas:
             cols = inverse[start:start + len(d.edge_ids)]
@@ -214,12 +234,12 @@ class _Assembly:
                                         shape=(coo.shape[0], len(edge_union))))
         wrinkled, w_sum = _summing([d.region for d in datas])
         inc = skin.incidence[wrinkled]
-        tri_ids = np.unique(inc.indices)
+        tri_ids = _unique_ids(inc.indices)
         stacked_aoi = np.concatenate([d.aoi for d in datas])
         edges = skin.edges[edge_union]
         tris = skin.triangles[tri_ids]
         g_tris = skin.triangles[np.concatenate([d.tri_ids for d in datas])]
-        local = np.unique(np.concatenate([stacked_aoi, edges.ravel(), tris.ravel(),
+        local = _unique_ids(np.concatenate([stacked_aoi, edges.ravel(), tris.ravel(),
                                           g_tris.ravel()]))
         local = local[morton_order(skin.points[local])]
         to_local = np.full(skin.n_points, -1, np.intp)
@@ -231,8 +251,8 @@ class _Assembly:
         g_order = np.argsort(g_local[:, 0], kind="stable")
         grad_op = sp.block_diag([d.grad_op for d in datas], format="csr")[:, g_order].tocsr()
         g_coef = np.concatenate([d.tri_coef for d in datas])[g_order]
-        moved = np.unique(stacked_aoi)
-        shape = rest.shape[moved]
+        moved = _unique_ids(stacked_aoi)
+        shape = rest.shape_at(moved)
         return cls(
             names=tuple(names), k_counts=k_counts, k_offsets=k_offsets, r_offsets=r_offsets,
             local=local, rest_local=np.ascontiguousarray(skin.points[local].T),
@@ -371,6 +391,14 @@ class _RestFrame:
         :attr:`radius`, which refinement does not change.
         """
         return smoothed_normals(self._skin, self.normals, self.radius)
+
+    def shape_at(self, ids: np.ndarray) -> np.ndarray:
+        """``(k, 3, 3)``: the rows ``ids`` ``(k,)`` of :attr:`shape`, computed at those
+        vertices only unless all of them are there already.
+        """
+        if self.shape6 is not None or "shape" in self.__dict__:
+            return self.shape[ids]
+        return shape_operators(self._skin, self.slide_normals, at=ids)
 
     @cached_property
     def shape(self) -> np.ndarray:

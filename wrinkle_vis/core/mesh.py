@@ -497,11 +497,17 @@ def occluded(surface: TriangleSurface, points, direction, min_distance: float,
     e1_axis = np.cross(d, [1.0, 0.0, 0.0] if abs(d[0]) < 0.9 else [0.0, 1.0, 0.0])
     e1_axis /= np.linalg.norm(e1_axis)
     axes = np.stack([e1_axis, np.cross(d, e1_axis)])  # (2, 3): the plane normal to d
-    tris = surface.triangles[ids]
     uv = surface.points @ axes.T  # (n, 2): every vertex on the plane
+    puv = p @ axes.T
+    # a triangle over the rays' span has its corners within an edge's length of it
+    reach = 1.001 * float(surface.rest_edge_lengths.max(initial=0.0))
+    lo, hi = puv.min(axis=0) - reach, puv.max(axis=0) + reach
+    near = (uv[:, 0] >= lo[0]) & (uv[:, 0] <= hi[0]) & (uv[:, 1] >= lo[1]) & (uv[:, 1] <= hi[1])
+    t = surface._corners if triangles is None else surface.triangles[ids].T  # (3, k)
+    ids = ids[near[t[0]] & near[t[1]] & near[t[2]]]
+    tris = surface.triangles[ids]
     a, b, c = uv[tris[:, 0]], uv[tris[:, 1]], uv[tris[:, 2]]
     lo, hi = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
-    puv = p @ axes.T
     over = ((hi >= puv.min(axis=0)) & (lo <= puv.max(axis=0))).all(axis=1)  # the rays' span
     if not over.any():
         return np.zeros(len(p), bool)
@@ -669,7 +675,7 @@ def tangent_bases(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return u, np.cross(n, u)
 
 
-def shape_operators(surface: TriangleSurface, normals=None) -> np.ndarray:
+def shape_operators(surface: TriangleSurface, normals=None, at=None) -> np.ndarray:
     r"""``(n, 3, 3)``: the shape operator :math:`S` of the surface at each vertex.
 
     Parameters
@@ -678,6 +684,9 @@ def shape_operators(surface: TriangleSurface, normals=None) -> np.ndarray:
         The surface.
     normals : (n, 3) float, optional
         Unit vertex normals; default :meth:`TriangleSurface.vertex_normals`.
+    at : (k,) int, optional
+        Only at these vertices (``(k, 3, 3)``, the same values to the bit as the rows
+        ``at`` of all of them).
 
     Returns
     -------
@@ -693,18 +702,26 @@ def shape_operators(surface: TriangleSurface, normals=None) -> np.ndarray:
     e = surface.edges
     i = np.concatenate([e[:, 0], e[:, 1]])
     j = np.concatenate([e[:, 1], e[:, 0]])
-    u, v = tangent_bases(nrm)
+    n = surface.n_points
+    row = i  # each edge's row of the output
+    if at is not None:  # the edges from the vertices ``at``, in the same order
+        at = np.asarray(at, dtype=np.intp)
+        position = np.full(n, -1, np.intp)
+        position[at] = np.arange(len(at))
+        keep = np.flatnonzero(position[i] >= 0)
+        i, j = i[keep], j[keep]
+        row, n = position[i], len(at)
+    u, v = tangent_bases(nrm if at is None else nrm[at])
     pts = surface.points
     d = np.take(pts, j, axis=0) - np.take(pts, i, axis=0)
     dn = np.take(nrm, j, axis=0) - np.take(nrm, i, axis=0)
-    ui, vi = np.take(u, i, axis=0), np.take(v, i, axis=0)
+    ui, vi = np.take(u, row, axis=0), np.take(v, row, axis=0)
     eu, ev = np.einsum("ij,ij->i", d, ui), np.einsum("ij,ij->i", d, vi)
     nu, nv = np.einsum("ij,ij->i", dn, ui), np.einsum("ij,ij->i", dn, vi)
     # unknowns (a, b, c) of [[a, b], [b, c]]: rows [eu, ev, 0] -> nu and [0, eu, ev] -> nv
-    n = surface.n_points
 
     def acc(w):
-        return np.bincount(i, weights=w, minlength=n)
+        return np.bincount(row, weights=w, minlength=n)
 
     m = np.empty((n, 3, 3))
     m[:, 0, 0] = acc(eu * eu)
@@ -774,7 +791,9 @@ def cotangent_laplacian(surface: TriangleSurface) -> tuple[sp.csr_matrix, np.nda
         A third of the area of each vertex's triangles.
     """
     p, t = surface.points, surface.triangles
-    rows, cols, vals = [], [], []
+    # the corner k faces the edge of corners k + 1, k + 2: triangle_edges' column k + 1
+    facing = surface.triangle_edges[:, [1, 2, 0]]
+    weight = np.zeros(len(surface.edges))
     for k in range(3):
         i, j, o = t[:, (k + 1) % 3], t[:, (k + 2) % 3], t[:, k]
         po = np.take(p, o, axis=0)
@@ -783,11 +802,11 @@ def cotangent_laplacian(surface: TriangleSurface) -> tuple[sp.csr_matrix, np.nda
         cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx  # np.cross's
         cross = np.sqrt(cx * cx + cy * cy + cz * cz)  # its norm, to the bit
         cot = np.einsum("ij,ij->i", u, v) / np.maximum(cross, 1e-300)
-        rows += [i, j]
-        cols += [j, i]
-        vals += [-0.5 * cot, -0.5 * cot]
+        weight += np.bincount(facing[:, k], weights=-0.5 * cot, minlength=len(weight))
     n = surface.n_points
-    off = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+    e = surface.edges
+    off = sp.csr_matrix((np.concatenate([weight, weight]),
+                         (np.concatenate([e[:, 0], e[:, 1]]), np.concatenate([e[:, 1], e[:, 0]]))),
                         shape=(n, n))
     stiffness = off - sp.diags(np.asarray(off.sum(axis=1)).ravel())
     return stiffness.tocsr(), surface.incidence @ surface.triangle_areas() / 3.0
@@ -855,10 +874,18 @@ def two_level_preconditioner(system: sp.csr_matrix, points: np.ndarray, size: fl
     except RuntimeError:  # singular coarse matrix: Jacobi alone
         return lambda r: dinv[:, None] * r
 
-    def cycle(r: np.ndarray) -> np.ndarray:
-        z = omega * dinv[:, None] * r
-        z += prolong @ coarse.solve(np.asarray(restrict @ (r - system @ z)))
-        return z + omega * dinv[:, None] * (r - system @ z)
+    wdinv = omega * dinv[:, None]
+
+    def cycle(r: np.ndarray) -> np.ndarray:  # in place where it can: big scans
+        z = wdinv * r
+        s = system @ z
+        np.subtract(r, s, out=s)
+        z += prolong @ coarse.solve(np.asarray(restrict @ s))
+        s = system @ z
+        np.subtract(r, s, out=s)
+        s *= wdinv
+        z += s
+        return z
 
     return cycle
 
@@ -879,17 +906,19 @@ def block_pcg(system: sp.csr_matrix, rhs: np.ndarray, guess: np.ndarray, precond
     z = precondition(r)
     p = z.copy()
     rz = np.einsum("ij,ij->j", r, z)
-    limit = rtol * np.linalg.norm(rhs, axis=0)
+    limit = (rtol * np.linalg.norm(rhs, axis=0))**2
     for _ in range(maxiter):
-        if np.all(np.linalg.norm(r, axis=0) <= limit):
+        if np.all(np.einsum("ij,ij->j", r, r) <= limit):  # a column's norm, squared
             break
         ap = system @ p
         alpha = rz / np.maximum(np.einsum("ij,ij->j", p, ap), 1e-300)
         x += alpha * p
-        r -= alpha * ap
+        ap *= alpha
+        r -= ap
         z = precondition(r)
         rz_new = np.einsum("ij,ij->j", r, z)
-        p = z + (rz_new / np.where(rz == 0, 1.0, rz)) * p
+        p *= rz_new / np.where(rz == 0, 1.0, rz)
+        p += z  # p = z + beta p, in place
         rz = rz_new
     return x
 

@@ -4,13 +4,22 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import KW_ONLY, dataclass
 from functools import cached_property
 
 import numpy as np
 
 from .mesh import closest_points, occluded
-from .muscle import Geometry, Muscle, plateau_fall, ramp_fall, smooth_fall, waters_radial
+from .muscle import (
+    Geometry,
+    Muscle,
+    plateau_fall,
+    ramp_fall,
+    slack_ball,
+    smooth_fall,
+    waters_radial,
+)
 from .params import parameter
 from .registry import register_muscle_type
 
@@ -198,6 +207,18 @@ class LinearMuscle(Muscle):
         return Geometry(l=l, lam=lam, gamma=angle / self.max_angle_deg, coordinate=angle,
                         in_aoi=in_aoi, direction=direction,
                         extra={"angle_deg": angle, "distance": dist})
+
+    def aoi_ball(self) -> tuple[np.ndarray, float] | None:
+        r"""The ball around the cylinder :math:`0 \le l \le R`, distance from the fibre
+        :math:`\le R \tan\phi`, which holds the AOI's cone (:meth:`Muscle.aoi_ball`);
+        None for :math:`\phi` within a degree of 90 (no bound in the fibre's normal plane).
+        """
+        wide = math.radians(self.max_angle_deg + 0.5)
+        if wide >= math.radians(89.5):
+            return None
+        r = self.radius
+        return slack_ball(np.asarray(self.attachment) + 0.5 * r * self.fibre,
+                          r * math.hypot(0.5, math.tan(wide)))
 
     def _falloff(self, points: np.ndarray, geometry: Geometry) -> np.ndarray:
         angular = smooth_fall(geometry.gamma)
@@ -416,6 +437,16 @@ class SheetMuscle(Muscle):
         direction = np.broadcast_to(-f, points.shape).copy()
         return Geometry(l=l, lam=lam, gamma=gamma, coordinate=h, in_aoi=in_aoi,
                         direction=direction, extra={"h": h, "depth": depth})
+
+    def aoi_ball(self) -> tuple[np.ndarray, float]:
+        r"""The ball around the AOI's box, :math:`0 \le l \le L_s`,
+        :math:`|h| \le W_s/2`, :math:`|d| \le D` (:meth:`Muscle.aoi_ball`).
+        """
+        f, _, _ = self.frame
+        half = 0.5 * self.length_value
+        return slack_ball(self.attachment_center + half * f,
+                          math.sqrt(half**2 + (0.5 * self.width_value)**2
+                                    + self.depth_value**2))
 
     def hidden(self, points, skin) -> np.ndarray:
         r"""``(k,) bool``: which of the AOI's ``points`` ``(k, 3)`` lie behind another layer

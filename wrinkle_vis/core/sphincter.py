@@ -16,7 +16,7 @@ from functools import cached_property
 import numpy as np
 
 from .mesh import closest_points
-from .muscle import Geometry, Muscle, _points, parameter, plateau_fall
+from .muscle import Geometry, Muscle, _points, parameter, plateau_fall, slack_ball
 from .registry import register_muscle_type
 
 __all__ = ["SphincterMuscle", "ellipse_arc_length"]
@@ -305,6 +305,12 @@ class SphincterMuscle(Muscle):
         return Geometry(l=l, lam=rho, gamma=phi / self.sector_deg, coordinate=phi,
                         in_aoi=in_aoi, direction=direction,
                         extra={"rho": rho, "angle_deg": np.degrees(psi), "depth": z})
+
+    def aoi_ball(self) -> tuple[np.ndarray, float]:
+        r"""The ball around the AOI's elliptic cylinder, :math:`\rho \le 1`,
+        :math:`|z| \le D`, at the centre (:meth:`Muscle.aoi_ball`).
+        """
+        return slack_ball(self.center, math.hypot(max(self.semi_axes), self.depth_value))
 
     def _falloff(self, points: np.ndarray, geometry: Geometry) -> np.ndarray:
         r"""``(n,)``: :math:`p_{\rho_s,1}(\rho)\, p_{D/2,D}(z)`, the squeeze's profile."""
