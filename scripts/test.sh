@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The whole test suite: lint (ruff, import-linter), then pytest under Xvfb.
+# The whole test suite: lint (ruff, import-linter), types (mypy on core), then pytest under Xvfb.
 # Installs what it needs: Debian packages for Xvfb and Qt (when root), then .venv.
 set -euo pipefail
 pkgs="xvfb xauth libgl1 libegl1 libxrender1 libxkbcommon-x11-0 libxcb-cursor0 libxcb-icccm4
