@@ -69,7 +69,8 @@ def to_polydata(state: FaceState) -> pv.PolyData:
     mesh.field_data["unit"] = [unit]
     if unit in LENGTH_UNITS:
         mesh.field_data["metres_per_unit"] = np.array([LENGTH_UNITS[unit]])
-    mesh.field_data["display_names"] = [
-        f"{field_array_name(f, m)} = {field_spec(f).title(m, unit)}" for f, m in shown]
+    mesh.field_data["display_names"] = [  # VTK's string arrays are ASCII: \u escapes
+        f"{field_array_name(f, m)} = {field_spec(f).title(m, unit)}".encode(
+            "ascii", "backslashreplace").decode("ascii") for f, m in shown]
     mesh.set_active_scalars("W")
     return mesh
