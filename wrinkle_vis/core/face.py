@@ -663,7 +663,7 @@ class FaceModel:
         ``velocities``; with ``refine``, refined as :meth:`evaluate` does.
         """
         sim = self.simulator(timeline, material=material)
-        for state in sim.run(duration, dt):
+        for state in sim.run(duration, dt, guard=not refine):  # refined: guard the refined
             if refine:
                 state = self.guarded(
                     self._refined_physical(state, refine_angle_deg, refine_levels), None)
@@ -689,8 +689,8 @@ class FaceModel:
             return
         sim = self.simulator(lambda t: expression.at(t, intensity))
         for t in times:
-            states = list(sim.run(max(0.0, t - sim.time)))
-            state = states[-1] if states else sim.state()
+            sim.advance_to(t)  # the fields only at the times asked for
+            state = sim.state(guard=not refine)
             yield (self.guarded(self._refined_physical(state, refine_angle_deg,
                                                         refine_levels), None)
                    if refine else state)

@@ -89,6 +89,14 @@ class Simulation:
         self.advance(dt)
         return self.state()
 
+    def advance_to(self, t: float) -> None:
+        """Advance in steps of the material's ``time_step`` (the last one shortened) to
+        time ``t``, computing no fields on the way; nothing when ``t`` is not ahead.
+        """
+        h = self.material.time_step
+        while self.time < t - 1e-9 * h:
+            self.advance(min(h, t - self.time))
+
     def advance(self, dt: float | None = None) -> None:
         """Advance by ``dt`` seconds (default the material's ``time_step``) without
         computing the fields (:meth:`step` does both; the app takes several steps a frame
@@ -105,14 +113,15 @@ class Simulation:
         self.x, self.v = self.skin.step(self.x, self.v, target, h)
         self.time = t1
 
-    def state(self):
+    def state(self, guard: bool = True):
         """The :class:`~wrinkle_vis.core.face.FaceState` of the current state, through the
-        face's fold guard (:attr:`~wrinkle_vis.core.face.FaceModel.fold_guard`; the
-        simulated positions :attr:`x` are left as they are).
+        face's fold guard (:attr:`~wrinkle_vis.core.face.FaceModel.fold_guard`) unless
+        ``guard`` is False (for a caller that refines the state first and guards that); the
+        simulated positions :attr:`x` are left as they are.
         """
         state = self.face.physical_state(self._named(self.activations), self.x,
                                          time=self.time, velocities=self.v)
-        return self.face.guarded(state, None)
+        return self.face.guarded(state, None) if guard else state
 
     def energy(self) -> float:
         """Kinetic plus potential energy of the current state (for the current
@@ -121,9 +130,11 @@ class Simulation:
         target = self.face.muscle_displacement(self._named(self.activations))
         return self.skin.energy(self.x, self.v, target)
 
-    def run(self, duration: float, dt: float | None = None) -> Iterator:
+    def run(self, duration: float, dt: float | None = None, *, guard: bool = True
+            ) -> Iterator:
         """Yield the state after each step of ``dt`` until ``duration`` seconds have passed
-        since the current time (the last step shortened to land on it).
+        since the current time (the last step shortened to land on it); ``guard`` as in
+        :meth:`state`.
         """
         h = self.material.time_step if dt is None else float(dt)
         if not (h > 0.0 and np.isfinite(h)):
@@ -133,7 +144,8 @@ class Simulation:
                              "seconds")
         end = self.time + float(duration)
         while self.time < end - 1e-9 * h:
-            yield self.step(min(h, end - self.time))
+            self.advance(min(h, end - self.time))
+            yield self.state(guard)
 
     def _named(self, a: np.ndarray) -> dict[str, float]:
         return {n: float(x) for n, x in zip(self.face.muscle_names, a, strict=True)}
