@@ -30,7 +30,7 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 __all__ = ["FoldGuard", "GuardResult", "fold_radii", "guard_frame", "guard_wrinkles",
-           "guarded", "medial_radii", "pull_terms", "ring_radii", "skin_scale", "soft_clamp"]
+           "guarded", "medial_radii", "pull_terms", "skin_scale", "soft_clamp"]
 
 
 @dataclass(frozen=True)
@@ -235,41 +235,6 @@ def _first_root(a: float, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     r1 = np.where(r1 > 0, r1, np.inf)
     r2 = np.where(r2 > 0, r2, np.inf)
     out[q] = np.where(ok, np.minimum(r1, r2), np.inf)
-    return out
-
-
-def ring_radii(points: np.ndarray, triangles: np.ndarray, ids: np.ndarray) -> np.ndarray:
-    r"""``(k, 2)``: the medial radii :math:`(r_+, r_-)` of ``points`` ``(n, 3)`` at vertices
-    ``ids`` ``(k,)`` seen by their own ring only: the shrinking ball's bound
-    :math:`|d|^2 / (2 |n \cdot d|)` over the edges :math:`d` from the vertex, with
-    :math:`n` its area-weighted normal in ``points`` (``inf`` where no edge bends that way).
-
-    Cheap, per frame: the bend the pulls give the skin before :math:`W` (a pucker curls the
-    lips far tighter than at rest), which the rest skin's radii cannot know.
-    """
-    tri = np.asarray(triangles, dtype=np.intp)
-    use = np.flatnonzero(np.isin(tri, ids).any(axis=1))
-    t = tri[use]
-    c = points[t]
-    fn = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
-    slot = np.full(len(points), -1, np.intp)
-    slot[ids] = np.arange(len(ids))
-    normal = np.zeros((len(ids), 3))
-    for k in range(3):
-        own = slot[t[:, k]]
-        has = own >= 0
-        np.add.at(normal, own[has], fn[has])
-    normal /= np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
-    out = np.full((len(ids), 2), np.inf)
-    for a, b in ((0, 1), (1, 2), (2, 0), (1, 0), (2, 1), (0, 2)):
-        own = slot[t[:, a]]
-        ok = np.flatnonzero(own >= 0)
-        d = points[t[ok, b]] - points[t[ok, a]]
-        h = np.einsum("ij,ij->i", d, normal[own[ok]])
-        dd = np.einsum("ij,ij->i", d, d)
-        r = dd / np.maximum(2.0 * np.abs(h), 1e-300)
-        np.minimum.at(out[:, 0], own[ok][h > 0], r[h > 0])
-        np.minimum.at(out[:, 1], own[ok][h < 0], r[h < 0])
     return out
 
 
