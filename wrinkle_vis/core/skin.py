@@ -528,7 +528,7 @@ def _spring_network(skin: TriangleSurface, mat: SkinMaterial):
     edges, points = skin.edges, skin.points
     tri_area = skin.triangle_areas()
     e_area = np.zeros(len(edges))
-    tri_edges = _triangle_edge_ids(skin.triangles, edges, skin.n_points)
+    tri_edges = skin.triangle_edges
     np.add.at(e_area, tri_edges.ravel(), np.repeat(tri_area / 3.0, 3))
     rest_len = skin.rest_edge_lengths
     pairs, tris = bending_pairs(skin.triangles)
@@ -539,17 +539,6 @@ def _spring_network(skin: TriangleSurface, mat: SkinMaterial):
     stiffness = np.concatenate([mat.membrane_stiffness * e_area / rest_len**2,
                                 mat.bending_stiffness * b_area / np.maximum(b_len, 1e-300)**2])
     return i, j, np.concatenate([rest_len, b_len]), stiffness, len(edges)
-
-
-def _triangle_edge_ids(triangles: np.ndarray, edges: np.ndarray, n: int) -> np.ndarray:
-    """``(m, 3)``: the id in ``edges`` ``(e, 2)`` of each triangle's edges 01, 12, 20."""
-    e = np.sort(edges, axis=1).astype(np.int64)
-    keys = e[:, 0] * n + e[:, 1]
-    order = np.argsort(keys)
-    t = np.asarray(triangles, dtype=np.int64)
-    a, b = t[:, [0, 1, 2]], t[:, [1, 2, 0]]
-    q = np.minimum(a, b) * n + np.maximum(a, b)
-    return order[np.searchsorted(keys[order], q)]
 
 
 def activation_response(previous: np.ndarray, command: np.ndarray, h: float,
