@@ -76,7 +76,7 @@ def _every_kill(tmp_path, write_old, write_new, state, cleaned_up, limit=200):
         if not killed:
             break
     else:
-        pytest.fail("the writer was still being killed after {limit} points")
+        pytest.fail(f"the writer was still being killed after {limit} points")
     assert set(seen) <= {"old", "new"}, seen
     assert seen[0] == "old" and seen[-1] == "new"
     return seen

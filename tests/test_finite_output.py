@@ -64,13 +64,14 @@ def test_save_sequence_refuses_a_non_finite_frame(overflowing, tmp_path, name):
 
 
 def test_gltf_bake_and_render_refuse_non_finite_frames(overflowing, tmp_path):
-    from wrinkle_vis.plotting.bake import bake_maps
+    from wrinkle_vis.plotting.bake import bake_maps, save_bake
     from wrinkle_vis.plotting.exchange import save_gltf
 
     face, state = overflowing
     _refused(lambda: save_gltf(face, tmp_path / "x.glb", ["frown"]), tmp_path / "x.glb")
     uvs = np.zeros((face.skin.n_triangles, 3, 2))
-    _refused(lambda: bake_maps(state, uvs, (16, 16)), tmp_path / "maps")
+    _refused(lambda: save_bake(bake_maps(state, uvs, (16, 16)), tmp_path / "maps"),
+             tmp_path / "maps")
     _refused(lambda: wv.plotting.render_field(face, "frown", filename=tmp_path / "x.png"),
              tmp_path / "x.png")
 

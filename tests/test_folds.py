@@ -308,7 +308,6 @@ def test_the_pull_guard_keeps_triangles_from_turning_over():
     guarded = pts + f[:, None] * pull
     assert fold_report(pts, guarded, tri).ok
     assert 0.1 < f.min() < 1.0
-    np.testing.assert_array_equal(f[pull[:, 0] == 0.0], 1.0)  # nothing to scale
     e = np.vstack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
     size = np.linalg.norm(pull, axis=1)
     shear = np.abs(f[e[:, 0]] - f[e[:, 1]]) * np.maximum(size[e[:, 0]], size[e[:, 1]])

@@ -242,7 +242,7 @@ def test_the_sweep_layer_imports_no_qt():
     assert out.stdout.strip() == "[]"
 
 
-def test_the_table_of_10_runs_round_trips_with_its_types(tmp_path):
+def test_the_table_of_8_runs_round_trips_with_its_types(tmp_path):
     spec = load_spec(write_spec(tmp_path))
     runs = spec.runs()
     records = {r.id: {"status": "done", "error": None,
