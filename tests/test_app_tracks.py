@@ -91,3 +91,43 @@ def test_the_real_track_imports_and_a_bad_file_is_one_line(window, tmp_path, mon
     assert window.session.expression == "openface_test (track)"  # kept
     window._show_session(Session(window.session.face))  # another layout opened
     assert not window.track_plot.isVisible() and window.session.performance is None
+
+
+def _plot(qtbot, tmp_path, t: float):
+    from wrinkle_vis.app.trackplot import TrackPlot
+
+    track = wv.read_track(_brows(tmp_path))
+    plot = TrackPlot()
+    qtbot.addWidget(plot)
+    plot.resize(400, 120)
+    plot.set_curves(track_curves(track, default_mapping(), ["frontalis_inner_L", "procerus"]),
+                    track.duration_s)
+    plot.set_time(t)
+    plot.show()
+    qtbot.waitExposed(plot)
+    return plot
+
+
+def test_a_frame_of_playback_repaints_only_the_time_line(qtbot, tmp_path, monkeypatch):
+    from qtpy import QtCore
+
+    plot = _plot(qtbot, tmp_path, 0.5)
+    asked = []
+    monkeypatch.setattr(plot, "update", lambda *a: asked.append(a))
+    old = plot.cursor_x()
+    plot.set_time(1.5)  # a frame of playback: the old line's strip and the new one's
+    assert len(asked) == 2 and all(len(a) == 1 and a[0].width() <= 5 for a in asked)
+    for rect, x in zip((a[0] for a in asked), (old, plot.cursor_x()), strict=True):
+        assert rect.contains(QtCore.QPoint(int(x), 60))
+
+
+def test_the_moved_time_line_draws_as_a_fresh_plot(qtbot, tmp_path):
+    moved = _plot(qtbot, tmp_path, 0.5)
+    for t in (0.7, 1.2, 1.5):
+        moved.set_time(t)
+        moved.repaint()
+    fresh = _plot(qtbot, tmp_path, 1.5)
+    a, b = moved.grab().toImage(), fresh.grab().toImage()
+    assert a == b  # the old lines are gone, the curves are whole
+    x = round(fresh.cursor_x())
+    assert a.pixelColor(x, 60).name() == "#000000"

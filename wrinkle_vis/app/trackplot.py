@@ -37,30 +37,64 @@ def track_curves(track: Track, mapping: TrackMapping,
 class TrackPlot(QtWidgets.QWidget):
     """The curves of :func:`track_curves` over the track's duration, 0 to 1, and a line at
     the time shown.
+
+    The curves are drawn once into a pixmap (again when they or the widget's size change);
+    a frame of playback moves only the time line: :meth:`set_time` asks Qt to repaint the
+    strips under the old and the new line, and a paint copies the pixmap there and draws
+    the line.
     """
+
+    #: Half the width, in pixels, of the strip repainted round the time line.
+    STRIP = 2
 
     def __init__(self, parent=None):
         super().__init__(parent)
         self.curves: list[tuple[str, np.ndarray, np.ndarray]] = []
         self.duration_s = 0.0
         self.time_s = 0.0
+        self._layer: QtGui.QPixmap | None = None  # the curves at the widget's size
         self.setMinimumHeight(110)
+        self.setAttribute(QtCore.Qt.WA_OpaquePaintEvent)  # the pixmap covers it all
 
     def set_curves(self, curves, duration_s: float) -> None:
         """Show ``curves`` (from :func:`track_curves`) over ``duration_s`` seconds."""
         self.curves, self.duration_s = list(curves), float(duration_s)
+        self._layer = None
         self.update()
 
     def set_time(self, t: float) -> None:
-        """Move the time line to ``t`` seconds."""
+        """Move the time line to ``t`` seconds (repaints the old and new line's strips)."""
+        old = self.cursor_x()
         self.time_s = float(t)
-        self.update()
+        new = self.cursor_x()
+        if round(old) != round(new):
+            self.update(self._strip(old))
+            self.update(self._strip(new))
 
-    def paintEvent(self, event) -> None:  # noqa: N802 (Qt's name)
-        """Draw the curves, their labels and the time line."""
-        painter = QtGui.QPainter(self)
+    def cursor_x(self) -> float:
+        """The time line's x in pixels: ``4 + w t / T`` with ``w`` the plot's width."""
+        span = self.duration_s or 1.0
+        return 4 + (self.width() - 8) * min(max(self.time_s / span, 0.0), 1.0)
+
+    def _strip(self, x: float) -> QtCore.QRect:
+        return QtCore.QRect(int(np.floor(x)) - self.STRIP, 0, 2 * self.STRIP + 1,
+                            self.height())
+
+    def resizeEvent(self, event) -> None:  # noqa: N802 (Qt's name)
+        """The curves are drawn again at the new size."""
+        self._layer = None
+        super().resizeEvent(event)
+
+    def _curve_layer(self) -> QtGui.QPixmap:
+        """The background, curves and labels at the widget's size (drawn when missing)."""
+        if self._layer is not None:
+            return self._layer
+        ratio = self.devicePixelRatioF()
+        layer = QtGui.QPixmap(self.size() * ratio)
+        layer.setDevicePixelRatio(ratio)
+        layer.fill(QtGui.QColor("white"))
+        painter = QtGui.QPainter(layer)
         try:
-            painter.fillRect(self.rect(), QtGui.QColor("white"))
             w, h = self.width() - 8, self.height() - 18
             span = self.duration_s or 1.0
             for k, (label, times, values) in enumerate(self.curves):
@@ -70,8 +104,18 @@ class TrackPlot(QtWidgets.QWidget):
                           for t, v in zip(times, values, strict=True)]
                 painter.drawPolyline(QtGui.QPolygonF(points))
                 painter.drawText(QtCore.QPointF(6 + 52 * k, h + 16), label)
+        finally:
+            painter.end()
+        self._layer = layer
+        return layer
+
+    def paintEvent(self, event) -> None:  # noqa: N802 (Qt's name)
+        """Copy the curves where Qt asks and draw the time line."""
+        painter = QtGui.QPainter(self)
+        try:
+            painter.drawPixmap(0, 0, self._curve_layer())  # clipped to the asked region
             painter.setPen(QtGui.QPen(QtGui.QColor("black"), 1.0))
-            x = 4 + w * min(max(self.time_s / span, 0.0), 1.0)
-            painter.drawLine(QtCore.QPointF(x, 4), QtCore.QPointF(x, 4 + h))
+            x = self.cursor_x()
+            painter.drawLine(QtCore.QPointF(x, 4), QtCore.QPointF(x, self.height() - 14))
         finally:
             painter.end()
