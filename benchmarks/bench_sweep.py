@@ -2,14 +2,20 @@
 runs, and the table of 10,000 runs.
 
 Run:  .venv/bin/python benchmarks/bench_sweep.py [--runs 200] [--rounds 4] [--workers 2]
-      [--memory-runs 1000] [--table-runs 10000] [--json out.json]
+      [--memory-runs 1000] [--table-runs 10000] [--json out.json] [--old-runner REV]
 
 1. ``--runs`` runs of surprise on the paper-size face (4,500 triangles), each with its own
    k0 of the sheet muscles (a seeded random draw), every metric and one 400 by 400 image
    (W, front camera, raking light), in ``--rounds`` rounds: in each, a plain loop in this
    process (the worker's own function, one plotter, the same files written), then a sweep
-   on ``--workers`` warm local worker processes; the median of the rounds' ratios. Then one
-   round's sweep with its own cluster started, to show what starting costs.
+   on ``--workers`` warm local worker processes; the median of the rounds' ratios. With
+   ``--old-runner REV`` (a git revision of this repository, e.g. ``57d9c56``: one run a Dask
+   task), each round also runs a sweep of as many runs with that revision's
+   ``wrinkle_vis/sweep/runner.py`` (on the same workers, with today's worker code), between
+   the two. Besides wall seconds, each sweep's CPU seconds: this process's (the client and
+   the local scheduler) and the workers' (their processes, asked over Dask), per run; under
+   load they say more than the wall clock. Then one round's sweep with its own cluster
+   started, to show what starting costs.
 2. One worker process runs ``--memory-runs`` runs of the same kind (a 1,000-triangle face,
    100 runs a batch); its resident memory after each batch.
 3. The table of ``--table-runs`` runs built and written (pandas, pyarrow, atomically) from
@@ -78,12 +84,47 @@ def parallel(runs: int, triangles: int, workers: int, folder: Path) -> float:
     return seconds
 
 
+def old_runner(rev: str):
+    """``wrinkle_vis/sweep/runner.py`` at git revision ``rev``, as a module of the package
+    (its relative imports get today's spec and worker).
+    """
+    import importlib.util
+    import subprocess
+
+    root = Path(__file__).resolve().parents[1]
+    source = subprocess.run(["git", "-C", str(root), "show", f"{rev}:wrinkle_vis/sweep/runner.py"],
+                            check=True, capture_output=True, text=True).stdout
+    loaded = importlib.util.spec_from_loader("wrinkle_vis.sweep._old_runner", loader=None)
+    module = importlib.util.module_from_spec(loaded)
+    module.__package__ = "wrinkle_vis.sweep"
+    sys.modules[loaded.name] = module
+    exec(compile(source, f"{rev}:runner.py", "exec"), module.__dict__)
+    return module
+
+
+def _cpu() -> float:
+    return time.process_time()
+
+
+def timed_sweep(run, n: int, triangles: int, seed: int, folder: Path, client) -> dict:
+    """Wall and CPU seconds of one sweep with ``run`` (a runner's ``sweep``)."""
+    workers0 = client.run(_cpu)
+    cpu0, start = time.process_time(), time.perf_counter()
+    table = run(spec(n, triangles, seed=seed), folder, client, progress=False)
+    wall, cpu = time.perf_counter() - start, time.process_time() - cpu0
+    workers1 = client.run(_cpu)
+    assert (table["status"] == "done").all() and len(table) == n
+    return {"wall": wall, "client_cpu": cpu,
+            "worker_cpu": sum(workers1[w] - workers0[w] for w in workers0)}
+
+
 def side_by_side(runs: int, triangles: int, workers: int, rounds: int,
-                 folder: Path) -> list[tuple[float, float]]:
+                 folder: Path, old=None) -> list[dict]:
     """``rounds`` times, one after the other under the same load: a plain loop of
-    ``runs // rounds`` runs here, then a sweep of as many on a running cluster whose
-    workers have loaded the face and made their plotter (two runs each first, not timed).
-    Returns ``(serial_s, sweep_s)`` per round.
+    ``runs // rounds`` runs here, then (with ``old``, a runner module) a sweep of as many
+    with ``old.sweep``, then one with today's, on a running cluster whose workers have
+    loaded the face and made their plotter (two runs each first, not timed). Returns per
+    round ``serial`` (wall s), ``serial_cpu``, and per sweep :func:`timed_sweep`'s.
     """
     from distributed import Client
 
@@ -93,17 +134,27 @@ def side_by_side(runs: int, triangles: int, workers: int, rounds: int,
         wv.sweep(spec(2 * workers, triangles, seed=99), folder / "warm", client,
                  progress=False)
         for k in range(rounds):
-            one = serial(n, triangles, folder / f"serial{k}", seed=100 + k)
-            start = time.perf_counter()
-            table = wv.sweep(spec(n, triangles, seed=200 + k), folder / f"sweep{k}", client,
-                             progress=False)
-            many = time.perf_counter() - start
-            assert (table["status"] == "done").all() and len(table) == n
-            out.append((one, many))
-            print(f"  round {k}: {n} runs, serial {one:6.1f} s, sweep {many:6.1f} s: "
-                  f"{one / many:.2f}x", flush=True)
+            cpu0 = time.process_time()
+            row = {"serial": serial(n, triangles, folder / f"serial{k}", seed=100 + k)}
+            row["serial_cpu"] = time.process_time() - cpu0
+            if old is not None:
+                row["old"] = timed_sweep(old.sweep, n, triangles, 300 + k,
+                                         folder / f"old{k}", client)
+            row["new"] = timed_sweep(wv.sweep, n, triangles, 200 + k, folder / f"sweep{k}",
+                                     client)
+            out.append(row)
+            print(f"  round {k}: {n} runs, load {os.getloadavg()[0]:.1f}; serial "
+                  f"{row['serial']:6.1f} s ({1e3 * row['serial_cpu'] / n:.0f} ms CPU a run)"
+                  + "".join(_column(name, row[name], row["serial"], n)
+                            for name in ("old", "new") if name in row), flush=True)
     close_worker_plotter()
     return out
+
+
+def _column(name: str, t: dict, serial_s: float, n: int) -> str:
+    label = {"old": "old runner", "new": "sweep"}[name]
+    return (f"; {label} {t['wall']:6.1f} s: {serial_s / t['wall']:.2f}x (CPU a run: client "
+            f"{1e3 * t['client_cpu'] / n:.0f} ms, workers {1e3 * t['worker_cpu'] / n:.0f} ms)")
 
 
 def rss() -> int:
@@ -168,6 +219,8 @@ def main() -> None:
     p.add_argument("--memory-runs", type=int, default=1000)
     p.add_argument("--table-runs", type=int, default=10_000)
     p.add_argument("--json", type=Path)
+    p.add_argument("--old-runner", default=None, metavar="REV",
+                   help="also time the sweep runner of this git revision, each round")
     args = p.parse_args()
     print(f"CPUs this process may use: {len(os.sched_getaffinity(0))}; load average "
           f"{os.getloadavg()[0]:.1f}", flush=True)
@@ -177,15 +230,20 @@ def main() -> None:
         if args.runs:
             print(f"{args.runs} runs in {args.rounds} rounds, metrics and a 400x400 image each "
                   f"({args.triangles} triangles), {args.workers} workers:", flush=True)
-            pairs = side_by_side(args.runs, args.triangles, args.workers, args.rounds,
-                                 tmp / "side")
-            serial_s = sum(a for a, _ in pairs)
-            sweep_s = sum(b for _, b in pairs)
-            ratio = statistics.median(a / b for a, b in pairs)
+            old = old_runner(args.old_runner) if args.old_runner else None
+            rows = side_by_side(args.runs, args.triangles, args.workers, args.rounds,
+                                tmp / "side", old)
+            serial_s = sum(r["serial"] for r in rows)
+            sweep_s = sum(r["new"]["wall"] for r in rows)
+            ratio = statistics.median(r["serial"] / r["new"]["wall"] for r in rows)
             cold = parallel(max(args.runs // args.rounds, 1), args.triangles, args.workers,
                             tmp / "cold")
-            result["throughput"] = {"rounds": pairs, "serial_s": serial_s, "sweep_s": sweep_s,
+            result["throughput"] = {"rounds": rows, "serial_s": serial_s, "sweep_s": sweep_s,
                                     "median_ratio": ratio, "cold_sweep_s": cold}
+            if old is not None:
+                old_ratio = statistics.median(r["serial"] / r["old"]["wall"] for r in rows)
+                result["throughput"]["old_median_ratio"] = old_ratio
+                print(f"  old runner ({args.old_runner}): median ratio {old_ratio:.2f}x")
             print(f"  in all: serial {args.runs / serial_s:.2f} runs/s, sweep "
                   f"{args.runs / sweep_s:.2f} runs/s; median ratio {ratio:.2f}x\n"
                   f"  a sweep of {args.runs // args.rounds} runs starting its own cluster: "

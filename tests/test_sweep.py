@@ -471,3 +471,50 @@ def test_a_sweep_killed_half_way_and_resumed_gives_the_same_table(reference, tmp
     pd.testing.assert_frame_equal(comparable(resumed), comparable(table))
     assert_same_arrays(arrays_of(target), arrays_of(out))
     pd.testing.assert_frame_equal(pd.read_parquet(target / "results.parquet"), resumed)
+
+
+# ---------------------------------------------------------------------- batches
+@pytest.mark.parametrize(("n", "threads"), [(0, 2), (1, 2), (7, 2), (50, 2), (200, 2),
+                                            (1000, 16), (5, 0)])
+def test_batches_cover_every_run_once_and_end_in_single_runs(n, threads):
+    from wrinkle_vis.sweep.runner import MAX_BATCH, batch_sizes
+
+    sizes = batch_sizes(n, threads)
+    assert sum(sizes) == n and all(1 <= s <= MAX_BATCH for s in sizes)
+    assert sizes == sorted(sizes, reverse=True)  # the big ones first, the single runs last
+    tail = min(n, 4 * max(threads, 1))
+    assert sizes[len(sizes) - tail:] == [1] * tail
+    if n >= 200 and threads <= 2:
+        assert len(sizes) <= n / 3  # a long sweep pays the scheduler on few tasks
+
+
+def test_a_batch_lost_as_a_whole_keeps_its_finished_runs(tmp_path):
+    from wrinkle_vis.sweep.runner import _lost_batch
+
+    out = tmp_path / "out"
+    (out / "runs" / "aa").mkdir(parents=True)
+    (out / "failed").mkdir()
+    done = {"id": "aa", "status": "done", "outputs_key": "k", "metrics": {"W_range": 1.0}}
+    (out / "runs" / "aa" / "run.json").write_text(json.dumps(done))
+    (out / "runs" / "cc").mkdir()  # written with other outputs: redone
+    (out / "runs" / "cc" / "run.json").write_text(json.dumps({**done, "id": "cc",
+                                                              "outputs_key": "old"}))
+    error = (RuntimeError, RuntimeError("worker\nkilled"), None)
+    records = _lost_batch(out, ["aa", "bb", "cc"], "k", error)
+    assert records[0] == done
+    assert [r["status"] for r in records] == ["done", "failed", "failed"]
+    assert records[1]["error"] == "RuntimeError: worker killed"
+    assert sorted(p.name for p in (out / "failed").iterdir()) == ["bb.json", "cc.json"]
+
+
+@pytest.mark.slow
+def test_a_sweep_in_batches_of_several_runs_gives_the_same_table(reference, tmp_path,
+                                                                  monkeypatch):
+    from wrinkle_vis.sweep import runner
+
+    spec, out, table = reference
+    monkeypatch.setattr(runner, "BATCH_SPREAD", 1)  # 8 runs on 2 threads: 4, 2, 1, 1
+    assert runner.batch_sizes(len(table), 2) == [4, 2, 1, 1]
+    batched = wv.sweep(spec, tmp_path / "out", workers=2, progress=False)
+    pd.testing.assert_frame_equal(comparable(batched), comparable(table))
+    assert_same_arrays(arrays_of(tmp_path / "out"), arrays_of(out))

@@ -21,15 +21,19 @@ from wrinkle_vis.core.files import atomic_write_bytes, atomic_write_text
 from wrinkle_vis.core.metrics import METRICS
 
 from .spec import Run, SweepSpec, load_spec
-from .worker import FAILED, RUNS, execute, run_dir
+from .worker import FAILED, RUNS, execute_batch, run_dir
 
-__all__ = ["LOCAL_WORKER_CONFIG", "TABLE", "SweepError", "finished_records", "local_cluster",
-           "sweep", "table_frame", "write_table"]
+__all__ = ["LOCAL_WORKER_CONFIG", "MAX_BATCH", "TABLE", "SweepError", "batch_sizes",
+           "finished_records", "local_cluster", "sweep", "table_frame", "write_table"]
 
 #: The table's file name in the sweep folder.
 TABLE = "results.parquet"
 #: How long to wait for a scheduler to answer, seconds.
 CONNECT_TIMEOUT_S = 10.0
+#: At most this many runs in one Dask task (:func:`batch_sizes`).
+MAX_BATCH = 8
+#: A batch is at most the runs left over this many times the workers' threads.
+BATCH_SPREAD = 4
 
 
 class SweepError(RuntimeError):
@@ -200,9 +204,45 @@ def _cpus() -> int:
 
 
 def _task(spec: SweepSpec, out: Path, run: Run) -> dict:
+    return {**_shared(spec, out), **_item(run)}
+
+
+def _shared(spec: SweepSpec, out: Path) -> dict:
+    """What every run of a sweep's tasks shares (sent once per batch)."""
+    return {"outputs": spec.outputs, "outputs_key": spec.outputs_key(),
+            "out": str(out.resolve())}
+
+
+def _item(run: Run) -> dict:
     return {"id": run.id, "seed": run.seed, "params": run.params, "columns": run.columns,
-            "layout_path": run.layout_path, "outputs": spec.outputs,
-            "outputs_key": spec.outputs_key(), "out": str(out.resolve())}
+            "layout_path": run.layout_path}
+
+
+def batch_sizes(n: int, threads: int, max_batch: int = MAX_BATCH) -> list[int]:
+    r"""How many runs each Dask task of a sweep of ``n`` runs does, in the order submitted.
+
+    Guided self-scheduling: each batch takes :math:`\max(1, \min(B, \lfloor r / (4 T)
+    \rfloor))` of the :math:`r` runs left (``B`` = ``max_batch``, ``T`` = ``threads``), so
+    a long sweep pays the scheduler's cost per task (about 25 ms of the client's process a
+    task, a sixth of a paper-size run) on a few runs at a time, and the last batches are
+    single runs that even out the workers' finishing times. Dask starts tasks in the order
+    submitted.
+    """
+    sizes, left = [], n
+    while left > 0:
+        size = max(1, min(max_batch, left // (BATCH_SPREAD * max(threads, 1))))
+        sizes.append(size)
+        left -= size
+    return sizes
+
+
+def _threads(client) -> int:
+    """The worker threads of ``client``'s cluster (1 when it tells none)."""
+    try:
+        workers = client.scheduler_info()["workers"].values()
+        return max(sum(int(w.get("nthreads", 1)) for w in workers), 1)
+    except (KeyError, TypeError, AttributeError, OSError):
+        return 1
 
 
 def _run_all(spec, out, pending, client, scheduler, workers, progress, timeout) -> dict:
@@ -215,17 +255,21 @@ def _run_all(spec, out, pending, client, scheduler, workers, progress, timeout) 
     bar = tqdm(total=len(pending), desc=spec.name, unit="run", disable=not progress,
                file=sys.stderr)
     try:
-        futures = client.map(execute, [_task(spec, out, r) for r in pending], pure=False)
-        ids = {f.key: r.id for f, r in zip(futures, pending, strict=True)}
+        shared, ids, start = _shared(spec, out), {}, 0
+        for size in batch_sizes(len(pending), _threads(client)):
+            batch = pending[start:start + size]
+            start += size
+            futures.append(client.submit(execute_batch, shared, [_item(r) for r in batch],
+                                         pure=False))
+            ids[futures[-1].key] = [r.id for r in batch]
         failed = 0
-        for future in as_completed(futures):
-            try:
-                record = future.result()
-            except Exception as exc:  # the worker died, or the task could not run
-                record = _lost(out, ids[future.key], exc)
-            records[record["id"]] = record
-            failed += record["status"] != "done"
-            bar.update(1)
+        for future, result in as_completed(futures, with_results=True, raise_errors=False):
+            if future.status != "finished":  # the worker died, or the task could not run
+                result = _lost_batch(out, ids[future.key], spec.outputs_key(), result)
+            for record in result:
+                records[record["id"]] = record
+                failed += record["status"] != "done"
+            bar.update(len(result))
             if failed:
                 bar.set_postfix(failed=failed)
             future.release()
@@ -237,6 +281,27 @@ def _run_all(spec, out, pending, client, scheduler, workers, progress, timeout) 
     bar.close()
     close()
     return records
+
+
+def _lost_batch(out: Path, ids: list[str], outputs_key: str, error) -> list[dict]:
+    """The records of a batch whose task failed as a whole: a run that finished before
+    (its folder complete) is kept, the others are recorded as failed with the error.
+    """
+    exc = error[1] if isinstance(error, tuple) and len(error) == 3 else error
+    if not isinstance(exc, BaseException):
+        exc = RuntimeError(str(exc))
+    out_records = []
+    for rid in ids:
+        path = run_dir(out, rid) / "run.json"
+        try:
+            record = json.loads(path.read_text())
+        except (OSError, ValueError):
+            record = None
+        if (record is None or record.get("status") != "done"
+                or record.get("outputs_key") != outputs_key):
+            record = _lost(out, rid, exc)
+        out_records.append(record)
+    return out_records
 
 
 def _lost(out: Path, rid: str, exc: BaseException) -> dict:

@@ -30,8 +30,8 @@ from wrinkle_vis.core.expressions import Expression
 from wrinkle_vis.core.files import atomic_write_bytes, atomic_write_text
 from wrinkle_vis.core.metrics import frame_metrics, rest_crossings
 
-__all__ = ["RUNS", "FAILED", "cached_face", "evaluate_run", "execute", "run_dir",
-           "worker_plotter"]
+__all__ = ["RUNS", "FAILED", "cached_face", "evaluate_run", "execute", "execute_batch",
+           "run_dir", "worker_plotter"]
 
 #: The folder of the finished runs in a sweep's output folder, one sub-folder per run id.
 RUNS = "runs"
@@ -278,6 +278,25 @@ def execute(task: dict) -> dict:
         atomic_write_text(out / FAILED / f"{task['id']}.json",
                           json.dumps(record, indent=1, allow_nan=False))
         return record
+
+
+def execute_batch(shared: dict, runs: list[dict]) -> list[dict]:
+    """Run several runs of a sweep one after the other (one Dask task); their records.
+
+    Parameters
+    ----------
+    shared : dict
+        What the runs share: ``outputs``, ``outputs_key`` and ``out``.
+    runs : list of dict
+        Per run ``id``, ``seed``, ``params``, ``columns`` and ``layout_path``.
+
+    Returns
+    -------
+    list of dict
+        :func:`execute`'s record of each run, in order (a failing run is recorded and the
+        next one runs).
+    """
+    return [execute({**shared, **run}) for run in runs]
 
 
 def _replace(tmp: Path, final: Path) -> None:
