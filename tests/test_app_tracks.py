@@ -131,3 +131,84 @@ def test_the_moved_time_line_draws_as_a_fresh_plot(qtbot, tmp_path):
     assert a == b  # the old lines are gone, the curves are whole
     x = round(fresh.cursor_x())
     assert a.pixelColor(x, 60).name() == "#000000"
+
+
+# ---------------------------------------------------------------------- the mapping
+def test_the_mapping_table_round_trips_and_refuses_a_bad_weight():
+    from wrinkle_vis.app.mapping import mapping_from_table, mapping_table, parse_weight
+
+    base = default_mapping()
+    channels, muscles, weights = mapping_table(base, ["procerus", "corrugator_L"])
+    assert weights[channels.index("AU04")].tolist() == [1.0, 1.0]
+    again = mapping_from_table(base, channels, muscles, weights)
+    assert again == base  # the muscles not shown and the curves are kept
+    weights[channels.index("AU04"), 0] = 0.0
+    edited = mapping_from_table(base, channels, muscles, weights)
+    assert "procerus" not in edited.drives("AU04") and edited.drives("AU04")["corrugator_R"]
+    weights[0, 0] = 1.5
+    with pytest.raises(ValueError, match=r"^channel AU01: weight of 'procerus' = 1.5 is "):
+        mapping_from_table(base, channels, muscles, weights)
+    assert parse_weight(" ", "procerus") == 0.0 and parse_weight("0.25", "procerus") == 0.25
+    for bad in ("1.5", "nan", "x"):
+        with pytest.raises(ValueError, match="give a weight from 0 to 1$"):
+            parse_weight(bad, "procerus")
+
+
+def _cell(dialog, channel: str, muscle: str):
+    from qtpy import QtCore
+
+    i, j = dialog.channels.index(channel), dialog.muscles.index(muscle)
+    dialog.table.scrollToItem(dialog.table.item(i, j))
+    return dialog.table.visualItemRect(dialog.table.item(i, j)).center(), QtCore.Qt
+
+
+def _editor(dialog):
+    """The table's open cell editor, or None."""
+    shown = [e for e in dialog.table.viewport().findChildren(QtWidgets.QLineEdit)
+             if e.isVisible()]
+    return shown[0] if shown else None
+
+
+def _type_into(qtbot, dialog, pos, text: str) -> None:
+    """Click the cell at ``pos``, press F2, type ``text`` in its editor and press Return."""
+    from qtpy import QtCore
+
+    qtbot.mouseClick(dialog.table.viewport(), QtCore.Qt.LeftButton, pos=pos)
+    qtbot.keyClick(dialog.table, QtCore.Qt.Key_F2)
+    qtbot.waitUntil(lambda: _editor(dialog) is not None)
+    editor = _editor(dialog)
+    editor.selectAll()
+    qtbot.keyClicks(editor, text)
+    qtbot.keyClick(editor, QtCore.Qt.Key_Return)
+    qtbot.waitUntil(lambda: _editor(dialog) is None)
+
+
+def test_editing_a_weight_in_the_dialog_changes_what_the_track_plays(window, qtbot,
+                                                                      tmp_path):
+    window.import_performance(_brows(tmp_path))
+    s = window.session
+    window.time_slider.setValue(TIMELINE_STEPS // 2)  # 1 s: AU04 = 0.25
+    assert s.activations()["procerus"] == pytest.approx(0.25)
+    assert not s.dirty
+    action = next(a for a in window.menuBar().actions()[1].menu().actions()
+                  if a.text() == "Track &mapping...")
+    action.trigger()
+    dialog = window.mapping_dialog
+    qtbot.waitExposed(dialog)
+    pos, qt = _cell(dialog, "AU04", "procerus")
+    _type_into(qtbot, dialog, pos, "1.5")  # refused: the reason under the table, cell kept
+    assert "outside [0, 1]" in dialog.error.text() and "\n" not in dialog.error.text()
+    assert dialog.table.item(dialog.channels.index("AU04"),
+                             dialog.muscles.index("procerus")).text() == "1"
+    _type_into(qtbot, dialog, pos, "0.4")
+    assert dialog.error.text() == ""
+    assert s.activations()["procerus"] == pytest.approx(0.25)  # not before OK
+    qtbot.mouseClick(dialog.buttons.button(QtWidgets.QDialogButtonBox.Ok), qt.LeftButton)
+    assert s.activations()["procerus"] == pytest.approx(0.1)  # 0.4 x AU04 0.25
+    assert s.activations()["corrugator_L"] == pytest.approx(0.25)
+    assert s.dirty and window.undo_stack.undoText() == "Edit the track mapping"
+    assert s.layout().mapping.drives("AU04")["procerus"] == 0.4  # saved with the layout
+    window.undo_stack.undo()  # one step back to the old weights
+    assert s.activations()["procerus"] == pytest.approx(0.25) and not s.dirty
+    window.undo_stack.redo()
+    assert s.activations()["procerus"] == pytest.approx(0.1)

@@ -21,7 +21,7 @@ from ..core.muscle import Muscle
 from ..core.params import Parameter
 from ..core.registry import get_muscle_type
 from ..core.skin import SkinMaterial
-from ..core.tracks import Performance
+from ..core.tracks import Performance, default_mapping
 from ..core.units import face_unit
 from ..plotting.fields import field_info, field_range
 from .physics import PhysicalPlayback
@@ -392,6 +392,8 @@ class Session:
         if self.muscle is not None and self.muscle not in face.muscle_names:
             self.muscle, self.field = None, "W"
         self.overrides = {k: v for k, v in self.overrides.items() if k in face.muscle_names}
+        if self.performance is not None:  # an edited mapping plays the track anew
+            self.performance = self.performance.remapped(face.mapping or default_mapping())
         self._command_changed()
 
     def set_parameter(self, muscle: str, param: str, value) -> None:
@@ -648,6 +650,7 @@ class Session:
                                      expressions=self.face.expressions,
                                      landmarks=self.face.landmarks or base.landmarks,
                                      unit=self.face.unit or base.unit, **extra,
+                                     mapping=self.face.mapping,
                                      **self._skin_record(base))
         return layout if folder is ... else self._relocated(layout, folder)
 

@@ -34,6 +34,7 @@ from ..plotting import set_camera
 from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
 from ..widgets.panels import MuscleListPanel
+from .mapping import add_mapping_action
 from .newface_panel import NewFaceFlow
 from .recovery import Recovery
 from .session import (
@@ -411,6 +412,7 @@ class MainWindow(QtWidgets.QMainWindow):
         edit_menu.addMenu(self.add_menu)
         edit_menu.addActions([self.edit_actions[k] for k in
                               ("delete", "duplicate", "rename", "mirror", "mirror_pair")])
+        add_mapping_action(self, edit_menu)  # Edit > Track mapping... (app/mapping.py)
         self._build_face_menu()
         view_menu = self.menuBar().addMenu("&View")
         for name, key in (("front", "1"), ("three_quarter", "2"), ("side", "3"),

@@ -577,6 +577,14 @@ class FaceModel:
         face._springs = self._springs  # same skin, skull and muscles: same matrices
         return face
 
+    def with_mapping(self, mapping: TrackMapping | None) -> FaceModel:
+        """The same face whose recorded tracks play through ``mapping`` (None: the
+        default); it shares every cache with this face.
+        """
+        face = self.with_skin_model(self.skin_model)
+        face.mapping = mapping
+        return face
+
     def muscle_data(self, muscle: Muscle) -> _MuscleData:
         """The cached rest-skin data of ``muscle`` (built on first use)."""
         data = self._muscle_data.get(muscle)

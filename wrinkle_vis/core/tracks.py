@@ -60,6 +60,7 @@ muscle names; a layout file keeps its own under ``"mapping"``.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import math
 import os
@@ -851,11 +852,15 @@ class Performance(Expression):
         The activations of ``muscle_order`` at ``times``.
     muscle_order : tuple of str
         The ``M`` muscles of ``table``'s columns.
+    track, mapping : Track and TrackMapping, optional
+        What ``table`` was made from (:func:`performance`), for :meth:`remapped`.
     """
 
     times: np.ndarray = field(default_factory=lambda: np.zeros(1))
     table: np.ndarray = field(default_factory=lambda: np.zeros((1, 0)))
     muscle_order: tuple = ()
+    track: Track | None = field(default=None, repr=False, compare=False)
+    mapping: TrackMapping | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
         super().__post_init__()
@@ -885,6 +890,15 @@ class Performance(Expression):
         """1: the track itself rises and falls."""
         return 1.0
 
+    def remapped(self, mapping: TrackMapping) -> Performance:
+        """The same track through ``mapping`` (same name, frames and muscles); this one
+        when ``mapping`` is the one it was made with, or when it keeps no track.
+        """
+        if self.track is None or mapping is self.mapping or mapping == self.mapping:
+            return self
+        out = performance(self.track, mapping, self.muscle_order, name=self.name)
+        return dataclasses.replace(out, description=self.description)
+
     def __eq__(self, other) -> bool:
         """The same expression fields, muscles, times and activations."""
         return (isinstance(other, Performance) and self.to_dict() == other.to_dict()
@@ -912,7 +926,7 @@ def performance(track: Track, mapping: TrackMapping, muscles: Sequence[str], *,
     return Performance(label, peak, onset_s=0.0, hold_s=track.duration_s, release_s=0.0,
                        description=f"{track.format or 'recorded'} track, {track.n_frames} "
                                    f"frames", times=track.times, table=acts,
-                       muscle_order=muscles)
+                       muscle_order=muscles, track=track, mapping=mapping)
 
 
 def iter_activations(track: Track, mapping: TrackMapping, muscles: Sequence[str], *,
