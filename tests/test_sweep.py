@@ -518,3 +518,112 @@ def test_a_sweep_in_batches_of_several_runs_gives_the_same_table(reference, tmp_
     batched = wv.sweep(spec, tmp_path / "out", workers=2, progress=False)
     pd.testing.assert_frame_equal(comparable(batched), comparable(table))
     assert_same_arrays(arrays_of(tmp_path / "out"), arrays_of(out))
+
+
+# ---------------------------------------------------------------------- tracks, skin models
+OPENFACE = ROOT.parent / "shared" / "tracks" / "openface_test.csv"
+
+
+def _brows_track(folder: Path) -> Path:
+    from wrinkle_vis.core.tracks import Track, write_track
+
+    t = np.linspace(0.0, 1.0, 5)
+    return write_track(Track(t, ["AU01", "AU04"], np.column_stack([t, 1.0 - t])),
+                       folder / "brows.csv", "openface")
+
+
+def test_a_track_is_swept_frame_by_frame_and_a_run_plays_it(tmp_path):
+    from wrinkle_vis.core.tracks import default_mapping, performance, read_track
+    from wrinkle_vis.sweep import worker
+    from wrinkle_vis.sweep.runner import _prepare, _task
+
+    _brows_track(tmp_path)
+    spec = load_spec(spec_with(tmp_path, expressions=[{"track": "brows.csv"}], vary=[],
+                               samples=1, outputs={"arrays": ["W"]}))
+    runs = spec.runs()
+    assert [r.columns["time_s"] for r in runs] == pytest.approx([0.0, 0.25, 0.5, 0.75, 1.0])
+    assert {r.columns["expression"] for r in runs} == {"brows"}
+    assert runs[0].params["expression"]["track"] == "brows.csv"  # the name, not the path
+    assert runs[0].track_path == str(tmp_path / "brows.csv")
+    again = load_spec(spec_with(tmp_path, expressions=[{"track": "brows.csv"}], vary=[],
+                                samples=1, times_s=[0.25], outputs={"arrays": ["W"]})).runs()
+    assert [r.id for r in again] == [runs[1].id]  # a time asked for: the same run
+    out = _prepare(tmp_path / "out", spec)
+    record = worker.execute(_task(spec, out, runs[1]))
+    assert record["status"] == "done", record.get("error")
+    face = wv.datasets.load_face(1000)
+    perf = performance(read_track(tmp_path / "brows.csv"), default_mapping(),
+                       face.muscle_names)
+    expected = face.evaluate(perf.at(0.25))
+    with np.load(out / "runs" / runs[1].id / "arrays.npz") as data:
+        np.testing.assert_array_equal(data["W"], expected.W)  # AU01 0.25, AU04 0.75
+    assert record["metrics"]["time_s"] == 0.25 and record["metrics"]["W_range"] > 0
+
+
+def test_the_real_openface_track_expands_to_its_frames(tmp_path):
+    spec = load_spec(spec_with(tmp_path, expressions=[
+        {"track": str(OPENFACE), "resample_fps": 50}], vary=[], samples=1))
+    assert [r.columns["time_s"] for r in spec.runs()] == pytest.approx(
+        [0.0, 0.02, 0.04, 0.06, 0.08])
+    assert load_spec(spec_with(tmp_path, expressions=[{"track": str(OPENFACE)}], vary=[],
+                               samples=1)).runs()[-1].columns["time_s"] == pytest.approx(0.099)
+
+
+@pytest.mark.parametrize(("expression", "times", "message"), [
+    ({"track": "missing.csv"}, None, r"expressions\[0\]\.track: .*missing\.csv"),
+    ({"track": "spec.toml"}, None, r"expressions\[0\]\.track: "),
+    ({"track": "brows.csv", "speed": 2}, None, r"expressions\[0\]\.speed: unknown key"),
+    ({"track": "brows.csv"}, [2.0], r"times_s\[0\]: 2 s is past the end of track brows\.csv"),
+    ({"track": "brows.csv"}, [None], r"times_s\[0\]: a track \(brows\.csv\) has no peak"),
+    ({"track": "blink.csv"}, None, r"blink\.csv drives none of face procedural@1000's"),
+    ({"track": "brows.csv", "resample_fps": 0}, None, r"resample_fps: 0 is outside"),
+])
+def test_a_bad_track_is_one_line_before_anything_runs(tmp_path, expression, times, message):
+    from wrinkle_vis.core.tracks import Track, write_track
+
+    _brows_track(tmp_path)
+    write_spec(tmp_path)  # spec.toml: a file that is not a track
+    write_track(Track(np.linspace(0, 1, 3), ["AU45"], np.ones((3, 1))), tmp_path / "blink.csv",
+                "openface")
+    changes = {"expressions": [expression], "vary": [], "samples": 1}
+    if times is not None:
+        changes["times_s"] = times
+    with pytest.raises(SweepSpecError, match=message) as info:
+        wv.sweep(spec_with(tmp_path, **changes), tmp_path / "out", progress=False)
+    assert "\n" not in str(info.value)
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_physical_skin_is_swept_beside_the_geometric(tmp_path):
+    from wrinkle_vis.sweep import worker
+    from wrinkle_vis.sweep.runner import _prepare, _task
+
+    plain = load_spec(spec_with(tmp_path, expressions=["frown"], vary=[], samples=1,
+                                outputs={"arrays": ["W"]}))
+    both = load_spec(spec_with(tmp_path, expressions=["frown"], vary=[], samples=1,
+                               skin_model=["geometric", "physical"],
+                               outputs={"arrays": ["W"]}))
+    geometric, physical = both.runs()
+    assert geometric.id == plain.runs()[0].id  # ids from before skin models are kept
+    assert (geometric.columns["skin_model"], physical.columns["skin_model"]) == (
+        "geometric", "physical")
+    assert physical.params["skin_model"] == "physical" and physical.id != geometric.id
+    out = _prepare(tmp_path / "out", both)
+    record = worker.execute(_task(both, out, physical))
+    assert record["status"] == "done", record.get("error")
+    face = wv.datasets.load_face(1000)
+    expected = face.with_skin_model("physical").evaluate("frown")
+    with np.load(out / "runs" / physical.id / "arrays.npz") as data:
+        np.testing.assert_array_equal(data["W"], expected.W)
+        assert not np.array_equal(data["W"], face.evaluate("frown").W)
+
+
+@pytest.mark.parametrize(("skin", "message"), [
+    ("elastic", r"skin_model\[0\]: unknown skin model 'elastic'; choose one of geometric, "
+                r"physical$"),
+    (["physical", "physical"], r"skin_model: a skin model is listed twice"),
+])
+def test_a_bad_skin_model_is_one_line_before_anything_runs(tmp_path, skin, message):
+    with pytest.raises(SweepSpecError, match=message):
+        wv.sweep(spec_with(tmp_path, skin_model=skin), tmp_path / "out", progress=False)
+    assert not (tmp_path / "out").exists()

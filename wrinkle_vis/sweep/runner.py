@@ -215,7 +215,7 @@ def _shared(spec: SweepSpec, out: Path) -> dict:
 
 def _item(run: Run) -> dict:
     return {"id": run.id, "seed": run.seed, "params": run.params, "columns": run.columns,
-            "layout_path": run.layout_path}
+            "layout_path": run.layout_path, "track_path": run.track_path}
 
 
 def batch_sizes(n: int, threads: int, max_batch: int = MAX_BATCH) -> list[int]:
@@ -317,8 +317,8 @@ def table_frame(runs: list[Run], records: Mapping[str, dict]):
 
     Columns: ``run_id``, ``seed``, ``status`` (``done``, ``failed`` or ``missing``),
     ``error`` (one line, for a failed run), the run's parameters (``face``, ``n_triangles``,
-    ``expression``, ``intensity``, ``time_s``, ``refine``, then one column per varied
-    parameter, named by its label, e.g. ``type:sheet.n_wrinkles``), every metric of
+    ``expression``, ``intensity``, ``time_s``, ``refine``, ``skin_model``, then one column
+    per varied parameter, named by its label, e.g. ``type:sheet.n_wrinkles``), every metric of
     :data:`~wrinkle_vis.core.metrics.METRICS` in its order, then ``crests:<muscle>`` per
     muscle, sorted. Counts are nullable integers, ``folds_intersect`` a nullable boolean.
     """

@@ -42,7 +42,8 @@ IMAGE_FIELDS = ("W", "none")
 FRAME_ARRAYS = ("W", "points", "deformed_points", "rest_points", "triangles", "normals")
 MUSCLE_ARRAYS = ("lambda", "gamma", "l", "eps", "At", "A", "H", "w")
 _TOP_KEYS = {"name", "seed", "samples", "faces", "expressions", "intensity", "times_s",
-             "refine", "vary", "outputs", "prominence"}
+             "refine", "skin_model", "vary", "outputs", "prominence"}
+_TRACK_KEYS = ("track", "name", "format", "fps", "resample_fps")
 _BUILTIN_FACES = ("procedural", "lee_perry_smith")
 _MIN_TRIANGLES, _MAX_TRIANGLES = 500, 250_000  # wrinkle_vis.datasets.face's range
 _MAX_RUNS = 10_000_000
@@ -62,19 +63,25 @@ class Run:
         ``face`` (a dict: ``name``, ``n_triangles``, ``layout``, the layout file's name, and
         ``layout_sha256``, the hash of its contents: not its path, so that the id is the same
         wherever the file lies),
-        ``expression`` (a name, or ``{"name", "activations"}``), ``intensity``, ``time_s``
-        (None: the expression's peak), ``refine`` and ``set``: ``{muscle: {parameter:
-        value}}`` for every muscle a varied parameter touches.
+        ``expression`` (a name, ``{"name", "activations"}``, or a recorded track:
+        ``{"name", "track", "track_sha256", "format", "fps"}``, the file's name and the hash
+        of its contents), ``intensity``, ``time_s`` (None: the expression's peak; on a
+        track, seconds from its first frame), ``refine``, ``skin_model`` (only when not
+        ``"geometric"``, so the geometric runs keep their ids) and ``set``: ``{muscle:
+        {parameter: value}}`` for every muscle a varied parameter touches.
     columns : dict
         The run's row in the table: its plain parameters and one column per varied
         parameter (its ``label``).
     layout_path : str or None
         Where the face's layout file lies (a worker reads it from there).
+    track_path : str or None
+        Where the track file lies, for a run of a recorded track.
     """
 
     params: dict
     columns: dict
     layout_path: str | None = None
+    track_path: str | None = None
 
     @cached_property
     def id(self) -> str:
@@ -102,6 +109,18 @@ class _Face:
     layout: Layout
     label: str
     path: str | None = None
+
+
+@dataclass(frozen=True)
+class _Track:
+    params: dict  # name, track (file name), track_sha256, format, fps
+    path: str
+    times: tuple  # the frames' times, or resampled
+    duration_s: float
+
+    @property
+    def name(self) -> str:
+        return self.params["name"]
 
 
 @dataclass(frozen=True)
@@ -142,23 +161,28 @@ class SweepSpec:
     vary: tuple
     outputs: dict
     raw: dict = field(repr=False, default_factory=dict)
+    skin_models: tuple = ("geometric",)
+    times_given: bool = False
 
     def runs(self) -> list[Run]:
         """Every run, in the spec's order: the product of the faces, expressions,
-        intensities, times, refinements and the varied lists and grids, times ``samples``
-        joint draws of the random parameters (seeded by ``seed``).
+        intensities, times, refinements, skin models and the varied lists and grids, times
+        ``samples`` joint draws of the random parameters (seeded by ``seed``). A recorded
+        track's times are its frames (or ``resample_fps``), unless ``times_s`` is given.
         """
         draws = self._draws()
         grid_vary = [v for v in self.vary if v.values is not None]
         rand_vary = [v for v in self.vary if v.random is not None]
         out = []
-        for face, expr, k, t, refine in itertools.product(
-                self.faces, self.expressions, self.intensity, self.times_s, self.refine):
-            for combo in itertools.product(*(v.values for v in grid_vary)):
-                for draw in draws:
-                    chosen = list(zip(grid_vary, combo, strict=True)) + list(
-                        zip(rand_vary, draw, strict=True))
-                    out.append(_run(face, expr, k, t, refine, chosen))
+        for face, expr, k in itertools.product(self.faces, self.expressions, self.intensity):
+            times = expr.times if isinstance(expr, _Track) and not self.times_given \
+                else self.times_s
+            for t, refine, skin in itertools.product(times, self.refine, self.skin_models):
+                for combo in itertools.product(*(v.values for v in grid_vary)):
+                    for draw in draws:
+                        chosen = list(zip(grid_vary, combo, strict=True)) + list(
+                            zip(rand_vary, draw, strict=True))
+                        out.append(_run(face, expr, k, t, refine, chosen, skin))
         return out
 
     def _draws(self) -> list[tuple]:
@@ -182,19 +206,24 @@ class SweepSpec:
         return run_id(self.outputs)
 
 
-def _run(face: _Face, expr, k: float, t, refine: bool, chosen: list) -> Run:
+def _run(face: _Face, expr, k: float, t, refine: bool, chosen: list,
+         skin: str = "geometric") -> Run:
     overrides: dict[str, dict] = {}
+    track = expr if isinstance(expr, _Track) else None
     columns = {"face": face.label, "n_triangles": face.params["n_triangles"],
-               "expression": expr if isinstance(expr, str) else expr["name"],
-               "intensity": k, "time_s": t, "refine": refine}
+               "expression": expr if isinstance(expr, str) else expr.name if track
+               else expr["name"],
+               "intensity": k, "time_s": t, "refine": refine, "skin_model": skin}
     for vary, value in chosen:
         for muscle in vary.targets[face.label]:
             overrides.setdefault(muscle, {})[vary.parameter] = value
         columns[vary.label] = value
-    params = {"face": face.params, "expression": expr, "intensity": k, "time_s": t,
-              "refine": refine,
+    params = {"face": face.params, "expression": track.params if track else expr,
+              "intensity": k, "time_s": t, "refine": refine,
               "set": {m: dict(sorted(p.items())) for m, p in sorted(overrides.items())}}
-    return Run(params, columns, face.path)
+    if skin != "geometric":  # the geometric runs keep the ids they had before skin models
+        params["skin_model"] = skin
+    return Run(params, columns, face.path, track.path if track else None)
 
 
 # ---------------------------------------------------------------------- reading
@@ -246,7 +275,7 @@ def parse_spec(data: dict, source: str, base: Path) -> SweepSpec:
     labels = [f.label for f in faces]
     if len(set(labels)) != len(labels):
         e.fail("faces", "the same face is listed twice; list each once")
-    expressions = tuple(_expression(e, f"expressions[{i}]", x, faces)
+    expressions = tuple(_expression(e, f"expressions[{i}]", x, faces, base)
                         for i, x in enumerate(_list(e, data, "expressions", ["surprise"])))
     intensity = tuple(_number(e, f"intensity[{i}]", x, 0.0, 1.0)
                       for i, x in enumerate(_list(e, data, "intensity", [1.0])))
@@ -254,6 +283,11 @@ def parse_spec(data: dict, source: str, base: Path) -> SweepSpec:
                   for i, x in enumerate(_list(e, data, "times_s", [None])))
     refine = tuple(_bool(e, f"refine[{i}]", x)
                    for i, x in enumerate(_list(e, data, "refine", [False])))
+    skins = tuple(_skin_model(e, f"skin_model[{i}]", x)
+                  for i, x in enumerate(_list(e, data, "skin_model", ["geometric"])))
+    if len(set(skins)) != len(skins):
+        e.fail("skin_model", "a skin model is listed twice; list each once")
+    _check_track_times(e, expressions, times, "times_s" in data)
     vary = tuple(_vary(e, f"vary[{i}]", v, faces)
                  for i, v in enumerate(_list(e, data, "vary", [], allow_empty=True)))
     vlabels = [v.label for v in vary]
@@ -272,7 +306,7 @@ def parse_spec(data: dict, source: str, base: Path) -> SweepSpec:
     spec = SweepSpec(source=source, name=name, seed=seed, samples=samples, faces=faces,
                      expressions=expressions, intensity=intensity, times_s=times,
                      refine=refine, vary=vary, outputs=_outputs(e, data.get("outputs", {})),
-                     raw=data)
+                     raw=data, skin_models=skins, times_given="times_s" in data)
     spec.outputs["prominence"] = _number(e, "prominence", data.get("prominence", 0.1), 0.0,
                                          1.0)
     _check_runs(e, spec)
@@ -359,7 +393,19 @@ def _face(e: _Errors, key: str, value, base: Path) -> _Face:
     return _Face(params, layout, name + (f"@{n}" if n else ""))
 
 
-def _expression(e: _Errors, key: str, value, faces: tuple) -> Any:
+def _skin_model(e: _Errors, key: str, value) -> str:
+    from wrinkle_vis.core.skin import check_skin_model
+
+    try:
+        return check_skin_model(value)
+    except (ValueError, TypeError) as exc:
+        e.fail(key, str(exc))
+    return value
+
+
+def _expression(e: _Errors, key: str, value, faces: tuple, base: Path) -> Any:
+    if isinstance(value, dict) and "track" in value:
+        return _track(e, key, value, faces, base)
     if isinstance(value, str):
         for f in faces:
             if value not in f.layout.expressions:
@@ -383,6 +429,64 @@ def _expression(e: _Errors, key: str, value, faces: tuple) -> Any:
     except (TypeError, ValueError) as exc:
         e.fail(f"{key}.activations", str(exc))
     return {"name": name, "activations": {k: float(v) for k, v in sorted(acts.items())}}
+
+
+def _track(e: _Errors, key: str, value: dict, faces: tuple, base: Path) -> _Track:
+    """A recorded track to play (``{track = "file.csv", name, format, fps,
+    resample_fps}``): read and mapped on every face now, so a bad file or a track that
+    drives none of a face's muscles is one line before any run.
+    """
+    from wrinkle_vis.core.tracks import TrackError, default_mapping, read_track
+
+    extra = sorted(set(value) - set(_TRACK_KEYS))
+    if extra:
+        e.fail(f"{key}.{extra[0]}", f"unknown key; a track has {', '.join(_TRACK_KEYS)}")
+    if not isinstance(value["track"], str) or not value["track"]:
+        e.fail(f"{key}.track", f"expected a track file's path; found {value['track']!r}")
+    fmt, fps = value.get("format"), value.get("fps")
+    if fmt is not None and not isinstance(fmt, str):
+        e.fail(f"{key}.format", f"expected a format name; found {fmt!r}")
+    if fps is not None:
+        fps = _number(e, f"{key}.fps", fps, 1e-3, 1e4)
+    path = (base / value["track"]).resolve()
+    try:
+        track = read_track(path, fmt, fps)
+    except (TrackError, OSError, ValueError) as exc:
+        e.fail(f"{key}.track", " ".join(str(exc).split()))
+    times = tuple(float(t) for t in track.times)
+    if value.get("resample_fps") is not None:
+        rate = _number(e, f"{key}.resample_fps", value["resample_fps"], 1e-3, 1e4)
+        times = tuple(float(t) for t in track.frame_times(rate))
+    for f in faces:
+        mapping = f.layout.mapping or default_mapping()
+        names = {m.name for m in f.layout.muscles}
+        if not any(names & set(mapping.drives(c)) for c in track.channels):
+            e.fail(f"{key}.track", f"{path.name} drives none of face {f.label}'s muscles "
+                   "through its mapping; add a mapping to the face's layout or choose "
+                   "another track")
+    name = value.get("name", path.stem)
+    if not isinstance(name, str) or not name:
+        e.fail(f"{key}.name", f"expected a non-empty string; found {name!r}")
+    params = {"name": name, "track": path.name,
+              "track_sha256": hashlib.sha256(path.read_bytes()).hexdigest(),
+              "format": track.format, "fps": fps}
+    return _Track(params, str(path), times, track.duration_s)
+
+
+def _check_track_times(e: _Errors, expressions: tuple, times: tuple, given: bool) -> None:
+    """Times asked of a track lie on it (``times_s`` given) and are not the peak."""
+    for x in expressions:
+        if not isinstance(x, _Track) or not given:
+            continue
+        for j, t in enumerate(times):
+            if t is None:
+                e.fail(f"times_s[{j}]", f"a track ({x.params['track']}) has no peak; give "
+                                        "times in seconds, or leave times_s out for its "
+                                        "frames")
+            if t > x.duration_s + 1e-9:
+                e.fail(f"times_s[{j}]", f"{t:g} s is past the end of track "
+                                        f"{x.params['track']} ({x.duration_s:g} s); give "
+                                        "times on it")
 
 
 # ---------------------------------------------------------------------- varied parameters

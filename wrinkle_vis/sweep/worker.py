@@ -41,6 +41,7 @@ _FACES: OrderedDict = OrderedDict()
 _FACE_CACHE_SIZE = 3
 _REST_PAIRS: dict = {}
 _PLOTTER: dict = {}
+_PERFORMANCES: OrderedDict = OrderedDict()
 
 
 def run_dir(out: str | os.PathLike, rid: str) -> Path:
@@ -84,8 +85,30 @@ def _face_for(params: dict, layout_path: str | None):
     return face
 
 
-def _activations(face, params: dict) -> dict[str, float]:
+def _performance(face, params: dict, track_path: str | None):
+    """The run's recorded track through its face's mapping (read once per worker)."""
+    from wrinkle_vis.core.tracks import default_mapping, performance, read_track
+
     expr = params["expression"]
+    key = json.dumps([params["face"], expr], sort_keys=True)
+    hit = _PERFORMANCES.get(key)
+    if hit is None:
+        if track_path is None:
+            raise ValueError(f"run of track {expr['track']!r} without the track's path")
+        track = read_track(track_path, expr["format"], expr["fps"])
+        hit = performance(track, face.mapping or default_mapping(), face.muscle_names,
+                          name=expr["name"])
+        _PERFORMANCES[key] = hit
+        while len(_PERFORMANCES) > _FACE_CACHE_SIZE:
+            _PERFORMANCES.popitem(last=False)
+    _PERFORMANCES.move_to_end(key)
+    return hit
+
+
+def _activations(face, params: dict, track_path: str | None = None) -> dict[str, float]:
+    expr = params["expression"]
+    if isinstance(expr, dict) and "track" in expr:
+        return _performance(face, params, track_path).at(params["time_s"], params["intensity"])
     if isinstance(expr, str):
         expr = face.expressions[expr]
     else:
@@ -96,7 +119,8 @@ def _activations(face, params: dict) -> dict[str, float]:
     return face.activations_for(expr.at(params["time_s"], k))
 
 
-def evaluate_run(params: dict, prominence: float = 0.1, layout_path: str | None = None):
+def evaluate_run(params: dict, prominence: float = 0.1, layout_path: str | None = None,
+                 track_path: str | None = None):
     """``(face, state, metrics)`` of one run's parameters (see :class:`~.spec.Run`).
 
     Parameters
@@ -107,6 +131,9 @@ def evaluate_run(params: dict, prominence: float = 0.1, layout_path: str | None 
         The least crest or furrow counted (:func:`~wrinkle_vis.core.metrics.frame_metrics`).
     layout_path : str, optional
         Where the face's layout file lies (:attr:`~.spec.Run.layout_path`).
+    track_path : str, optional
+        Where a recorded track lies (:attr:`~.spec.Run.track_path`); the run plays it at
+        ``time_s`` through the face's mapping.
 
     Returns
     -------
@@ -118,9 +145,10 @@ def evaluate_run(params: dict, prominence: float = 0.1, layout_path: str | None 
         :func:`~wrinkle_vis.core.metrics.frame_metrics` of the frame.
     """
     face = _face_for(params, layout_path)
-    acts = _activations(face, params)
+    acts = _activations(face, params, track_path)
     start = time.perf_counter()
-    state = face.evaluate(acts, refine=params["refine"])
+    state = face.evaluate(acts, refine=params["refine"],
+                          skin=params.get("skin_model", "geometric"))
     seconds = time.perf_counter() - start
     pairs = None
     if state.face.skin is face.skin:
@@ -252,7 +280,7 @@ def execute(task: dict) -> dict:
     tmp = Path(tempfile.mkdtemp(prefix=f".tmp-{task['id']}-", dir=final.parent))
     try:
         face, state, metrics = evaluate_run(task["params"], task["outputs"]["prominence"],
-                                             task.get("layout_path"))
+                                             task.get("layout_path"), task.get("track_path"))
         outputs = task["outputs"]
         files = []
         if outputs["arrays"]:
