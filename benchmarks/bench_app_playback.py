@@ -214,7 +214,35 @@ def _play_track(app, window, clock, args) -> bool:
     print(f"track {name}: {len(ex.times)} frames over {ex.duration_s:.3g} s, "
           f"{len(ex.muscle_order)} muscles; plot {window.track_plot.width()}x"
           f"{window.track_plot.height()} px")
-    return _play_mode(app, window, clock, args, "geometric", "off", label="track")
+    met = _play_mode(app, window, clock, args, "geometric", "off", label="track")
+    _plot_paints(app, window.track_plot, ex.duration_s)
+    return met
+
+
+def _plot_paints(app, plot, duration_s: float, frames: int = 200) -> None:
+    """The track plot's paint a frame, side by side: the time line moved (only its strips
+    repainted, the curves copied from the pixmap) against the whole plot drawn again
+    (curves, labels and line, what every frame cost before the pixmap).
+    """
+    def moved(k):
+        plot.set_time(duration_s * k / frames)
+        app.processEvents()
+
+    def redrawn(k):
+        plot.time_s = duration_s * k / frames
+        plot._layer = None
+        plot.repaint()
+
+    out = {}
+    for name, step in (("time line moved", moved), ("whole plot drawn", redrawn)):
+        PLOT_SECONDS[0] = 0.0
+        t0 = time.perf_counter()
+        for k in range(frames):
+            step(k)
+        out[name] = (1e3 * PLOT_SECONDS[0] / frames, 1e3 * (time.perf_counter() - t0) / frames)
+    print("track plot, a frame: " + "; ".join(
+        f"{name} {paint:.2f} ms painting ({wall:.2f} ms with Qt's events)"
+        for name, (paint, wall) in out.items()))
 
 
 def _play_mode(app, window, clock, args, skin: str, mode: str, label: str = "") -> bool:
