@@ -106,6 +106,13 @@ def _cpu() -> float:
     return time.process_time()
 
 
+def _plotters() -> int:
+    """The off-screen plotters this process has open (a worker keeps one for its life)."""
+    import pyvista as pv
+
+    return len(pv.plotting.plotter._ALL_PLOTTERS)
+
+
 def timed_sweep(run, n: int, triangles: int, seed: int, folder: Path, client) -> dict:
     """Wall and CPU seconds of one sweep with ``run`` (a runner's ``sweep``)."""
     workers0 = client.run(_cpu)
@@ -147,6 +154,9 @@ def side_by_side(runs: int, triangles: int, workers: int, rounds: int,
                   f"{row['serial']:6.1f} s ({1e3 * row['serial_cpu'] / n:.0f} ms CPU a run)"
                   + "".join(_column(name, row[name], row["serial"], n)
                             for name in ("old", "new") if name in row), flush=True)
+        made = client.run(_plotters)
+        print(f"  plotters open in each worker after every round: {sorted(made.values())}")
+        assert all(n == 1 for n in made.values()), made
     close_worker_plotter()
     return out
 
