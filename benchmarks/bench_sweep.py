@@ -155,7 +155,7 @@ def side_by_side(runs: int, triangles: int, workers: int, rounds: int,
                   + "".join(_column(name, row[name], row["serial"], n)
                             for name in ("old", "new") if name in row), flush=True)
         made = client.run(_plotters)
-        print(f"  plotters open in each worker after every round: {sorted(made.values())}")
+        print(f"  plotters open in each worker after the rounds: {sorted(made.values())}")
         assert all(n == 1 for n in made.values()), made
     close_worker_plotter()
     return out
