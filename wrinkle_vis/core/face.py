@@ -836,21 +836,6 @@ class FaceModel:
                                         smooth_s=smooth_s):
             yield self.evaluate(acts, **evaluate_options)
 
-    def plot(self, expression="surprise", field: str | None = "W", muscle: str | None = None,
-             *, intensity: float = 1.0, refine: bool = False, **kwargs):
-        """Evaluate ``expression`` (as :meth:`evaluate`) and show its skin coloured by
-        ``field`` (see :meth:`FaceState.plot`).
-
-        A bridge to :func:`wrinkle_vis.plotting.plot_face` (which documents ``kwargs``);
-        needs PyVista. The one place the core reaches the plotting layer, imported only
-        when called and declared in the import contract (``pyproject.toml``,
-        ``ignore_imports``).
-        """
-        from wrinkle_vis.plotting import plot_face
-
-        return plot_face(self, expression, field, muscle, intensity=intensity, refine=refine,
-                         **kwargs)
-
     def _refined_frame(self, root: FaceState, acts: dict[str, float], angle_deg: float,
                        levels: int) -> FaceState:
         """Refine the unrefined frame ``root`` with this skin's refinement engine
@@ -1390,29 +1375,6 @@ class FaceState:
             if at.defined:
                 out[name] = at
         return out
-
-    def to_polydata(self):
-        """The skin as ``pyvista.PolyData`` with every field as a named point array.
-
-        A bridge to :func:`wrinkle_vis.plotting.to_polydata`; needs PyVista (imported when
-        called; declared in the import contract, see :meth:`FaceModel.plot`).
-        """
-        from wrinkle_vis.plotting import to_polydata
-
-        return to_polydata(self)
-
-    def plot(self, field: str | None = "W", muscle: str | None = None, **kwargs):
-        """Show the skin coloured by ``field`` (of ``muscle``, or the total W; None for
-        plain skin): in a notebook with PyVista's trame backend when it is installed, else
-        as an image; elsewhere in a window, or off screen without a display.
-
-        A bridge to :func:`wrinkle_vis.plotting.plot_state` (which documents ``kwargs``);
-        needs PyVista (imported when called; declared in the import contract, see
-        :meth:`FaceModel.plot`).
-        """
-        from wrinkle_vis.plotting import plot_state
-
-        return plot_state(self, field, muscle, **kwargs)
 
     def summary(self) -> str:
         """A few lines on the frame: activations and the range of each active field."""
