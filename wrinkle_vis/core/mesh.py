@@ -176,7 +176,7 @@ class TriangleSurface:
         return np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
 
     @cached_property
-    def _edge_inverse(self) -> tuple[np.ndarray, np.ndarray]:
+    def _edge_inverse(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         d = self._directed_edges
         lo, hi = np.minimum(d[:, 0], d[:, 1]), np.maximum(d[:, 0], d[:, 1])
         n = np.int64(max(self.n_points, 1))
