@@ -9,7 +9,8 @@ evaluation and the rendering of all three views.
 ``--overlays R``: also the intensity change with the muscle selected, its placement
 overlays (the AOI and region outlines, the AOI volumes) kept and moved with the skin as the
 app does, beside the peer that rebuilds them every frame (the code before issue 28), in
-``R`` interleaved rounds: the whole change and ``LinkedViews.draw`` alone (medians).
+``R`` interleaved rounds: the whole change and ``LinkedViews.draw`` alone (medians; the
+latter also in CPU time, which a loaded machine's waits for a core do not inflate).
 """
 
 import argparse
@@ -62,29 +63,34 @@ def overlays(app, window, rounds: int) -> None:
     kept = PlacementWidget._draw_overlays
     draw = window.views.draw
     spent: list[float] = []
+    cpu: list[float] = []
 
     def timed_draw(*args, **kwargs):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         draw(*args, **kwargs)
         spent.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
 
     window.views.draw = timed_draw
-    results: dict[str, dict[str, list[float]]] = {w: {"change": [], "draw": []}
+    results: dict[str, dict[str, list[float]]] = {w: {"change": [], "draw": [], "cpu": []}
                                                   for w in ("kept", "rebuilt")}
     step = 0
     for _ in range(rounds):
         for way, method in (("kept", kept), ("rebuilt", rebuilt_overlays)):
             PlacementWidget._draw_overlays = method
             spent.clear()
+            cpu.clear()
             results[way]["change"].append(timed(
                 app, lambda i, s=step: window.intensity_slider.setValue(30 + (s + i) % 60)))
             results[way]["draw"].append(1e3 * statistics.median(spent))
+            results[way]["cpu"].append(1e3 * statistics.median(cpu))
             step += 20
     PlacementWidget._draw_overlays = kept
     window.views.draw = draw
     for way, r in results.items():
         print(f"  overlays {way:7s}: intensity change {statistics.median(r['change']):.1f} ms,"
-              f" LinkedViews.draw {statistics.median(r['draw']):.2f} ms")
+              f" LinkedViews.draw {statistics.median(r['draw']):.2f} ms "
+              f"({statistics.median(r['cpu']):.2f} ms CPU)")
 
 
 def main():

@@ -4,7 +4,9 @@ per-muscle data (``FaceState.values_at``, what ``Session.probe`` does) beside th
 
 Run:  .venv/bin/python benchmarks/bench_probe.py [--triangles 4500] [--frames 15] [--rounds 3]
 
-Each timed call gets a frame of its own (``--frames`` intensities played round and round,
+Wall clock and CPU time (``time.process_time``: on a machine busy with other work, a wall
+time also counts the waits for a core, most after the evaluation's burst). Each timed call
+gets a frame of its own (``--frames`` intensities played round and round,
 each frame evaluated anew before the clock starts), so neither way finds the other's fields
 built. Medians of the frames of a round, median over ``--rounds`` rounds, the two ways
 interleaved frame by frame; unrefined and refined. Also checks that both ways give the same
@@ -42,26 +44,31 @@ def _same(a: dict, b: dict) -> bool:
 
 
 def timed(session: Session, where, frames: int, rounds: int) -> dict[str, float]:
-    """Median ms a frame of each way (and of the frame's evaluation, for scale), playing
-    ``frames`` intensities round and round as Play does (a first round, not timed, lets the
-    refinement's hierarchy grow to what they need).
+    """Median ms a frame of each way, wall clock and CPU time of this process (which a
+    loaded machine's waits for a core do not inflate), and of the frame's evaluation for
+    scale, playing ``frames`` intensities round and round as Play does (a first round, not
+    timed, lets the refinement's hierarchy grow to what they need).
     """
     ways = {"compact": session.probe, "full": lambda w: probe_full(session, w)}
     intensities = np.linspace(0.4, 1.0, frames)
-    rounds_ms: dict[str, list[float]] = {k: [] for k in (*ways, "evaluate")}
+    keys = [f"{k} {c}" for k in (*ways, "evaluate") for c in ("wall", "cpu")]
+    rounds_ms: dict[str, list[float]] = {k: [] for k in keys}
     for r in range(rounds + 1):
-        per: dict[str, list[float]] = {k: [] for k in rounds_ms}
+        per: dict[str, list[float]] = {k: [] for k in keys}
         for intensity in intensities:
             for name, way in ways.items():
                 session.set_intensity(intensity)
                 session._state = None  # a new frame: nothing built in it
-                t0 = time.perf_counter()
+                t0, c0 = time.perf_counter(), time.process_time()
                 state = session.state()
-                t1 = time.perf_counter()
+                t1, c1 = time.perf_counter(), time.process_time()
                 assert not any(state.fields[m]._cache for m in session.face.muscle_names)
                 way(where)
-                per[name].append(1e3 * (time.perf_counter() - t1))
-                per["evaluate"].append(1e3 * (t1 - t0))
+                t2, c2 = time.perf_counter(), time.process_time()
+                per[f"{name} wall"].append(1e3 * (t2 - t1))
+                per[f"{name} cpu"].append(1e3 * (c2 - c1))
+                per["evaluate wall"].append(1e3 * (t1 - t0))
+                per["evaluate cpu"].append(1e3 * (c1 - c0))
         for k, v in per.items():
             if r:  # the first round warms up
                 rounds_ms[k].append(statistics.median(v))
@@ -90,9 +97,11 @@ def main() -> None:
         assert _same(session.probe(where), probe_full(session, where))
         session.set_intensity(0.91)
         ms = timed(session, where, args.frames, args.rounds)
-        print(f"{'refined' if refine else 'unrefined':9s}: probe {ms['compact']:.3f} ms "
-              f"(compact) vs {ms['full']:.3f} ms (full fields), "
-              f"{ms['full'] / ms['compact']:.0f}x; evaluation {ms['evaluate']:.2f} ms")
+        for c in ("wall", "cpu"):
+            print(f"{'refined' if refine else 'unrefined':9s} {c:4s}: probe "
+                  f"{ms[f'compact {c}']:.3f} ms (compact) vs {ms[f'full {c}']:.3f} ms (full "
+                  f"fields), {ms[f'full {c}'] / ms[f'compact {c}']:.0f}x; evaluation "
+                  f"{ms[f'evaluate {c}']:.2f} ms")
     print(f"load average after: {os.getloadavg()[0]:.2f}")
 
 

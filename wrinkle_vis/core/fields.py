@@ -13,7 +13,7 @@ the command line's ``--field`` choices and the exported point arrays all read :d
     register_field(FieldSpec(
         "HAt", "H At", "attenuated shape", "H times At: the wrinkle before compression",
         "Eq. 5, 12", unit="length", where="region", signed=True,
-        compute=lambda f: f["H"] * f["At"]))
+        compute=lambda f: f["H"] * f["At"], pointwise=True))
 """
 
 from __future__ import annotations
