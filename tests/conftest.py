@@ -3,8 +3,9 @@ window and plotter a test makes is closed and freed.
 
 Importing this file imports neither Qt nor PyVista nor the app: a test of the model pays for
 them only when it uses them (the Qt fixtures import Qt when they are set up). pytest-qt
-itself imports Qt when pytest starts; ``pytest -p no:pytestqt -p no:xvfb`` runs Qt-free test
-files without it.
+itself imports Qt, and pytest-pyvista PyVista, when pytest starts; ``pytest -p no:pytest-qt
+-p no:pyvista -p no:xvfb`` runs the core's test files without them
+(tests/test_layers.py::CORE_TESTS).
 """
 
 import gc

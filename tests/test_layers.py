@@ -64,8 +64,8 @@ def test_the_contracts_are_kept_on_the_installed_tree():
 
 
 # ---------------------------------------------------------------------- import cycles
-#: The import cycle declared in pyproject.toml (the FaceModel/FaceState plot bridges).
-DECLARED = {("wrinkle_vis.core.face", "wrinkle_vis.plotting")}
+#: Import cycles allowed (none: the plot methods are bound from wrinkle_vis/_plot.py).
+DECLARED: set[tuple[str, str]] = set()
 
 
 def _modules() -> dict[str, Path]:
@@ -137,8 +137,7 @@ def _cycle(graph: dict[str, set[str]]) -> list[str]:
 
 def test_the_package_has_no_import_cycle_but_the_declared_one():
     """No two modules import each other, directly or around a loop, counting imports inside
-    functions (a package's ``__init__`` counts as the package): only the declared
-    core -> plotting bridge (:data:`DECLARED`) is left out.
+    functions (a package's ``__init__`` counts as the package); :data:`DECLARED` is empty.
     """
     modules = _modules()
     graph = {name: {t for t in _imports(name, path, modules)
@@ -149,3 +148,53 @@ def test_the_package_has_no_import_cycle_but_the_declared_one():
 
 def test_the_cycle_check_finds_a_cycle():  # the check above can fail
     assert _cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == ["a", "b", "c", "a"]
+
+
+# ---------------------------------------------------------------------- Qt-free core tests
+#: The tests of the core (wrinkle_vis.core, and the built-in face it is tested on): they run
+#: without Qt and PyVista, as ``pytest -p no:pytest-qt -p no:pyvista -p no:xvfb FILES``. (A
+#: few of their tests check a layer above inside the test function: test_mesh's polydata,
+#: test_parameters' command line and panel, test_folds' and test_hostile_layouts' command
+#: lines; those import it when they run.)
+CORE_TESTS = ("test_analysis", "test_builtin_face", "test_cache", "test_damaged_cache",
+              "test_dynamic", "test_equations", "test_face", "test_folds",
+              "test_fuzz_layouts", "test_hostile_layouts", "test_landmark_fit",
+              "test_layout", "test_mesh", "test_metrics", "test_muscles", "test_parameters",
+              "test_physical", "test_refine", "test_registry", "test_sphincter",
+              "test_tracks", "test_units", "test_values_at")
+HEAVY = ("qtpy", "PySide6", "pyvista", "vtkmodules", "pytestqt")
+
+
+def _collected_imports(files: list[str], where: Path) -> tuple[int, str]:
+    """Collect ``files`` with pytest in a new process, without its Qt, PyVista and Xvfb
+    plugins: its exit status, and its output, which lists the Qt and PyVista modules then
+    imported after ``SEEN``.
+    """
+    code = f"""
+import sys, pytest
+class Seen:
+    def pytest_collection_finish(self, session):
+        print("SEEN", [m for m in {HEAVY!r} if m in sys.modules])
+sys.exit(pytest.main(["--collect-only", "-q", "-p", "no:pytest-qt", "-p", "no:pyvista",
+                      "-p", "no:xvfb", "-p", "no:cacheprovider",
+                      "-W", "ignore::pytest.PytestConfigWarning", *{files!r}],
+                     plugins=[Seen()]))
+"""
+    done = subprocess.run([sys.executable, "-c", code], cwd=where, capture_output=True,
+                          text=True)
+    return done.returncode, done.stdout + done.stderr
+
+
+def test_the_core_tests_import_neither_qt_nor_pyvista():
+    """Issue 28: the core's tests (and this conftest) load no Qt and no PyVista."""
+    files = [f"tests/{name}.py" for name in CORE_TESTS]
+    assert all((ROOT / f).is_file() for f in files)
+    status, out = _collected_imports(files, ROOT)
+    assert status == 0, out
+    assert "SEEN []" in out, out
+
+
+def test_the_qt_free_check_sees_what_a_test_file_imports(tmp_path):  # the above can fail
+    (tmp_path / "test_qt.py").write_text("import pytestqt\n\ndef test_x():\n    pass\n")
+    status, out = _collected_imports(["test_qt.py"], tmp_path)
+    assert status == 0 and "'pytestqt'" in out.split("SEEN", 1)[1], out

@@ -211,6 +211,50 @@ def test_the_selected_muscles_aoi_and_region_are_drawn(wv_face, views):
     assert not any(n.startswith("widget:") for n in views.muscle_view.actors)
 
 
+def _outline_as_rebuilt(state, muscle, kind):
+    """The outline a frame drew before issue 28: found anew on the frame's skin."""
+    data = state.face.muscle_data(muscle)
+    mask = np.zeros(state.n_points, bool)
+    mask[data.aoi if kind == "aoi" else data.region] = True
+    return boundary_lines(state.face.skin, mask, state.points + 0.4 * state.normals)
+
+
+def test_the_outlines_are_found_once_per_muscle_and_moved_with_the_skin(wv_face, views):
+    """Issue 28: the AOI and region outlines and the AOI volumes depend on the rest skin
+    and the muscle alone; a new frame moves the same meshes (exactly where a rebuild would
+    draw them), an edit of the muscle finds them again."""
+    session = Session(wv_face)
+    _select(views, session, "frontalis_major_L")
+    drawn = {k: views.skin_view.actors[f"widget:{k}"].mapper.dataset for k in ("aoi", "region")}
+    volume = views.muscle_view.actors["widget:aoi_volume"].mapper.dataset
+    before = np.array(drawn["region"].points)
+    for intensity in (0.5, 0.8):
+        session.set_intensity(intensity)
+        views.draw(session, session.state())
+        muscle = session.face.muscle("frontalis_major_L")
+        for kind, mesh in drawn.items():
+            for view in (views.skin_view, views.muscle_view):
+                assert view.actors[f"widget:{kind}"].mapper.dataset is mesh  # not rebuilt
+            want = _outline_as_rebuilt(session.state(), muscle, kind)
+            assert np.array_equal(mesh.points, want.points)
+            assert np.array_equal(mesh.lines, want.lines)
+        assert views.muscle_view.actors["widget:aoi_volume"].mapper.dataset is volume
+    assert not np.array_equal(drawn["region"].points, before)  # it moved with the skin
+    # an edit: a narrower sheet has another AOI, region and box
+    muscle = session.face.muscle("frontalis_major_L")
+    session.set_face(session.with_parameter(muscle.name, "width", 0.6 * muscle.width_value))
+    views.draw(session, session.state())
+    muscle = session.face.muscle("frontalis_major_L")
+    for kind in ("aoi", "region"):
+        mesh = views.skin_view.actors[f"widget:{kind}"].mapper.dataset
+        want = _outline_as_rebuilt(session.state(), muscle, kind)
+        assert mesh.n_points != drawn[kind].n_points
+        assert np.array_equal(mesh.points, want.points)
+        assert np.array_equal(mesh.lines, want.lines)
+    edited = views.muscle_view.actors["widget:aoi_volume"].mapper.dataset
+    assert edited is not volume and not np.allclose(edited.bounds, volume.bounds)
+
+
 @pytest.mark.parametrize("name", ["zygomaticus_major_L", "frontalis_major_L"])
 def test_placement_widget_image(wv_face, views, verify_image_cache, name):
     session = Session(wv_face)

@@ -119,15 +119,28 @@ def boundary_lines(surface: TriangleSurface, mask: np.ndarray, points=None) -> p
         Line segments along the edges that belong to exactly one patch triangle (empty when
         the patch is empty).
     """
+    used, lines = boundary_topology(surface, mask)
+    if not len(used):
+        return pv.PolyData()
+    pts = surface.points if points is None else np.asarray(points, dtype=float)
+    return pv.PolyData(pts[used], lines=lines)
+
+
+def boundary_topology(surface: TriangleSurface, mask: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """What :func:`boundary_lines` draws, without its points: ``(u,)`` the vertices the
+    outline uses (sorted) and its VTK line cells ``(3 e,)`` (``2, a, b`` per edge, into
+    those vertices). Depends on the surface's triangles and ``mask`` alone, so an outline
+    found once is moved with the skin by writing ``points[used]``.
+    """
     patch = mask[surface.triangles].all(axis=1)
     counts = np.bincount(surface.triangle_edges[patch].ravel(), minlength=len(surface.edges))
     edges = surface.edges[counts == 1]
     if not len(edges):
-        return pv.PolyData()
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
     used, inverse = np.unique(edges, return_inverse=True)
     lines = np.hstack([np.full((len(edges), 1), 2), inverse.reshape(-1, 2)]).ravel()
-    pts = surface.points if points is None else np.asarray(points, dtype=float)
-    return pv.PolyData(pts[used], lines=lines)
+    return used, lines
 
 
 def spherical_sector(apex, axis, radius: float, half_angle_deg: float,
@@ -194,6 +207,9 @@ class PlacementWidget:
         self._placers: dict[Handle, vtk.vtkPolygonalSurfacePointPlacer] = {}
         self._overlays: dict[tuple[pv.Plotter, str], pv.Actor] = {}  # the overlays drawn
         self._drawn: tuple[FaceState, TriangleSurface] | None = None
+        # the overlays that depend on the rest skin and the muscle alone (_outlines, _volumes)
+        self._outline_cache: tuple[TriangleSurface, Muscle, dict] | None = None
+        self._volume_cache: tuple[Muscle, dict[str, pv.PolyData]] | None = None
         for handle in self.handles(muscle):
             self._add_handle(handle)
         self.update(muscle, state)
@@ -319,22 +335,47 @@ class PlacementWidget:
         self._draw_overlays()
 
     def _draw_overlays(self) -> None:
-        face: FaceModel = self.state.face
-        data = face.muscle_data(self.muscle)
-        n = self.state.n_points
-        lines = {}
-        lift = self.state.points + 0.4 * self.state.normals  # just above the skin
-        for kind, ids in (("aoi", data.aoi), ("region", data.region)):
-            mask = np.zeros(n, dtype=bool)
-            mask[ids] = True
-            lines[kind] = boundary_lines(face.skin, mask, lift)
+        outlines = self._outlines()
+        for used, mesh in outlines.values():
+            if len(used):  # just above the skin as drawn
+                mesh.points = self.state.points[used] + 0.4 * self.state.normals[used]
         for view in ("skin", "muscles"):
-            for kind, mesh in lines.items():
+            for kind, (_, mesh) in outlines.items():
                 self._overlay(view, f"widget:{kind}", mesh, color=COLORS[kind], line_width=3)
-        for name, mesh in self.aoi_meshes(self.muscle).items():
+        for name, mesh in self._volumes().items():
             # opaque lines: translucency would cost most of the view's render in software
             self._overlay("muscles", f"widget:{name}", mesh, color=COLORS["aoi"],
                           style="wireframe", line_width=1.5)
+
+    def _outlines(self) -> dict[str, tuple[np.ndarray, pv.PolyData]]:
+        """The muscle's AOI and region outlines on the frame's skin: ``{kind: (used,
+        mesh)}``, the vertices each uses and its mesh, whose points each frame rewrites.
+        Their edges depend on the rest skin and the muscle alone: found once for both
+        (kept while the skin is the same object and the muscle equal), not every frame.
+        """
+        skin, muscle = self.state.face.skin, self.muscle
+        cached = self._outline_cache
+        if cached is not None and cached[0] is skin and cached[1] == muscle:
+            return cached[2]
+        data = self.state.face.muscle_data(muscle)
+        outlines = {}
+        for kind, ids in (("aoi", data.aoi), ("region", data.region)):
+            mask = np.zeros(skin.n_points, dtype=bool)
+            mask[ids] = True
+            used, lines = boundary_topology(skin, mask)
+            mesh = pv.PolyData(skin.points[used], lines=lines) if len(used) else pv.PolyData()
+            outlines[kind] = (used, mesh)
+        self._outline_cache = (skin, muscle, outlines)
+        return outlines
+
+    def _volumes(self) -> dict[str, pv.PolyData]:
+        """:meth:`aoi_meshes` of the muscle, built once per muscle (they do not move with
+        the skin).
+        """
+        cached = self._volume_cache
+        if cached is None or cached[0] != self.muscle:
+            self._volume_cache = cached = (self.muscle, self.aoi_meshes(self.muscle))
+        return cached[1]
 
     def _overlay(self, view: str, name: str, mesh: pv.PolyData, **kwargs) -> None:
         """Draw ``mesh`` as overlay ``name`` in ``view``: into the actor drawn there before
@@ -349,7 +390,8 @@ class PlacementWidget:
             return
         actor = self._overlays.get(key)
         if actor is not None and plotter.renderer.HasViewProp(actor):
-            actor.mapper.dataset = mesh  # as replace_mesh does
+            if actor.mapper.dataset is not mesh:  # the same mesh moved: drawn as it is
+                actor.mapper.dataset = mesh  # as replace_mesh does
             return
         self._overlays[key] = plotter.add_mesh(mesh, name=name, pickable=False,
                                                reset_camera=False, render=False,

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib
 
+from . import _plot  # noqa: F401  (binds FaceModel.plot, FaceState.plot, .to_polydata)
 from .core import *  # noqa: F403
 from .core import __all__ as _core_all
 

@@ -177,7 +177,6 @@ def field_choices() -> tuple[str, ...]:
 
 
 def _parser() -> argparse.ArgumentParser:
-    field_choices_ = field_choices()
     parser = _Parser(
         prog="wrinkle-vis",
         description="The muscle-driven facial wrinkle model of Zhang, Sim and Tan on an "
@@ -187,19 +186,25 @@ def _parser() -> argparse.ArgumentParser:
         epilog="Run 'wrinkle-vis COMMAND --help' for a command's options.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    fields = field_choices()
+    for add in (_summary_parser, _render_parser, _export_parser, _animate_parser,
+                _figure_parser, _bake_parser, _types_parser, _sweep_parser):
+        add(sub, fields)
+    return parser
 
+
+def _summary_parser(sub, fields: tuple[str, ...]) -> None:
+    """The ``summary`` command: evaluate expressions and print their fields."""
     p = sub.add_parser("summary", help="evaluate expressions and print their fields")
     _common(p, expression_many=True)
     _track_options(p, "print the action units or blendshapes of")
 
+
+def _render_parser(sub, fields: tuple[str, ...]) -> None:
+    """The ``render`` command: a field map to a PNG."""
     p = sub.add_parser("render", help="render a field map to a PNG, off screen")
     _common(p)
-    p.add_argument("--field", "-f", default="W", choices=field_choices_,
-                   help="field to colour the skin by (default W; 'none' for plain skin)")
-    p.add_argument("--muscle", "-m", help="whose field (default: the total, W only)")
-    p.add_argument("--layers", nargs="+", default=["skin"], choices=LAYER_CHOICES,
-                   help="layers to draw (default: skin)")
-    p.add_argument("--camera", default="front", choices=CAMERA_CHOICES)
+    _view_options(p, fields)
     p.add_argument("--size", type=int, nargs=2, default=(800, 800), metavar=("W", "H"),
                    help=f"image size in pixels ({_SIZES}; "
                         "default 800 800)")
@@ -207,6 +212,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--output", "-o", type=Path, required=True,
                    help="the PNG to write (must end in .png)")
 
+
+def _export_parser(sub, fields: tuple[str, ...]) -> None:
+    """The ``export`` command: the skin and its fields, a sequence or glTF morph targets."""
     p = sub.add_parser("export", help="write the skin with every field as point arrays, "
                                       "the ramp as a time series, or glTF morph targets")
     _common(p)
@@ -227,17 +235,15 @@ def _parser() -> argparse.ArgumentParser:
                         "morph target per expression, or per --expression); with --sequence "
                         "NAME.pvd, NAME_####.obj or NAME_####.ply")
 
+
+def _animate_parser(sub, fields: tuple[str, ...]) -> None:
+    """The ``animate`` command: the expression's ramp to a GIF or MP4."""
     p = sub.add_parser("animate", help="render the expression's ramp to a GIF or MP4",
                        description="Render the expression's onset, hold and release, frame "
                                    "by frame (streamed to the file), with the colour range "
                                    "fixed at the peak's.")
     _common(p)
-    p.add_argument("--field", "-f", default="W", choices=field_choices_,
-                   help="field to colour the skin by (default W; 'none' for plain skin)")
-    p.add_argument("--muscle", "-m", help="whose field (default: the total, W only)")
-    p.add_argument("--layers", nargs="+", default=["skin"], choices=LAYER_CHOICES,
-                   help="layers to draw (default: skin)")
-    p.add_argument("--camera", default="front", choices=CAMERA_CHOICES)
+    _view_options(p, fields)
     p.add_argument("--fps", type=int, default=None,
                    help=f"frames per second (1 to {MAX_FPS}; default 12, {TRACK_FPS} with "
                         f"--track; at most {_max_frames():,} frames in all)")
@@ -248,6 +254,9 @@ def _parser() -> argparse.ArgumentParser:
     _refine_options(p, "evaluate every frame with adaptive refinement where the skin bends")
     p.add_argument("--output", "-o", type=Path, required=True, help="a .gif or .mp4 file")
 
+
+def _figure_parser(sub, fields: tuple[str, ...]) -> None:
+    """The ``figure`` command: one of the paper's figures."""
     p = sub.add_parser(
         "figure", help="render one of the paper's figures to a PNG, off screen",
         description="fig9: each expression without and with wrinkles (paper Fig. 9); "
@@ -268,6 +277,9 @@ def _parser() -> argparse.ArgumentParser:
                         "default: 880 by 400 per row for fig9, 800 by 800 for fig11)")
     p.add_argument("--output", "-o", type=Path, required=True, help="the PNG to write")
 
+
+def _bake_parser(sub, fields: tuple[str, ...]) -> None:
+    """The ``bake`` command: texture maps of W, its normals and fields."""
     p = sub.add_parser(
         "bake", help="bake W, a normal map and field colour maps into textures (a skin "
                      "with UVs)",
@@ -277,7 +289,7 @@ def _parser() -> argparse.ArgumentParser:
                     "wrinkles, and each --field as a colour map, padded across UV seams. "
                     "W sampled back at the texel centres is reported.")
     _common(p)
-    p.add_argument("--field", "-f", action="append", choices=field_choices_[:-1],
+    p.add_argument("--field", "-f", action="append", choices=fields[:-1],
                    help="a field to bake as a colour map (repeatable; default W)")
     p.add_argument("--muscle", "-m", help="whose fields (default: the total, W only)")
     p.add_argument("--size", type=int, nargs=2, default=(1024, 1024), metavar=("W", "H"),
@@ -291,6 +303,10 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--output", "-o", type=Path, required=True,
                    help="the folder for the maps (made, or replaced whole if it holds only "
                         "maps)")
+
+
+def _types_parser(sub, fields: tuple[str, ...]) -> None:
+    """The ``types`` command: the installed muscle types."""
     p = sub.add_parser(
         "types", help="list the installed muscle types and their parameters",
         description="Every registered muscle type (built-in and plug-in) with its "
@@ -299,6 +315,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("type", nargs="*", help="only these types (default: all)")
     p.add_argument("--markdown", action="store_true", help="print Markdown tables")
 
+
+def _sweep_parser(sub, fields: tuple[str, ...]) -> None:
+    """The ``sweep`` command: a parameter sweep on Dask."""
     p = sub.add_parser(
         "sweep", help="run a parameter sweep on Dask and write its Parquet table",
         description="Run every run of a sweep spec (TOML or JSON, docs/sweeps.md) that has "
@@ -312,7 +331,16 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, help="how many local worker processes (default: "
                                                "the CPUs)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
-    return parser
+
+
+def _view_options(p: argparse.ArgumentParser, fields: tuple[str, ...]) -> None:
+    """``--field``, ``--muscle``, ``--layers`` and ``--camera``: what a picture shows."""
+    p.add_argument("--field", "-f", default="W", choices=fields,
+                   help="field to colour the skin by (default W; 'none' for plain skin)")
+    p.add_argument("--muscle", "-m", help="whose field (default: the total, W only)")
+    p.add_argument("--layers", nargs="+", default=["skin"], choices=LAYER_CHOICES,
+                   help="layers to draw (default: skin)")
+    p.add_argument("--camera", default="front", choices=CAMERA_CHOICES)
 
 
 def _types(args) -> int:
@@ -497,26 +525,9 @@ def _check_face_options(args, layout) -> None:
 
 
 def _load(args, *, refine: bool = False):
-    import warnings
+    from wrinkle_vis.datasets import read_landmarks
 
-    from wrinkle_vis.core.layout import load_layout
-    from wrinkle_vis.core.mesh import MeshError
-    from wrinkle_vis.core.units import UnitWarning
-    from wrinkle_vis.datasets import load_face, read_landmarks
-
-    layout = None
-    if args.layout is not None:
-        layout = load_layout(args.layout)
-        for key in ("skin", "skull"):
-            path = layout.resolve(key, args.layout.parent)
-            if path is not None and input_problem(path) == "no such file":
-                raise CliError(
-                    f"--layout {args.layout}: its {key} file {str(path)!r} does not exist; "
-                    f"fix \"{key}\" in the layout (a path relative to the layout's folder, "
-                    "or null for the built-in face)")
-            if path is not None and input_problem(path) is not None:
-                raise CliError(f"--layout {args.layout}: its {key} file {str(path)!r} "
-                               f"{input_problem(path)}; fix \"{key}\" in the layout")
+    layout = _checked_layout(args)
     _check_face_options(args, layout)
     meshes = _layout_meshes(layout, args.layout)
     skin = getattr(args, "skin", None)
@@ -528,6 +539,50 @@ def _load(args, *, refine: bool = False):
             landmarks = read_landmarks(args.landmarks)
         except (OSError, ValueError) as exc:
             raise CliError(f"--landmarks {exc}") from None
+    face = _built_face(args, layout, meshes, landmarks)
+    if getattr(args, "taper", False):
+        face = _tapered(face)
+    names = _checked_names(args, face)
+    if not refine:
+        _warn_undersampled(args, face, names)
+    model = getattr(args, "skin_model", None)
+    face = face if model in (None, face.skin_model) else face.with_skin_model(model)
+    face.fold_guard = getattr(args, "fold_guard", "on") == "on"
+    if face.skin.n_triangles >= LARGE_SKIN_TRIANGLES:
+        _prepare_muscles(args, face)
+    return face
+
+
+def _checked_layout(args):
+    """``--layout``'s layout (None without one), its skin and skull files checked."""
+    from wrinkle_vis.core.layout import load_layout
+
+    if args.layout is None:
+        return None
+    layout = load_layout(args.layout)
+    for key in ("skin", "skull"):
+        path = layout.resolve(key, args.layout.parent)
+        if path is not None and input_problem(path) == "no such file":
+            raise CliError(
+                f"--layout {args.layout}: its {key} file {str(path)!r} does not exist; "
+                f"fix \"{key}\" in the layout (a path relative to the layout's folder, "
+                "or null for the built-in face)")
+        if path is not None and input_problem(path) is not None:
+            raise CliError(f"--layout {args.layout}: its {key} file {str(path)!r} "
+                           f"{input_problem(path)}; fix \"{key}\" in the layout")
+    return layout
+
+
+def _built_face(args, layout, meshes: dict, landmarks):
+    """The face of the options, the layout, its ``meshes`` and ``landmarks``; a unit
+    warning becomes a note on stderr, a face they cannot make one line naming the source.
+    """
+    import warnings
+
+    from wrinkle_vis.core.mesh import MeshError
+    from wrinkle_vis.core.units import UnitWarning
+    from wrinkle_vis.datasets import load_face
+
     try:
         if meshes.get("skin") is not None:  # read here: big scans are announced
             meshes["skin"] = _read_skin(args, Path(meshes["skin"]))
@@ -544,11 +599,15 @@ def _load(args, *, refine: bool = False):
     except ValueError as exc:  # a face the layout's meshes and landmarks cannot make
         if isinstance(exc, MeshError):  # names its file
             raise
+        skin = getattr(args, "skin", None)
         where = (f"--layout {args.layout}" if args.layout else f"--skin {skin}" if skin
                  else f"--face {args.face}" if args.face else "the built-in face")
         raise CliError(f"{where}: {exc}") from None
-    if getattr(args, "taper", False):
-        face = _tapered(face)
+    return face
+
+
+def _checked_names(args, face):
+    """``--expression`` (as given) after checking it and ``--muscle`` name the face's."""
     names = getattr(args, "expression", None)
     for name in names if isinstance(names, list) else [] if names is None else [names]:
         if name not in face.expressions:
@@ -557,14 +616,7 @@ def _load(args, *, refine: bool = False):
     muscle = getattr(args, "muscle", None)
     if muscle is not None and muscle not in face.muscle_names:
         raise CliError(f"unknown muscle {muscle!r}; choose from: {', '.join(face.muscle_names)}")
-    if not refine:
-        _warn_undersampled(args, face, names)
-    model = getattr(args, "skin_model", None)
-    face = face if model in (None, face.skin_model) else face.with_skin_model(model)
-    face.fold_guard = getattr(args, "fold_guard", "on") == "on"
-    if face.skin.n_triangles >= LARGE_SKIN_TRIANGLES:
-        _prepare_muscles(args, face)
-    return face
+    return names
 
 
 def _prepare_muscles(args, face) -> None:

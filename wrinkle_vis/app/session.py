@@ -619,10 +619,10 @@ class Session:
         if not isinstance(where, SurfacePoint):
             where = self.vertex_point(int(where))
         state, corners, weights = self._located(where)
-        out = {"total": {"W": _interpolated(state.W, corners, weights)}}
-        for name in self.face.muscle_names:
-            fields = state.fields[name]
-            values = {f: _interpolated(fields[f], corners, weights) for f in FIELD_NAMES}
+        at = state.values_at(corners)  # from the compact per-muscle data
+        out = {"total": {"W": _interpolated(at["total"]["W"], weights)}}
+        for name in (m for m in self.face.muscle_names if m in at):  # the others: nan
+            values = {f: _interpolated(at[name][f], weights) for f in FIELD_NAMES}
             if any(np.isfinite(v) for v in values.values()):
                 out[name] = values
         return out
@@ -724,12 +724,11 @@ class SurfacePoint:
     barycentric: tuple[float, float, float]
 
 
-def _interpolated(values: np.ndarray, corners: np.ndarray, weights: np.ndarray) -> float:
-    """``values`` ``(n,)`` at the point with ``weights`` ``(3,)`` on vertices ``corners``
-    ``(3,)``: the weighted mean over the corners where it is finite; NaN where it is not at
+def _interpolated(v: np.ndarray, weights: np.ndarray) -> float:
+    """Values ``v`` ``(3,)`` on a triangle's corners at the point with ``weights`` ``(3,)``
+    there: the weighted mean over the corners where it is finite; NaN where it is not at
     the corner of the largest weight.
     """
-    v = values[corners]
     ok = np.isfinite(v)
     nearest = int(np.argmax(weights))
     if not ok[nearest] or weights[nearest] == 1.0:

@@ -138,18 +138,57 @@ def section(surface: TriangleSurface, values, origin, normal, mask=None, *, poin
     p = surface.points if points is None else np.asarray(points, dtype=float)
     n = _unit(normal)
     a = _order_axis(order_axis, n)
-    extent = float(np.ptp(p, axis=0).max()) or 1.0
-    tol = 1e-9 * extent
+    tol = 1e-9 * (float(np.ptp(p, axis=0).max()) or 1.0)  # of the surface's extent
+    crossed = _crossings(surface, p, origin, n, tol)
+    if crossed is None:
+        return []
+    m = None if mask is None else np.asarray(mask, dtype=float)
+    vals = None if values is None else np.asarray(values, dtype=float)
+    out = [line for chain, closed in _chains(_crossing_graph(surface, crossed[0]), crossed[4],
+                                             tol, a, n)
+           for line in _chain_polylines(chain, closed, crossed, m, vals)]
+    out.sort(key=lambda pl: float(pl.points[0] @ a))
+    return out
+
+
+def _chain_polylines(chain: np.ndarray, closed: bool, crossed: tuple, m: np.ndarray | None,
+                     vals: np.ndarray | None) -> list[Polyline]:
+    """The polylines of one chain of crossings (``crossed``: :func:`_crossings`'), split
+    into its runs inside mask ``m`` ``(n,)`` when given, with ``vals`` interpolated.
+    """
+    cut, i, j, t, xp = crossed
+    runs = [chain]
+    if m is not None:
+        inside = (1.0 - t[chain]) * m[i[chain]] + t[chain] * m[j[chain]] > 0.5
+        runs = _runs(chain, inside, closed)
+        closed = closed and bool(inside.all())
+    return [_polyline(r, xp, t, cut, i, j, vals, closed) for r in runs if len(r) >= 2]
+
+
+def _crossings(surface: TriangleSurface, p: np.ndarray, origin, n: np.ndarray, tol: float):
+    """Where the plane through ``origin`` of unit normal ``n`` crosses the edges of
+    ``surface`` at points ``p`` ``(n, 3)`` (a vertex within ``tol`` of it on its positive
+    side): ``(cut, i, j, t, xp)``, the crossed edges ``(k,)``, their ends ``(k,)`` each,
+    the crossing's parameter along them ``(k,)`` and the crossing points ``(k, 3)``; None
+    when it crosses none.
+    """
     d = (p - np.asarray(origin, dtype=float)) @ n
     pos = (d > 0.0) | (np.abs(d) < tol)
     E = surface.edges
     cut = np.flatnonzero(pos[E[:, 0]] != pos[E[:, 1]])
     if len(cut) == 0:
-        return []
+        return None
     i, j = E[cut, 0], E[cut, 1]
     t = np.clip(d[i] / (d[i] - d[j]), 0.0, 1.0)  # the sides differ: no division by 0
-    xp = p[i] + t[:, None] * (p[j] - p[i])
-    node = np.full(len(E), -1)
+    return cut, i, j, t, p[i] + t[:, None] * (p[j] - p[i])
+
+
+def _crossing_graph(surface: TriangleSurface, cut: np.ndarray) -> sp.csr_matrix:
+    """``(k, k)``: the crossings of edges ``cut`` ``(k,)`` joined where a triangle has two
+    of them (none through a crossing that more than two triangles would join: cuts stop at
+    non-manifold edges).
+    """
+    node = np.full(len(surface.edges), -1)
     node[cut] = np.arange(len(cut))
     tn = -np.sort(-node[surface.triangle_edges], axis=1)  # crossed nodes first
     two = tn[:, 1] >= 0  # a crossed triangle has exactly two crossed edges
@@ -158,14 +197,18 @@ def section(surface: TriangleSurface, values, origin, normal, mask=None, *, poin
     ok = (degree[u] <= 2) & (degree[v] <= 2)  # stop at non-manifold edges
     u, v = u[ok], v[ok]
     k = len(cut)
-    graph = sp.csr_matrix((np.ones(2 * len(u)), (np.r_[u, v], np.r_[v, u])), shape=(k, k))
+    return sp.csr_matrix((np.ones(2 * len(u)), (np.r_[u, v], np.r_[v, u])), shape=(k, k))
+
+
+def _chains(graph: sp.csr_matrix, xp: np.ndarray, tol: float, a: np.ndarray, n: np.ndarray):
+    """Each connected chain of crossings of ``graph`` as ``(chain, closed)``: the crossings
+    in order (points ``xp``), without repeats closer than ``10 tol``, oriented along ``a``
+    (a loop counter-clockwise about ``n``, its first crossing repeated at its end).
+    """
     degree = np.diff(graph.indptr)
     n_comp, label = connected_components(graph, directed=False)
     order = np.argsort(label, kind="stable")
     starts = np.searchsorted(label[order], np.arange(n_comp + 1))
-    m = None if mask is None else np.asarray(mask, dtype=float)
-    vals = None if values is None else np.asarray(values, dtype=float)
-    out = []
     for c in range(n_comp):
         members = order[starts[c]:starts[c + 1]]
         if len(members) < 2:
@@ -178,18 +221,7 @@ def section(surface: TriangleSurface, values, origin, normal, mask=None, *, poin
         if len(chain) < 2:
             continue
         chain = _oriented(chain, xp, a, n, closed)
-        if closed:
-            chain = np.r_[chain, chain[0]]
-        runs = [chain]
-        if m is not None:
-            inside = (1.0 - t[chain]) * m[i[chain]] + t[chain] * m[j[chain]] > 0.5
-            runs = _runs(chain, inside, closed)
-            closed = closed and bool(inside.all())
-        for r in runs:
-            if len(r) >= 2:
-                out.append(_polyline(r, xp, t, cut, i, j, vals, closed))
-    out.sort(key=lambda pl: float(pl.points[0] @ a))
-    return out
+        yield (np.r_[chain, chain[0]] if closed else chain), closed
 
 
 def _unit(v) -> np.ndarray:
@@ -432,38 +464,10 @@ def furrow_runs(surface: TriangleSurface, W, offsets, normal_axis=0, mask=None,
     n = np.eye(3)[int(normal_axis)] if np.ndim(normal_axis) == 0 else _unit(normal_axis)
     offsets = np.asarray(offsets, dtype=float)
     p = surface.points if points is None else np.asarray(points, dtype=float)
-    bottoms = []  # per section: (k, 3) points and (k,) depths
-    for c in offsets:
-        found: list[np.ndarray] = []
-        depths: list[np.ndarray] = []
-        for line in section(surface, Wv, c * n, n, mask, points=p, order_axis=order_axis):
-            f = furrows(line.s, line.values, prominence)
-            found.append(line.points[f.index])
-            depths.append(f.depth)
-        bottoms.append((np.concatenate(found) if found else np.zeros((0, 3)),
-                        np.concatenate(depths) if depths else np.zeros(0)))
-    run_of = [np.full(len(b[0]), -1) for b in bottoms]
-    runs: list[list[tuple[int, int]]] = []
-    for k, (pts, _) in enumerate(bottoms):
-        for q in range(len(pts)):
-            if run_of[k][q] < 0:
-                run_of[k][q] = len(runs)
-                runs.append([(k, q)])
-        if k + 1 == len(bottoms) or len(pts) == 0 or len(bottoms[k + 1][0]) == 0:
-            continue
-        nxt = bottoms[k + 1][0]
-        dist = cdist(pts, nxt)
-        limit = max_jump + abs(offsets[k + 1] - offsets[k])
-        a, b = np.nonzero(dist < limit)
-        taken_a, taken_b = set(), set()
-        for r in np.argsort(dist[a, b], kind="stable"):
-            if a[r] in taken_a or b[r] in taken_b:
-                continue
-            taken_a.add(a[r])
-            taken_b.add(b[r])
-            run = run_of[k][a[r]]
-            run_of[k + 1][b[r]] = run
-            runs[run].append((k + 1, int(b[r])))
+    bottoms = [_section_bottoms(section(surface, Wv, c * n, n, mask, points=p,
+                                        order_axis=order_axis), prominence)
+               for c in offsets]
+    runs = _linked_runs([b[0] for b in bottoms], offsets, max_jump)
     out = []
     for run in runs:
         sec = np.array([k for k, _ in run])
@@ -473,6 +477,60 @@ def furrow_runs(surface: TriangleSurface, W, offsets, normal_axis=0, mask=None,
         out.append(FurrowRun(points=run_points, sections=sec, depth=run_depth, length=length))
     out.sort(key=lambda r: -r.length)
     return out
+
+
+def _section_bottoms(lines: list[Polyline], prominence: float
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """The furrow bottoms of one section's polylines ``lines``: their points ``(k, 3)`` and
+    depths ``(k,)`` (:func:`furrows`).
+    """
+    found: list[np.ndarray] = []
+    depths: list[np.ndarray] = []
+    for line in lines:
+        f = furrows(line.s, line.values, prominence)
+        found.append(line.points[f.index])
+        depths.append(f.depth)
+    return (np.concatenate(found) if found else np.zeros((0, 3)),
+            np.concatenate(depths) if depths else np.zeros(0))
+
+
+def _linked_runs(bottoms: list[np.ndarray], offsets: np.ndarray, max_jump: float
+                 ) -> list[list[tuple[int, int]]]:
+    """The bottoms ``(k_s, 3)`` of each section linked one to one into runs: each run the
+    ``(section, bottom)`` pairs it goes through (see :func:`furrow_runs`).
+    """
+    run_of = [np.full(len(b), -1) for b in bottoms]
+    runs: list[list[tuple[int, int]]] = []
+    for k, pts in enumerate(bottoms):
+        for q in range(len(pts)):
+            if run_of[k][q] < 0:
+                run_of[k][q] = len(runs)
+                runs.append([(k, q)])
+        if k + 1 == len(bottoms) or len(pts) == 0 or len(bottoms[k + 1]) == 0:
+            continue
+        dist = cdist(pts, bottoms[k + 1])
+        limit = max_jump + abs(offsets[k + 1] - offsets[k])
+        for a, b in _nearest_pairs(dist, limit):
+            run = run_of[k][a]
+            run_of[k + 1][b] = run
+            runs[run].append((k + 1, int(b)))
+    return runs
+
+
+def _nearest_pairs(dist: np.ndarray, limit: float) -> list[tuple[int, int]]:
+    """Pairs ``(a, b)`` of rows and columns of ``dist`` ``(m, k)`` closer than ``limit``,
+    one to one, taken in order of increasing distance.
+    """
+    a, b = np.nonzero(dist < limit)
+    taken_a, taken_b = set(), set()
+    pairs = []
+    for r in np.argsort(dist[a, b], kind="stable"):
+        if a[r] in taken_a or b[r] in taken_b:
+            continue
+        taken_a.add(a[r])
+        taken_b.add(b[r])
+        pairs.append((a[r], b[r]))
+    return pairs
 
 
 # ---------------------------------------------------------------------- folds and flips
@@ -569,6 +627,30 @@ def turned_over(surface: TriangleSurface, rest_points, points) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------- anisotropy
+def _fibre_frames(rest: np.ndarray, tri: np.ndarray, fibre):
+    """Per triangle ``tri`` ``(m, 3)`` of ``rest`` ``(n, 3)``: the fibre ``(3,)`` or
+    ``(m, 3)`` projected into its plane and made unit ``t``, ``b = normal x t``, the
+    gradients of its corner-1 and corner-2 hat functions ``g1``, ``g2`` (``(m, 3)`` each),
+    its squared double area ``nn`` ``(m,)`` and ``ok`` ``(m,) bool`` where the projected
+    fibre is defined.
+    """
+    p0, p1, p2 = rest[tri[:, 0]], rest[tri[:, 1]], rest[tri[:, 2]]
+    e1, e2 = p1 - p0, p2 - p0
+    N = np.cross(e1, e2)
+    nn = np.einsum("ij,ij->i", N, N)
+    f = np.broadcast_to(np.asarray(fibre, dtype=float), N.shape)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        unit_n = N / np.sqrt(nn)[:, None]
+        t = f - np.einsum("ij,ij->i", f, unit_n)[:, None] * unit_n
+        t_len = np.linalg.norm(t, axis=1)
+        ok = (nn > 0) & (t_len > 1e-9 * np.linalg.norm(f, axis=1))
+        t = t / t_len[:, None]
+        b = np.cross(unit_n, t)
+        g1 = np.cross(e2, N) / nn[:, None]  # gradient of the corner-1 hat function
+        g2 = np.cross(N, e1) / nn[:, None]  # and of the corner-2 one
+    return t, b, g1, g2, nn, ok
+
+
 def normal_change_anisotropy(surface: TriangleSurface, rest_points, points, fibre,
                              mask=None) -> float:
     r"""The fraction of the normals' spatial change that runs across the fibres.
@@ -615,35 +697,25 @@ def normal_change_anisotropy(surface: TriangleSurface, rest_points, points, fibr
     rest = np.asarray(rest_points, dtype=float)
     dn = surface.vertex_normals(np.asarray(points, dtype=float)) - surface.vertex_normals(rest)
     tri = surface.triangles
-    p0, p1, p2 = rest[tri[:, 0]], rest[tri[:, 1]], rest[tri[:, 2]]
-    e1, e2 = p1 - p0, p2 - p0
-    N = np.cross(e1, e2)
-    nn = np.einsum("ij,ij->i", N, N)
-    f = np.broadcast_to(np.asarray(fibre, dtype=float), N.shape)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        unit_n = N / np.sqrt(nn)[:, None]
-        t = f - np.einsum("ij,ij->i", f, unit_n)[:, None] * unit_n
-        t_len = np.linalg.norm(t, axis=1)
-        ok = (nn > 0) & (t_len > 1e-9 * np.linalg.norm(f, axis=1))
-        t = t / t_len[:, None]
-        b = np.cross(unit_n, t)
-        g1 = np.cross(e2, N) / nn[:, None]  # gradient of the corner-1 hat function
-        g2 = np.cross(N, e1) / nn[:, None]  # and of the corner-2 one
+    t, b, g1, g2, nn, ok = _fibre_frames(rest, tri, fibre)
     if mask is not None:
         ok &= np.asarray(mask, dtype=bool)[tri].all(axis=1)
     d1 = dn[tri[ok, 1]] - dn[tri[ok, 0]]
     d2 = dn[tri[ok, 2]] - dn[tri[ok, 0]]
-
     area = 0.5 * np.sqrt(nn[ok])
-
-    def energy(v):  # sum of area |G v|^2, G v = d1 (g1 . v) + d2 (g2 . v)
-        gv = (np.einsum("ij,ij->i", g1[ok], v[ok])[:, None] * d1
-              + np.einsum("ij,ij->i", g2[ok], v[ok])[:, None] * d2)
-        return float(area @ np.einsum("ij,ij->i", gv, gv))
-
-    across = energy(t)
-    total = across + energy(b)
+    across = _gradient_energy(area, g1[ok], g2[ok], d1, d2, t[ok])
+    total = across + _gradient_energy(area, g1[ok], g2[ok], d1, d2, b[ok])
     return across / total if total > 0 else float("nan")
+
+
+def _gradient_energy(area, g1, g2, d1, d2, v) -> float:
+    r""":math:`\sum_t a_t |G_t v_t|^2` with :math:`G_t v = d_1 (g_1 \cdot v) + d_2 (g_2
+    \cdot v)`: the triangles' areas ``area`` ``(m,)``, hat-function gradients ``g1``,
+    ``g2``, corner differences ``d1``, ``d2`` and directions ``v`` (``(m, 3)`` each).
+    """
+    gv = (np.einsum("ij,ij->i", g1, v)[:, None] * d1
+          + np.einsum("ij,ij->i", g2, v)[:, None] * d2)
+    return float(area @ np.einsum("ij,ij->i", gv, gv))
 
 
 def region_union(face, prefix: str = "") -> np.ndarray:

@@ -238,6 +238,35 @@ def _row_positions(n: int, rows) -> tuple[np.ndarray, np.ndarray]:
     return rows, position
 
 
+def _unit_directions(directions: np.ndarray) -> np.ndarray:
+    """``(n, 3)``: ``directions`` ``(n, 3)`` made unit, zero where zero or not finite."""
+    dnorm = vector_lengths(directions)
+    ok = np.isfinite(dnorm) & (dnorm > 0)
+    unit_dir = np.zeros_like(directions)
+    unit_dir[ok] = directions[ok] / dnorm[ok, None]
+    return unit_dir
+
+
+def _edge_alignments(edges: np.ndarray, position: np.ndarray, unit_edge: np.ndarray,
+                     unit_dir: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""The unnormalized entries of :func:`compression_operator`: for each end of each
+    edge ``(m, 2)`` whose vertex has a row (``position`` ``(n,)``, -1 where not), its row,
+    the edge's column and :math:`|\hat e \cdot \hat d|` at that vertex.
+    """
+    r_parts: list[np.ndarray] = []
+    c_parts: list[np.ndarray] = []
+    v_parts: list[np.ndarray] = []
+    for end in (0, 1):
+        vertex = edges[:, end]
+        pos = position[vertex]
+        keep = pos >= 0
+        weight = np.abs(np.einsum("ij,ij->i", unit_edge[keep], unit_dir[vertex[keep]]))
+        r_parts.append(pos[keep])
+        c_parts.append(np.flatnonzero(keep))
+        v_parts.append(weight)
+    return np.concatenate(r_parts), np.concatenate(c_parts), np.concatenate(v_parts)
+
+
 def compression_operator(rest_points, edges, directions, rows=None) -> sp.csr_matrix:
     r"""Sparse operator :math:`E` with :math:`\varepsilon = E\,\tau` (Eq. 10).
 
@@ -271,29 +300,10 @@ def compression_operator(rest_points, edges, directions, rows=None) -> sp.csr_ma
     edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
     directions = np.asarray(directions, dtype=float)
     rows, position = _row_positions(len(rest_points), rows)
-
     vec = rest_points[edges[:, 1]] - rest_points[edges[:, 0]]
     length = vector_lengths(vec)  # np.linalg.norm's, to the bit, faster
     unit_edge = np.divide(vec, length[:, None], out=np.zeros_like(vec), where=length[:, None] > 0)
-    dnorm = vector_lengths(directions)
-    ok = np.isfinite(dnorm) & (dnorm > 0)
-    unit_dir = np.zeros_like(directions)
-    unit_dir[ok] = directions[ok] / dnorm[ok, None]
-
-    r_parts: list[np.ndarray] = []
-    c_parts: list[np.ndarray] = []
-    v_parts: list[np.ndarray] = []
-    for end in (0, 1):
-        vertex = edges[:, end]
-        pos = position[vertex]
-        keep = pos >= 0
-        weight = np.abs(np.einsum("ij,ij->i", unit_edge[keep], unit_dir[vertex[keep]]))
-        r_parts.append(pos[keep])
-        c_parts.append(np.flatnonzero(keep))
-        v_parts.append(weight)
-    r_idx = np.concatenate(r_parts)
-    c_idx = np.concatenate(c_parts)
-    vals = np.concatenate(v_parts)
+    r_idx, c_idx, vals = _edge_alignments(edges, position, unit_edge, _unit_directions(directions))
     total = np.bincount(r_idx, weights=vals, minlength=len(rows))
     with np.errstate(divide="ignore", invalid="ignore"):
         vals = np.where(total[r_idx] > 0, vals / total[r_idx], 0.0)

@@ -25,6 +25,7 @@ from collections import OrderedDict
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse as sp
@@ -38,7 +39,7 @@ from .equations import (
 from .expressions import Expression, paper_expressions
 from .fields import FIELD_NAMES, check_field, field_spec
 from .foldguard import guarded
-from .hierarchy import Hierarchy, canonical_order, six_entries
+from .hierarchy import Hierarchy, MuscleLevels, canonical_order, six_entries
 from .mesh import (
     MeshError,
     TriangleSurface,
@@ -843,21 +844,6 @@ class FaceModel:
                                         smooth_s=smooth_s):
             yield self.evaluate(acts, **evaluate_options)
 
-    def plot(self, expression="surprise", field: str | None = "W", muscle: str | None = None,
-             *, intensity: float = 1.0, refine: bool = False, **kwargs):
-        """Evaluate ``expression`` (as :meth:`evaluate`) and show its skin coloured by
-        ``field`` (see :meth:`FaceState.plot`).
-
-        A bridge to :func:`wrinkle_vis.plotting.plot_face` (which documents ``kwargs``);
-        needs PyVista. The one place the core reaches the plotting layer, imported only
-        when called and declared in the import contract (``pyproject.toml``,
-        ``ignore_imports``).
-        """
-        from wrinkle_vis.plotting import plot_face
-
-        return plot_face(self, expression, field, muscle, intensity=intensity, refine=refine,
-                         **kwargs)
-
     def _refined_frame(self, root: FaceState, acts: dict[str, float], angle_deg: float,
                        levels: int) -> FaceState:
         """Refine the unrefined frame ``root`` with this skin's refinement engine
@@ -1059,6 +1045,12 @@ class _MuscleFields(Mapping):
         out[ids] = values
         return out
 
+    def at(self, vertices: np.ndarray) -> _PointFields:
+        """The fields at skin vertices ``vertices`` ``(k,)``: ``at(v)[key]`` equals
+        ``self[key][v]``, read from the compact per-muscle data.
+        """
+        return _PointFields(self, np.asarray(vertices, np.intp))
+
     def dynamic(self) -> dict[str, np.ndarray]:
         """Eps and A on the AOI, W on the region (compact), for this muscle in this frame."""
         if self._dynamic is None:
@@ -1082,6 +1074,114 @@ class _MuscleFields(Mapping):
         return {"eps": eps, "A": anisotropy(eps), "W": np.zeros(len(data.region_pos))}
 
 
+def _rows_of(ids: np.ndarray, vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(k,)`` rows of ``ids`` ``(r,)`` holding ``vertices`` ``(k,)`` and ``(k,) bool``
+    whether each is there at all (its row is then meaningless).
+    """
+    if not len(ids):
+        return np.zeros(len(vertices), np.intp), np.zeros(len(vertices), bool)
+    hit = ids == vertices[:, None]
+    return hit.argmax(axis=1), hit.any(axis=1)
+
+
+class _PointFields(Mapping):
+    """The fields of one muscle in one state at a few skin vertices ``(k,)``: each ``(k,)``,
+    the values the full fields have there, picked from the muscle's compact data (a field
+    whose ``compute`` is not pointwise, or already built full, is read from its full array).
+    """
+
+    def __init__(self, fields: _MuscleFields, vertices: np.ndarray):
+        self._fields, self._vertices = fields, vertices
+        self._state, self._muscle = fields._state, fields._muscle
+        self._cache: dict[str, np.ndarray] = {}
+        self._rows: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+
+    def __iter__(self):
+        return iter(FIELD_NAMES)
+
+    def __len__(self) -> int:
+        return len(FIELD_NAMES)
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        if key not in self._cache:
+            self._cache[key] = self._computed(key)
+        return self._cache[key]
+
+    @cached_property
+    def defined(self) -> bool:
+        """Whether one of the vertices is in the muscle's AOI (elsewhere its fields are
+        ``nan``, as every field is outside the AOI).
+        """
+        if self._state.source is not None:
+            return self._state.source.defined_at(self._muscle, self._vertices)
+        return bool(self._rows_in("aoi")[1].any())
+
+    def _computed(self, key: str) -> np.ndarray:
+        spec = field_spec(key)  # KeyError lists the fields
+        if key not in self._fields._cache and spec.pointwise:
+            if not self.defined:
+                return np.full(len(self._vertices), np.nan)
+            arr = np.array(spec.compute(self), dtype=float)
+            if arr.shape == self._vertices.shape:
+                return arr
+        return self._fields[key][self._vertices]
+
+    def _rows_in(self, where: str) -> tuple[np.ndarray, np.ndarray]:
+        """The vertices' rows in the muscle's ``"aoi"`` or ``"region"`` and whether each
+        is there (:func:`_rows_of`).
+        """
+        if where not in self._rows:
+            data = self._state.face.muscle_data(self._muscle)
+            self._rows[where] = _rows_of(data.aoi if where == "aoi" else data.region,
+                                         self._vertices)
+        return self._rows[where]
+
+    # ---------------------------------------------------------------- for compute()
+    def static(self, key: str, attr: str, where: str) -> np.ndarray:
+        """``(k,)``: :meth:`_MuscleFields.static` at the vertices."""
+        if self._state.source is not None:
+            return self._state.source.static_at(self._muscle, key, attr, self._vertices)
+        data = self._state.face.muscle_data(self._muscle)
+        return self._picked(where, lambda: getattr(data, attr))
+
+    def frame_value(self, key: str, where: str) -> np.ndarray:
+        """``(k,)``: :meth:`_MuscleFields.frame_value` at the vertices."""
+        if self._state.source is not None:
+            return self._state.source.dynamic_at(self._muscle, key, self._vertices)
+        return self._picked(where, lambda: self._fields.dynamic()[key])
+
+    def _picked(self, where: str, values) -> np.ndarray:
+        """``(k,)``: compact ``values()`` (on the muscle's ``where``) at the vertices,
+        ``nan`` at those outside it (``values`` is not called when all are).
+        """
+        rows, found = self._rows_in(where)
+        out = np.full(len(self._vertices), np.nan)
+        if found.any():
+            out[found] = values()[rows[found]]
+        return out
+
+
+class _RefinedAt(NamedTuple):
+    """A muscle's fields at a few skin vertices of a refined frame: which vertices are the
+    unrefined skin's (``old``, ``(k,) bool``), the unrefined frame's fields there
+    (``root``), the muscle's levels and their ``rows`` holding the new vertices ``found``
+    there, and the compression there once computed (``eps``).
+    """
+
+    old: np.ndarray
+    root: _PointFields
+    levels: MuscleLevels | None
+    rows: np.ndarray
+    found: np.ndarray
+    eps: dict
+
+    def start(self, key: str) -> np.ndarray:
+        """``(k,)``: field ``key`` of the unrefined frame on its vertices, ``nan`` else."""
+        out = np.full(len(self.old), np.nan)
+        out[self.old] = self.root[key]
+        return out
+
+
 class _RefinedSource:
     """The fields of a refined frame: the skin's vertices from the unrefined frame, the new
     ones from the refinement engine's per-muscle data and the frame's values.
@@ -1089,6 +1189,7 @@ class _RefinedSource:
 
     def __init__(self, root: FaceState, engine: RefinedEngine, active, order: np.ndarray):
         self._root, self._engine, self._active, self._order = root, engine, active, order
+        self._points: dict[tuple[str, bytes], _RefinedAt] = {}
 
     @cached_property
     def _dyn(self):
@@ -1107,6 +1208,56 @@ class _RefinedSource:
         pos = where[lv.ids] if len(lv.ids) else np.zeros(0, np.int64)
         return out, lv, pos, pos >= 0
 
+    def _at(self, muscle: Muscle, vertices: np.ndarray) -> _RefinedAt:
+        """What the muscle's fields at skin vertices ``vertices`` ``(k,)`` are read from."""
+        key = (muscle.name, vertices.tobytes())
+        if key not in self._points:
+            old = vertices < self._root.n_points
+            root = self._root.fields[muscle.name].at(vertices[old])
+            if old.all():  # no new vertex: the levels have nothing there
+                lv, rows, found = None, np.zeros(len(vertices), np.intp), ~old
+            else:
+                lv = self._engine.levels(muscle)
+                rows, found = _rows_of(lv.ids, self._order[vertices])
+            self._points[key] = _RefinedAt(old, root, lv, rows[found], found, {})
+        return self._points[key]
+
+    def defined_at(self, muscle: Muscle, vertices: np.ndarray) -> bool:
+        """Whether one of skin vertices ``vertices`` is in the muscle's AOI."""
+        at = self._at(muscle, vertices)
+        return bool(at.found.any()) or at.root.defined
+
+    def static_at(self, muscle: Muscle, key: str, attr: str, vertices: np.ndarray
+                  ) -> np.ndarray:
+        """``(k,)``: :meth:`static` at skin vertices ``vertices``."""
+        at = self._at(muscle, vertices)
+        out = at.start(key)
+        if at.levels is not None:
+            out[at.found] = getattr(at.levels, attr)[at.rows]
+        return out
+
+    def dynamic_at(self, muscle: Muscle, key: str, vertices: np.ndarray) -> np.ndarray:
+        """``(k,)``: :meth:`dynamic` at skin vertices ``vertices``."""
+        at = self._at(muscle, vertices)
+        out = at.start(key)
+        if at.levels is not None and len(at.rows):
+            if "eps" not in at.eps:
+                at.eps["eps"] = self._dyn.compression(at.levels, at.rows)
+            out[at.found] = self._new_values(muscle, key, at.levels, at.rows, at.eps["eps"])
+        return out
+
+    def _new_values(self, muscle: Muscle, key: str, lv, rows: np.ndarray,
+                    eps: np.ndarray | None = None) -> np.ndarray:
+        """Field ``eps``, ``A`` or ``W`` of the frame at the levels' rows ``rows`` (from
+        their ``eps`` when known).
+        """
+        eps = self._dyn.compression(lv, rows) if eps is None else eps
+        a = anisotropy(eps)
+        if key == "W":  # on the wrinkling region, 0 for a muscle at rest
+            active = self._root.activations[muscle.name] > 0.0
+            return lv.h[rows] * lv.at[rows] * (a if active else 0.0)
+        return eps if key == "eps" else a
+
     def static(self, muscle: Muscle, key: str, attr: str) -> np.ndarray:
         """Field ``key``, the refined data's ``attr`` on the new vertices."""
         out, lv, pos, keep = self._start(muscle, key)
@@ -1116,13 +1267,7 @@ class _RefinedSource:
     def dynamic(self, muscle: Muscle, key: str) -> np.ndarray:
         """Field ``eps``, ``A`` or ``W`` of the frame on the new vertices."""
         out, lv, pos, keep = self._start(muscle, key)
-        eps = self._dyn.compression(lv, np.flatnonzero(keep))
-        a = anisotropy(eps)
-        if key == "W":  # on the wrinkling region, 0 for a muscle at rest
-            active = self._root.activations[muscle.name] > 0.0
-            out[pos[keep]] = lv.h[keep] * lv.at[keep] * (a if active else 0.0)
-        else:
-            out[pos[keep]] = eps if key == "eps" else a
+        out[pos[keep]] = self._new_values(muscle, key, lv, np.flatnonzero(keep))
         return out
 
 
@@ -1224,28 +1369,20 @@ class FaceState:
             raise KeyError(f"no muscle {muscle!r}; muscles: {', '.join(self.face.muscle_names)}")
         return self.fields[muscle][key]
 
-    def to_polydata(self):
-        """The skin as ``pyvista.PolyData`` with every field as a named point array.
-
-        A bridge to :func:`wrinkle_vis.plotting.to_polydata`; needs PyVista (imported when
-        called; declared in the import contract, see :meth:`FaceModel.plot`).
+    def values_at(self, vertices) -> dict[str, Mapping[str, np.ndarray]]:
+        """Every field at skin vertices ``vertices`` ``(k,)``: ``{"total": {"W": (k,)},
+        muscle: {key: (k,)}}``, the values of :attr:`W` and :attr:`fields` there, for the
+        muscles whose AOI holds one of them (every field of the others is ``nan`` there).
+        Read from each muscle's compact data: no full-length field is built, but for a
+        field whose ``compute`` is not :attr:`~wrinkle_vis.core.fields.FieldSpec.pointwise`.
         """
-        from wrinkle_vis.plotting import to_polydata
-
-        return to_polydata(self)
-
-    def plot(self, field: str | None = "W", muscle: str | None = None, **kwargs):
-        """Show the skin coloured by ``field`` (of ``muscle``, or the total W; None for
-        plain skin): in a notebook with PyVista's trame backend when it is installed, else
-        as an image; elsewhere in a window, or off screen without a display.
-
-        A bridge to :func:`wrinkle_vis.plotting.plot_state` (which documents ``kwargs``);
-        needs PyVista (imported when called; declared in the import contract, see
-        :meth:`FaceModel.plot`).
-        """
-        from wrinkle_vis.plotting import plot_state
-
-        return plot_state(self, field, muscle, **kwargs)
+        vertices = np.asarray(vertices, np.intp)
+        out: dict[str, Mapping[str, np.ndarray]] = {"total": {"W": self.W[vertices]}}
+        for name in self.face.muscle_names:
+            at = self.fields[name].at(vertices)
+            if at.defined:
+                out[name] = at
+        return out
 
     def summary(self) -> str:
         """A few lines on the frame: activations and the range of each active field."""

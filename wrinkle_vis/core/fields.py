@@ -13,7 +13,7 @@ the command line's ``--field`` choices and the exported point arrays all read :d
     register_field(FieldSpec(
         "HAt", "H At", "attenuated shape", "H times At: the wrinkle before compression",
         "Eq. 5, 12", unit="length", where="region", signed=True,
-        compute=lambda f: f["H"] * f["At"]))
+        compute=lambda f: f["H"] * f["At"], pointwise=True))
 """
 
 from __future__ import annotations
@@ -63,6 +63,11 @@ class FieldSpec:
         ``fields``, the muscle's field mapping in a frame (``fields["H"]``, ``fields["At"]``
         ...: other fields, full length), ``nan`` outside :attr:`where` (as the fields it
         is made of are).
+    pointwise : bool
+        Whether ``compute`` gives each vertex's value from that vertex's values of the
+        other fields alone (elementwise), so it may be computed at a few vertices
+        (:meth:`~wrinkle_vis.core.face.FaceState.values_at`, the app's probe) with
+        ``fields[key]`` ``(k,)`` there; otherwise it is computed on the whole skin.
     """
 
     key: str
@@ -77,6 +82,7 @@ class FieldSpec:
     limits: tuple[float, float] | None = None
     cmap: str = ""
     compute: Callable[[Any], Any] | None = field(default=None, compare=False, repr=False)
+    pointwise: bool = False
 
     def __post_init__(self):
         if not self.key or not self.key.isidentifier():
@@ -125,29 +131,34 @@ def _dynamic(key: str, where: str) -> Callable:
 FIELDS: dict[str, FieldSpec] = {f.key: f for f in (
     FieldSpec("lambda", "λ", "length factor",
               "distance from the attachment along the central fibre, over R or L_s",
-              "Eq. 2, 13", "1", "aoi", limits=(0.0, 1.0), compute=_static("lambda", "lam", "aoi")),
+              "Eq. 2, 13", "1", "aoi", limits=(0.0, 1.0),
+              compute=_static("lambda", "lam", "aoi"), pointwise=True),
     FieldSpec("gamma", "γ", "angular/width factor",
               "angle from the central fibre over Φ (linear) or 2h over W_s (sheet)",
-              "Eq. 2, 13", "1", "aoi", limits=(0.0, 1.0), compute=_static("gamma", "gamma", "aoi")),
+              "Eq. 2, 13", "1", "aoi", limits=(0.0, 1.0),
+              compute=_static("gamma", "gamma", "aoi"), pointwise=True),
     FieldSpec("l", "l", "fibre distance", "distance from the attachment along the fibre",
-              "Eq. 1", "length", "aoi", cmap="cividis", compute=_static("l", "l", "aoi")),
+              "Eq. 1", "length", "aoi", cmap="cividis",
+              compute=_static("l", "l", "aoi"), pointwise=True),
     FieldSpec("w", "w", "periodic coordinate", "position within one wrinkle period",
-              "Eq. 7", "length", "region", cmap="twilight", compute=_static("w", "w", "region")),
+              "Eq. 7", "length", "region", cmap="twilight",
+              compute=_static("w", "w", "region"), pointwise=True),
     FieldSpec("H", "H", "shape function", "cross-sectional wrinkle shape: furrows and bulges",
-              "Eq. 5", "length", "region", signed=True, compute=_static("H", "h", "region")),
+              "Eq. 5", "length", "region", signed=True,
+              compute=_static("H", "h", "region"), pointwise=True),
     FieldSpec("At", "At", "attenuation", "fade of the wrinkles away from the central fibre",
               "Eq. 12, 15", "1", "aoi", limits=(0.0, 1.0), cmap="magma",
-              compute=_static("At", "at", "aoi")),
+              compute=_static("At", "at", "aoi"), pointwise=True),
     FieldSpec("eps", "ε", "compression rate",
               "edge shrinkage weighted by alignment with the contraction",
               "Eq. 9, 10", "1", "aoi", signed=True, cmap="PuOr_r",
-              compute=_dynamic("eps", "aoi")),
+              compute=_dynamic("eps", "aoi"), pointwise=True),
     FieldSpec("A", "A", "anisotropy", "wrinkle response to compression, 0 under stretch",
               "Eq. 11", "1", "aoi", limits=(0.0, 1.0), cmap="inferno",
-              compute=_dynamic("A", "aoi")),
+              compute=_dynamic("A", "aoi"), pointwise=True),
     FieldSpec("W", "W", "wrinkle amplitude", "H A At: displacement along the normal",
               "Eq. 4", "length", "region", total=True, signed=True,
-              compute=_dynamic("W", "region")),
+              compute=_dynamic("W", "region"), pointwise=True),
 )}
 
 

@@ -684,23 +684,7 @@ def atomic_output(path: str | os.PathLike, *, suffixes: Sequence[str] | None = N
         except OSError as exc:
             raise write_error(real, exc) from exc
         try:
-            with open(tmp, "rb+") as fh:
-                os.fsync(fh.fileno())
-            if os.path.getsize(tmp) == 0:
-                raise WriteError(f"could not write {str(real)!r}: the writer wrote nothing "
-                                 "(nothing was changed there)")
-            if check is not None:
-                try:
-                    check(Path(tmp))
-                except Exception as exc:  # any failure to read back rejects the file
-                    why = " ".join(str(exc).split()) or type(exc).__name__
-                    raise WriteError(f"could not write {str(real)!r}: the written file does "
-                                     f"not read back ({why}); nothing was changed there"
-                                     ) from exc
-            replace_permissions(tmp, real, mode)
-            with deferred_signals():
-                os.replace(tmp, real)
-                _committed()
+            _commit(tmp, real, check, mode)
         except WriteError:
             raise
         except OSError as exc:
@@ -708,6 +692,29 @@ def atomic_output(path: str | os.PathLike, *, suffixes: Sequence[str] | None = N
     except BaseException:
         _remove(tmp)
         raise
+
+
+def _commit(tmp: str, real: Path, check: Callable[[Path], None] | None,
+            mode: int | None) -> None:
+    """:func:`atomic_output`'s last step: sync the temporary file ``tmp``, check it (not
+    empty, then ``check``), give it the target's permissions and rename it over ``real``.
+    """
+    with open(tmp, "rb+") as fh:
+        os.fsync(fh.fileno())
+    if os.path.getsize(tmp) == 0:
+        raise WriteError(f"could not write {str(real)!r}: the writer wrote nothing "
+                         "(nothing was changed there)")
+    if check is not None:
+        try:
+            check(Path(tmp))
+        except Exception as exc:  # any failure to read back rejects the file
+            why = " ".join(str(exc).split()) or type(exc).__name__
+            raise WriteError(f"could not write {str(real)!r}: the written file does "
+                             f"not read back ({why}); nothing was changed there") from exc
+    replace_permissions(tmp, real, mode)
+    with deferred_signals():
+        os.replace(tmp, real)
+        _committed()
 
 
 def atomic_write_bytes(path: str | os.PathLike, data: bytes | Callable, *,

@@ -176,7 +176,7 @@ class TriangleSurface:
         return np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
 
     @cached_property
-    def _edge_inverse(self) -> tuple[np.ndarray, np.ndarray]:
+    def _edge_inverse(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         d = self._directed_edges
         lo, hi = np.minimum(d[:, 0], d[:, 1]), np.maximum(d[:, 0], d[:, 1])
         n = np.int64(max(self.n_points, 1))
@@ -497,22 +497,45 @@ def occluded(surface: TriangleSurface, points, direction, min_distance: float,
     e1_axis = np.cross(d, [1.0, 0.0, 0.0] if abs(d[0]) < 0.9 else [0.0, 1.0, 0.0])
     e1_axis /= np.linalg.norm(e1_axis)
     axes = np.stack([e1_axis, np.cross(d, e1_axis)])  # (2, 3): the plane normal to d
-    uv = surface.points @ axes.T  # (n, 2): every vertex on the plane
     puv = p @ axes.T
+    over = _triangles_over(surface, ids, triangles is None, surface.points @ axes.T, puv)
+    if over is None:
+        return np.zeros(len(p), bool)
+    corners, lo, hi = over
+    query, pair_tri = _binned_pairs(lo, hi, puv)
+    hit = _ray_hits(p[query], d, corners[pair_tri], min_distance)
+    return np.bincount(query[hit], minlength=len(p)) > 0
+
+
+def _triangles_over(surface: TriangleSurface, ids: np.ndarray, every: bool, uv: np.ndarray,
+                    puv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Of triangles ``ids`` (``every``: all the surface's, in order), those whose
+    projection on a plane (their vertices there: ``uv`` ``(n, 2)``) overlaps the span of
+    the rays' points there ``puv`` ``(k, 2)``: their corners ``(t, 3, 3)`` and bounding
+    boxes' corners ``lo``, ``hi`` ``(t, 2)`` on the plane; None when none does.
+    """
     # a triangle over the rays' span has its corners within an edge's length of it
     reach = 1.001 * float(surface.rest_edge_lengths.max(initial=0.0))
     lo, hi = puv.min(axis=0) - reach, puv.max(axis=0) + reach
     near = (uv[:, 0] >= lo[0]) & (uv[:, 0] <= hi[0]) & (uv[:, 1] >= lo[1]) & (uv[:, 1] <= hi[1])
-    t = surface._corners if triangles is None else surface.triangles[ids].T  # (3, k)
+    t = surface._corners if every else surface.triangles[ids].T  # (3, k)
     ids = ids[near[t[0]] & near[t[1]] & near[t[2]]]
     tris = surface.triangles[ids]
     a, b, c = uv[tris[:, 0]], uv[tris[:, 1]], uv[tris[:, 2]]
     lo, hi = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
     over = ((hi >= puv.min(axis=0)) & (lo <= puv.max(axis=0))).all(axis=1)  # the rays' span
     if not over.any():
-        return np.zeros(len(p), bool)
-    corners = surface.points[tris[over]]  # (t, 3, 3)
-    lo, hi = lo[over], hi[over]
+        return None
+    return surface.points[tris[over]], lo[over], hi[over]
+
+
+def _binned_pairs(lo: np.ndarray, hi: np.ndarray, puv: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The (ray, triangle) pairs to test: the triangles' bounding boxes ``lo``, ``hi``
+    ``(t, 2)`` binned on a grid of cells about one triangle across, each ray's point
+    ``puv`` ``(k, 2)`` paired with the triangles over its cell. Returns ``(p,)`` rays and
+    ``(p,)`` triangles.
+    """
     cell = max(float(np.median((hi - lo).max(axis=1))), 1e-12)
     origin = np.minimum(lo.min(axis=0), puv.min(axis=0))
     i0, i1 = (np.floor((b - origin) / cell).astype(np.int64) for b in (lo, hi))
@@ -520,7 +543,7 @@ def occluded(surface: TriangleSurface, points, direction, min_distance: float,
     # every (cell, triangle) pair of the triangles' bounding boxes
     spans = i1 - i0 + 1
     count = spans[:, 0] * spans[:, 1]
-    tri = np.repeat(np.arange(len(corners)), count)
+    tri = np.repeat(np.arange(len(lo)), count)
     k = np.arange(len(tri)) - np.repeat(np.cumsum(count) - count, count)
     cx = i0[tri, 0] + k // spans[tri, 1]
     cy = i0[tri, 1] + k % spans[tri, 1]
@@ -531,21 +554,27 @@ def occluded(surface: TriangleSurface, points, direction, min_distance: float,
     qkey = qc[:, 0] * width + qc[:, 1]
     start, stop = np.searchsorted(key, qkey), np.searchsorted(key, qkey, side="right")
     n = stop - start
-    query = np.repeat(np.arange(len(p)), n)
-    pair_tri = tri[np.repeat(start, n) + np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)]
-    c = corners[pair_tri]
+    query = np.repeat(np.arange(len(puv)), n)
+    return query, tri[np.repeat(start, n) + np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)]
+
+
+def _ray_hits(origins: np.ndarray, d: np.ndarray, c: np.ndarray, min_distance: float
+              ) -> np.ndarray:
+    r"""``(p,) bool``: whether the ray :math:`o + t\,d`, :math:`t >` ``min_distance``, from
+    each of ``origins`` ``(p, 3)`` meets its triangle of corners ``c`` ``(p, 3, 3)``
+    (Möller-Trumbore).
+    """
     e1, e2 = c[:, 1] - c[:, 0], c[:, 2] - c[:, 0]
     h = np.cross(d, e2)
     det = np.einsum("ij,ij->i", e1, h)
     with np.errstate(divide="ignore", invalid="ignore"):
         inv = 1.0 / det
-        t = p[query] - c[:, 0]
+        t = origins - c[:, 0]
         u = np.einsum("ij,ij->i", t, h) * inv
         q = np.cross(t, e1)
         v = (q @ d) * inv
         dist = np.einsum("ij,ij->i", e2, q) * inv
-    hit = (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (dist > min_distance)
-    return np.bincount(query[hit], minlength=len(p)) > 0
+    return (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (dist > min_distance)
 
 
 def barycentric_points(surface: TriangleSurface, triangles, barycentric,
@@ -675,6 +704,31 @@ def tangent_bases(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return u, np.cross(n, u)
 
 
+def _ring_least_squares(row: np.ndarray, n: int, eu, ev, nu, nv
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""``(n,)`` each: the entries :math:`a, b, c` of :math:`[[a, b], [b, c]]` that fit,
+    in the least-squares sense over the edges of each vertex (``row`` ``(e,)``, the vertex
+    of each edge), :math:`a e_u + b e_v = n_u` and :math:`b e_u + c e_v = n_v` (edge and
+    normal change in the vertex's tangent basis, ``(e,)`` each); a vertex with no edge
+    gets a tiny ridge and no curvature.
+    """
+    def acc(w):
+        return np.bincount(row, weights=w, minlength=n)
+
+    m = np.empty((n, 3, 3))  # the normal equations
+    m[:, 0, 0] = acc(eu * eu)
+    m[:, 0, 1] = m[:, 1, 0] = acc(eu * ev)
+    m[:, 1, 1] = acc(ev * ev + eu * eu)
+    m[:, 1, 2] = m[:, 2, 1] = acc(eu * ev)
+    m[:, 0, 2] = m[:, 2, 0] = 0.0
+    m[:, 2, 2] = acc(ev * ev)
+    rhs = np.stack([acc(eu * nu), acc(ev * nu + eu * nv), acc(ev * nv)], axis=1)
+    scale = np.trace(m, axis1=1, axis2=2)[:, None, None]
+    m += 1e-9 * np.maximum(scale, 1e-300) * np.eye(3)  # lonely vertices: no curvature
+    a, b, c = np.linalg.solve(m, rhs[:, :, None])[:, :, 0].T
+    return a, b, c
+
+
 def shape_operators(surface: TriangleSurface, normals=None, at=None) -> np.ndarray:
     r"""``(n, 3, 3)``: the shape operator :math:`S` of the surface at each vertex.
 
@@ -718,22 +772,7 @@ def shape_operators(surface: TriangleSurface, normals=None, at=None) -> np.ndarr
     ui, vi = np.take(u, row, axis=0), np.take(v, row, axis=0)
     eu, ev = np.einsum("ij,ij->i", d, ui), np.einsum("ij,ij->i", d, vi)
     nu, nv = np.einsum("ij,ij->i", dn, ui), np.einsum("ij,ij->i", dn, vi)
-    # unknowns (a, b, c) of [[a, b], [b, c]]: rows [eu, ev, 0] -> nu and [0, eu, ev] -> nv
-
-    def acc(w):
-        return np.bincount(row, weights=w, minlength=n)
-
-    m = np.empty((n, 3, 3))
-    m[:, 0, 0] = acc(eu * eu)
-    m[:, 0, 1] = m[:, 1, 0] = acc(eu * ev)
-    m[:, 1, 1] = acc(ev * ev + eu * eu)
-    m[:, 1, 2] = m[:, 2, 1] = acc(eu * ev)
-    m[:, 0, 2] = m[:, 2, 0] = 0.0
-    m[:, 2, 2] = acc(ev * ev)
-    rhs = np.stack([acc(eu * nu), acc(ev * nu + eu * nv), acc(ev * nv)], axis=1)
-    scale = np.trace(m, axis1=1, axis2=2)[:, None, None]
-    m += 1e-9 * np.maximum(scale, 1e-300) * np.eye(3)  # lonely vertices: no curvature
-    a, b, c = np.linalg.solve(m, rhs[:, :, None])[:, :, 0].T
+    a, b, c = _ring_least_squares(row, n, eu, ev, nu, nv)
     uu = u[:, :, None] * u[:, None, :]
     vv = v[:, :, None] * v[:, None, :]
     uv = u[:, :, None] * v[:, None, :]

@@ -12,7 +12,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 from typing import Any, ClassVar
 
 import numpy as np
@@ -257,10 +257,10 @@ class _FromParameters:
     def __set_name__(self, owner, name):
         self._name = name
 
-    def __get__(self, obj, cls=None):
+    def __get__(self, obj, cls=None) -> tuple[str, ...]:
         cls = type(obj) if cls is None else cls
-        if not dataclasses.is_dataclass(cls):  # while @dataclass reads the class
-            return self
+        if not hasattr(cls, "__dataclass_fields__"):  # while @dataclass reads the class
+            return self  # type: ignore[return-value]  # the descriptor, not a value yet
         return tuple(p.name for p in cls.parameters() if self._pick(p))
 
 
@@ -321,11 +321,12 @@ class Muscle:
     widget: ClassVar[str | None] = None
     glyph: ClassVar[str | None] = None
     #: Names of the point (and line) parameters, from the metadata.
-    point_parameters: ClassVar[tuple[str, ...]] = _FromParameters(lambda p: p.is_point)
+    point_parameters = _FromParameters(lambda p: p.is_point)
     #: Names of the parameters that are lengths (they scale with the face).
-    length_parameters: ClassVar[tuple[str, ...]] = _FromParameters(lambda p: p.is_length)
+    length_parameters = _FromParameters(lambda p: p.is_length)
 
     name: str
+    _: KW_ONLY  # as every parameter() is by default (said here for type checkers)
     taper: bool = parameter(
         False, label="taper H at the ends", symbol="T", unit="option",
         choices=OPTIONS["taper"],
@@ -551,6 +552,15 @@ class Muscle:
         return 0.2 * self.fall_start_value if self.strength is None else self.strength
 
     # ------------------------------------------------------------ to be implemented
+    @property
+    def fall_start_value(self) -> float:
+        r""":math:`R_s`, Waters' fall start: where the pull peaks (:attr:`strength_value`
+        defaults to :math:`0.2 R_s`, :meth:`_check_strength` bounds it by :math:`2 R_s /
+        \pi`). A type whose :attr:`strength_value` does not use it need not define it.
+        """
+        raise NotImplementedError(f"{type(self).__name__} defines no fall_start_value "
+                                  "(R_s); define it, or strength_value")
+
     @property
     def wrinkle_length(self) -> float:
         """:math:`R` (linear) or :math:`L_s` (sheet): the length in Eq. 6 and 7."""

@@ -353,8 +353,9 @@ class SheetMuscle(Muscle):
         across = np.array([8.0, 0.0, 0.0])
         ins_line = closest_points(skin, np.array([ins - across, ins + across]))
         att_line = closest_points(skull or skin, np.array([att - across, att + across]))
-        return cls(name, attachment_line=att_line, insertion_line=ins_line, lambda_w=0.3,
-                   n_wrinkles=3, k0=2.0)
+        return cls(name, attachment_line=tuple(map(tuple, att_line)),
+                   insertion_line=tuple(map(tuple, ins_line)), lambda_w=0.3, n_wrinkles=3,
+                   k0=2.0)
 
     @property
     def attachment_center(self) -> np.ndarray:

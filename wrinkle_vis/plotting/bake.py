@@ -480,7 +480,6 @@ def bake_maps(state: FaceState, corner_uvs: np.ndarray, size: tuple[int, int] = 
     """
     require_finite("the baked maps", state)
     skin = state.face.skin
-    tris = skin.triangles
     corner_uvs = np.asarray(corner_uvs, float)
     if corner_uvs.shape != (skin.n_triangles, 3, 2):
         raise ValueError(f"corner_uvs is {corner_uvs.shape}; expected "
@@ -489,73 +488,94 @@ def bake_maps(state: FaceState, corner_uvs: np.ndarray, size: tuple[int, int] = 
     common = {**(info or {}), "size": [int(size[0]), int(size[1])], "padding": int(padding),
               "uv_origin": "bottom left (v up, as OBJ and Blender): image row 0 is v = 1"}
     out = BakedMaps()
-    holder: dict = {}
-
-    def raster():
-        holder["r"] = uv_raster(corner_uvs, size, padding)
-
-    def displacement():
-        r = holder["r"]
-        W = np.asarray(state.W, float)
-        offset = min(float(W.min()), 0.0)
-        scale = max(float(W.max()), 0.0) - offset
-        at = r.interpolate(W[tris])
-        q = np.round((at - offset) / scale * 65535) if scale > 0 else np.zeros_like(at)
-        q = np.clip(q, 0, 65535).astype(np.uint16)
-        zero = np.uint16(round(-offset / scale * 65535) if scale > 0 else 0)
-        image = r.image(q, zero)
-        meta = {"map": "displacement.png", "field": "W", "unit": unit, "offset": offset,
-                "scale": scale, "decode": "W = offset + scale * value / 65535",
-                "blender_displace": {"midlevel": -offset / scale if scale > 0 else 0.0,
-                                     "strength": scale},
-                **common}
-        decoded = decode_displacement(q[r.covered], meta)
-        span = float(W.max() - W.min()) or 1.0
-        at_corners = sample_bilinear(decode_displacement(image, meta), corner_uvs.reshape(-1, 2))
-        corner_err = np.abs(at_corners - W[tris].ravel()) / span
-        out.check = {"texel_centres_max": float(np.abs(decoded - at[r.covered]).max() / span)
-                     if r.covered.any() else 0.0,
-                     "corners_max": float(corner_err.max()),
-                     "corners_p99": float(np.percentile(corner_err, 99))}
-        meta["sampled_back"] = {"texel_centres_max_fraction_of_range":
-                                out.check["texel_centres_max"],
-                                "corners_bilinear_p99_fraction_of_range":
-                                out.check["corners_p99"]}
-        out.images["displacement.png"] = image
-        out.sidecars["displacement.json"] = meta
-
-    def normal():
-        r = holder["r"]
-        deformed = np.asarray(state.deformed_points, float)
-        ts = tangent_space_normals(r, deformed, tris, corner_uvs,
-                                   skin.vertex_normals(deformed), np.asarray(state.normals))
-        rgb = np.clip(np.round((ts + 1.0) * 32767.5), 0, 65535).astype(np.uint16)
-        out.images["normal.png"] = r.image(rgb, np.array([32768, 32768, 65535], np.uint16))
-        out.sidecars["normal.json"] = {
-            "map": "normal.png", "space": "tangent", "bit_depth": 16,
-            "convention": "OpenGL (green up): x along +u, y along +v, z along the normal",
-            "encode": "rgb = 65535 (n + 1) / 2",
-            "base": "the smooth deformed skin (the expression without its wrinkles)",
-            **common}
-
-    def colour(fname: str, muscle: str | None):
-        r = holder["r"]
-        values = np.asarray(state.field_values(fname, muscle), float)
-        fi = field_info(fname)
-        clim = field_range(fi, values)
-        name = field_array_name(fname, muscle)
-        rgba = _colours(r.interpolate(values[tris]), fi.cmap, clim)
-        out.images[f"field_{name}.png"] = r.image(rgba, np.zeros(4, np.uint8))
-        out.sidecars[f"field_{name}.json"] = {
-            "map": f"field_{name}.png", "field": fname, "muscle": muscle, "cmap": fi.cmap,
-            "range": list(clim), "unit": unit if fi.unit == "length" else fi.unit,
-            "nan_colour": NAN_COLOR, "background": "transparent", **common}
-
-    steps = [raster, displacement, normal]
-    steps += [lambda f=f, m=m: colour(f, m) for f, m in fields]
+    holder: dict = {}  # the raster, made by the first step
+    steps = [lambda: holder.update(r=uv_raster(corner_uvs, size, padding)),
+             lambda: _bake_displacement(holder["r"], state, corner_uvs, unit, common, out),
+             lambda: _bake_normal(holder["r"], state, corner_uvs, common, out)]
+    steps += [lambda f=f, m=m: _bake_colour(holder["r"], state, corner_uvs, f, m, unit,
+                                            common, out) for f, m in fields]
     for step in (progress or (lambda s: s))(steps):
         step()
     return out
+
+
+def _bake_displacement(r, state: FaceState, corner_uvs: np.ndarray, unit: str, common: dict,
+                       out: BakedMaps) -> None:
+    """W as a 16-bit displacement map on raster ``r`` into ``out``, with its scale and
+    offset in its JSON and W sampled back (``out.check``).
+    """
+    tris = state.face.skin.triangles
+    W = np.asarray(state.W, float)
+    offset = min(float(W.min()), 0.0)
+    scale = max(float(W.max()), 0.0) - offset
+    at = r.interpolate(W[tris])
+    q = np.round((at - offset) / scale * 65535) if scale > 0 else np.zeros_like(at)
+    q = np.clip(q, 0, 65535).astype(np.uint16)
+    zero = np.uint16(round(-offset / scale * 65535) if scale > 0 else 0)
+    image = r.image(q, zero)
+    meta = {"map": "displacement.png", "field": "W", "unit": unit, "offset": offset,
+            "scale": scale, "decode": "W = offset + scale * value / 65535",
+            "blender_displace": {"midlevel": -offset / scale if scale > 0 else 0.0,
+                                 "strength": scale},
+            **common}
+    out.check = _sampled_back(r, W, tris, corner_uvs, at, q, image, meta)
+    meta["sampled_back"] = {"texel_centres_max_fraction_of_range":
+                            out.check["texel_centres_max"],
+                            "corners_bilinear_p99_fraction_of_range":
+                            out.check["corners_p99"]}
+    out.images["displacement.png"] = image
+    out.sidecars["displacement.json"] = meta
+
+
+def _sampled_back(r, W: np.ndarray, tris: np.ndarray, corner_uvs: np.ndarray, at, q, image,
+                  meta: dict) -> dict[str, float]:
+    """How far the displacement map decodes from W, as fractions of W's range: at the
+    texel centres (``q`` against the interpolated ``at``) and bilinearly sampled at the
+    triangles' corners (the largest and the 99th percentile).
+    """
+    decoded = decode_displacement(q[r.covered], meta)
+    span = float(W.max() - W.min()) or 1.0
+    at_corners = sample_bilinear(decode_displacement(image, meta), corner_uvs.reshape(-1, 2))
+    corner_err = np.abs(at_corners - W[tris].ravel()) / span
+    return {"texel_centres_max": float(np.abs(decoded - at[r.covered]).max() / span)
+            if r.covered.any() else 0.0,
+            "corners_max": float(corner_err.max()),
+            "corners_p99": float(np.percentile(corner_err, 99))}
+
+
+def _bake_normal(r, state: FaceState, corner_uvs: np.ndarray, common: dict,
+                 out: BakedMaps) -> None:
+    """The wrinkles' tangent-space normal map (16 bits, OpenGL) on raster ``r`` into
+    ``out``.
+    """
+    skin = state.face.skin
+    deformed = np.asarray(state.deformed_points, float)
+    ts = tangent_space_normals(r, deformed, skin.triangles, corner_uvs,
+                               skin.vertex_normals(deformed), np.asarray(state.normals))
+    rgb = np.clip(np.round((ts + 1.0) * 32767.5), 0, 65535).astype(np.uint16)
+    out.images["normal.png"] = r.image(rgb, np.array([32768, 32768, 65535], np.uint16))
+    out.sidecars["normal.json"] = {
+        "map": "normal.png", "space": "tangent", "bit_depth": 16,
+        "convention": "OpenGL (green up): x along +u, y along +v, z along the normal",
+        "encode": "rgb = 65535 (n + 1) / 2",
+        "base": "the smooth deformed skin (the expression without its wrinkles)",
+        **common}
+
+
+def _bake_colour(r, state: FaceState, corner_uvs: np.ndarray, fname: str,
+                 muscle: str | None, unit: str, common: dict, out: BakedMaps) -> None:
+    """Field ``fname`` of ``muscle`` as a colour map on raster ``r`` into ``out``."""
+    tris = state.face.skin.triangles
+    values = np.asarray(state.field_values(fname, muscle), float)
+    fi = field_info(fname)
+    clim = field_range(fi, values)
+    name = field_array_name(fname, muscle)
+    rgba = _colours(r.interpolate(values[tris]), fi.cmap, clim)
+    out.images[f"field_{name}.png"] = r.image(rgba, np.zeros(4, np.uint8))
+    out.sidecars[f"field_{name}.json"] = {
+        "map": f"field_{name}.png", "field": fname, "muscle": muscle, "cmap": fi.cmap,
+        "range": list(clim), "unit": unit if fi.unit == "length" else fi.unit,
+        "nan_colour": NAN_COLOR, "background": "transparent", **common}
 
 
 # ---------------------------------------------------------------------- writing

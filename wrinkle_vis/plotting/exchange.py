@@ -393,82 +393,132 @@ def gltf_bytes(face: FaceModel, expressions: Sequence[str] | None = None, *,
         raise ValueError(f"unknown unit {unit!r}; choose from {', '.join(METRES_PER_UNIT)}")
     scale = METRES_PER_UNIT[unit]
     base = face.evaluate({})
-    tris = np.asarray(face.skin.triangles)
-    if corner_uvs is not None:
-        corner_uvs = np.asarray(corner_uvs, float)
-        if corner_uvs.shape != (len(tris), 3, 2):
-            raise ValueError(f"corner_uvs is {corner_uvs.shape}; expected ({len(tris)}, 3, 2)")
-        vertex, uv, tris = _split_at_seams(tris, corner_uvs)
-    else:
-        vertex, uv = np.arange(face.skin.n_points), None
+    vertex, uv, tris = _glb_vertices(face, corner_uvs)
     x0 = np.asarray(base.points, float)[vertex]
     n0 = np.asarray(base.normals, float)[vertex]
-    chunks: list[bytes] = []
-    views: list[dict] = []
-    accessors: list[dict] = []
-
-    def add(array: np.ndarray, kind: str, component: int, target: int, bounds: bool) -> int:
-        require_finite("the glTF file", {f"a {kind} accessor": array})
-        raw = np.ascontiguousarray(array).tobytes()
-        offset = sum(len(c) for c in chunks)
-        chunks.append(raw + b"\0" * (-len(raw) % 4))
-        views.append({"buffer": 0, "byteOffset": offset, "byteLength": len(raw),
-                      "target": target})
-        acc = {"bufferView": len(views) - 1, "componentType": component,
-               "count": int(array.shape[0]), "type": kind}
-        if bounds:
-            acc["min"] = [float(v) for v in array.min(axis=0)]
-            acc["max"] = [float(v) for v in array.max(axis=0)]
-        accessors.append(acc)
-        return len(accessors) - 1
-
+    buf = _GlbBuffer()
     p0 = (x0 * scale).astype(np.float32)
-    attributes = {"POSITION": add(p0, "VEC3", _FLOAT, _ARRAY_BUFFER, True),
-                  "NORMAL": add(n0.astype(np.float32), "VEC3", _FLOAT, _ARRAY_BUFFER, False)}
-    if uv is not None:
-        texcoord = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]).astype(np.float32)
-        attributes["TEXCOORD_0"] = add(texcoord, "VEC2", _FLOAT, _ARRAY_BUFFER, False)
-    small = len(vertex) < 65535
-    indices = add(tris.astype(np.uint16 if small else np.uint32).reshape(-1, 1), "SCALAR",
-                  _UINT16 if small else _UINT32, _ELEMENT_ARRAY_BUFFER, False)
-    accessors[indices]["count"] = int(tris.size)
-    targets = []
-    for name in (progress or (lambda x: x))(names):
-        state = face.evaluate(name)
-        # float32 displacements from the float32 base: base + target is the float32
-        # nearest the wrinkled point
-        moved = (np.asarray(state.points)[vertex] * scale).astype(np.float32)
-        dp = (moved.astype(np.float64) - p0).astype(np.float32)
-        dn = (np.asarray(state.normals)[vertex] - n0).astype(np.float32)
-        targets.append({"POSITION": add(dp, "VEC3", _FLOAT, _ARRAY_BUFFER, True),
-                        "NORMAL": add(dn, "VEC3", _FLOAT, _ARRAY_BUFFER, False)})
-    primitive = {"attributes": attributes, "indices": indices, "mode": 4, "material": 0}
-    mesh = {"name": face.name, "primitives": [primitive]}
+    primitive = _neutral_primitive(buf, p0, n0, uv, tris)
+    targets = [_morph_target(buf, face.evaluate(name), vertex, p0, n0, scale)
+               for name in (progress or (lambda x: x))(names)]
+    blob = b"".join(buf.chunks)
+    gltf = _gltf_json(face.name, _morphing_mesh(face.name, primitive, targets, names), unit,
+                      scale, buf, len(blob))
+    return _glb(gltf, blob), gltf
+
+
+def _morphing_mesh(name: str, primitive: dict, targets: list[dict], names: list[str]) -> dict:
+    """The glTF mesh of ``primitive`` with morph ``targets`` named ``names`` (if any)."""
+    mesh = {"name": name, "primitives": [primitive]}
     if targets:
         primitive["targets"] = targets
         mesh["weights"] = [0.0] * len(targets)
         mesh["extras"] = {"targetNames": names}
-    blob = b"".join(chunks)
-    gltf = {
+    return mesh
+
+
+def _glb(gltf: dict, blob: bytes) -> bytes:
+    """The GLB file of JSON part ``gltf`` and BIN chunk ``blob``."""
+    text = json.dumps(gltf, separators=(",", ":")).encode("utf-8")
+    text += b" " * (-len(text) % 4)
+    total = 12 + 8 + len(text) + 8 + len(blob)
+    return b"".join([b"glTF", _u32(2), _u32(total), _u32(len(text)), b"JSON", text,
+                     _u32(len(blob)), b"BIN\0", blob])
+
+
+def _neutral_primitive(buf: _GlbBuffer, p0: np.ndarray, n0: np.ndarray,
+                       uv: np.ndarray | None, tris: np.ndarray) -> dict:
+    """The mesh primitive of the neutral skin: points ``p0`` and normals ``n0`` ``(v, 3)``,
+    UVs ``(v, 2)`` when given (glTF's v down) and triangles ``tris`` ``(m, 3)``.
+    """
+    attributes = {"POSITION": buf.add(p0, "VEC3", _FLOAT, _ARRAY_BUFFER, True),
+                  "NORMAL": buf.add(n0.astype(np.float32), "VEC3", _FLOAT, _ARRAY_BUFFER,
+                                    False)}
+    if uv is not None:
+        texcoord = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]]).astype(np.float32)
+        attributes["TEXCOORD_0"] = buf.add(texcoord, "VEC2", _FLOAT, _ARRAY_BUFFER, False)
+    small = len(p0) < 65535
+    indices = buf.add(tris.astype(np.uint16 if small else np.uint32).reshape(-1, 1), "SCALAR",
+                      _UINT16 if small else _UINT32, _ELEMENT_ARRAY_BUFFER, False)
+    buf.accessors[indices]["count"] = int(tris.size)
+    return {"attributes": attributes, "indices": indices, "mode": 4, "material": 0}
+
+
+def _glb_vertices(face: FaceModel, corner_uvs: np.ndarray | None
+                  ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+    """The glTF vertices: the skin vertex of each ``(v,)``, its UV ``(v, 2)`` (None
+    without ``corner_uvs``) and the triangles on them ``(m, 3)``; a vertex on a UV seam
+    becomes one per side.
+    """
+    tris = np.asarray(face.skin.triangles)
+    if corner_uvs is None:
+        return np.arange(face.skin.n_points), None, tris
+    corner_uvs = np.asarray(corner_uvs, float)
+    if corner_uvs.shape != (len(tris), 3, 2):
+        raise ValueError(f"corner_uvs is {corner_uvs.shape}; expected ({len(tris)}, 3, 2)")
+    vertex, uv, tris = _split_at_seams(tris, corner_uvs)
+    return vertex, uv, tris
+
+
+class _GlbBuffer:
+    """The BIN chunk of a GLB as it is written: its chunks, buffer views and accessors."""
+
+    def __init__(self):
+        self.chunks: list[bytes] = []
+        self.views: list[dict] = []
+        self.accessors: list[dict] = []
+
+    def add(self, array: np.ndarray, kind: str, component: int, target: int,
+            bounds: bool) -> int:
+        """Append ``array`` (4-byte aligned) with its view and accessor (``bounds``: with
+        its ``min`` and ``max``); returns the accessor's index.
+        """
+        require_finite("the glTF file", {f"a {kind} accessor": array})
+        raw = np.ascontiguousarray(array).tobytes()
+        offset = sum(len(c) for c in self.chunks)
+        self.chunks.append(raw + b"\0" * (-len(raw) % 4))
+        self.views.append({"buffer": 0, "byteOffset": offset, "byteLength": len(raw),
+                           "target": target})
+        acc = {"bufferView": len(self.views) - 1, "componentType": component,
+               "count": int(array.shape[0]), "type": kind}
+        if bounds:
+            acc["min"] = [float(v) for v in array.min(axis=0)]
+            acc["max"] = [float(v) for v in array.max(axis=0)]
+        self.accessors.append(acc)
+        return len(self.accessors) - 1
+
+
+def _morph_target(buf: _GlbBuffer, state, vertex: np.ndarray, p0: np.ndarray, n0: np.ndarray,
+                  scale: float) -> dict[str, int]:
+    """The morph target of frame ``state`` on glTF vertices ``vertex`` (from the neutral
+    ``p0``, float32 metres, and ``n0``): its POSITION and NORMAL accessors.
+    """
+    # float32 displacements from the float32 base: base + target is the float32 nearest
+    # the wrinkled point
+    moved = (np.asarray(state.points)[vertex] * scale).astype(np.float32)
+    dp = (moved.astype(np.float64) - p0).astype(np.float32)
+    dn = (np.asarray(state.normals)[vertex] - n0).astype(np.float32)
+    return {"POSITION": buf.add(dp, "VEC3", _FLOAT, _ARRAY_BUFFER, True),
+            "NORMAL": buf.add(dn, "VEC3", _FLOAT, _ARRAY_BUFFER, False)}
+
+
+def _gltf_json(name: str, mesh: dict, unit: str, scale: float, buf: _GlbBuffer,
+               n_bytes: int) -> dict:
+    """The JSON part of the GLB: one node of ``mesh``, a skin material, the buffer."""
+    return {
         "asset": {"version": "2.0", "generator": f"wrinkle-vis {_version()}"},
         "extras": {"unit": "m", "source_unit": unit, "metres_per_source_unit": scale},
         "scene": 0,
         "scenes": [{"nodes": [0]}],
-        "nodes": [{"name": face.name, "mesh": 0}],
+        "nodes": [{"name": name, "mesh": 0}],
         "meshes": [mesh],
         "materials": [{"name": "skin", "pbrMetallicRoughness": {
             "baseColorFactor": [0.87, 0.72, 0.62, 1.0], "metallicFactor": 0.0,
             "roughnessFactor": 0.6}}],
-        "buffers": [{"byteLength": len(blob)}],
-        "bufferViews": views,
-        "accessors": accessors,
+        "buffers": [{"byteLength": n_bytes}],
+        "bufferViews": buf.views,
+        "accessors": buf.accessors,
     }
-    text = json.dumps(gltf, separators=(",", ":")).encode("utf-8")
-    text += b" " * (-len(text) % 4)
-    total = 12 + 8 + len(text) + 8 + len(blob)
-    data = b"".join([b"glTF", _u32(2), _u32(total), _u32(len(text)), b"JSON", text,
-                     _u32(len(blob)), b"BIN\0", blob])
-    return data, gltf
 
 
 def _u32(value: int) -> bytes:

@@ -147,6 +147,18 @@ def figure_expressions(face: FaceModel, expressions=("surprise", "frown", "fear"
         check_target(filename, IMAGE_SUFFIXES)
     states = [evaluate(face, e, intensity, refine=refine, refine_angle_deg=refine_angle_deg,
                        refine_levels=refine_levels) for e in expressions]
+    image = _expression_rows(face, expressions, states, size, camera,
+                             (elevation_deg, azimuth_deg), theme)
+    if filename is not None:
+        save_image(image, filename)
+    return image
+
+
+def _expression_rows(face: FaceModel, expressions: list, states: list, size, camera,
+                     light: tuple[float, float], theme) -> np.ndarray:
+    """:func:`figure_expressions`' image: a row per expression and its frame ``states``,
+    without and with wrinkles, under the raking ``light`` (elevation, azimuth).
+    """
     width, height = size or (2 * PANEL_SIZE[0], len(expressions) * PANEL_SIZE[1])
     framed = None if camera is not None else wrinkle_camera(
         states, (width / 2) / (height / len(expressions)))
@@ -159,20 +171,24 @@ def figure_expressions(face: FaceModel, expressions=("surprise", "frown", "fear"
                                                   ("with wrinkles", state.points))):
                 plotter.subplot(row, col)
                 add_skin(plotter, state, None, points=points)
-                add_raking_light(plotter, elevation_deg, azimuth_deg)
+                add_raking_light(plotter, *light)
                 _title(plotter, f"{_label(expression)}: {what}", width // 2)
-                if framed is None:
-                    set_camera(plotter, camera or "upper_face", face)
-                else:
-                    plotter.camera_position = framed
-                    plotter.camera.view_angle = 30.0
-                    plotter.reset_camera_clipping_range()
-        image = plotter.screenshot(None, return_img=True)
+                _aim(plotter, face, camera, framed)
+        return plotter.screenshot(None, return_img=True)
     finally:
         plotter.close()
-    if filename is not None:
-        save_image(image, filename)
-    return image
+
+
+def _aim(plotter: pv.Plotter, face: FaceModel, camera: str | None, framed) -> None:
+    """The subplot's camera: ``framed`` (a camera position) when given, else ``camera``
+    (default ``upper_face``).
+    """
+    if framed is None:
+        set_camera(plotter, camera or "upper_face", face)
+    else:
+        plotter.camera_position = framed
+        plotter.camera.view_angle = 30.0
+        plotter.reset_camera_clipping_range()
 
 
 def figure_refinement(face: FaceModel, filename=None, *, expression="surprise",

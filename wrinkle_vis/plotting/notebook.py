@@ -191,8 +191,13 @@ def plot_state(state: FaceState, field: str | None = "W", muscle: str | None = N
     except BaseException:
         plotter.close()
         raise
-    if return_plotter:
-        return plotter
+    return plotter if return_plotter else _shown(plotter, show_kwargs, jupyter_backend)
+
+
+def _shown(plotter, show_kwargs: dict, jupyter_backend: str | None):
+    """Show ``plotter`` (see :func:`plot_state`): in a window, or in a notebook with
+    ``jupyter_backend`` (default :func:`default_backend`); returns what ``show`` does.
+    """
     if not plotter.notebook:
         return plotter.show(**show_kwargs)
     backend = show_kwargs.setdefault("jupyter_backend", jupyter_backend or default_backend())

@@ -349,6 +349,36 @@ def set_camera(plotter: pv.Plotter, name: str, face: FaceModel) -> None:
     plotter.camera.zoom(zoom)
 
 
+def _check_layers(layers) -> None:
+    """``ValueError`` naming the layers of ``layers`` not in :data:`LAYERS` (or none)."""
+    unknown = [layer for layer in layers if layer not in LAYERS]
+    if unknown or not layers:
+        raise ValueError(f"unknown layer(s) {unknown}; choose from {', '.join(LAYERS)}")
+
+
+def _add_layers(plotter: pv.Plotter, face: FaceModel, state: FaceState, field: str | None,
+                muscle: str | None, layers) -> None:
+    """Draw ``layers`` of ``state``: the skin coloured by ``field`` (translucent over the
+    others), the muscles, the skull.
+    """
+    if "skin" in layers:
+        add_skin(plotter, state, field, muscle,
+                 opacity=0.35 if ("muscles" in layers or "skull" in layers) else 1.0)
+    if "muscles" in layers:
+        add_muscles(plotter, face, state.activations, scalar_bar="skin" not in layers)
+    if "skull" in layers:
+        add_skull(plotter, face)
+
+
+def _scene_title(expression, field: str | None, muscle: str | None, layers) -> str:
+    """``"surprise: W of frontalis_major_L, skull"``: the expression and what is drawn."""
+    label = expression if isinstance(expression, str) else "custom"
+    what = [f"{field}{'' if muscle is None else ' of ' + muscle}"] if (
+        "skin" in layers and field) else []
+    what += [layer for layer in layers if layer != "skin" or not field]
+    return f"{label}: {', '.join(what)}"
+
+
 def render_field(face: FaceModel, expression="surprise", field: str | None = "W",
                  muscle: str | None = None, *, layers=("skin",), camera: str = "front",
                  size=(800, 800), intensity: float = 1.0, filename=None, title=None,
@@ -388,9 +418,7 @@ def render_field(face: FaceModel, expression="surprise", field: str | None = "W"
     (h, w, 3) uint8 ndarray
         The image.
     """
-    unknown = [layer for layer in layers if layer not in LAYERS]
-    if unknown or not layers:
-        raise ValueError(f"unknown layer(s) {unknown}; choose from {', '.join(LAYERS)}")
+    _check_layers(layers)
     if filename is not None:
         check_target(filename, IMAGE_SUFFIXES)
     state = evaluate(face, expression, intensity, refine=refine,
@@ -399,18 +427,8 @@ def render_field(face: FaceModel, expression="surprise", field: str | None = "W"
     if own:
         plotter = pv.Plotter(off_screen=True, window_size=list(size), theme=theme)
     try:
-        if "skin" in layers:
-            add_skin(plotter, state, field, muscle,
-                     opacity=0.35 if ("muscles" in layers or "skull" in layers) else 1.0)
-        if "muscles" in layers:
-            add_muscles(plotter, face, state.activations, scalar_bar="skin" not in layers)
-        if "skull" in layers:
-            add_skull(plotter, face)
-        label = expression if isinstance(expression, str) else "custom"
-        what = [f"{field}{'' if muscle is None else ' of ' + muscle}"] if (
-            "skin" in layers and field) else []
-        what += [layer for layer in layers if layer != "skin" or not field]
-        plotter.add_title(title or f"{label}: {', '.join(what)}",
+        _add_layers(plotter, face, state, field, muscle, layers)
+        plotter.add_title(title or _scene_title(expression, field, muscle, layers),
                           font_size=max(6, round(plotter.window_size[0] / 60)))
         set_camera(plotter, camera, face)
         image = plotter.screenshot(None, return_img=True)

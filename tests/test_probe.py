@@ -1,0 +1,59 @@
+"""The app's probe read from the compact per-muscle data (issue 28): the same values as
+the full fields interpolated at the point, unrefined and refined, and no full-length field
+built for it (it built all 153 of them every frame: 5 ms unrefined, 44 ms refined)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import wrinkle_vis as wv
+from wrinkle_vis.app.session import Session, SurfacePoint
+
+
+@pytest.fixture(scope="module")
+def face():
+    return wv.datasets.load_face()
+
+
+def _by_full_fields(state, corners, weights) -> dict:
+    """The probe as it was: every field built full and interpolated at the point."""
+    def interpolated(values):
+        v = values[corners]
+        ok = np.isfinite(v)
+        nearest = int(np.argmax(weights))
+        if not ok[nearest] or weights[nearest] == 1.0:
+            return float(v[nearest])
+        return float(weights[ok] @ v[ok] / weights[ok].sum())
+
+    out = {"total": {"W": interpolated(state.W)}}
+    for name in state.face.muscle_names:
+        values = {f: interpolated(state.fields[name][f]) for f in wv.FIELD_NAMES}
+        if any(np.isfinite(v) for v in values.values()):
+            out[name] = values
+    return out
+
+
+@pytest.mark.parametrize("refine", [False, True])
+def test_the_probe_builds_no_full_field_and_gives_what_they_give(face, refine):
+    session = Session(face)
+    session.set_expression("fear")
+    session.set_refine(refine)
+    aoi = face.muscle_data(face.muscle("frontalis_major_L")).region
+    points = [session.vertex_point(int(aoi[len(aoi) // 2])),
+              SurfacePoint(int(np.flatnonzero((face.skin.triangles == aoi[3]).any(1))[0]),
+                           (0.2, 0.3, 0.5)),
+              session.vertex_point(0)]
+    for where in points:
+        session.set_intensity(session.intensity * 0.99)  # a new frame: nothing built yet
+        got = session.probe(where)
+        state, corners, weights = session._located(where)
+        built = [(m, k) for m in face.muscle_names for k in state.fields[m]._cache]
+        assert built == [], f"the probe built full fields {built[:3]}..."
+        want = _by_full_fields(state, corners, weights)
+        assert got.keys() == want.keys()
+        for name, values in want.items():
+            assert got[name].keys() == values.keys()
+            assert np.array_equal(list(got[name].values()), list(values.values()),
+                                  equal_nan=True), name  # bit for bit
+    assert "frontalis_major_L" in session.probe(points[0])
