@@ -13,7 +13,7 @@ from meshes import grid
 
 import wrinkle_vis as wv
 from wrinkle_vis.core.analysis import dihedral_change
-from wrinkle_vis.core.params import parameter_table
+from wrinkle_vis.core.params import ParameterValueError, parameter_table
 from wrinkle_vis.core.skin import (
     SkinMaterial,
     SpringSkin,
@@ -55,6 +55,28 @@ def test_material_parameters_are_declared_once_with_units_and_ranges():
         SkinMaterial(density=-1)
     with pytest.raises(ValueError, match="unknown skin parameter"):
         SkinMaterial.from_dict({"stiffness": 1.0})
+
+
+def test_the_skin_and_the_muscles_share_one_parameter_check():
+    """SkinMaterial and Muscle both validate through Parameter.validate: the same values
+    are refused with the same 'allowed' text (a bool is not a number, a count is an
+    integer, a range is its metadata's)."""
+    damping = {p.name: p for p in SkinMaterial.parameters()}["damping"]
+    with pytest.raises(ParameterValueError) as err:
+        damping.validate(True)
+    assert err.value.allowed == "a real number"
+    with pytest.raises(ValueError, match=r"^skin damping = True is not a real number; "):
+        SkinMaterial(damping=True)
+    with pytest.raises(wv.MuscleParameterError, match="k0 = True is invalid; allowed: a real "
+                       "number"):
+        wv.LinearMuscle("m", (0, 0, 0), (1, 0, 0), radius=10.0, max_angle_deg=30.0, k0=True)
+    with pytest.raises(ValueError, match=r"^skin iterations = 2.5 is not an integer >= 1;"):
+        SkinMaterial(iterations=2.5)
+    with pytest.raises(wv.MuscleParameterError, match="allowed: an integer >= 1"):
+        wv.LinearMuscle("m", (0, 0, 0), (1, 0, 0), radius=10.0, max_angle_deg=30.0,
+                        n_wrinkles=2.5)
+    assert SkinMaterial(iterations=4.0).iterations == 4  # stored as the checked value
+    assert type(SkinMaterial(density=1000).density) is float
 
 
 def test_unknown_skin_model_is_a_one_line_error():
@@ -109,6 +131,39 @@ def test_activation_dynamics_are_exact_for_a_held_command():
     two = activation_response(activation_response(np.array([0.0]), np.array([1.0]), 0.02,
                                                   0.045), np.array([1.0]), 0.025, 0.045)
     assert two[0] == pytest.approx(a[0])
+
+
+def test_a_released_muscle_reaches_zero_and_the_skin_its_rest():
+    """First-order activation dynamics only approach the command: the release must end at
+    exactly 0 (the muscle stops pulling) and the skin at rest."""
+    face = _grid_face(11)
+    sim = face.simulator(lambda t: {"lin": 1.0 if t < 0.31 else 0.0})
+    sim.advance_to(0.3)
+    assert sim.activations[0] > 0.99 and np.abs(sim.x - face.skin.points).max() > 0.1
+    sim.advance_to(1.0)
+    assert (sim.activations == 0.0).all()
+    assert not face.simulator(None).muscle_pull().any()
+    sim.advance_to(3.0)
+    size = np.linalg.norm(np.ptp(face.skin.points, axis=0))
+    assert np.abs(sim.x - face.skin.points).max() <= 1e-9 * size
+    held = activation_response(np.array([0.99995]), np.array([1.0]), 0.001, 0.045)
+    assert held[0] == 1.0  # within the tolerance of its command: the command
+
+
+def test_a_refined_physical_frame_computes_the_muscles_pull_once(monkeypatch):
+    face = _grid_face(15)
+    calls = []
+    real = face.muscle_displacement
+    monkeypatch.setattr(face, "muscle_displacement",
+                        lambda acts: calls.append(1) or real(acts))
+    state = face.evaluate({"lin": 1.0}, skin="physical", refine=True)
+    assert state.face.skin.n_points > face.skin.n_points  # it was refined
+    assert len(calls) == 1
+    calls.clear()
+    sim = face.simulator({"lin": 1.0})
+    sim.advance(1.0 / 30.0)
+    sim.state()
+    assert len(calls) == 1  # the step and its state share the pull
 
 
 # ---------------------------------------------------------------- stability
