@@ -453,16 +453,102 @@ def test_the_scanned_head_neither_folds_nor_enters_its_skull():
 
 
 # ---------------------------------------------------------------- realism
+def _crease(state, floor: float = 0.01) -> np.ndarray:
+    """The change of the dihedral angles (deg) that the deformation alone adds, on the edges
+    with a vertex moved by more than ``floor`` mm. The physical skin moves every vertex a
+    little (tests/test_realism.py's ``crease`` takes every moved edge, which would dilute
+    the percentile with the still skin); 0.01 mm keeps the zones and the skin relaxing
+    around them.
+    """
+    surface, rest = state.face.skin, state.rest_points
+    moved = np.linalg.norm(state.deformed_points - rest, axis=1) > floor
+    change = dihedral_change(surface, rest, state.deformed_points)
+    change = change[moved[surface.edges].any(axis=1)]
+    return change[np.isfinite(change)]
+
+
+def _no_plateau_edge(face, refine: bool = False) -> None:
+    """Issue 27: the deformation adds a crease of at most 8 degrees at the 99th percentile,
+    for each of surprise, frown and fear, on the physical skin."""
+    for name in ("surprise", "frown", "fear"):
+        change = _crease(face.evaluate(name, skin="physical", refine=refine))
+        assert len(change) > 50, name
+        assert np.percentile(change, 99) <= 8.0, (name, np.percentile(change, 99))
+
+
 def test_the_physical_skin_meets_the_paper_size_realism_checks():
     """Surprise and frown refined on the physical skin pass the project's realism checks
-    (tests/test_realism.py), and the deformation adds no crease past 8 degrees at the 99th
-    percentile."""
-    from test_realism import check_forehead, check_glabella, crease
+    (tests/test_realism.py: n_w crests on six lines, two furrows of 60 mm, median depth
+    0.6 mm, 85 % of the normal's change across the fibres; furrows between the brows), and
+    the deformation adds no crease past 8 degrees at the 99th percentile."""
+    from test_realism import check_forehead, check_glabella
 
     face = wv.datasets.load_face()
-    surprise = face.evaluate("surprise", skin="physical", refine=True)
-    frown = face.evaluate("frown", skin="physical", refine=True)
-    check_forehead(surprise)
-    check_glabella(frown)
-    for state in (surprise, frown):
-        assert np.percentile(crease(state), 99) <= 8.0
+    check_forehead(face.evaluate("surprise", skin="physical", refine=True))
+    check_glabella(face.evaluate("frown", skin="physical", refine=True))
+    _no_plateau_edge(face, refine=True)
+
+
+@pytest.mark.slow
+def test_the_physical_skin_meets_the_realism_checks_on_the_60k_face():
+    from test_realism import check_forehead, check_glabella
+
+    face = wv.datasets.load_face(60000)
+    check_forehead(face.evaluate("surprise", skin="physical"))
+    check_glabella(face.evaluate("frown", skin="physical"))
+    _no_plateau_edge(face)
+
+
+@pytest.mark.slow
+def test_the_physical_skin_adds_no_plateau_edge_on_the_scanned_head():
+    _no_plateau_edge(wv.datasets.load_face("lee_perry_smith"))
+
+
+# ---------------------------------------------------------------- convergence
+def _at_coarse(coarse, fine, values):
+    """``values`` ``(n_fine, 3)`` interpolated at the coarse face's rest vertices (their
+    closest points on the fine rest skin, barycentric weights)."""
+    from wrinkle_vis.core.mesh import barycentric_points, surface_coordinates
+
+    tri, bary = surface_coordinates(fine.skin, coarse.skin.points)
+    return barycentric_points(fine.skin, tri, bary, values)
+
+
+@pytest.mark.slow
+def test_the_equilibrium_converges_from_the_20k_to_the_60k_face():
+    """Issue 27: the 20k and 60k equilibria agree within 5 % and the forehead's furrows
+    within a tenth of a period.
+
+    The measure (docs/model.md, "Across resolutions"): at each 20k vertex moving by 10 % or
+    more of the largest displacement, the 60k equilibrium is reconstructed as the muscles'
+    pull there (a closed form of the rest position, which the 20k face computes at its own
+    vertex) plus the 60k face's spring response (equilibrium minus pull) interpolated
+    linearly; the difference is taken in units of the largest displacement. Interpolating
+    the whole 60k displacement instead adds the linear interpolation error of the pull
+    itself (6.2 % near the corrugator's attachment, where Waters' pull turns fast), which
+    no skin model can remove; the physical skin may add at most 1.5 % to it.
+    """
+    from test_realism import forehead_rows
+
+    coarse, fine = wv.datasets.load_face(20000), wv.datasets.load_face(60000)
+    period = 2.0 * coarse.muscle("frontalis_inner_L").u
+    for name in ("surprise", "frown"):
+        sc, sf = (f.evaluate(name, skin="physical") for f in (coarse, fine))
+        dc, df = (f.muscle_displacement(s.activations) for f, s in ((coarse, sc), (fine, sf)))
+        uc = sc.deformed_points - coarse.skin.points
+        uf = sf.deformed_points - fine.skin.points
+        top = np.linalg.norm(uc, axis=1).max()
+        keep = np.linalg.norm(uc, axis=1) >= 0.1 * top
+        rebuilt = dc + _at_coarse(coarse, fine, uf - df)
+        error = np.linalg.norm(uc - rebuilt, axis=1)[keep] / top
+        assert error.max() <= 0.05, (name, error.max())
+        whole = np.linalg.norm(uc - _at_coarse(coarse, fine, uf), axis=1)[keep] / top
+        pull = np.linalg.norm(dc - _at_coarse(coarse, fine, df), axis=1)[keep] / top
+        assert np.sqrt(np.mean(whole**2)) <= 0.05, name
+        assert whole.max() <= pull.max() + 0.015, (name, whole.max(), pull.max())
+        if name == "surprise":
+            for a, b in zip(forehead_rows(sf), forehead_rows(sc), strict=True):
+                assert a["crests"] == 3  # on the 60k face
+                for p in a["furrow_points"][np.asarray(a["depths"]) > 0.3]:
+                    gap = np.linalg.norm(b["furrow_points"] - p, axis=1).min()
+                    assert gap <= 0.1 * period, (a["offset"], p, gap)
