@@ -370,6 +370,26 @@ def test_a_pull_into_the_skull_stops_on_it():
     assert springs.equilibrium(into)[:, 2].min() >= -5.0 - 1e-9
 
 
+def test_skin_inside_the_skull_at_rest_is_free_and_measured_once():
+    """Where a scan's skull reaches through its skin, the vertices inside it at rest are
+    free: they follow the pull, and after their rest distance is measured the projection
+    never measures them again (on the scanned head this was most of a step)."""
+    skin = grid(9, 9, 40.0)
+    skull = wv.TriangleSurface(skin.points + [0.0, 0.0, 5.0], skin.triangles)  # above it
+    springs = SpringSkin(skin, np.ones(skin.n_points), SkinMaterial(), 1e-3, skull)
+    asked = []
+    measure = springs.skull.distance
+    springs.skull.distance = lambda x: asked.append(len(x)) or measure(x)
+    pull = np.tile([0.0, 0.0, -2.0], (skin.n_points, 1))
+    x, v = springs.step(skin.points.copy(), np.zeros_like(skin.points), pull, 1.0 / 30.0)
+    assert asked  # looked at once
+    asked.clear()
+    for _ in range(4):
+        x, v = springs.step(x, v, pull, 1.0 / 30.0)
+    assert x[:, 2].max() < -1.0  # free: deeper into the skull with the pull
+    assert sum(asked) == 0
+
+
 def test_refinement_carries_the_simulated_displacement_to_new_vertices():
     # a looser grip than the default, so that the springs add a good deal to the pull
     face = _grid_face(25).with_skin_model("physical", SkinMaterial(muscle_stiffness=1e8))

@@ -286,11 +286,13 @@ class _Skull:
         closest point), in place; returns their ids.
         Only vertices that moved by more than half their estimated rest distance, and that
         the estimate :meth:`rough` puts within :attr:`NEAR` skull edges of the skull, are
-        looked at.
+        looked at; a vertex found inside the skull at rest is free and never looked at
+        again.
         """
         d = x - self.rest
         near = np.flatnonzero(np.einsum("ij,ij->i", d, d)
                               >= (0.5 * np.maximum(self.rest_rough, 0.0)) ** 2)
+        near = near[~(self._rest_exact[near] < 0.0)]  # inside at rest (measured): free
         if len(near):
             rough = self.rough(x[near])
             near = near[rough < self.margin]
