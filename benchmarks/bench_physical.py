@@ -11,9 +11,10 @@ eigenvalue of M^-1 K), advanced through the same 1/30 s.
 Run:  .venv/bin/python benchmarks/bench_physical.py [--triangles 4500 20000] [--rounds 5]
       [--memory 10000 [--memory-only]]
 
-``--memory N`` also runs N simulated frames of the first face (the expression switching
-between surprise, frown and fear every 100 frames) and prints the resident memory every
-N/10 frames (it should stay flat).
+``--memory N`` also runs N simulated frames of the first face (the command switching
+between surprise, frown, fear and neutral every 100 frames) and prints the resident memory
+every N/20 frames (it should stay flat); ``--memory-only`` skips the timings. ``--face
+lee_perry_smith`` times the scanned head instead of the procedural face.
 
 Every figure is the median over ``--rounds`` rounds of the median of several calls.
 """
