@@ -9,11 +9,12 @@ the largest step it is stable at (0.9 of 2 / omega_max, omega_max from the large
 eigenvalue of M^-1 K), advanced through the same 1/30 s.
 
 Run:  .venv/bin/python benchmarks/bench_physical.py [--triangles 4500 20000] [--rounds 5]
-      [--memory 10000]
+      [--memory 10000 [--memory-only]]
 
-``--memory N`` also runs N simulated frames of the first face (the expression switching
-between surprise, frown and fear every 100 frames) and prints the resident memory every
-N/10 frames (it should stay flat).
+``--memory N`` also runs N simulated frames of the first face (the command switching
+between surprise, frown, fear and neutral every 100 frames) and prints the resident memory
+every N/20 frames (it should stay flat); ``--memory-only`` skips the timings. ``--face
+lee_perry_smith`` times the scanned head instead of the procedural face.
 
 Every figure is the median over ``--rounds`` rounds of the median of several calls.
 """
@@ -86,8 +87,8 @@ class Explicit:
         return x, v
 
 
-def run(n_triangles: int, rounds: int) -> dict:
-    face = wv.datasets.load_face(n_triangles=n_triangles)
+def run(n_triangles: int | None, rounds: int, name: str = "procedural") -> dict:
+    face = wv.datasets.load_face(name, n_triangles)
     out = {"triangles": face.skin.n_triangles, "vertices": face.skin.n_points}
     face.evaluate("surprise")
     out["geometric_frame_ms"] = 1e3 * median_seconds(lambda: face.evaluate("surprise"), 10,
@@ -139,20 +140,30 @@ def run(n_triangles: int, rounds: int) -> dict:
 
 
 def memory(n_triangles: int, frames: int) -> None:
-    """Resident memory over ``frames`` simulated frames."""
+    """Resident memory over ``frames`` simulated frames (the command cycling through
+    surprise, frown, fear and neutral every 100 frames), printed 20 times; the growth from
+    the first tenth of the run to its end is the figure to watch.
+    """
     import resource
 
     face = wv.datasets.load_face(n_triangles=n_triangles)
-    names = ("surprise", "frown", "fear")
+    names = ("surprise", "frown", "fear", None)
     sim = face.simulator(names[0])
+    every = max(1, frames // 20)
+    seen = []
+    t0 = time.perf_counter()
     for k in range(frames):
         if k % 100 == 0:
-            sim.timeline = names[(k // 100) % 3]
+            sim.timeline = names[(k // 100) % len(names)]
         sim.step(H)
-        if (k + 1) % max(1, frames // 10) == 0:
-            rss = _rss_mb()
+        if (k + 1) % every == 0:
+            seen.append((k + 1, _rss_mb()))
             peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-            print(f"  frame {k + 1:6d}: resident {rss:7.1f} MB (peak {peak:.1f} MB)")
+            print(f"  frame {k + 1:6d}: resident {seen[-1][1]:7.1f} MB (peak {peak:.1f} MB; "
+                  f"{time.perf_counter() - t0:.0f} s)", flush=True)
+    after = [rss for k, rss in seen if k >= frames // 10]
+    print(f"  from frame {frames // 10} to {frames}: {min(after):.1f}-{max(after):.1f} MB, "
+          f"growth {after[-1] - after[0]:+.1f} MB")
 
 
 def _rss_mb() -> float:
@@ -166,12 +177,17 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--memory", type=int, default=0, metavar="N",
                     help="also run N frames of the first face and print resident memory")
+    ap.add_argument("--face", default="procedural",
+                    help="built-in face (procedural, or lee_perry_smith: --triangles ignored)")
+    ap.add_argument("--memory-only", action="store_true",
+                    help="with --memory: skip the timings")
     args = ap.parse_args()
     print(f"load average {open('/proc/loadavg').read().split()[0]}, "
           f"{__import__('os').cpu_count()} CPUs")
-    for n in args.triangles:
-        r = run(n, args.rounds)
-        print(f"{r['triangles']} triangles, {r['vertices']} vertices:")
+    sizes = args.triangles if args.face == "procedural" else [None]
+    for n in [] if args.memory_only else sizes:
+        r = run(n, args.rounds, args.face)
+        print(f"{args.face}, {r['triangles']} triangles, {r['vertices']} vertices:")
         print(f"  geometric frame           {r['geometric_frame_ms']:8.2f} ms "
               f"(CPU {r['geometric_frame_cpu_ms']:.2f} ms)")
         print(f"  physical frame (1/30 s)   {r['physical_frame_ms']:8.2f} ms "

@@ -2,7 +2,12 @@
 the direction of the normals' change, folds and turned-over triangles.
 
 Run:  .venv/bin/python benchmarks/bench_realism.py [--triangles 4500 60000] [--refine]
-      [--json FILE]
+      [--skin geometric|physical] [--face lee_perry_smith] [--json FILE]
+
+``--skin physical`` measures the physically based skin's frames (its equilibrium,
+``evaluate(skin="physical")``). ``--face lee_perry_smith`` measures the scanned head
+instead of the procedural face; its forehead and glabella lie elsewhere than the sections
+below, so only the crease and the turned-over counts are measured there.
 
 For "surprise", "frown" and "fear" it evaluates the face and measures with
 :mod:`wrinkle_vis.core.analysis` (no display needed):
@@ -113,7 +118,7 @@ def glabella(state) -> dict:
             "furrow_depth_median": _median([d for r in rows for d in r["depths"]])}
 
 
-def report(face, refine: bool = False) -> dict:
+def report(face, refine: bool = False, sections: bool = True) -> dict:
     """Every number the script prints, for ``face`` (a built-in-like face).
 
     Returns
@@ -121,7 +126,8 @@ def report(face, refine: bool = False) -> dict:
     dict
         ``{expression: {...}}`` with the keys of :func:`forehead` (surprise),
         :func:`glabella` (frown) and :func:`folds_and_flips` (all), ``W_min``, ``W_max``,
-        ``n_triangles`` and the times ``evaluate_s`` and ``analysis_s``.
+        ``n_triangles`` and the times ``evaluate_s`` and ``analysis_s``; without
+        ``sections`` only :func:`folds_and_flips`.
     """
     out = {"n_triangles_rest": int(face.skin.n_triangles), "refine": bool(refine)}
     for expr in EXPRESSIONS:
@@ -130,9 +136,9 @@ def report(face, refine: bool = False) -> dict:
         t1 = time.perf_counter()
         entry = {"n_triangles": int(len(state.triangles)), "W_min": float(state.W.min()),
                  "W_max": float(state.W.max())}
-        if expr == "surprise":
+        if expr == "surprise" and sections:
             entry.update(forehead(state))
-        if expr == "frown":
+        if expr == "frown" and sections:
             entry.update(glabella(state))
         entry.update(folds_and_flips(face, expr, state, refine))
         entry["evaluate_s"] = t1 - t0
@@ -162,7 +168,8 @@ def _pairs(n_wrinkles: dict) -> str:
 
 
 def print_report(r: dict) -> None:
-    print(f"built-in face, {r['n_triangles_rest']} triangles"
+    print(f"{r.get('face', 'built-in face')}, {r.get('skin', 'geometric')} skin, "
+          f"{r['n_triangles_rest']} triangles"
           f"{', refined frames' if r['refine'] else ''}")
     for expr in EXPRESSIONS:
         e = r[expr]
@@ -210,15 +217,22 @@ def main():
     parser.add_argument("--triangles", type=int, nargs="+", default=[4500],
                         help="face sizes (default 4500)")
     parser.add_argument("--refine", action="store_true", help="measure refined frames")
+    parser.add_argument("--skin", choices=("geometric", "physical"), default="geometric",
+                        help="the skin model (default geometric)")
+    parser.add_argument("--face", default="procedural",
+                        help="built-in face (procedural or lee_perry_smith)")
     parser.add_argument("--json", help="also write the numbers to this file")
     args = parser.parse_args()
+    print(f"load average {open('/proc/loadavg').read().split()[0]}")
     results = []
-    for n in args.triangles:
+    procedural = args.face == "procedural"
+    for n in args.triangles if procedural else [None]:
         t0 = time.perf_counter()
-        face = wv.datasets.load_face(n)
-        print(f"load_face({n}): {time.perf_counter() - t0:.1f} s")
+        face = wv.datasets.load_face(args.face, n).with_skin_model(args.skin)
+        print(f"load_face({args.face!r}, {n}): {time.perf_counter() - t0:.1f} s")
         t0 = time.perf_counter()
-        r = report(face, refine=args.refine)
+        r = report(face, refine=args.refine, sections=procedural)
+        r.update(face=args.face, skin=args.skin)
         print_report(r)
         print(f"report: {time.perf_counter() - t0:.1f} s\n")
         results.append(r)

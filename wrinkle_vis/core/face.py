@@ -643,15 +643,18 @@ class FaceModel:
         return out
 
     def physical_state(self, activations: Mapping[str, float], skin_points: np.ndarray, *,
-                       time: float | None = None, velocities: np.ndarray | None = None
-                       ) -> FaceState:
+                       time: float | None = None, velocities: np.ndarray | None = None,
+                       muscle_pull: np.ndarray | None = None) -> FaceState:
         """The frame whose deformed skin is ``skin_points`` ``(n, 3)`` (the physical
-        skin's), every field computed as on the geometric skin.
+        skin's), every field computed as on the geometric skin; ``muscle_pull`` ``(n, 3)``,
+        when the caller has it, is :meth:`muscle_displacement` at ``activations``
+        (:attr:`FaceState.muscle_pull`).
         """
         state = self._frame(dict(activations), np.asarray(skin_points, dtype=float))
         state.skin_model = "physical"
         state.time = time
         state.velocities = None if velocities is None else _readonly(np.array(velocities))
+        state.muscle_pull = None if muscle_pull is None else _readonly(np.array(muscle_pull))
         return state
 
     def simulator(self, timeline=None, *, material: SkinMaterial | None = None):
@@ -807,8 +810,9 @@ class FaceModel:
         acts = self.activations_for({} if activations is None else activations, intensity)
         if check_skin_model(skin or self.skin_model) == "physical":
             springs = self.physical_skin(material)
-            x = springs.equilibrium(self.muscle_displacement(acts))
-            state = self.physical_state(acts, x, velocities=np.zeros_like(x))
+            pull = self.muscle_displacement(acts)
+            x = springs.equilibrium(pull)
+            state = self.physical_state(acts, x, velocities=np.zeros_like(x), muscle_pull=pull)
             if refine:
                 state = self._refined_physical(state, refine_angle_deg, refine_levels)
             return self.guarded(state, fold_guard)
@@ -1322,6 +1326,10 @@ class FaceState:
     time: float | None = None
     #: ``(n, 3)``: the skin's velocities (face units per second) in a simulated frame.
     velocities: np.ndarray | None = None
+    #: ``(n, 3)``: on a physical frame, the muscles' summed displacement its skin was
+    #: solved for (:meth:`FaceModel.muscle_displacement`), which refinement reads instead of
+    #: computing it again.
+    muscle_pull: np.ndarray | None = None
 
     def __init__(self, face, activations, deformed, points, total, assembly, compact,
                  source=None):

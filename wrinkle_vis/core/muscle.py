@@ -18,7 +18,14 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .equations import attenuation, bulge_height, half_period, periodic_coordinate, shape_function
-from .params import PARAMETER_KEY, Parameter, control_character, parameter
+from .params import (
+    PARAMETER_KEY,
+    Parameter,
+    ParameterValueError,
+    control_character,
+    format_value,
+    parameter,
+)
 
 __all__ = ["COMPRESSION_MEASURES", "MAX_COORDINATE", "OPTIONS", "Geometry", "Muscle",
            "MuscleParameterError", "MuscleRegion", "Parameter", "parameter", "plateau_fall",
@@ -43,8 +50,6 @@ MIN_POSITIVE = 1e-9
 #: The relative slack of :meth:`Muscle.aoi_ball` (the AOI's own bounds are tested exactly
 #: afterwards: slack costs a few candidates, never a vertex).
 BALL_SLACK = 0.01
-#: The largest count (``n_wrinkles``): far beyond any mesh, and exact as a float.
-_MAX_COUNT = 10**9
 
 
 class MuscleParameterError(ValueError):
@@ -235,14 +240,6 @@ def plateau_fall(x, start: float, end: float) -> np.ndarray:
     if end <= start:
         return np.where(x <= end, 1.0, 0.0)
     return smooth_fall((x - start) / (end - start))
-
-
-def _fmt(value) -> str:
-    if isinstance(value, float):
-        return f"{value:g}"
-    if isinstance(value, int) and abs(value) >= 10**16:  # too long to show (or to repr)
-        return f"an integer of about {int(value.bit_length() * math.log10(2)) + 1} digits"
-    return repr(value)
 
 
 class _FromParameters:
@@ -441,41 +438,28 @@ class Muscle:
     def _fail(self, param: str, value, allowed: str, hint: str = "") -> None:
         kind = self.type_name or type(self).__name__
         msg = (
-            f"{kind} muscle {self.name!r}: parameter {param} = {_fmt(value)} is invalid; "
+            f"{kind} muscle {self.name!r}: parameter {param} = {format_value(value)} is invalid; "
             f"allowed: {allowed}"
         )
         raise MuscleParameterError(msg + (f". {hint}" if hint else ""), param)
 
     def _check(self, param, lo=-math.inf, hi=math.inf, *, lo_open=False, hi_open=False,
                hint="") -> float:
-        value = getattr(self, param)
-        if isinstance(value, (bool, np.bool_)):
-            self._fail(param, value, "a real number", hint)
-        try:
-            x = float(value)
-        except OverflowError:  # an int beyond 1.8e308: out of any range
-            x = math.inf
-        except (TypeError, ValueError):
-            self._fail(param, value, "a real number", hint)
-        left = "(" if lo_open or lo == -math.inf else "["
-        right = ")" if hi_open or hi == math.inf else "]"
-        allowed = f"{left}{_fmt(float(lo))}, {_fmt(float(hi))}{right}"
-        if not math.isfinite(x) or x < lo or x > hi or (lo_open and x == lo) or (
-            hi_open and x == hi
-        ):
-            self._fail(param, value, allowed, hint)
-        object.__setattr__(self, param, x)
-        return x
+        """Check the number ``param`` against a range that depends on other parameters."""
+        return self._validated(Parameter(name=param), hint, lo, hi, lo_open=lo_open,
+                               hi_open=hi_open)
 
-    def _check_int(self, param, lo: int) -> int:
-        value = getattr(self, param)
-        integral = isinstance(value, (int, np.integer)) or (
-            isinstance(value, float) and value.is_integer())
-        if isinstance(value, bool) or not integral or not lo <= int(value) <= _MAX_COUNT:
-            self._fail(param, value, f"an integer >= {lo}",
-                       f"at most {_MAX_COUNT:.0e}" if integral and int(value) > lo else "")
-        object.__setattr__(self, param, int(value))
-        return int(value)
+    def _validated(self, spec: Parameter, hint: str = "", *bounds, **open_bounds):
+        """``spec``'s value through :meth:`Parameter.validate` (stored converted), or the
+        muscle's one-line error.
+        """
+        value = getattr(self, spec.name)
+        try:
+            x = spec.validate(value, *bounds, **open_bounds)
+        except ParameterValueError as e:
+            self._fail(spec.name, value, e.allowed, e.hint or hint)
+        object.__setattr__(self, spec.name, x)
+        return x
 
     def _check_point(self, param, shape=(3,)) -> np.ndarray:
         value = getattr(self, param)
@@ -518,10 +502,9 @@ class Muscle:
         if spec.unit in ("point", "vector"):
             self._check_point(spec.name, spec.shape or (3,))
         elif spec.unit == "count":
-            self._check_int(spec.name, int(spec.lo))
+            self._validated(spec)
         elif spec.is_number:
-            x = self._check(spec.name, spec.lo, spec.hi, lo_open=spec.lo_open,
-                            hi_open=spec.hi_open, hint=spec.hint)
+            x = self._validated(spec, spec.hint)
             if spec.is_length and abs(x) > MAX_COORDINATE:
                 self._fail(spec.name, x, f"at most {MAX_COORDINATE:g} (face units)",
                            "Far beyond any face: check the value and the layout's unit")

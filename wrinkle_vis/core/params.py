@@ -26,8 +26,11 @@ import math
 import unicodedata
 from dataclasses import dataclass
 
-__all__ = ["PARAMETER_KEY", "PHYSICAL_UNITS", "SURFACES", "TABLE_COLUMNS", "UNITS", "Parameter",
-           "control_character", "parameter", "parameter_table"]
+import numpy as np
+
+__all__ = ["MAX_COUNT", "PARAMETER_KEY", "PHYSICAL_UNITS", "SURFACES", "TABLE_COLUMNS", "UNITS",
+           "Parameter", "ParameterValueError", "control_character", "format_value", "parameter",
+           "parameter_table"]
 
 #: The key of a :class:`Parameter` in a dataclass field's metadata.
 PARAMETER_KEY = "wrinkle_vis.parameter"
@@ -38,6 +41,36 @@ PHYSICAL_UNITS = ("N/m", "N/m^3", "kg/m^3", "m", "1/s", "s")
 UNITS = ("length", "deg", "1", "count", "point", "vector", "option", *PHYSICAL_UNITS)
 #: The surfaces a point parameter lies on.
 SURFACES = ("skin", "skull")
+#: The largest count (``n_wrinkles``, ``iterations``): far beyond any mesh, and exact as a
+#: float.
+MAX_COUNT = 10**9
+
+
+def format_value(value) -> str:
+    """How an error message shows a parameter's value: a float with ``:g``, a huge integer
+    by its number of digits, anything else by its ``repr``.
+    """
+    if isinstance(value, float):
+        return f"{value:g}"
+    if isinstance(value, int) and abs(value) >= 10**16:  # too long to show (or to repr)
+        return f"an integer of about {int(value.bit_length() * math.log10(2)) + 1} digits"
+    return repr(value)
+
+
+class ParameterValueError(ValueError):
+    """A value a parameter does not allow (:meth:`Parameter.validate`).
+
+    Attributes
+    ----------
+    allowed : str
+        What is allowed, e.g. ``"(0, inf)"``, ``"a real number"``, ``"an integer >= 1"``.
+    hint : str
+        A way out, or ``""``.
+    """
+
+    def __init__(self, allowed: str, hint: str = ""):
+        super().__init__(allowed + (f". {hint}" if hint else ""))
+        self.allowed, self.hint = allowed, hint
 
 
 @dataclass(frozen=True)
@@ -141,6 +174,54 @@ class Parameter:
     def optional(self) -> bool:
         """None is allowed and means the :attr:`derived` value."""
         return self.derived is not None
+
+    def validate(self, value, lo: float | None = None, hi: float | None = None, *,
+                 lo_open: bool | None = None, hi_open: bool | None = None) -> float | int:
+        """``value`` as a float (an int for a count) when this parameter allows it, the one
+        check that muscles (:meth:`~wrinkle_vis.core.muscle.Muscle._check_common`) and the
+        skin's material (:class:`~wrinkle_vis.core.skin.SkinMaterial`) share.
+
+        Parameters
+        ----------
+        value : object
+            A real number (not a bool) inside the range; for a count an integral number in
+            ``[lo, MAX_COUNT]``.
+        lo, hi, lo_open, hi_open : optional
+            Bounds in place of the declared ones (ranges that depend on other parameters).
+
+        Raises
+        ------
+        ParameterValueError
+            Naming what is allowed.
+        """
+        lo = self.lo if lo is None else lo
+        hi = self.hi if hi is None else hi
+        lo_open = self.lo_open if lo_open is None else lo_open
+        hi_open = self.hi_open if hi_open is None else hi_open
+        if self.unit == "count":
+            integral = isinstance(value, (int, np.integer)) or (
+                isinstance(value, float) and value.is_integer())
+            if isinstance(value, (bool, np.bool_)) or not integral or \
+                    not lo <= int(value) <= MAX_COUNT:
+                raise ParameterValueError(
+                    f"an integer >= {lo:g}",
+                    f"at most {MAX_COUNT:.0e}" if integral and int(value) > lo else "")
+            return int(value)
+        if isinstance(value, (bool, np.bool_)):
+            raise ParameterValueError("a real number")
+        try:
+            x = float(value)
+        except OverflowError:  # an int beyond 1.8e308: out of any range
+            x = math.inf
+        except (TypeError, ValueError):
+            raise ParameterValueError("a real number") from None
+        if not math.isfinite(x) or x < lo or x > hi or (lo_open and x == lo) or (
+                hi_open and x == hi):
+            left = "(" if lo_open or lo == -math.inf else "["
+            right = ")" if hi_open or hi == math.inf else "]"
+            raise ParameterValueError(
+                f"{left}{format_value(float(lo))}, {format_value(float(hi))}{right}")
+        return x
 
     def range_text(self) -> str:
         """The static range as ``[0, 1)``, ``(0, inf)``, or ``integer >= 1``."""

@@ -474,7 +474,10 @@ def _skin_correction(root) -> np.ndarray | None:
     if getattr(root, "skin_model", "geometric") == "geometric":
         return None
     face = root.face
-    return root.deformed_points - face.skin.points - face.muscle_displacement(root.activations)
+    pull = getattr(root, "muscle_pull", None)  # what the physical skin was solved for
+    if pull is None:
+        pull = face.muscle_displacement(root.activations)
+    return root.deformed_points - face.skin.points - pull
 
 
 def _moved_or_wrinkled(root) -> np.ndarray:

@@ -76,6 +76,18 @@ class Simulation:
         self.x = self.skin.rest.copy()
         self.v = np.zeros_like(self.x)
         self.activations = np.zeros(len(self.face.muscles))
+        self._pull: tuple[np.ndarray, np.ndarray] | None = None  # (activations, their pull)
+
+    def muscle_pull(self) -> np.ndarray:
+        """``(n, 3)``: the muscles' summed displacement at the current :attr:`activations`
+        (:meth:`~wrinkle_vis.core.face.FaceModel.muscle_displacement`), computed once per
+        set of activations (a step and the state after it share it).
+        """
+        cached = self._pull
+        if cached is None or not np.array_equal(cached[0], self.activations):
+            pull = self.face.muscle_displacement(self._named(self.activations))
+            cached = self._pull = (self.activations.copy(), pull)
+        return cached[1]
 
     def command(self, t: float) -> np.ndarray:
         """``(M,)``: the timeline's activations at time ``t``, in muscle order."""
@@ -108,9 +120,7 @@ class Simulation:
         t1 = self.time + h
         self.activations = activation_response(self.activations, self.command(t1), h,
                                                self.material.activation_time)
-        acts = self._named(self.activations)
-        target = self.face.muscle_displacement(acts)
-        self.x, self.v = self.skin.step(self.x, self.v, target, h)
+        self.x, self.v = self.skin.step(self.x, self.v, self.muscle_pull(), h)
         self.time = t1
 
     def state(self, guard: bool = True):
@@ -120,15 +130,15 @@ class Simulation:
         simulated positions :attr:`x` are left as they are.
         """
         state = self.face.physical_state(self._named(self.activations), self.x,
-                                         time=self.time, velocities=self.v)
+                                         time=self.time, velocities=self.v,
+                                         muscle_pull=self.muscle_pull())
         return self.face.guarded(state, None) if guard else state
 
     def energy(self) -> float:
         """Kinetic plus potential energy of the current state (for the current
         activations' targets).
         """
-        target = self.face.muscle_displacement(self._named(self.activations))
-        return self.skin.energy(self.x, self.v, target)
+        return self.skin.energy(self.x, self.v, self.muscle_pull())
 
     def run(self, duration: float, dt: float | None = None, *, guard: bool = True
             ) -> Iterator:

@@ -82,10 +82,10 @@ import scipy.sparse.linalg as spla
 from scipy.spatial import cKDTree
 
 from .mesh import TriangleSurface, barycentric_points, surface_coordinates, unit_rows
-from .params import PARAMETER_KEY, Parameter, parameter
+from .params import PARAMETER_KEY, Parameter, ParameterValueError, format_value, parameter
 
-__all__ = ["SKIN_MODELS", "SkinMaterial", "SpringSkin", "activation_response", "bending_pairs",
-           "check_skin_model", "inverted_triangles", "vertex_areas"]
+__all__ = ["ACTIVATION_TOL", "SKIN_MODELS", "SkinMaterial", "SpringSkin", "activation_response",
+           "bending_pairs", "check_skin_model", "inverted_triangles", "vertex_areas"]
 
 #: The skin models a face can be evaluated with: the geometric pulls (the default) and the
 #: physically based skin of this module.
@@ -148,20 +148,15 @@ class SkinMaterial:
         doc="local/global iterations per time step")
 
     def __post_init__(self):
-        for p in self.parameters():
+        for p in self.parameters():  # the muscles' check (Parameter.validate), one message
             value = getattr(self, p.name)
-            if p.unit == "count":
-                if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or \
-                        value < p.lo:
-                    raise ValueError(f"skin {p.name} = {value!r} must be an integer >= "
-                                     f"{p.lo:g}")
-                continue
-            v = float(value)
-            ok = math.isfinite(v) and (v > p.lo if p.lo_open else v >= p.lo) and \
-                (v < p.hi if p.hi_open else v <= p.hi)
-            if not ok:
-                raise ValueError(f"skin {p.name} = {value!r} is outside {p.range_text()}; "
-                                 f"{p.doc}")
+            try:
+                object.__setattr__(self, p.name, p.validate(value))
+            except ParameterValueError as e:
+                where = "outside" if e.allowed[0] in "([" else "not"
+                allowed = e.allowed + (f", {e.hint}" if e.hint else "")
+                raise ValueError(f"skin {p.name} = {format_value(value)} is {where} "
+                                 f"{allowed}; {p.doc}") from None
 
     @classmethod
     def parameters(cls) -> tuple[Parameter, ...]:
@@ -291,11 +286,13 @@ class _Skull:
         closest point), in place; returns their ids.
         Only vertices that moved by more than half their estimated rest distance, and that
         the estimate :meth:`rough` puts within :attr:`NEAR` skull edges of the skull, are
-        looked at.
+        looked at; a vertex found inside the skull at rest is free and never looked at
+        again.
         """
         d = x - self.rest
         near = np.flatnonzero(np.einsum("ij,ij->i", d, d)
                               >= (0.5 * np.maximum(self.rest_rough, 0.0)) ** 2)
+        near = near[~(self._rest_exact[near] < 0.0)]  # inside at rest (measured): free
         if len(near):
             rough = self.rough(x[near])
             near = near[rough < self.margin]
@@ -344,6 +341,11 @@ class SpringSkin:
         self.i, self.j, self.L, self.k, self.n_edges = _spring_network(skin, mat)
         self.kb = mat.biphasic_ratio * self.k[: self.n_edges]
         self.kL = self.k * self.L
+        # what the local step reads every iteration and never changes: the biphasic clamp's
+        # bounds and the attachments' pull towards the rest skin
+        c, rest_len = mat.biphasic_strain, self.L[: self.n_edges]
+        self._clamp_lo, self._clamp_hi = rest_len * (1.0 - c), rest_len * (1.0 + c)
+        self._anchor_rest = self.anchor[:, None] * self.rest
         self.k_total = self.k.copy()
         self.k_total[: self.n_edges] += self.kb
         s = len(self.L)
@@ -388,10 +390,15 @@ class SpringSkin:
             row = np.ascontiguousarray(xt[axis])
             np.subtract(row.take(self.i), row.take(self.j), out=d[axis])
         length = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-        ne, c, L = self.n_edges, self.material.biphasic_strain, self.L[: self.n_edges]
-        wanted = self.kL.copy()
-        wanted[:ne] += self.kb * np.clip(length[:ne], L * (1.0 - c), L * (1.0 + c))
-        d *= wanted / np.maximum(length, 1e-300)
+        ne = self.n_edges
+        wanted = np.empty_like(length)  # k L, plus r k_e Pi_e(l) on the edges
+        np.clip(length[:ne], self._clamp_lo, self._clamp_hi, out=wanted[:ne])
+        wanted[:ne] *= self.kb
+        wanted[:ne] += self.kL[:ne]
+        wanted[ne:] = self.kL[ne:]
+        np.maximum(length, 1e-300, out=length)
+        wanted /= length
+        d *= wanted
         out = np.empty((3, self.n))
         for c in range(3):
             out[c] = self.J @ d[c]
@@ -399,7 +406,7 @@ class SpringSkin:
 
     def _anchor_rhs(self, target_disp: np.ndarray) -> np.ndarray:
         """``(n, 3)``: the attachment and zone springs' pull on the right-hand side."""
-        return self.anchor[:, None] * self.rest + self.k_zone[:, None] * target_disp
+        return self._anchor_rest + self.k_zone[:, None] * target_disp
 
     def step(self, x: np.ndarray, v: np.ndarray, target_disp: np.ndarray,
              h: float) -> tuple[np.ndarray, np.ndarray]:
@@ -455,9 +462,9 @@ class SpringSkin:
         """
         d = x[self.i] - x[self.j]
         length = np.sqrt(np.einsum("ij,ij->i", d, d))
-        ne, c, L = self.n_edges, self.material.biphasic_strain, self.L[: self.n_edges]
+        ne = self.n_edges
         e = 0.5 * (self.k * (length - self.L) ** 2).sum()
-        clamp = np.clip(length[:ne], L * (1.0 - c), L * (1.0 + c))
+        clamp = np.clip(length[:ne], self._clamp_lo, self._clamp_hi)
         e += 0.5 * (self.kb * (length[:ne] - clamp) ** 2).sum()
         u = x - self.rest
         e += 0.5 * (self.k_att * np.einsum("ij,ij->i", u, u)).sum()
@@ -541,12 +548,26 @@ def _spring_network(skin: TriangleSurface, mat: SkinMaterial):
     return i, j, np.concatenate([rest_len, b_len]), stiffness, len(edges)
 
 
+#: How close (in activation, of 1) a filtered activation comes to its command before it
+#: is set to it: first-order dynamics only approach the command, so without this a
+#: released muscle would stay active (and keep its zone off the rest skin) for ever. With
+#: the default :math:`\tau_a` the snap comes :math:`\tau_a \ln 10^4 \approx 0.41` s
+#: after a full step, and moves the skin by at most 1e-4 of a muscle's full pull.
+ACTIVATION_TOL = 1e-4
+
+
 def activation_response(previous: np.ndarray, command: np.ndarray, h: float,
                         tau: float) -> np.ndarray:
     r"""The activations after ``h`` seconds of first-order activation dynamics,
     :math:`a + (u - a)(1 - e^{-h/\tau_a})` (exact for a command held over the step;
-    :math:`\tau_a = 0` follows the command at once).
+    :math:`\tau_a = 0` follows the command at once); an activation within
+    :data:`ACTIVATION_TOL` of its command becomes the command exactly (a released muscle
+    reaches 0 and stops pulling).
     """
+    command = np.asarray(command, dtype=float)
     if tau <= 0.0:
         return command.copy()
-    return command + (previous - command) * math.exp(-h / tau)
+    out = command + (np.asarray(previous, dtype=float) - command) * math.exp(-h / tau)
+    near = np.abs(out - command) <= ACTIVATION_TOL
+    out[near] = command[near]
+    return out
