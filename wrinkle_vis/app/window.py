@@ -34,6 +34,8 @@ from ..plotting import set_camera
 from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
 from ..widgets.panels import MuscleListPanel
+from .dialogs import ask_text
+from .facemenu import FACE_LABELS, can_pick_again, face_title, mark_face
 from .newface_panel import NewFaceFlow
 from .recovery import Recovery
 from .session import (
@@ -55,7 +57,6 @@ TOTAL = "total"
 PROBE_HINT = "Right-click the skin to probe a point"
 #: The probe marker's radius, a fraction of the skin's bounding-box diagonal.
 PROBE_MARKER = 0.006
-_FACE_LABELS = {"procedural": "&Procedural", "lee_perry_smith": "&Lee Perry-Smith"}
 PLAIN = "none"  # the field box's entry for plain skin (no field)
 KEEP = object()  # edit(): keep the selection
 MAX_RECENT = 8
@@ -442,8 +443,12 @@ class MainWindow(QtWidgets.QMainWindow):
 
         menu = self.menuBar().addMenu("F&ace")
         self.face_actions = {}
+        group = QtGui.QActionGroup(menu)  # the face shown is checked (none: a scan's)
+        group.setExclusionPolicy(QtGui.QActionGroup.ExclusionPolicy.ExclusiveOptional)
         for name in FACES:
-            action = menu.addAction(_FACE_LABELS.get(name, name.replace("_", " ").title()))
+            action = menu.addAction(FACE_LABELS.get(name, name.replace("_", " ").title()))
+            action.setCheckable(True)
+            group.addAction(action)
             action.setToolTip(f"Show the built-in face load_face({name!r})")
             action.triggered.connect(_weak(self.open_builtin, name))
             self.face_actions[name] = action
@@ -458,11 +463,13 @@ class MainWindow(QtWidgets.QMainWindow):
         from wrinkle_vis.datasets import load_face
 
         if not self.may_discard_changes(f"opening the {name} face"):
+            self._mark_face()  # the menu's click checked the face not shown
             return False
         try:
             face = load_face(name)
         except (OSError, ValueError, KeyError) as exc:
             QtWidgets.QMessageBox.warning(self, "Cannot open the face", str(exc))
+            self._mark_face()
             return False
         named = None if name == "procedural" else name  # the layout records the face
         self._show_session(Session(face, layout=Layout(face=named, unit=face.unit)))
@@ -1080,8 +1087,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """Ask for a new name for the selected muscle."""
         name = self._selected_or_warn()
         if name is not None:
-            text, ok = QtWidgets.QInputDialog.getText(self, "Rename muscle", "New name:",
-                                                      text=name)
+            text, ok = ask_text(self, "Rename muscle", f"New name for {name}:", name)
             if ok and text != name:
                 self.rename_muscle(text)
 
@@ -1232,9 +1238,13 @@ class MainWindow(QtWidgets.QMainWindow):
 
     # ------------------------------------------------------------------ files
     def _update_title(self) -> None:
-        path = self.session.layout_path
-        self.setWindowTitle(f"wrinkle-vis - {path.name if path else 'built-in face'}"
-                            f"{' *' if self.session.dirty else ''}")
+        self.setWindowTitle(face_title(self.session))
+        self._mark_face()
+
+    def _mark_face(self) -> None:
+        """The Face menu checks the face shown; Pick landmarks again only on a scan's."""
+        mark_face(self.face_actions, self.session)
+        self.newface.actions["again"].setEnabled(can_pick_again(self.session))
 
     def may_discard_changes(self, doing: str = "going on") -> bool:
         """Whether the unsaved changes, if any, may be left behind: asks Save / Discard /

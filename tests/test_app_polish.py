@@ -1,0 +1,71 @@
+"""The app's rough edges (issue 32, polish): the Face menu marks the face shown and the
+title names it, Pick landmarks again only where there are scan landmarks, dialogs wide
+enough for their titles.
+"""
+
+from __future__ import annotations
+
+from qtpy import QtGui, QtWidgets
+
+from wrinkle_vis.app.session import Session
+from wrinkle_vis.core.layout import Layout
+
+
+def checked_faces(w) -> list[str]:
+    return [name for name, action in w.face_actions.items() if action.isChecked()]
+
+
+def test_the_face_menu_checks_the_face_shown_and_the_title_names_it(make_window, answer):
+    w = make_window()
+    assert all(a.isCheckable() for a in w.face_actions.values())
+    assert checked_faces(w) == ["procedural"]
+    assert w.windowTitle() == "wrinkle-vis - built-in face Procedural"
+    w.face_actions["lee_perry_smith"].trigger()
+    assert checked_faces(w) == ["lee_perry_smith"]  # exclusive: Procedural unchecked
+    assert w.windowTitle() == "wrinkle-vis - built-in face Lee Perry-Smith"
+    w.select_muscle(w.session.face.muscle_names[0])
+    w.param_widgets["k0"].setValue(w.param_widgets["k0"].value() * 1.5)  # unsaved
+    answer("Cancel")
+    w.face_actions["procedural"].trigger()  # cancelled: the face shown stays checked
+    assert "unsaved changes" in answer.asked[-1]
+    assert checked_faces(w) == ["lee_perry_smith"]
+    assert w.windowTitle() == "wrinkle-vis - built-in face Lee Perry-Smith *"
+
+
+def test_pick_landmarks_again_is_enabled_only_on_a_face_from_a_scan(make_window, wv_face,
+                                                                   tmp_path):
+    w = make_window()
+    again = w.newface.actions["again"]
+    assert not again.isEnabled()  # the procedural face: no scan landmarks to pick
+    w.face_actions["lee_perry_smith"].trigger()
+    assert not again.isEnabled()
+    scan = Session(wv_face, layout=Layout(skin="head.ply", face=None), folder=tmp_path)
+    w._show_session(scan)
+    assert again.isEnabled()
+    assert checked_faces(w) == []  # a scan is none of the built-in faces
+    assert w.windowTitle() == "wrinkle-vis - new face from head.ply"
+
+
+def test_the_rename_dialog_is_wide_enough_for_its_title(window, answer):
+    """A title bar takes an icon and three buttons besides its text, often in a larger bold
+    font: the dialog must be at least that wide, or the window manager cuts the title.
+    """
+    window.select_muscle("corrugator_L")
+    seen = {}
+
+    def rename(dialog):
+        font = QtGui.QFont(dialog.font())
+        font.setBold(True)
+        font.setPointSizeF(1.2 * font.pointSizeF())
+        bar = dialog.style().pixelMetric(QtWidgets.QStyle.PM_TitleBarHeight)
+        seen.update(title=dialog.windowTitle(), width=dialog.width(),
+                    needed=QtGui.QFontMetrics(font).horizontalAdvance(dialog.windowTitle())
+                    + 4 * bar)
+        dialog.setTextValue("corrugator_left")
+        dialog.accept()
+
+    answer(rename)
+    window.rename_dialog()
+    assert seen["title"] == "Rename muscle"
+    assert seen["width"] >= seen["needed"], seen
+    assert "corrugator_left" in window.session.face.muscle_names
