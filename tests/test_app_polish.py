@@ -5,6 +5,7 @@ enough for their titles.
 
 from __future__ import annotations
 
+import pytest
 from qtpy import QtGui, QtWidgets
 
 from wrinkle_vis.app.session import Session
@@ -69,3 +70,22 @@ def test_the_rename_dialog_is_wide_enough_for_its_title(window, answer):
     assert seen["title"] == "Rename muscle"
     assert seen["width"] >= seen["needed"], seen
     assert "corrugator_left" in window.session.face.muscle_names
+
+
+def test_the_raking_light_keeps_the_field_colours_in_the_app(window):
+    """View > Raking light on a field: the colour-mapped skin takes the colour-keeping
+    material (plotting.raking_colour_material); off again, the plain one.
+    """
+    from wrinkle_vis.plotting.scenes import raking_colour_material
+
+    skin = window.skin_view.actors["skin"]
+    assert (skin.prop.ambient, skin.prop.diffuse) == (0.0, 1.0)
+    window.raking_action.trigger()
+    skin = window.skin_view.actors["skin"]
+    assert skin.prop.ambient == pytest.approx(raking_colour_material()["ambient"])
+    window.field_box.setCurrentText("H")  # a rebuild under the raking light keeps it
+    window.select_muscle("corrugator_L")
+    skin = window.skin_view.actors["skin"]
+    assert skin.prop.ambient == pytest.approx(raking_colour_material()["ambient"])
+    window.raking_action.trigger()
+    assert (skin.prop.ambient, skin.prop.diffuse) == (0.0, 1.0)

@@ -34,6 +34,7 @@ from ..plotting import (
     clear_scene,
     field_range,
     muscle_mesh,
+    remove_raking_light,
     replace_mesh,
 )
 from ..plotting.bars import add_field_bar, fit_bar_labels
@@ -190,7 +191,7 @@ class LinkedViews:
         if self.raking_light:
             add_raking_light(self.skin_view)
         else:
-            self.skin_view.enable_lightkit(only_active=True)
+            remove_raking_light(self.skin_view)  # colour-mapped skin's material back too
 
     def _rebuild(self, session, state: FaceState, wireframe: bool, plain: bool,
                  clim=None, unit: str = "mm") -> None:
