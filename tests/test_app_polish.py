@@ -89,3 +89,28 @@ def test_the_raking_light_keeps_the_field_colours_in_the_app(window):
     assert skin.prop.ambient == pytest.approx(raking_colour_material()["ambient"])
     window.raking_action.trigger()
     assert (skin.prop.ambient, skin.prop.diffuse) == (0.0, 1.0)
+
+
+def test_the_app_shows_fields_and_parameters_by_their_symbols(window):
+    """The field box, the parameter panel, the probe table and the scalar bar read the
+    symbols from the core's descriptions; the field box still speaks keys.
+    """
+    box = window.field_box
+    shown = [box.shownText(i) for i in range(box.count())]
+    assert "λ (length factor)" in shown and "ε (compression rate)" in shown
+    assert "W (wrinkle amplitude)" in shown and "w (periodic coordinate)" in shown
+    assert len({s.casefold() for s in shown}) == len(shown)  # w and W apart
+    window.select_muscle("corrugator_L")
+    box.setCurrentText("eps")
+    assert box.currentText() == "eps" and box.shownText() == "ε (compression rate)"
+    assert window.session.field == "eps"
+    bar = window.skin_view.scalar_bars["eps, corrugator_L"]
+    assert bar.GetTitle().rstrip() == "ε, corrugator_L"
+    form = window.param_form
+    labels = [form.itemAt(i, form.ItemRole.LabelRole).widget().text()
+              for i in range(form.rowCount())
+              if form.itemAt(i, form.ItemRole.LabelRole) is not None]
+    assert "Φ (deg)" in labels and "k₀" in labels and "λ_w" in labels
+    header = [window.probe_table.verticalHeaderItem(i).text()
+              for i in range(window.probe_table.rowCount())]
+    assert header[:2] == ["λ", "γ"] and "ε" in header and "W (mm)" in header

@@ -209,9 +209,10 @@ class LinkedViews:
         if not plain:
             if clim is not None:
                 actor.mapper.scalar_range = clim
+            info = field_info(session.field)
             self._bar = add_field_bar(self.skin_view, actor.mapper,
-                                      field_info(session.field).title(session.muscle,
-                                                                      units=unit))
+                                      info.title(session.muscle, units=unit),
+                                      info.display_title(session.muscle, unit))
         self._skin_mesh = actor.mapper.dataset
         clear_scene(self.muscle_view)
         points, triangles, normals = ghost_skin(state, face.skin)

@@ -36,6 +36,7 @@ from ..plotting.polydata import field_array_name
 from ..widgets.panels import MuscleListPanel
 from .dialogs import ask_text
 from .facemenu import FACE_LABELS, can_pick_again, face_title, mark_face
+from .fieldbox import FieldBox
 from .newface_panel import NewFaceFlow
 from .recovery import Recovery
 from .session import (
@@ -271,14 +272,7 @@ class MainWindow(QtWidgets.QMainWindow):
         row.addWidget(self.time_slider)
         row.addWidget(self.reset_button)
         view.addRow("Timeline", row)
-        self.field_box = QtWidgets.QComboBox()
-        self.field_box.addItems([*FIELD_NAMES, PLAIN])
-        self.field_box.setItemData(len(FIELD_NAMES), "Plain skin, no field (try View > Raking "
-                                   "light)", QtCore.Qt.ToolTipRole)
-        for i, key in enumerate(FIELD_NAMES):  # the symbol and meaning: w is not W
-            spec = field_info(key)
-            self.field_box.setItemData(i, f"{spec.symbol}: {spec.name}, {spec.meaning} "
-                                          f"({spec.equation})", QtCore.Qt.ToolTipRole)
+        self.field_box = FieldBox(FIELD_NAMES, PLAIN)  # symbols and names: w is not W
         self.field_box.currentTextChanged.connect(self._on_field)
         view.addRow("Field", self.field_box)
         self.muscle_box = QtWidgets.QComboBox()
@@ -550,7 +544,7 @@ class MainWindow(QtWidgets.QMainWindow):
             w.valueChanged.connect(_weak(self.set_parameter, spec.name, keep=1))
             w.installEventFilter(self._undo_keys)  # Ctrl+Z undoes the edit, not the typing
             self.param_widgets[spec.name] = w
-            self.param_form.addRow(spec.label, w)
+            self.param_form.addRow(spec.display, w)
         self.option_widgets = {}
         for spec in muscle.options():  # every type has them, declared in core.muscle
             if spec.is_flag:
@@ -564,7 +558,7 @@ class MainWindow(QtWidgets.QMainWindow):
             w.setToolTip(spec.doc)
             _show_option(w, getattr(muscle, spec.name))
             self.option_widgets[spec.name] = w
-            self.param_form.addRow(spec.label, w)
+            self.param_form.addRow(spec.display, w)
         self.activation_box = QtWidgets.QDoubleSpinBox()
         self.activation_box.setRange(0.0, 1.0)
         self.activation_box.setSingleStep(0.05)
@@ -731,7 +725,7 @@ class MainWindow(QtWidgets.QMainWindow):
             w.valueChanged.connect(_weak(self.set_material, spec.name, keep=1))
             w.installEventFilter(self._undo_keys)  # Ctrl+Z undoes the edit, not the typing
             self.skin_widgets[spec.name] = w
-            skin_form.addRow(spec.label, w)
+            skin_form.addRow(spec.display, w)
         self.skin_error = _error_label()
         skin_form.addRow(self.skin_error)
         form.addWidget(self.skin_group)
@@ -869,11 +863,11 @@ class MainWindow(QtWidgets.QMainWindow):
         name = self.session.muscle
         muscle = self.session.face.muscle(name) if name else None
         specs = (*editable(muscle), *muscle.options()) if muscle is not None else ()
-        return {p.name: p.label for p in specs}
+        return {p.name: p.display for p in specs}
 
     def _labelled(self, message: str) -> str:
         """``message`` with the parameters called by the labels the panel shows them under
-        (``parameter max_angle_deg = 95`` -> ``Phi (deg) = 95``).
+        (``parameter max_angle_deg = 95`` -> ``Φ (deg) = 95``).
         """
         labels = self._labels()
         message = re.sub(r"\bparameter (\w+) =",
@@ -1885,8 +1879,8 @@ def _xyz(point) -> str:
 
 
 def _field_label(field: str, unit: str) -> str:
-    """A field's name with its unit: ``W (mm)``, ``lambda``."""
-    return field_info(field).label(unit)
+    """A field's symbol with its unit: ``W (mm)``, ``λ``."""
+    return field_info(field).display_label(unit)
 
 
 def _error_label() -> QtWidgets.QLabel:

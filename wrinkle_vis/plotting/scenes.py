@@ -7,7 +7,7 @@ import pyvista as pv
 
 from ..core.face import FaceModel, FaceState
 from ..core.units import face_unit
-from .bars import field_bar_args, fit_bar_labels
+from .bars import field_bar_args, fit_bar_labels, show_bar_title
 from .fields import NAN_COLOR, field_info, field_range
 from .finite import require_finite
 from .glyphs import glyph_factory
@@ -172,9 +172,11 @@ def keep_colours(renderer) -> None:
         actor.prop.diffuse = material["diffuse"]
 
 
-def _fit_bar(plotter: pv.Plotter, options: dict, nan: bool = True) -> None:
-    """After ``add_mesh(..., **options)``: the scalar bar's NaN label and its tick labels
-    fitted to the bar (:func:`~wrinkle_vis.plotting.bars.fit_bar_labels`).
+def _fit_bar(plotter: pv.Plotter, options: dict, nan: bool = True,
+             shown: str | None = None) -> None:
+    """After ``add_mesh(..., **options)``: the scalar bar's NaN label, the title ``shown``
+    on it (:func:`~wrinkle_vis.plotting.bars.show_bar_title`; default its name) and its tick
+    labels fitted to the bar (:func:`~wrinkle_vis.plotting.bars.fit_bar_labels`).
     """
     title = (options.get("scalar_bar_args") or {}).get("title")
     if not options.get("show_scalar_bar") or title not in plotter.scalar_bars:
@@ -182,6 +184,8 @@ def _fit_bar(plotter: pv.Plotter, options: dict, nan: bool = True) -> None:
     bar = plotter.scalar_bars[title]
     if nan:
         bar.SetNanAnnotation("undefined")
+    if shown is not None:
+        show_bar_title(bar, shown)
     fit_bar_labels(bar, plotter.renderer)
 
 
@@ -237,7 +241,7 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
         else None)
     options.update(mesh_kwargs)
     actor = plotter.add_mesh(mesh, **options)
-    _fit_bar(plotter, options)
+    _fit_bar(plotter, options, shown=info.display_title(muscle, face_unit(state)))
     if raking_lit(plotter.renderer):  # keep the colour map's colours (add_raking_light)
         keep_colours(plotter.renderer)
     return actor
