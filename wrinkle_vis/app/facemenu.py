@@ -26,7 +26,7 @@ def builtin_face(session) -> str | None:
     """
     from wrinkle_vis.datasets import FACES
 
-    layout = session.layout()
+    layout = session.base_layout  # where the skin comes from (not the edits: cheap)
     if layout.skin is not None:
         return None
     name = layout.face or "procedural"
@@ -38,7 +38,7 @@ def can_pick_again(session) -> bool:
     a scan, whose layout names its mesh, with landmarks, and a folder the mesh path starts
     from. Built-in faces have no scan landmarks to pick.
     """
-    return (session.layout().skin is not None and bool(session.face.landmarks)
+    return (session.base_layout.skin is not None and bool(session.face.landmarks)
             and session.folder is not None)
 
 
@@ -51,7 +51,7 @@ def face_title(session) -> str:
     elif (name := builtin_face(session)) is not None:
         what = f"built-in face {face_label(name)}"
     else:
-        what = f"new face from {Path(session.layout().skin).name}"
+        what = f"new face from {Path(session.base_layout.skin).name}"
     return f"wrinkle-vis - {what}{' *' if session.dirty else ''}"
 
 
