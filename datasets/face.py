@@ -28,7 +28,7 @@ from .anatomy import BUILTIN_LAYOUT
 from .landmarks import builtin_landmarks
 from .lee_perry_smith import load_lee_perry_smith
 from .scans import orient_outward, read_surface, transfer_layout
-from .sdf import contour, front_hit, project_to_surface
+from .sdf import contour, front_hit, project_in_plane, project_to_surface
 from .skull import scan_skull
 
 __all__ = ["BUILTIN_LAYOUT", "FACES", "build_skin", "build_skull", "builtin_expressions",
@@ -141,6 +141,33 @@ def _remesh_exactly(raw, n_triangles: int, subdivide: int) -> TriangleSurface:
     raise RuntimeError(f"pyacvd gave more than {n_triangles} triangles 8 times; report this")
 
 
+#: Where the built-in skin is cut open, ``(axis, value)``: behind the ears (z = -15 mm) and
+#: under the chin, across the neck (y = -112 mm); the skin keeps the side above the value.
+SKIN_CUTS = ((2, -15.0), (1, -112.0))
+
+
+def _onto_cuts(surf: TriangleSurface, points: np.ndarray) -> np.ndarray:
+    """``points`` ``(n, 3)`` of ``surf`` with its boundary vertices on the cuts
+    (:data:`SKIN_CUTS`): each on the cut it lies nearest, where that plane meets the skin's
+    level set (:func:`~wrinkle_vis.datasets.sdf.project_in_plane`).
+
+    pyacvd places a vertex at the centre of its cluster, so the clusters along a cut put
+    their vertices up to half a cluster inside it, each by another amount: projected onto
+    the level set only, the cut edge was a saw (2.6 mm off the plane on average at 4,500
+    triangles, up to 4 mm), which shows as a serrated neck.
+    """
+    counts = np.bincount(surf.triangle_edges.ravel(), minlength=len(surf.edges))
+    boundary = np.unique(surf.edges[counts == 1].ravel())
+    p = points[boundary]
+    gaps = np.stack([np.abs(p[:, axis] - value) for axis, value in SKIN_CUTS], axis=1)
+    nearest = np.argmin(gaps, axis=1)
+    axes = np.array([a for a, _ in SKIN_CUTS])[nearest]
+    values = np.array([v for _, v in SKIN_CUTS])[nearest]
+    out = np.array(points, dtype=float)
+    out[boundary] = project_in_plane(anatomy.skin_sdf, p, axes, values)
+    return out
+
+
 def build_skin(n_triangles: int = DEFAULT_TRIANGLES) -> TriangleSurface:
     """The skin: the face and scalp in front of the ears, above the neck.
 
@@ -149,21 +176,26 @@ def build_skin(n_triangles: int = DEFAULT_TRIANGLES) -> TriangleSurface:
     behind the ears (z = -15 mm) and under the chin (y = -112 mm), remeshed to an even
     triangulation with pyacvd (finer versions subdivide the contour first), brought to
     exactly ``n_triangles`` triangles by splitting the longest edges
-    (:func:`split_longest_edges`), and every vertex is projected onto the exact level set.
+    (:func:`split_longest_edges`), and every vertex is projected onto the exact level set,
+    the boundary vertices onto where it meets the cut planes (:func:`_onto_cuts`: clean cut
+    edges).
     The same ``n_triangles`` always gives the same mesh, with ``n_triangles`` triangles.
     """
     n_triangles = int(n_triangles)
 
     def build():
         raw = contour(anatomy.skin_sdf, (-82, -118, -22), (82, 128, 112), 1.6)
-        raw = raw.clip(normal=(0, 0, -1), origin=(0, 0, -15))
-        raw = raw.clip(normal=(0, -1, 0), origin=(0, -112, 0)).extract_surface(
-            algorithm="dataset_surface")
-        raw = raw.triangulate().clean()
+        for axis, value in SKIN_CUTS:
+            normal = np.zeros(3)
+            normal[axis] = -1.0
+            origin = np.zeros(3)
+            origin[axis] = value
+            raw = raw.clip(normal=normal, origin=origin)
+        raw = raw.extract_surface(algorithm="dataset_surface").triangulate().clean()
         sub = int(np.clip(np.ceil(np.log(max(n_triangles, 1) / 8000) / np.log(4)), 0, 3))
         surf = _remesh_exactly(raw, n_triangles, sub)
-        surf = TriangleSurface(project_to_surface(anatomy.skin_sdf, surf.points),
-                               surf.triangles).oriented()
+        points = _onto_cuts(surf, project_to_surface(anatomy.skin_sdf, surf.points))
+        surf = TriangleSurface(points, surf.triangles).oriented()
         return {"points": surf.points, "triangles": surf.triangles}
 
     arrays = cached("skin", (n_triangles,), build)

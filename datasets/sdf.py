@@ -64,6 +64,26 @@ def project_to_surface(field, points: np.ndarray, steps: int = 4) -> np.ndarray:
     return p
 
 
+def project_in_plane(field, points: np.ndarray, axis: np.ndarray, value: np.ndarray,
+                     steps: int = 6) -> np.ndarray:
+    """``(n, 3)``: points put on the plane ``p[axis] = value`` (``axis`` and ``value``
+    ``(n,)``, one plane per point) and moved within it onto the zero set of ``field`` by
+    Newton steps along the gradient with its component across the plane removed: onto the
+    curve where the plane meets the surface.
+    """
+    p = np.array(points, dtype=float)
+    rows = np.arange(len(p))
+    p[rows, axis] = value
+    eps = 1e-3
+    for _ in range(steps):
+        d = field(p)
+        grad = np.stack([(field(p + e) - field(p - e)) / (2 * eps)
+                         for e in np.eye(3) * eps], axis=1)
+        grad[rows, axis] = 0.0
+        p -= (d / np.maximum(np.einsum("ij,ij->i", grad, grad), 1e-12))[:, None] * grad
+    return p
+
+
 def sample_narrow_band(field, lo, dims, spacing: float, coarse: int = 4) -> np.ndarray:
     """``dims``-shaped samples of ``field`` (x fastest), exact within a band around its zero
     set and trilinearly interpolated from a grid ``coarse`` times sparser elsewhere.

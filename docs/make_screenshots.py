@@ -116,6 +116,7 @@ def main():
     window.probe_vertex(int(window.session.state().W.argmin()))
     settle(app)
     window.grab().save(str(OUT / "app_frown_gamma.png"))
+    window.clear_probe()  # the frown's probe is not the placement's
     window.expression_box.setCurrentText("smile")
     window.field_box.setCurrentText("W")
     window.select_muscle("zygomaticus_major_L")

@@ -92,7 +92,7 @@ def test_a_parameter_change_updates_the_skin(window):
 def test_an_invalid_value_is_refused_with_its_reason(window):
     window.muscle_box.setCurrentText("corrugator_L")
     assert not window.set_parameter("lambda_w", 1.5)
-    assert "lambda_w" in window.param_error.text() and "[0, 1)" in window.param_error.text()
+    assert "λ_w" in window.param_error.text() and "[0, 1)" in window.param_error.text()
     before = window.session.face.muscle("corrugator_L").lambda_w
     assert window.session.face.muscle("corrugator_L").lambda_w == before == pytest.approx(0.1)
     assert window.param_widgets["lambda_w"].value() == pytest.approx(before)

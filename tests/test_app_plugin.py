@@ -33,7 +33,7 @@ def test_the_panel_shows_every_number_the_plugin_declares(ring_window):
     assert list(w.param_widgets) == want == [p.name for p in editable(ring)]
     labels = [w.param_form.itemAt(i, w.param_form.ItemRole.LabelRole).widget().text()
               for i in range(len(want))]
-    assert labels == ["radius", "depth", "lambda_w", "n_w", "k0", "alpha", "K"]
+    assert labels == ["radius", "depth", "λ_w", "n_w", "k₀", "α", "K"]  # the panel shows symbols
     for name, box in w.param_widgets.items():
         assert box.value() == pytest.approx(getattr(ring, name), abs=1e-3)
     assert w.param_widgets["radius"].singleStep() == 1.0

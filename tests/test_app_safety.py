@@ -540,7 +540,7 @@ def test_the_unit_is_the_faces_on_bar_probe_status_and_parameters(make_window, w
     assert "l (cm), frontalis_major_L" in w.skin_view.scalar_bars
     w.probe_vertex(10)
     header = [w.probe_table.verticalHeaderItem(i).text() for i in range(len(wv.FIELD_NAMES))]
-    assert "W (cm)" in header and "l (cm)" in header and "lambda" in header
+    assert "W (cm)" in header and "l (cm)" in header and "λ" in header
     assert " cm" in w.status_label.text() and " cm" in w.derived_label.text()
     plain = Session(wv_face)
     assert plain.unit == "mm"  # a face that does not say: millimetres
@@ -621,7 +621,7 @@ def test_parameter_errors_use_the_panels_labels_and_an_undo_clears_them(window, 
     assert window.undo_stack.count() == 1
     type_into(window.param_widgets["max_angle_deg"], "95")
     error = window.param_error.text()
-    assert "Phi (deg) = 95" in error and "max_angle_deg" not in error
+    assert "Φ (deg) = 95" in error and "max_angle_deg" not in error
     type_into(window.param_widgets["radius"], "0.5")
     error = window.param_error.text()
     assert "R = 0.5" in error and "radius" not in error

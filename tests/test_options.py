@@ -377,7 +377,7 @@ def test_the_panel_switches_both_options_each_one_undo_step(window, name):
     combo.setCurrentIndex(1)
     assert window.session.face.muscle(name).compression == "gradient"
     assert window.undo_stack.count() == steps + 2
-    assert window.undo_stack.undoText() == f"Set eps from of {name} to gradient"
+    assert window.undo_stack.undoText() == f"Set ε from of {name} to gradient"
     eps_after = window.session.state().fields[name]["eps"]
     assert not np.allclose(np.nan_to_num(eps_after), np.nan_to_num(eps_before))
     after = window.session.layout().to_dict()

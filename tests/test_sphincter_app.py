@@ -39,7 +39,7 @@ def test_edits_are_checked_and_undone(window):
     assert after.sector_deg == 30.0 and after.u < before.u  # a narrower fan, same n_w
     assert not np.array_equal(window.session.state().W, w_before)
     assert not window.set_parameter("attenuation_start_deg", 40.0)  # past Theta = 30
-    assert "phi_c (deg) = 40 is invalid; allowed: [0, 30]" in window.param_error.text()
+    assert "φ_c (deg) = 40 is invalid; allowed: [0, 30]" in window.param_error.text()
     window.undo_stack.undo()
     assert window.session.face.muscle(NAME) == before
 

@@ -13,6 +13,7 @@ from qtpy import QtCore, QtGui, QtWidgets
 from vtkmodules.vtkRenderingCore import vtkCellPicker
 
 from ..core.units import LENGTH_UNITS
+from .facemenu import can_pick_again
 from .newface import (
     DESCRIPTIONS,
     MESH_FILTER,
@@ -231,14 +232,14 @@ class NewFaceFlow:
         """
         w = self.window
         s = w.session
-        layout = s.layout()
-        if layout.skin is None or not s.face.landmarks or s.folder is None:
+        if not can_pick_again(s):
             w.statusBar().showMessage(
                 "Pick landmarks again works on a face from a scan (File > New face from "
                 "mesh..., or a layout that names its mesh)", 10000)
             return False
         if not self._leave_flow():
             return False
+        layout = s.layout()
         mesh = layout.resolve("skin", s.folder)
         self._begin(LandmarkPicker(s.face.skin, mesh, source=layout,
                                    previous=dict(s.face.landmarks), unit=s.unit))

@@ -638,6 +638,14 @@ class Session:
         return rest, weights @ state.points[corners]
 
     # ------------------------------------------------------------------ files
+    @property
+    def base_layout(self) -> Layout:
+        """The layout as read or last saved (where its skin comes from, which built-in face,
+        its unit), without the current edits: cheap, unlike :meth:`layout`, which builds
+        the current one.
+        """
+        return self._layout
+
     def layout(self, folder: str | Path | None = ...) -> Layout:
         """The current muscles and expressions as a :class:`Layout`, from the layout held
         in memory (the file is not read again). ``folder``: where its relative mesh paths

@@ -34,6 +34,7 @@ from ..plotting import (
     clear_scene,
     field_range,
     muscle_mesh,
+    remove_raking_light,
     replace_mesh,
 )
 from ..plotting.bars import add_field_bar, fit_bar_labels
@@ -190,7 +191,7 @@ class LinkedViews:
         if self.raking_light:
             add_raking_light(self.skin_view)
         else:
-            self.skin_view.enable_lightkit(only_active=True)
+            remove_raking_light(self.skin_view)  # colour-mapped skin's material back too
 
     def _rebuild(self, session, state: FaceState, wireframe: bool, plain: bool,
                  clim=None, unit: str = "mm") -> None:
@@ -208,9 +209,10 @@ class LinkedViews:
         if not plain:
             if clim is not None:
                 actor.mapper.scalar_range = clim
+            info = field_info(session.field)
             self._bar = add_field_bar(self.skin_view, actor.mapper,
-                                      field_info(session.field).title(session.muscle,
-                                                                      units=unit))
+                                      info.title(session.muscle, units=unit),
+                                      info.display_title(session.muscle, unit))
         self._skin_mesh = actor.mapper.dataset
         clear_scene(self.muscle_view)
         points, triangles, normals = ghost_skin(state, face.skin)

@@ -34,6 +34,9 @@ from ..plotting import set_camera
 from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
 from ..widgets.panels import MuscleListPanel
+from .dialogs import ask_text
+from .facemenu import FACE_LABELS, can_pick_again, face_title, mark_face
+from .fieldbox import FieldBox
 from .mapping import add_mapping_action
 from .newface_panel import NewFaceFlow
 from .recovery import Recovery
@@ -56,7 +59,6 @@ TOTAL = "total"
 PROBE_HINT = "Right-click the skin to probe a point"
 #: The probe marker's radius, a fraction of the skin's bounding-box diagonal.
 PROBE_MARKER = 0.006
-_FACE_LABELS = {"procedural": "&Procedural", "lee_perry_smith": "&Lee Perry-Smith"}
 PLAIN = "none"  # the field box's entry for plain skin (no field)
 KEEP = object()  # edit(): keep the selection
 MAX_RECENT = 8
@@ -271,14 +273,7 @@ class MainWindow(QtWidgets.QMainWindow):
         row.addWidget(self.time_slider)
         row.addWidget(self.reset_button)
         view.addRow("Timeline", row)
-        self.field_box = QtWidgets.QComboBox()
-        self.field_box.addItems([*FIELD_NAMES, PLAIN])
-        self.field_box.setItemData(len(FIELD_NAMES), "Plain skin, no field (try View > Raking "
-                                   "light)", QtCore.Qt.ToolTipRole)
-        for i, key in enumerate(FIELD_NAMES):  # the symbol and meaning: w is not W
-            spec = field_info(key)
-            self.field_box.setItemData(i, f"{spec.symbol}: {spec.name}, {spec.meaning} "
-                                          f"({spec.equation})", QtCore.Qt.ToolTipRole)
+        self.field_box = FieldBox(FIELD_NAMES, PLAIN)  # symbols and names: w is not W
         self.field_box.currentTextChanged.connect(self._on_field)
         view.addRow("Field", self.field_box)
         self.muscle_box = QtWidgets.QComboBox()
@@ -444,8 +439,12 @@ class MainWindow(QtWidgets.QMainWindow):
 
         menu = self.menuBar().addMenu("F&ace")
         self.face_actions = {}
+        group = QtGui.QActionGroup(menu)  # the face shown is checked (none: a scan's)
+        group.setExclusionPolicy(QtGui.QActionGroup.ExclusionPolicy.ExclusiveOptional)
         for name in FACES:
-            action = menu.addAction(_FACE_LABELS.get(name, name.replace("_", " ").title()))
+            action = menu.addAction(FACE_LABELS.get(name, name.replace("_", " ").title()))
+            action.setCheckable(True)
+            group.addAction(action)
             action.setToolTip(f"Show the built-in face load_face({name!r})")
             action.triggered.connect(_weak(self.open_builtin, name))
             self.face_actions[name] = action
@@ -460,11 +459,13 @@ class MainWindow(QtWidgets.QMainWindow):
         from wrinkle_vis.datasets import load_face
 
         if not self.may_discard_changes(f"opening the {name} face"):
+            self._mark_face()  # the menu's click checked the face not shown
             return False
         try:
             face = load_face(name)
         except (OSError, ValueError, KeyError) as exc:
             QtWidgets.QMessageBox.warning(self, "Cannot open the face", str(exc))
+            self._mark_face()
             return False
         named = None if name == "procedural" else name  # the layout records the face
         self._show_session(Session(face, layout=Layout(face=named, unit=face.unit)))
@@ -545,7 +546,7 @@ class MainWindow(QtWidgets.QMainWindow):
             w.valueChanged.connect(_weak(self.set_parameter, spec.name, keep=1))
             w.installEventFilter(self._undo_keys)  # Ctrl+Z undoes the edit, not the typing
             self.param_widgets[spec.name] = w
-            self.param_form.addRow(spec.label, w)
+            self.param_form.addRow(spec.display, w)
         self.option_widgets = {}
         for spec in muscle.options():  # every type has them, declared in core.muscle
             if spec.is_flag:
@@ -559,7 +560,7 @@ class MainWindow(QtWidgets.QMainWindow):
             w.setToolTip(spec.doc)
             _show_option(w, getattr(muscle, spec.name))
             self.option_widgets[spec.name] = w
-            self.param_form.addRow(spec.label, w)
+            self.param_form.addRow(spec.display, w)
         self.activation_box = QtWidgets.QDoubleSpinBox()
         self.activation_box.setRange(0.0, 1.0)
         self.activation_box.setSingleStep(0.05)
@@ -726,7 +727,7 @@ class MainWindow(QtWidgets.QMainWindow):
             w.valueChanged.connect(_weak(self.set_material, spec.name, keep=1))
             w.installEventFilter(self._undo_keys)  # Ctrl+Z undoes the edit, not the typing
             self.skin_widgets[spec.name] = w
-            skin_form.addRow(spec.label, w)
+            skin_form.addRow(spec.display, w)
         self.skin_error = _error_label()
         skin_form.addRow(self.skin_error)
         form.addWidget(self.skin_group)
@@ -864,11 +865,11 @@ class MainWindow(QtWidgets.QMainWindow):
         name = self.session.muscle
         muscle = self.session.face.muscle(name) if name else None
         specs = (*editable(muscle), *muscle.options()) if muscle is not None else ()
-        return {p.name: p.label for p in specs}
+        return {p.name: p.display for p in specs}
 
     def _labelled(self, message: str) -> str:
         """``message`` with the parameters called by the labels the panel shows them under
-        (``parameter max_angle_deg = 95`` -> ``Phi (deg) = 95``).
+        (``parameter max_angle_deg = 95`` -> ``Φ (deg) = 95``).
         """
         labels = self._labels()
         message = re.sub(r"\bparameter (\w+) =",
@@ -1082,8 +1083,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """Ask for a new name for the selected muscle."""
         name = self._selected_or_warn()
         if name is not None:
-            text, ok = QtWidgets.QInputDialog.getText(self, "Rename muscle", "New name:",
-                                                      text=name)
+            text, ok = ask_text(self, "Rename muscle", f"New name for {name}:", name)
             if ok and text != name:
                 self.rename_muscle(text)
 
@@ -1234,9 +1234,13 @@ class MainWindow(QtWidgets.QMainWindow):
 
     # ------------------------------------------------------------------ files
     def _update_title(self) -> None:
-        path = self.session.layout_path
-        self.setWindowTitle(f"wrinkle-vis - {path.name if path else 'built-in face'}"
-                            f"{' *' if self.session.dirty else ''}")
+        self.setWindowTitle(face_title(self.session))
+        self._mark_face()
+
+    def _mark_face(self) -> None:
+        """The Face menu checks the face shown; Pick landmarks again only on a scan's."""
+        mark_face(self.face_actions, self.session)
+        self.newface.actions["again"].setEnabled(can_pick_again(self.session))
 
     def may_discard_changes(self, doing: str = "going on") -> bool:
         """Whether the unsaved changes, if any, may be left behind: asks Save / Discard /
@@ -1877,8 +1881,8 @@ def _xyz(point) -> str:
 
 
 def _field_label(field: str, unit: str) -> str:
-    """A field's name with its unit: ``W (mm)``, ``lambda``."""
-    return field_info(field).label(unit)
+    """A field's symbol with its unit: ``W (mm)``, ``λ``."""
+    return field_info(field).display_label(unit)
 
 
 def _error_label() -> QtWidgets.QLabel:

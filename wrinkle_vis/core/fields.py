@@ -22,6 +22,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from .symbols import pretty_symbol
+
 __all__ = ["FIELDS", "FIELD_NAMES", "FieldSpec", "check_field", "field_spec",
            "register_field", "total_fields"]
 
@@ -115,6 +117,24 @@ class FieldSpec:
         """The key with its unit: ``W (mm)``, ``lambda``."""
         return {"length": f"{self.key} ({units})", "deg": f"{self.key} (deg)"}.get(
             self.unit, self.key)
+
+    @property
+    def display(self) -> str:
+        """What a menu shows: the symbol and the name, ``λ (length factor)``, ``W (wrinkle
+        amplitude)`` and ``w (periodic coordinate)`` (not two entries a case apart).
+        """
+        return f"{pretty_symbol(self.symbol)} ({self.name})"
+
+    def display_label(self, units: str = "mm") -> str:
+        """:meth:`label` with the symbol: ``W (mm)``, ``λ``, ``ε``."""
+        unit = {"length": f" ({units})", "deg": " (deg)"}.get(self.unit, "")
+        return f"{pretty_symbol(self.symbol)}{unit}"
+
+    def display_title(self, muscle: str | None = None, units: str = "mm") -> str:
+        """:meth:`title` with the symbol, for what a scalar bar shows: ``λ, corrugator_L``
+        (the bar keeps the ASCII :meth:`title` as its name).
+        """
+        return f"{self.display_label(units)}, {muscle or 'total'}"
 
 
 def _static(key: str, attr: str, where: str) -> Callable:

@@ -28,6 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .symbols import display_label
+
 __all__ = ["MAX_COUNT", "PARAMETER_KEY", "PHYSICAL_UNITS", "SURFACES", "TABLE_COLUMNS", "UNITS",
            "Parameter", "ParameterValueError", "control_character", "format_value", "parameter",
            "parameter_table"]
@@ -169,6 +171,13 @@ class Parameter:
         """``{value: label}`` of an option's choices, in order."""
         labels = self.choice_labels or tuple(map(str, self.choices))
         return dict(zip(self.choices, labels, strict=True))
+
+    @property
+    def display(self) -> str:
+        """The label people read: :attr:`label` with the symbol it spells
+        (:func:`~wrinkle_vis.core.symbols.display_label`): ``Φ (deg)``, ``k₀``, ``hᶜ``.
+        """
+        return display_label(self.label, self.symbol)
 
     @property
     def optional(self) -> bool:

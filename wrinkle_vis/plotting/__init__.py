@@ -29,6 +29,7 @@ from .scenes import (
     attachment_points,
     clear_scene,
     muscle_mesh,
+    remove_raking_light,
     render_field,
     replace_mesh,
     set_camera,
@@ -37,7 +38,8 @@ from .scenes import (
 )
 
 __all__ = ["BONE", "CAMERAS", "FIELDS", "LAYERS", "NAN_COLOR", "SKIN", "FaceExplorer", "FieldInfo",
-           "add_attachments", "add_muscle", "add_muscles", "add_raking_light", "add_skin",
+           "add_attachments", "add_muscle", "add_muscles", "add_raking_light",
+           "remove_raking_light", "add_skin",
            "add_skin_mesh", "add_skull", "attachment_points", "clear_scene", "field_array_name",
            "field_info", "field_range", "figure_expressions", "figure_refinement",
            "generic_glyph", "glyph_factory", "register_glyph", "muscle_mesh", "render_field",

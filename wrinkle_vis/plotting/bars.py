@@ -7,13 +7,15 @@ off-screen render (:func:`~wrinkle_vis.plotting.add_skin`).
 from __future__ import annotations
 
 from itertools import pairwise
+from pathlib import Path
 
 import pyvista as pv
 import vtkmodules.vtkRenderingFreeType  # noqa: F401 (the text renderer's implementation)
+from vtkmodules.vtkCommonCore import VTK_FONT_FILE
 from vtkmodules.vtkRenderingCore import vtkTextRenderer
 
 __all__ = ["BAR_LABELS", "add_field_bar", "bar_label_spans", "field_bar_args",
-           "fit_bar_labels"]
+           "fit_bar_labels", "show_bar_title", "symbol_font"]
 
 #: Tick labels of a field's scalar bar, the first that keeps them apart on the bar as
 #: drawn: (number of labels, printf format). None fitting, the bar has no tick labels.
@@ -37,14 +39,50 @@ def field_bar_args(title: str, nan: bool = True) -> dict:
             "title_font_size": BAR_TITLE_PX, "unconstrained_font_size": True}
 
 
-def add_field_bar(plotter: pv.Plotter, mapper, title: str):
+def add_field_bar(plotter: pv.Plotter, mapper, title: str, shown: str | None = None):
     """Add the horizontal scalar bar of a field (``undefined`` for NaN) under the view; its
-    tick labels are fitted to the bar by :func:`fit_bar_labels`.
+    tick labels are fitted to the bar by :func:`fit_bar_labels`. The bar is known by
+    ``title`` (``plotter.scalar_bars[title]``) and shows ``shown`` (default the title; see
+    :func:`show_bar_title`).
     """
     bar = plotter.add_scalar_bar(mapper=mapper, render=False, **field_bar_args(title))
     bar.SetNanAnnotation("undefined")
+    if shown is not None:
+        show_bar_title(bar, shown)
     fit_bar_labels(bar, plotter.renderer)
     return bar
+
+
+def symbol_font() -> str | None:
+    """A font file with Greek letters, subscripts and superscripts, which VTK's own fonts
+    lack (they draw nothing for ``λ``): matplotlib's DejaVu Sans (PyVista brings
+    matplotlib); None when it is not there.
+    """
+    try:
+        import matplotlib
+    except ImportError:  # pragma: no cover (a dependency of PyVista)
+        return None
+    path = Path(matplotlib.get_data_path()) / "fonts" / "ttf" / "DejaVuSans.ttf"
+    return str(path) if path.is_file() else None
+
+
+def show_bar_title(bar, text: str) -> None:
+    """Show ``text`` as scalar bar ``bar``'s title (the plotter still knows the bar by the
+    title it was added with): ASCII in VTK's own font, anything else (``λ, corrugator_L``)
+    in :func:`symbol_font`, and where there is no such font the title stays as it was.
+    """
+    old = bar.GetTitle() or ""
+    text += old[len(old.rstrip("\n")):]  # the new lines PyVista puts under a title
+    if text.isascii():
+        bar.SetTitle(text)
+        return
+    font = symbol_font()
+    if font is None:
+        return
+    prop = bar.GetTitleTextProperty()
+    prop.SetFontFamily(VTK_FONT_FILE)
+    prop.SetFontFile(font)
+    bar.SetTitle(text)
 
 
 def bar_label_spans(bar, renderer, n: int | None = None, fmt: str | None = None,

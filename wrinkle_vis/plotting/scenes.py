@@ -7,7 +7,7 @@ import pyvista as pv
 
 from ..core.face import FaceModel, FaceState
 from ..core.units import face_unit
-from .bars import field_bar_args, fit_bar_labels
+from .bars import field_bar_args, fit_bar_labels, show_bar_title
 from .fields import NAN_COLOR, field_info, field_range
 from .finite import require_finite
 from .glyphs import glyph_factory
@@ -16,7 +16,8 @@ from .writers import IMAGE_SUFFIXES, check_target, save_image
 
 __all__ = ["BONE", "CAMERAS", "LAYERS", "SKIN", "add_attachments", "add_muscle",
            "add_muscles", "add_raking_light", "add_skin", "add_skin_mesh", "add_skull",
-           "attachment_points", "clear_scene", "evaluate", "muscle_mesh", "render_field",
+           "attachment_points", "clear_scene", "evaluate", "keep_colours", "muscle_mesh",
+           "raking_colour_material", "raking_lit", "remove_raking_light", "render_field",
            "replace_mesh", "set_camera", "testing_theme", "to_multiblock"]
 
 SKIN = "#f1c9a5"
@@ -64,9 +65,18 @@ def clear_scene(plotter: pv.Plotter) -> None:
     plotter.enable_lightkit(only_active=True)
 
 
+#: The object name of the raking light's key light (how :func:`raking_lit` knows it).
+RAKING_KEY = "wrinkle_vis.raking_key"
+#: The raking light's headlight (fill) intensity, of the key light's 1.
+RAKING_FILL = 0.35
+#: Under the raking light, the least a colour map's colour shows (its ambient share): the
+#: far side of a colour-mapped skin stays at least this bright, not dark grey.
+RAKING_COLOUR_AMBIENT = 0.55
+
+
 def add_raking_light(plotter: pv.Plotter, elevation_deg: float = 20.0,
                      azimuth_deg: float = 35.0, *, intensity: float = 1.0,
-                     fill: float = 0.35) -> tuple[pv.Light, pv.Light]:
+                     fill: float = RAKING_FILL) -> tuple[pv.Light, pv.Light]:
     r"""Light the active renderer for relief: a grazing key light and a weak fill.
 
     Replaces the renderer's lights (the light kit) with a directional key light fixed to the
@@ -81,7 +91,11 @@ def add_raking_light(plotter: pv.Plotter, elevation_deg: float = 20.0,
     35 degrees shows both. The lower the elevation, the stronger the relief and the darker
     the far side of the head: 20 degrees shows the built-in face's sub-millimetre furrows
     and leaves the far half of the forehead readable. Undo with
-    ``plotter.enable_lightkit(only_active=True)``.
+    :func:`remove_raking_light`.
+
+    Plain skin takes the light as it is; colour-mapped skin (a field) would darken to grey
+    on the far side and wash towards white where key and fill add up, so it takes
+    :data:`RAKING_COLOUR_MATERIAL` instead (:func:`keep_colours`), now and when added later.
 
     Parameters
     ----------
@@ -105,16 +119,64 @@ def add_raking_light(plotter: pv.Plotter, elevation_deg: float = 20.0,
                    light_type="scene light")
     key.positional = False
     head = pv.Light(light_type="headlight", intensity=fill)
+    key.SetObjectName(RAKING_KEY)  # marks the renderer raking-lit (enable_lightkit drops it)
     renderer = plotter.renderer
     renderer.remove_all_lights()
     renderer.add_light(key)
     renderer.add_light(head)
+    keep_colours(renderer)
     return key, head
 
 
-def _fit_bar(plotter: pv.Plotter, options: dict, nan: bool = True) -> None:
-    """After ``add_mesh(..., **options)``: the scalar bar's NaN label and its tick labels
-    fitted to the bar (:func:`~wrinkle_vis.plotting.bars.fit_bar_labels`).
+def remove_raking_light(plotter: pv.Plotter) -> None:
+    """Undo :func:`add_raking_light`: the light kit again, and colour-mapped actors back
+    to the plain material (``ambient=0``, ``diffuse=1``, as :func:`add_skin` draws them).
+    """
+    plotter.enable_lightkit(only_active=True)
+    keep_colours(plotter.renderer)
+
+
+def raking_lit(renderer) -> bool:
+    """Whether ``renderer`` is lit by :func:`add_raking_light`."""
+    return any(light.GetObjectName() == RAKING_KEY for light in renderer.GetLights())
+
+
+def raking_colour_material(fill: float = RAKING_FILL) -> dict[str, float]:
+    r"""``ambient`` and ``diffuse`` for colour-mapped actors under the raking light.
+
+    A point of colour :math:`C` whose normal makes cosines :math:`c_k` with the key light
+    and :math:`c_h` with the headlight (intensity ``fill``) shows
+    :math:`C\,(a + d\,(c_k + f\,c_h))`: the ambient share :math:`a` keeps the colour at
+    least :math:`a C` on the far side, and :math:`d = (1 - a)/(1 + f)` brings a point that
+    faces both lights to :math:`C` exactly, so no colour clips towards white; what the
+    diffuse share varies still shows the relief.
+    """
+    a = RAKING_COLOUR_AMBIENT
+    return {"ambient": a, "diffuse": (1.0 - a) / (1.0 + fill)}
+
+
+def keep_colours(renderer) -> None:
+    """Give every colour-mapped actor of ``renderer`` (its mapper shows scalars) the
+    material for its lights: :func:`raking_colour_material` under the raking light, else
+    the plain one (``ambient=0``, ``diffuse=1``). Actors drawn in one colour keep theirs.
+    """
+    fill = max((light.GetIntensity() for light in renderer.GetLights()
+                if light.LightTypeIsHeadlight()), default=RAKING_FILL)
+    material = raking_colour_material(fill) if raking_lit(renderer) else \
+        {"ambient": 0.0, "diffuse": 1.0}
+    for actor in renderer.actors.values():
+        mapper = getattr(actor, "mapper", None)
+        if mapper is None or not mapper.GetScalarVisibility() or not hasattr(actor, "prop"):
+            continue
+        actor.prop.ambient = material["ambient"]
+        actor.prop.diffuse = material["diffuse"]
+
+
+def _fit_bar(plotter: pv.Plotter, options: dict, nan: bool = True,
+             shown: str | None = None) -> None:
+    """After ``add_mesh(..., **options)``: the scalar bar's NaN label, the title ``shown``
+    on it (:func:`~wrinkle_vis.plotting.bars.show_bar_title`; default its name) and its tick
+    labels fitted to the bar (:func:`~wrinkle_vis.plotting.bars.fit_bar_labels`).
     """
     title = (options.get("scalar_bar_args") or {}).get("title")
     if not options.get("show_scalar_bar") or title not in plotter.scalar_bars:
@@ -122,6 +184,8 @@ def _fit_bar(plotter: pv.Plotter, options: dict, nan: bool = True) -> None:
     bar = plotter.scalar_bars[title]
     if nan:
         bar.SetNanAnnotation("undefined")
+    if shown is not None:
+        show_bar_title(bar, shown)
     fit_bar_labels(bar, plotter.renderer)
 
 
@@ -177,7 +241,9 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
         else None)
     options.update(mesh_kwargs)
     actor = plotter.add_mesh(mesh, **options)
-    _fit_bar(plotter, options)
+    _fit_bar(plotter, options, shown=info.display_title(muscle, face_unit(state)))
+    if raking_lit(plotter.renderer):  # keep the colour map's colours (add_raking_light)
+        keep_colours(plotter.renderer)
     return actor
 
 
