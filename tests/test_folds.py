@@ -308,6 +308,10 @@ def test_the_pull_guard_keeps_triangles_from_turning_over():
     guarded = pts + f[:, None] * pull
     assert fold_report(pts, guarded, tri).ok
     assert 0.1 < f.min() < 1.0
+    faint = np.abs(pull[:, 0]) < 1e-3 * np.abs(pull[:, 0]).max()
+    assert faint.mean() > 0.25
+    np.testing.assert_array_equal(f[faint], 1.0)  # the guard stays where the pull is
+    assert np.mean(f < 1.0) <= 0.4  # the pulled band is about a third of the sheet
     e = np.vstack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
     size = np.linalg.norm(pull, axis=1)
     shear = np.abs(f[e[:, 0]] - f[e[:, 1]]) * np.maximum(size[e[:, 0]], size[e[:, 1]])
