@@ -349,8 +349,12 @@ def test_the_procedural_face_never_folds_and_the_guard_leaves_it_be(procedural, 
             s = procedural.evaluate(name, intensity, refine=refine)
             assert fold_report(s.rest_points, s.points, s.triangles).ok, (name, intensity)
             raw = procedural.evaluate(name, intensity, refine=refine, fold_guard=False)
-            np.testing.assert_array_equal(s.points, raw.points)  # the paper's figures
-            assert not np.any(s.fold_guard)
+            acted = s.fold_guard > 0
+            if refine:  # the deformed skin's radii: a little near the pressed lips
+                assert acted.mean() <= 0.01, (name, intensity)
+            else:  # the paper's figures, bit for bit
+                assert not acted.any(), (name, intensity)
+            np.testing.assert_array_equal(s.points[~acted], raw.points[~acted])
 
 
 @pytest.mark.slow
@@ -388,11 +392,11 @@ def test_stress_k0_five_times_unrefined_stays_clean(procedural):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="refined frames: the pulls of the subdivision "
-                   "hierarchy are not guarded yet; at k0 x 5 pucker and waters_anger cross")
 def test_stress_k0_five_times_refined_stays_clean(procedural):
     face = _scaled_k0(procedural, 5.0)
     for name in ("pucker", "waters_anger"):
+        raw = face.evaluate(name, 1.0, refine=True, fold_guard=False)
+        assert not fold_report(raw.rest_points, raw.points, raw.triangles).ok, name
         s = face.evaluate(name, 1.0, refine=True)
         assert fold_report(s.rest_points, s.points, s.triangles).ok, name
 

@@ -30,8 +30,9 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 from scipy.spatial import cKDTree
 
-__all__ = ["FoldGuard", "GuardResult", "fold_radii", "guard_frame", "guard_wrinkles",
-           "guarded", "medial_radii", "pull_terms", "skin_scale", "soft_clamp"]
+__all__ = ["FoldGuard", "GuardResult", "fold_radii", "guard_amount", "guard_frame",
+           "guard_wrinkles", "guarded", "medial_radii", "pull_terms", "skin_scale",
+           "soft_clamp"]
 
 
 @dataclass(frozen=True)
@@ -50,6 +51,9 @@ class FoldGuard:
     min_area_wrinkles : float
         The same for the wrinkles' step, against the deformed skin, in ``(0, 1)`` (lower:
         the step is held only where a furrow comes close to turning a triangle over).
+    eta_deformed : float
+        :math:`|W| \le \eta_d\, r^{\text{def}}_\pm` as well, the medial radii of the
+        deformed skin (before :math:`W`), in ``(0, 1)``.
     knee_wrinkles : float
         The knee of that step's clamp, in ``(0, 1)`` (it acts only where :math:`W` would
         bring a triangle to ``min_area_wrinkles`` at ``1 / knee_wrinkles`` times itself).
@@ -60,9 +64,11 @@ class FoldGuard:
     min_area: float = 0.2
     min_area_wrinkles: float = 0.05
     knee_wrinkles: float = 0.8
+    eta_deformed: float = 0.7
 
     def __post_init__(self):
-        for name in ("eta", "knee", "min_area", "min_area_wrinkles", "knee_wrinkles"):
+        for name in ("eta", "knee", "min_area", "min_area_wrinkles", "knee_wrinkles",
+                     "eta_deformed"):
             v = getattr(self, name)
             if not 0.0 < v < 1.0:
                 raise ValueError(f"FoldGuard.{name} = {v:g} is outside (0, 1)")
@@ -92,7 +98,7 @@ def soft_clamp(x: np.ndarray, bound: np.ndarray, knee: float) -> np.ndarray:
 
 
 def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | None = None,
-                 r_max: float | None = None, iterations: int = 40) -> np.ndarray:
+                 r_max: float | np.ndarray | None = None, iterations: int = 40) -> np.ndarray:
     r"""``(n, 2)``: radii :math:`(r_+, r_-)` of the largest balls empty of ``samples`` that
     touch ``points`` ``(n, 3)`` on the side of unit ``normals`` ``(n, 3)`` and against it.
 
@@ -101,7 +107,9 @@ def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | 
     to :math:`c` is closer than :math:`r` (and is not :math:`x`), shrink to the ball through
     :math:`x` and :math:`q` tangent at :math:`x`,
     :math:`r = |q - x|^2 / (2 |n \cdot (q - x)|)`. ``samples`` ``(s, 3)`` default to
-    ``points``.
+    ``points``. ``r_max`` may be ``(n,)``: the balls tangent at a point on one side nest,
+    so the result is then :math:`\min(r_\pm, r_{\max})` (all a clamp needs to know, found
+    in fewer, nearer steps).
     """
     pts = np.asarray(points, dtype=float)
     nrm = np.asarray(normals, dtype=float)
@@ -109,9 +117,11 @@ def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | 
     tree = cKDTree(smp)
     if r_max is None:
         r_max = float(np.linalg.norm(smp.max(axis=0) - smp.min(axis=0)))
+    if not len(pts):
+        return np.zeros((0, 2))
     out = np.empty((len(pts), 2))
     for col, side in enumerate((1.0, -1.0)):
-        r = np.full(len(pts), r_max)
+        r = np.array(np.broadcast_to(np.asarray(r_max, dtype=float), (len(pts),)))
         active = np.arange(len(pts))
         for _ in range(iterations):
             if not len(active):
@@ -347,14 +357,18 @@ class GuardResult:
 
 def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
                 triangles: np.ndarray, radii: np.ndarray, guard: FoldGuard = FoldGuard(),
-                pulls: bool = True, terms: dict | None = None) -> GuardResult:
+                pulls: bool = True, terms: dict | None = None, deformed_radii: bool = False
+                ) -> GuardResult:
     r"""The guards on one frame: ``rest``, ``deformed`` (before :math:`W`) and final
     ``points`` ``(n, 3)``, ``W`` ``(n,)``, ``triangles`` ``(m, 3)``, rest ``radii``
     ``(n, 2)`` (:func:`medial_radii`); ``terms``: :func:`pull_terms` of ``rest``, when cached.
 
     1. The pulls are scaled by :func:`skin_scale` (no triangle keeps less than
        ``min_area`` of its rest signed area); ``pulls=False`` skips it.
-    2. :math:`W` is clamped by :func:`guard_wrinkles` (below :math:`\eta\, r_\pm`).
+    2. :math:`W` is clamped by :func:`guard_wrinkles` (below :math:`\eta\, r_\pm`); with
+       ``deformed_radii``, :math:`r_\pm` at each wrinkled vertex is the lesser of ``radii``
+       and the medial radii of the guarded deformed skin itself (the surface :math:`W`
+       displaces; the pulls may have pressed it together).
     3. The wrinkles' own step, :math:`x' \to x' + W' n'`, is held to the same rule as the
        pulls, against the guarded deformed skin: :math:`W'` is scaled by
        :func:`skin_scale` of that step (a steep furrow on small triangles would otherwise
@@ -372,13 +386,16 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
     f = (skin_scale(rest, deformed, tri, guard.min_area, guard.knee, terms=terms) if pulls
          else np.ones(len(rest)))
     W = np.asarray(W, dtype=float)
-    W2 = guard_wrinkles(W, radii, guard)
     moved = f < 1.0
-    changed_w = W2 != W
     d2, p2 = np.asarray(deformed, dtype=float), np.asarray(points, dtype=float)
-    if moved.any() or changed_w.any():
+    if moved.any():
         d2 = d2.copy()
         d2[moved] = rest[moved] + f[moved, None] * (d2[moved] - rest[moved])
+    if deformed_radii:
+        radii = _deformed_radii(d2, tri, W, radii, terms, guard)
+    W2 = guard_wrinkles(W, radii, guard)
+    changed_w = W2 != W
+    if moved.any() or changed_w.any():
         ring = np.zeros(len(rest), bool)
         ring[tri[moved[tri].any(axis=1)].ravel()] = True
         redo = np.flatnonzero((ring & (W2 != 0.0)) | changed_w)
@@ -390,11 +407,58 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
                    start=d2)
     held = np.flatnonzero(h < 1.0)
     if len(held):
-        p2 = p2.copy() if p2 is points else p2
+        p2 = np.array(p2, dtype=float, copy=True)
         p2[held] = d2[held] + h[held, None] * (p2[held] - d2[held])
         W2 = W2.copy()
         W2[held] *= h[held]
-    return GuardResult(d2, p2, W2, f, moved | (W2 != W))
+    acted = moved | (W2 != W)
+    if p2 is not points:
+        acted |= np.any(p2 != points, axis=1)
+    return GuardResult(d2, p2, W2, f, acted)
+
+
+def guard_amount(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
+                 result: GuardResult) -> np.ndarray:
+    r"""``(n,)`` in ``[0, 1]``: how much the guard took away at each vertex, the field
+    ``fold_guard`` (0 where it did not act), from the raw frame (``rest``, ``deformed``,
+    ``points`` ``(n, 3)``, ``W`` ``(n,)``) and its :class:`GuardResult`: the largest of the
+    pull's reduction :math:`1 - f`, :math:`W`'s, :math:`1 - |W'| / |W|`, and the final
+    point's shift relative to the raw displacement,
+    :math:`|x'_f - x_f| / (|W| + |x_d - x_r|)` (a vertex whose normal turned with its
+    guarded neighbours).
+    """
+    W = np.asarray(W, dtype=float)
+    ratio = np.divide(np.abs(result.W), np.abs(W), out=np.ones(len(W)), where=W != 0)
+    amount = np.maximum(1.0 - result.scale, 1.0 - ratio)
+    rows = np.flatnonzero(result.acted)
+    if len(rows):
+        shift = np.linalg.norm(result.points[rows] - np.asarray(points)[rows], axis=1)
+        size = np.abs(W[rows]) + np.linalg.norm(
+            np.asarray(deformed)[rows] - np.asarray(rest)[rows], axis=1)
+        amount[rows] = np.maximum(amount[rows], np.minimum(
+            np.divide(shift, size, out=np.ones(len(rows)), where=size > 0), 1.0))
+    return amount
+
+
+def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii: np.ndarray,
+                    terms: dict, guard: FoldGuard) -> np.ndarray:
+    r"""``(n, 2)``: ``radii`` ``(n, 2)``, lowered at the vertices where ``W`` ``(n,)`` is not 0
+    to :math:`\eta_d / \eta` times the medial radii of the skin ``deformed`` ``(n, 3)``
+    along its area-weighted normals (``eta_deformed``: the clamp then keeps
+    :math:`|W| < \eta_d\, r^{\text{def}}_\pm`). The search starts at the radius where
+    the clamp's knee would just reach :math:`|W|`, so it stops at once wherever the clamp
+    would not act.
+    """
+    ratio = guard.eta_deformed / guard.eta
+    ids = np.flatnonzero(W)
+    if not len(ids):
+        return radii
+    start = np.abs(W[ids]) / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6)
+    r = medial_radii(deformed[ids], _vertex_normals(deformed, tri, ids, terms),
+                     samples=deformed, r_max=start)
+    out = np.array(radii, dtype=float, copy=True)
+    out[ids] = np.minimum(out[ids], ratio * r)
+    return out
 
 
 def _vertex_normals(points: np.ndarray, tri: np.ndarray, ids: np.ndarray,
@@ -442,7 +506,7 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
     """Apply :func:`guard_frame` to a frame ``state`` of ``face`` (unrefined or refined) in
     place: its ``deformed_points``, ``points`` and ``W`` become the guarded ones,
     ``W_raw`` keeps the raw :math:`W` and ``fold_guard`` ``(n,)`` in ``[0, 1]`` says how
-    much the guard took away (the larger of the pull's reduction and :math:`W`'s). Returns
+    much the guard took away (:func:`guard_amount`). Returns
     ``state``. A refined frame is guarded on its refined skin (the pulls of its vertices
     as the subdivision hierarchy evaluated them), with the rest skin's terms cached on the
     refined face (frames with the same split set share it).
@@ -455,12 +519,12 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
     if terms is None:
         terms = skin._rest.pull_terms = pull_terms(skin.skin.points, skin.skin.triangles)
     g = guard_frame(state.rest_points, state.deformed_points, state.points, state.W,
-                    state.triangles, radii, guard, terms=terms)
+                    state.triangles, radii, guard, terms=terms,
+                    deformed_radii=True)
     if not g.acted.any():
         return state
     W = np.asarray(state.W)
-    ratio = np.divide(np.abs(g.W), np.abs(W), out=np.ones(len(W)), where=W != 0)
-    amount = np.maximum(1.0 - g.scale, 1.0 - ratio)
+    amount = guard_amount(state.rest_points, state.deformed_points, state.points, W, g)
     for name, value in (("W_raw", W), ("deformed_points", g.deformed), ("points", g.points),
                         ("W", g.W), ("fold_guard", amount)):
         value = np.asarray(value)
