@@ -416,3 +416,36 @@ def test_cli_fold_guard_flag_reaches_the_exported_fields(tmp_path):
     assert not np.any(arrays["off"]["fold_guard"])
     np.testing.assert_array_equal(arrays["off"]["W"], arrays["off"]["W_raw"])
     np.testing.assert_array_equal(arrays["on"]["W_raw"], arrays["off"]["W"])
+
+
+def test_the_guard_field_is_described_once_and_read_by_state_and_probe(head):
+    from wrinkle_vis.app.session import Session
+    from wrinkle_vis.core.face import FIELD_NAMES
+    from wrinkle_vis.core.fields import FRAME_FIELDS, check_field, field_spec
+
+    assert "fold_guard" in FRAME_FIELDS and "fold_guard" not in FIELD_NAMES
+    spec = field_spec("fold_guard")
+    assert spec.total and spec.where == "frame" and spec.limits == (0.0, 1.0)
+    assert check_field("fold_guard") is spec  # a total: no muscle needed
+    s = head.evaluate("smile")
+    np.testing.assert_array_equal(s.field_values("fold_guard"), s.fold_guard)
+    m = head.muscle_names[0]
+    np.testing.assert_array_equal(s.field_values("fold_guard", m), s.fold_guard)
+    assert np.isnan(s.fields[m]["fold_guard"]).all()  # not one muscle's field
+    v = int(np.argmax(s.fold_guard))
+    assert s.fold_guard[v] > 0
+    session = Session(head)
+    session.set_expression("smile")
+    assert session.probe(v)["total"]["fold_guard"] == s.fold_guard[v]
+
+
+def test_the_apps_field_box_shows_the_guard_field(window):
+    from qtpy import QtCore
+
+    box = window.field_box
+    tips = {box.itemText(i): box.itemData(i, QtCore.Qt.ToolTipRole) for i in range(box.count())}
+    assert tips["fold_guard"].startswith("g: fold guard")
+    box.setCurrentText("fold_guard")
+    assert window.session.field == "fold_guard" and window.session.muscle is None
+    state = window.session.state()
+    np.testing.assert_array_equal(window.session.field_values(state), state.fold_guard)

@@ -24,6 +24,7 @@ from vtkmodules.vtkRenderingCore import vtkPropPicker
 
 from ..core.editing import mirror_name, with_point
 from ..core.face import FIELD_NAMES
+from ..core.fields import FRAME_FIELDS
 from ..core.layout import Layout, LayoutError, load_layout
 from ..core.muscle import MuscleParameterError
 from ..core.registry import muscle_types
@@ -271,10 +272,11 @@ class MainWindow(QtWidgets.QMainWindow):
         row.addWidget(self.reset_button)
         view.addRow("Timeline", row)
         self.field_box = QtWidgets.QComboBox()
-        self.field_box.addItems([*FIELD_NAMES, PLAIN])
-        self.field_box.setItemData(len(FIELD_NAMES), "Plain skin, no field (try View > Raking "
+        shown = [*FIELD_NAMES, *FRAME_FIELDS]  # the frame's fields (fold_guard) after them
+        self.field_box.addItems([*shown, PLAIN])
+        self.field_box.setItemData(len(shown), "Plain skin, no field (try View > Raking "
                                    "light)", QtCore.Qt.ToolTipRole)
-        for i, key in enumerate(FIELD_NAMES):  # the symbol and meaning: w is not W
+        for i, key in enumerate(shown):  # the symbol and meaning: w is not W
             spec = field_info(key)
             self.field_box.setItemData(i, f"{spec.symbol}: {spec.name}, {spec.meaning} "
                                           f"({spec.equation})", QtCore.Qt.ToolTipRole)
@@ -929,7 +931,9 @@ class MainWindow(QtWidgets.QMainWindow):
         rest, now = s.probe_position(where)
         self._show_probe_marker(now)
         unit = s.unit
-        self.probe_label.setText(f"at rest ({_xyz(rest)}) {unit}\nnow ({_xyz(now)}) {unit}")
+        frame = "".join(f"\n{k}: {values['total'][k]:.3g}" for k in FRAME_FIELDS)
+        self.probe_label.setText(f"at rest ({_xyz(rest)}) {unit}\nnow ({_xyz(now)}) {unit}"
+                                 + frame)  # the frame's fields: where the fold guard acted
         muscles = [m for m in values if m != "total"]
         if s.muscle in muscles:
             muscles.remove(s.muscle)

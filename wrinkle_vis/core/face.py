@@ -1046,6 +1046,12 @@ class _MuscleFields(Mapping):
         data = self._state.face.muscle_data(self._muscle)
         return self._full(data.aoi if where == "aoi" else data.region, self.dynamic()[key])
 
+    def frame_attr(self, key: str) -> np.ndarray:
+        """``(n,)``: a field of the whole frame (catalogue ``where="frame"``): none on one
+        muscle's mapping, ``nan`` everywhere (:meth:`FaceState.field_values` reads it).
+        """
+        return np.full(self._state.n_points, np.nan)
+
     def _full(self, ids: np.ndarray, values: np.ndarray) -> np.ndarray:
         out = np.full(self._state.n_points, np.nan)
         out[ids] = values
@@ -1209,7 +1215,9 @@ class FaceState:
         ValueError
             For a field with no total and no muscle.
         """
-        check_field(key, muscle)
+        spec = check_field(key, muscle)
+        if spec.where == "frame":  # a field of the whole frame (fold_guard)
+            return getattr(self, key)
         if muscle is None:
             return self.W
         if muscle not in self.face.muscle_names:

@@ -164,8 +164,14 @@ def _start_terms(Nt: np.ndarray, start: np.ndarray, corners: np.ndarray
     r0, r1, r2 = (np.take(start, c, axis=0) for c in corners)
     e1, e2 = r1 - r0, r2 - r0
     N = Nt.T
-    return (np.einsum("ij,ij->i", N, np.cross(e1, e2)), np.cross(N, e1).T,
-            np.cross(e2, N).T)
+    return (np.einsum("ij,ij->i", N, _cross(e1, e2)), _cross(N, e1).T, _cross(e2, N).T)
+
+
+def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``(k, 3)``: row-wise cross product (faster than :func:`numpy.cross` on short rows)."""
+    return np.stack([u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1],
+                     u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2],
+                     u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]], axis=1)
 
 
 def pull_terms(rest: np.ndarray, triangles: np.ndarray) -> dict:
@@ -454,8 +460,12 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
     if not len(ids):
         return radii
     start = np.abs(W[ids]) / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6)
-    r = medial_radii(deformed[ids], _vertex_normals(deformed, tri, ids, terms),
-                     samples=deformed, r_max=start)
+    x = deformed[ids]
+    reach = 2.0 * float(start.max())  # a ball of radius R tangent at x lies within 2 R of x
+    box = np.all((deformed >= x.min(axis=0) - reach) & (deformed <= x.max(axis=0) + reach),
+                 axis=1)
+    r = medial_radii(x, _vertex_normals(deformed, tri, ids, terms), samples=deformed[box],
+                     r_max=start)
     out = np.array(radii, dtype=float, copy=True)
     out[ids] = np.minimum(out[ids], ratio * r)
     return out
