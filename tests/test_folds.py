@@ -171,6 +171,22 @@ def test_broad_phase_keeps_every_overlapping_box_once(mesh):
     assert set(map(tuple, got)) == want
 
 
+@settings(max_examples=80, deadline=None)
+@given(small_meshes(), st.data())
+def test_fold_report_tests_only_the_moved_region_and_finds_the_same(mesh, data):
+    pts, tris = mesh
+    moved = np.array(data.draw(st.lists(st.booleans(), min_size=len(pts), max_size=len(pts))))
+    shift = np.array(data.draw(st.lists(st.floats(-1, 1, allow_nan=False,
+                                                  allow_subnormal=False),
+                                        min_size=3, max_size=3)))
+    frame = pts + moved[:, None] * shift
+    rest_pairs = intersecting_pairs(pts, tris)
+    every = {tuple(p) for p in intersecting_pairs(frame, tris).tolist()}
+    want = every - {tuple(p) for p in rest_pairs.tolist()}
+    got = fold_report(pts, frame, tris, rest_pairs)
+    assert {tuple(p) for p in got.added.tolist()} == want
+
+
 def test_orientation_is_exact_where_floats_round():
     # a, b, c on the line x = y = z: o(a, b, c, d) = 0 exactly, but not in floats
     t = [0.63696169, 0.26978671, 0.04097352]
