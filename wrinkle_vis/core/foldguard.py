@@ -397,8 +397,9 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
     if moved.any():
         d2 = d2.copy()
         d2[moved] = rest[moved] + f[moved, None] * (d2[moved] - rest[moved])
-    if deformed_radii:
-        radii = _deformed_radii(d2, tri, W, radii, terms, guard)
+    if deformed_radii:  # unmoved: the frame's own normals, (x_f - x_d) / W, for free
+        radii = _deformed_radii(d2, tri, W, radii, terms, guard,
+                                None if moved.any() else p2 - d2)
     W2 = guard_wrinkles(W, radii, guard)
     changed_w = W2 != W
     if moved.any() or changed_w.any():
@@ -447,13 +448,15 @@ def guard_amount(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: 
 
 
 def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii: np.ndarray,
-                    terms: dict, guard: FoldGuard) -> np.ndarray:
+                    terms: dict, guard: FoldGuard, step: np.ndarray | None = None
+                    ) -> np.ndarray:
     r"""``(n, 2)``: ``radii`` ``(n, 2)``, lowered at the vertices where ``W`` ``(n,)`` is not 0
     to :math:`\eta_d / \eta` times the medial radii of the skin ``deformed`` ``(n, 3)``
     along its area-weighted normals (``eta_deformed``: the clamp then keeps
     :math:`|W| < \eta_d\, r^{\text{def}}_\pm`). The search starts at the radius where
     the clamp's knee would just reach :math:`|W|`, so it stops at once wherever the clamp
-    would not act.
+    would not act. ``step`` ``(n, 3)``: :math:`W n`, when the frame's normals are those of
+    ``deformed`` (else they are computed).
     """
     ratio = guard.eta_deformed / guard.eta
     ids = np.flatnonzero(W)
@@ -464,8 +467,12 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
     reach = 2.0 * float(start.max())  # a ball of radius R tangent at x lies within 2 R of x
     box = np.all((deformed >= x.min(axis=0) - reach) & (deformed <= x.max(axis=0) + reach),
                  axis=1)
-    r = medial_radii(x, _vertex_normals(deformed, tri, ids, terms), samples=deformed[box],
-                     r_max=start)
+    if step is None:
+        n = _vertex_normals(deformed, tri, ids, terms)
+    else:
+        n = step[ids] / W[ids, None]
+        n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+    r = medial_radii(x, n, samples=deformed[box], r_max=start)
     out = np.array(radii, dtype=float, copy=True)
     out[ids] = np.minimum(out[ids], ratio * r)
     return out
