@@ -465,3 +465,18 @@ def test_the_apps_field_box_shows_the_guard_field(window):
     assert window.session.field == "fold_guard" and window.session.muscle is None
     state = window.session.state()
     np.testing.assert_array_equal(window.session.field_values(state), state.fold_guard)
+
+
+def test_the_fields_see_the_guarded_pull(head):
+    s = head.evaluate("smile")
+    raw = head.evaluate("smile", fold_guard=False)
+    assert np.any(s.fold_guard > 0)
+    again = head._frame(dict(s.activations), s.deformed_points)  # Eq. 9-11 on that skin
+    changed = 0
+    for m in (k for k, a in s.activations.items() if a > 0):
+        for key in ("eps", "A", "W"):
+            np.testing.assert_array_equal(s.fields[m][key], again.fields[m][key])
+        changed += np.sum(~np.isclose(s.fields[m]["eps"], raw.fields[m]["eps"],
+                                      equal_nan=True))
+    assert changed > 0
+    np.testing.assert_array_equal(s.W_raw, raw.W)

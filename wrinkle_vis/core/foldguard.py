@@ -520,13 +520,21 @@ def fold_radii(face, skin_face=None) -> np.ndarray:
 
 
 def guarded(face, state, guard: FoldGuard = FoldGuard()):
-    """Apply :func:`guard_frame` to a frame ``state`` of ``face`` (unrefined or refined) in
+    r"""Apply :func:`guard_frame` to a frame ``state`` of ``face`` (unrefined or refined) in
     place: its ``deformed_points``, ``points`` and ``W`` become the guarded ones,
     ``W_raw`` keeps the raw :math:`W` and ``fold_guard`` ``(n,)`` in ``[0, 1]`` says how
-    much the guard took away (:func:`guard_amount`). Returns
-    ``state``. A refined frame is guarded on its refined skin (the pulls of its vertices
-    as the subdivision hierarchy evaluated them), with the rest skin's terms cached on the
-    refined face (frames with the same split set share it).
+    much the guard took away (:func:`guard_amount`). Returns ``state``.
+
+    On the face's own skin, where the pull guard scales a pull, the frame is evaluated
+    again on the guarded deformed skin (as the physical skin's frames are, from their
+    skin): the compression :math:`\varepsilon` (Eq. 9, 10), :math:`A` and :math:`W` of every
+    muscle, and ``state.fields``, are those of the skin the wrinkles sit on; then
+    :math:`W` is guarded on it. ``W_raw`` stays the unguarded frame's :math:`W`.
+
+    A refined frame is guarded on its refined skin (the pulls of its vertices as the
+    subdivision hierarchy evaluated them), with the rest skin's terms cached on the refined
+    face (frames with the same split set share it); its fields stay those of the unguarded
+    pull.
     """
     if not np.any(state.W) and state.deformed_points is state.rest_points:
         return state
@@ -540,6 +548,13 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
                     deformed_radii=True)
     if not g.acted.any():
         return state
+    if state.face is face and np.any(g.scale < 1.0):  # the fields see the guarded pull
+        fresh = face._frame(dict(state.activations), g.deformed)
+        w = guard_frame(state.rest_points, fresh.deformed_points, fresh.points, fresh.W,
+                        state.triangles, radii, guard, pulls=False, terms=terms,
+                        deformed_radii=True)
+        g = GuardResult(w.deformed, w.points, w.W, g.scale, g.acted | w.acted)
+        state.fields = fresh.fields
     W = np.asarray(state.W)
     amount = guard_amount(state.rest_points, state.deformed_points, state.points, W, g)
     for name, value in (("W_raw", W), ("deformed_points", g.deformed), ("points", g.points),
