@@ -390,6 +390,16 @@ def test_the_guard_keeps_the_head_scans_pulls_from_turning_skin_over(head):
     assert worse == 0
 
 
+@pytest.mark.slow
+def test_refined_head_frames_turn_no_triangle_over(head):
+    for name in ("smile", "duchenne_smile"):
+        raw = head.evaluate(name, 1.0, refine=True, fold_guard=False)
+        assert len(turned_over(raw.rest_points, raw.points, raw.triangles)) > 100, name
+        s = head.evaluate(name, 1.0, refine=True)
+        assert len(turned_over(s.rest_points, s.points, s.triangles)) == 0, name
+        assert np.mean(s.fold_guard > 0) < 0.6  # refined vertices crowd the mouth
+
+
 def _scaled_k0(face, factor):
     import dataclasses
 
