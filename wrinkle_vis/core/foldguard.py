@@ -109,20 +109,22 @@ def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | 
     :math:`r = |q - x|^2 / (2 |n \cdot (q - x)|)`. ``samples`` ``(s, 3)`` default to
     ``points``. ``r_max`` may be ``(n,)``: the balls tangent at a point on one side nest,
     so the result is then :math:`\min(r_\pm, r_{\max})` (all a clamp needs to know, found
-    in fewer, nearer steps).
+    in fewer, nearer steps); ``(n, 2)``, one per side, 0 where that side is not wanted.
     """
     pts = np.asarray(points, dtype=float)
     nrm = np.asarray(normals, dtype=float)
     smp = pts if samples is None else np.asarray(samples, dtype=float)
-    tree = cKDTree(smp)
+    tree = cKDTree(smp, balanced_tree=False)  # built each frame for the deformed skin
     if r_max is None:
         r_max = float(np.linalg.norm(smp.max(axis=0) - smp.min(axis=0)))
     if not len(pts):
         return np.zeros((0, 2))
     out = np.empty((len(pts), 2))
     for col, side in enumerate((1.0, -1.0)):
-        r = np.array(np.broadcast_to(np.asarray(r_max, dtype=float), (len(pts),)))
-        active = np.arange(len(pts))
+        r_side = np.asarray(r_max, dtype=float)
+        r_side = r_side[:, col] if r_side.ndim == 2 else r_side
+        r = np.array(np.broadcast_to(r_side, (len(pts),)))
+        active = np.flatnonzero(r > 0)
         for _ in range(iterations):
             if not len(active):
                 break
@@ -472,7 +474,9 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
     else:
         n = step[ids] / W[ids, None]
         n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
-    r = medial_radii(x, n, samples=deformed[box], r_max=start)
+    side = np.where(W[ids, None] >= 0, [[1.0, 0.0]], [[0.0, 1.0]])  # the side W pushes to
+    r = medial_radii(x, n, samples=deformed[box], r_max=side * start[:, None])
+    r = np.where(side > 0, r, np.inf)
     out = np.array(radii, dtype=float, copy=True)
     out[ids] = np.minimum(out[ids], ratio * r)
     return out
