@@ -392,7 +392,7 @@ def test_the_guard_keeps_the_head_scans_pulls_from_turning_skin_over(head):
 
 @pytest.mark.slow
 def test_refined_head_frames_turn_no_triangle_over(head):
-    for name in ("smile", "duchenne_smile"):
+    for name in ("smile", "duchenne_smile", "waters_sadness"):
         raw = head.evaluate(name, 1.0, refine=True, fold_guard=False)
         assert len(turned_over(raw.rest_points, raw.points, raw.triangles)) > 100, name
         s = head.evaluate(name, 1.0, refine=True)

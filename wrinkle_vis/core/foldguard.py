@@ -242,7 +242,7 @@ def _limits(s_star: np.ndarray, corners: np.ndarray, size: np.ndarray, terms: di
 
 
 def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
-               min_area: float = 0.2, knee: float = 0.5, iterations: int = 6,
+               min_area: float = 0.2, knee: float = 0.5, iterations: int = 20,
                reach: float = 4.0, terms: dict | None = None,
                start: np.ndarray | None = None) -> np.ndarray:
     r"""``(n,)`` in ``(0, 1]``: the factor on each vertex's pull ``deformed - rest``
