@@ -304,6 +304,11 @@ def test_medial_radii_of_a_sphere_and_a_slab():
     radial = ball.points / 3.0
     r = medial_radii(ball.points, radial)
     np.testing.assert_allclose(r[:, 1], 3.0, rtol=1e-9)  # inside: the ball itself
+    cap = np.c_[np.full(len(radial), 2.0), np.zeros(len(radial))]  # one side, from 2 down
+    np.testing.assert_array_equal(medial_radii(ball.points, radial, r_max=cap), cap)
+    cap = np.c_[np.zeros(len(radial)), np.full(len(radial), 5.0)]  # the balls tangent nest
+    np.testing.assert_allclose(medial_radii(ball.points, radial, r_max=cap)[:, 1], 3.0,
+                               rtol=1e-9)
     assert np.all(r[:, 0] > 9.0)  # outside: empty up to the cap (the box diagonal)
     r = medial_radii(ball.points, ball.vertex_normals())  # normals a little off radial
     assert np.all(r[:, 1] <= 3.0 + 1e-9) and np.all(r[:, 1] > 0.8 * 3.0)
