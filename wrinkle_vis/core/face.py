@@ -24,7 +24,7 @@ import dataclasses
 from collections import OrderedDict
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 
 import numpy as np
 import scipy.sparse as sp
@@ -1186,7 +1186,7 @@ class FaceState:
         self.points = _readonly(points)
         self.W = _readonly(total)
         self.W_raw = self.W  # the fold guard replaces W and keeps the raw one here
-        self.fold_guard = np.zeros(len(self.W))  # how much the guard took away, in [0, 1]
+        self.fold_guard = _zeros(len(self.W))  # how much the guard took away, in [0, 1]
         self.fields = _StateFields(_Frame(face, self.deformed_points, assembly, compact,
                                           source))
 
@@ -1273,6 +1273,14 @@ def _sig(value: float) -> str:
     metres has wrinkles of 1e-4): ``+0.0123``, ``-2.5e-05``, ``+0``.
     """
     return f"{float(value):+.4g}"
+
+
+@lru_cache(maxsize=8)
+def _zeros(n: int) -> np.ndarray:
+    """``(n,)``: zeros, read-only, shared by the frames of one skin (no allocation a frame)."""
+    z = np.zeros(n)
+    z.setflags(write=False)
+    return z
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
