@@ -15,7 +15,7 @@ import numpy as np
 from ..core.editing import mirror_name, mirrored, snapped, unique_name
 from ..core.expressions import Expression
 from ..core.face import FIELD_NAMES, FaceModel, FaceState
-from ..core.fields import check_field
+from ..core.fields import FRAME_FIELDS, check_field
 from ..core.layout import Layout, load_layout, save_layout
 from ..core.muscle import Muscle
 from ..core.params import Parameter
@@ -606,7 +606,8 @@ class Session:
 
     def probe(self, where: SurfacePoint | int) -> dict:
         r"""Every field's value in the frame shown at rest-skin point ``where`` (or at skin
-        vertex ``where``): ``{"total": {"W": ..}, muscle: {field: ..}}`` for the muscles
+        vertex ``where``): ``{"total": {"W": .., "fold_guard": ..}, muscle: {field: ..}}``
+        (the totals: W and the frame's fields) for the muscles
         that define anything there (NaN where one does not define a field).
 
         The values are the frame's, interpolated linearly in the triangle of the frame's
@@ -620,7 +621,9 @@ class Session:
             where = self.vertex_point(int(where))
         state, corners, weights = self._located(where)
         at = state.values_at(corners)  # from the compact per-muscle data
-        out = {"total": {"W": _interpolated(at["total"]["W"], weights)}}
+        out = {"total": {"W": _interpolated(at["total"]["W"], weights),
+                         **{k: _interpolated(np.asarray(state.field_values(k))[corners],
+                                             weights) for k in FRAME_FIELDS}}}
         for name in (m for m in self.face.muscle_names if m in at):  # the others: nan
             values = {f: _interpolated(at[name][f], weights) for f in FIELD_NAMES}
             if any(np.isfinite(v) for v in values.values()):

@@ -24,6 +24,7 @@ from vtkmodules.vtkRenderingCore import vtkPropPicker
 
 from ..core.editing import mirror_name, with_point
 from ..core.face import FIELD_NAMES
+from ..core.fields import FRAME_FIELDS
 from ..core.layout import Layout, LayoutError, load_layout
 from ..core.muscle import MuscleParameterError
 from ..core.registry import muscle_types
@@ -273,7 +274,8 @@ class MainWindow(QtWidgets.QMainWindow):
         row.addWidget(self.time_slider)
         row.addWidget(self.reset_button)
         view.addRow("Timeline", row)
-        self.field_box = FieldBox(FIELD_NAMES, PLAIN)  # symbols and names: w is not W
+        # symbols and names (w is not W); the frame's fields (fold_guard) after the muscles'
+        self.field_box = FieldBox([*FIELD_NAMES, *FRAME_FIELDS], PLAIN)
         self.field_box.currentTextChanged.connect(self._on_field)
         view.addRow("Field", self.field_box)
         self.muscle_box = QtWidgets.QComboBox()
@@ -932,7 +934,9 @@ class MainWindow(QtWidgets.QMainWindow):
         rest, now = s.probe_position(where)
         self._show_probe_marker(now)
         unit = s.unit
-        self.probe_label.setText(f"at rest ({_xyz(rest)}) {unit}\nnow ({_xyz(now)}) {unit}")
+        frame = "".join(f"\n{k}: {values['total'][k]:.3g}" for k in FRAME_FIELDS)
+        self.probe_label.setText(f"at rest ({_xyz(rest)}) {unit}\nnow ({_xyz(now)}) {unit}"
+                                 + frame)  # the frame's fields: where the fold guard acted
         muscles = [m for m in values if m != "total"]
         if s.muscle in muscles:
             muscles.remove(s.muscle)

@@ -24,7 +24,7 @@ import dataclasses
 from collections import OrderedDict
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, lru_cache
 from typing import NamedTuple
 
 import numpy as np
@@ -1044,6 +1044,12 @@ class _MuscleFields(Mapping):
         data = self._state.face.muscle_data(self._muscle)
         return self._full(data.aoi if where == "aoi" else data.region, self.dynamic()[key])
 
+    def frame_attr(self, key: str) -> np.ndarray:
+        """``(n,)``: a field of the whole frame (catalogue ``where="frame"``): none on one
+        muscle's mapping, ``nan`` everywhere (:meth:`FaceState.field_values` reads it).
+        """
+        return np.full(self._state.n_points, np.nan)
+
     def _full(self, ids: np.ndarray, values: np.ndarray) -> np.ndarray:
         out = np.full(self._state.n_points, np.nan)
         out[ids] = values
@@ -1341,7 +1347,7 @@ class FaceState:
         self.points = _readonly(points)
         self.W = _readonly(total)
         self.W_raw = self.W  # the fold guard replaces W and keeps the raw one here
-        self.fold_guard = np.zeros(len(self.W))  # how much the guard took away, in [0, 1]
+        self.fold_guard = _zeros(len(self.W))  # how much the guard took away, in [0, 1]
         self.fields = _StateFields(_Frame(face, self.deformed_points, assembly, compact,
                                           source))
 
@@ -1370,7 +1376,9 @@ class FaceState:
         ValueError
             For a field with no total and no muscle.
         """
-        check_field(key, muscle)
+        spec = check_field(key, muscle)
+        if spec.where == "frame":  # a field of the whole frame (fold_guard)
+            return getattr(self, key)
         if muscle is None:
             return self.W
         if muscle not in self.face.muscle_names:
@@ -1418,6 +1426,14 @@ def _sig(value: float) -> str:
     metres has wrinkles of 1e-4): ``+0.0123``, ``-2.5e-05``, ``+0``.
     """
     return f"{float(value):+.4g}"
+
+
+@lru_cache(maxsize=8)
+def _zeros(n: int) -> np.ndarray:
+    """``(n,)``: zeros, read-only, shared by the frames of one skin (no allocation a frame)."""
+    z = np.zeros(n)
+    z.setflags(write=False)
+    return z
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:

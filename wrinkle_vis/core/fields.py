@@ -24,11 +24,12 @@ from typing import Any
 
 from .symbols import pretty_symbol
 
-__all__ = ["FIELDS", "FIELD_NAMES", "FieldSpec", "check_field", "field_spec",
+__all__ = ["FIELDS", "FIELD_NAMES", "FRAME_FIELDS", "FieldSpec", "check_field", "field_spec",
            "register_field", "total_fields"]
 
-#: Where a field is defined: the muscle's area of influence, or its wrinkling region.
-WHERE = ("aoi", "region")
+#: Where a field is defined: the muscle's area of influence, its wrinkling region, or the
+#: whole frame (a field of the frame, not of a muscle: :data:`FRAME_FIELDS`).
+WHERE = ("aoi", "region", "frame")
 #: Units: dimensionless, the face's lengths, degrees.
 UNITS = ("1", "length", "deg")
 
@@ -47,9 +48,11 @@ class FieldSpec:
         Where the paper defines it.
     unit : {"1", "length", "deg"}
         Dimensionless, the face's units, or degrees.
-    where : {"aoi", "region"}
+    where : {"aoi", "region", "frame"}
         Defined on the muscle's area of influence or on its wrinkling region (``nan``
-        elsewhere).
+        elsewhere); ``"frame"``: a field of the whole frame, the attribute ``key`` of
+        :class:`~wrinkle_vis.core.face.FaceState`, the same whichever muscle is chosen
+        (:data:`FRAME_FIELDS`).
     total : bool
         Whether it adds up over the muscles into a total (only ``W``, Eq. 4:
         ``state.W``).
@@ -95,6 +98,8 @@ class FieldSpec:
         if self.where not in WHERE:
             raise ValueError(f"field {self.key!r}: where {self.where!r} is not one of "
                              f"{', '.join(WHERE)}")
+        if self.compute is None and self.where == "frame":
+            object.__setattr__(self, "compute", _frame_attr(self.key))
         if self.compute is None:
             raise ValueError(f"field {self.key!r} needs compute(fields) -> (n,) values")
         if not self.cmap:
@@ -142,6 +147,13 @@ def _static(key: str, attr: str, where: str) -> Callable:
     return lambda f: f.static(key, attr, where)
 
 
+def _frame_attr(key: str) -> Callable:
+    """A field of the whole frame: the state's attribute ``key`` (``state`` or a muscle's
+    field mapping, whose ``frame_attr`` reads it).
+    """
+    return lambda f: f.frame_attr(key)
+
+
 def _dynamic(key: str, where: str) -> Callable:
     """A field of the frame (compression, anisotropy, W)."""
     return lambda f: f.frame_value(key, where)
@@ -182,6 +194,18 @@ FIELDS: dict[str, FieldSpec] = {f.key: f for f in (
 )}
 
 
+#: Fields of the whole frame (not of one muscle), by key: shown as totals, the same whichever
+#: muscle is chosen; each is the :class:`~wrinkle_vis.core.face.FaceState` attribute of its key.
+FRAME_FIELDS: dict[str, FieldSpec] = {f.key: f for f in (
+    FieldSpec("fold_guard", "g", "fold guard",
+              "how much the fold guard took away here: the larger of the pull's and W's "
+              "reduction, or the shift of a point whose normal turned with its guarded "
+              "neighbours (0: the model's own value)",
+              "docs/model.md, folds", "1", "frame", total=True, limits=(0.0, 1.0),
+              cmap="Reds"),
+)}
+
+
 class _FieldNames(Sequence):
     """The keys of :data:`FIELDS`, always current (a field registered later is in it)."""
 
@@ -218,6 +242,9 @@ def register_field(spec: FieldSpec, *, override: bool = False) -> FieldSpec:
     if spec.key in FIELDS and not override:
         raise ValueError(f"field {spec.key!r} is already in the catalogue; pass override=True "
                          "to replace it")
+    if spec.key in FRAME_FIELDS or spec.where == "frame":
+        raise ValueError(f"field {spec.key!r}: frame fields are built in (FRAME_FIELDS); the "
+                         "catalogue holds the muscles' fields")
     if spec.total and spec.key != "W":
         raise ValueError(f"field {spec.key!r} cannot have a total: only W adds up over the "
                          "muscles (Eq. 4)")
@@ -227,10 +254,11 @@ def register_field(spec: FieldSpec, *, override: bool = False) -> FieldSpec:
 
 def field_spec(key: str) -> FieldSpec:
     """The :class:`FieldSpec` of ``key``; ``KeyError`` lists the fields."""
-    try:
-        return FIELDS[key]
-    except KeyError:
-        raise KeyError(f"unknown field {key!r}; fields: {', '.join(FIELDS)}") from None
+    spec = FIELDS.get(key) or FRAME_FIELDS.get(key)
+    if spec is None:
+        raise KeyError(f"unknown field {key!r}; fields: "
+                       f"{', '.join([*FIELDS, *FRAME_FIELDS])}")
+    return spec
 
 
 def total_fields() -> tuple[str, ...]:

@@ -27,10 +27,12 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse import csgraph
 from scipy.spatial import cKDTree
 
-__all__ = ["FoldGuard", "GuardResult", "fold_radii", "guard_frame", "guard_wrinkles",
-           "guarded", "medial_radii", "pull_terms", "skin_scale", "soft_clamp"]
+__all__ = ["FoldGuard", "GuardResult", "fold_radii", "guard_amount", "guard_frame",
+           "guard_wrinkles", "guarded", "medial_radii", "pull_terms", "skin_scale",
+           "soft_clamp"]
 
 
 @dataclass(frozen=True)
@@ -46,14 +48,27 @@ class FoldGuard:
     min_area : float
         :math:`\sigma_{\min}`: the fraction of its rest signed area a triangle keeps under
         the pulls, in ``(0, 1)``.
+    min_area_wrinkles : float
+        The same for the wrinkles' step, against the deformed skin, in ``(0, 1)`` (lower:
+        the step is held only where a furrow comes close to turning a triangle over).
+    eta_deformed : float
+        :math:`|W| \le \eta_d\, r^{\text{def}}_\pm` as well, the medial radii of the
+        deformed skin (before :math:`W`), in ``(0, 1)``.
+    knee_wrinkles : float
+        The knee of that step's clamp, in ``(0, 1)`` (it acts only where :math:`W` would
+        bring a triangle to ``min_area_wrinkles`` at ``1 / knee_wrinkles`` times itself).
     """
 
     eta: float = 0.5
     knee: float = 0.5
     min_area: float = 0.2
+    min_area_wrinkles: float = 0.05
+    knee_wrinkles: float = 0.8
+    eta_deformed: float = 0.7
 
     def __post_init__(self):
-        for name in ("eta", "knee", "min_area"):
+        for name in ("eta", "knee", "min_area", "min_area_wrinkles", "knee_wrinkles",
+                     "eta_deformed"):
             v = getattr(self, name)
             if not 0.0 < v < 1.0:
                 raise ValueError(f"FoldGuard.{name} = {v:g} is outside (0, 1)")
@@ -83,7 +98,7 @@ def soft_clamp(x: np.ndarray, bound: np.ndarray, knee: float) -> np.ndarray:
 
 
 def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | None = None,
-                 r_max: float | None = None, iterations: int = 40) -> np.ndarray:
+                 r_max: float | np.ndarray | None = None, iterations: int = 40) -> np.ndarray:
     r"""``(n, 2)``: radii :math:`(r_+, r_-)` of the largest balls empty of ``samples`` that
     touch ``points`` ``(n, 3)`` on the side of unit ``normals`` ``(n, 3)`` and against it.
 
@@ -92,18 +107,24 @@ def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | 
     to :math:`c` is closer than :math:`r` (and is not :math:`x`), shrink to the ball through
     :math:`x` and :math:`q` tangent at :math:`x`,
     :math:`r = |q - x|^2 / (2 |n \cdot (q - x)|)`. ``samples`` ``(s, 3)`` default to
-    ``points``.
+    ``points``. ``r_max`` may be ``(n,)``: the balls tangent at a point on one side nest,
+    so the result is then :math:`\min(r_\pm, r_{\max})` (all a clamp needs to know, found
+    in fewer, nearer steps); ``(n, 2)``, one per side, 0 where that side is not wanted.
     """
     pts = np.asarray(points, dtype=float)
     nrm = np.asarray(normals, dtype=float)
     smp = pts if samples is None else np.asarray(samples, dtype=float)
-    tree = cKDTree(smp)
+    tree = cKDTree(smp, balanced_tree=False)  # built each frame for the deformed skin
     if r_max is None:
         r_max = float(np.linalg.norm(smp.max(axis=0) - smp.min(axis=0)))
+    if not len(pts):
+        return np.zeros((0, 2))
     out = np.empty((len(pts), 2))
     for col, side in enumerate((1.0, -1.0)):
-        r = np.full(len(pts), r_max)
-        active = np.arange(len(pts))
+        r_side = np.asarray(r_max, dtype=float)
+        r_side = r_side[:, col] if r_side.ndim == 2 else r_side
+        r = np.array(np.broadcast_to(r_side, (len(pts),)))
+        active = np.flatnonzero(r > 0)
         for _ in range(iterations):
             if not len(active):
                 break
@@ -122,111 +143,180 @@ def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | 
     return out
 
 
-def pull_terms(rest: np.ndarray, triangles: np.ndarray) -> dict:
-    r"""What :func:`skin_scale` needs of the rest skin ``(n, 3)``, ``(m, 3)``, computed once:
-    the corners as rows, :math:`N / |N|^2` and the rows
-    :math:`A_1 = N \times e_1 / |N|^2`, :math:`A_2 = e_2 \times N / |N|^2` (so that
-    :math:`b = \delta_2 \cdot A_1 + \delta_1 \cdot A_2`), each ``(3, m)``.
+def _row_terms(points: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, ...]:
+    r"""``(3, k)`` thrice: :math:`N / |N|^2`, :math:`A_1 = N \times e_1 / |N|^2` and
+    :math:`A_2 = e_2 \times N / |N|^2` of the triangles ``corners`` ``(3, k)`` on ``points``
+    ``(n, 3)`` (0 for a triangle with no area).
     """
-    rest = np.asarray(rest, dtype=float)
-    tri = np.asarray(triangles, dtype=np.intp)
-    r = rest[tri]
-    e1, e2 = r[:, 1] - r[:, 0], r[:, 2] - r[:, 0]
+    r0, r1, r2 = (np.take(points, c, axis=0) for c in corners)
+    e1, e2 = r1 - r0, r2 - r0
     N = np.cross(e1, e2)
     nn = np.einsum("ij,ij->i", N, N)
     nn = np.where(nn > 0, nn, np.inf)[:, None]
-    return {"corners": np.ascontiguousarray(tri.T),
-            "N": np.ascontiguousarray((N / nn).T),
-            "A1": np.ascontiguousarray((np.cross(N, e1) / nn).T),
-            "A2": np.ascontiguousarray((np.cross(e2, N) / nn).T),
-            "centre": r.mean(axis=1), "tree": cKDTree(rest)}
+    return ((N / nn).T, (np.cross(N, e1) / nn).T, (np.cross(e2, N) / nn).T)
 
 
-def _quadratic(pull_t: np.ndarray, terms: dict) -> tuple[np.ndarray, np.ndarray]:
-    r"""``(m,)`` twice: :math:`b` and :math:`c` of :math:`\sigma_t(s) = 1 + b s + c s^2` for
-    the pull ``(3, n)``.
+def _start_terms(Nt: np.ndarray, start: np.ndarray, corners: np.ndarray
+                 ) -> tuple[np.ndarray, ...]:
+    r"""``(k,)`` then ``(3, k)`` twice: :math:`\sigma_t(0) = N_t \cdot (e_1 \times e_2)`,
+    :math:`A_1 = N_t \times e_1`, :math:`A_2 = e_2 \times N_t` for the rest normals
+    :math:`N_t = N / |N|^2` ``(3, k)`` and the edges :math:`e_1, e_2` of the triangles
+    ``corners`` ``(3, k)`` on the skin ``start`` ``(n, 3)`` a step begins from.
     """
-    c0, c1, c2 = terms["corners"]
+    r0, r1, r2 = (np.take(start, c, axis=0) for c in corners)
+    e1, e2 = r1 - r0, r2 - r0
+    N = Nt.T
+    return (np.einsum("ij,ij->i", N, _cross(e1, e2)), _cross(N, e1).T, _cross(e2, N).T)
+
+
+def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``(k, 3)``: row-wise cross product (faster than :func:`numpy.cross` on short rows)."""
+    return np.stack([u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1],
+                     u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2],
+                     u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]], axis=1)
+
+
+def pull_terms(rest: np.ndarray, triangles: np.ndarray) -> dict:
+    r"""What :func:`skin_scale` needs of the rest skin ``(n, 3)``, ``(m, 3)``, computed once:
+    the corners as rows ``(3, m)``, :math:`N / |N|^2` and the rows
+    :math:`A_1 = N \times e_1 / |N|^2`, :math:`A_2 = e_2 \times N / |N|^2` (so that
+    :math:`b = \delta_2 \cdot A_1 + \delta_1 \cdot A_2`), each ``(3, m)``; the skin's edges
+    ``(e, 2)`` and their rest lengths ``(e,)``.
+    """
+    rest = np.asarray(rest, dtype=float)
+    tri = np.asarray(triangles, dtype=np.intp)
+    corners = np.ascontiguousarray(tri.T)
+    N, A1, A2 = (np.ascontiguousarray(x) for x in _row_terms(rest, corners))
+    edges = np.unique(np.sort(np.vstack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]),
+                              axis=1), axis=0)
+    return {"corners": corners, "N": N, "A1": A1, "A2": A2, "edges": edges,
+            "length": np.linalg.norm(rest[edges[:, 0]] - rest[edges[:, 1]], axis=1)}
+
+
+def _quadratic(pull_t: np.ndarray, corners: np.ndarray, N: np.ndarray, A1: np.ndarray,
+               A2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(k,)`` twice: :math:`b` and :math:`c` of :math:`\sigma_t(s) = 1 + b s + c s^2` for
+    the pull ``(3, n)`` on the triangles ``corners`` ``(3, k)`` (their :func:`_row_terms`).
+    """
+    c0, c1, c2 = corners
     p0 = np.take(pull_t, c0, axis=1)
     d1 = np.take(pull_t, c1, axis=1) - p0
     d2 = np.take(pull_t, c2, axis=1) - p0
-    A1, A2, N = terms["A1"], terms["A2"], terms["N"]
     b = (d2 * A1).sum(axis=0) + (d1 * A2).sum(axis=0)
     c = (N[0] * (d1[1] * d2[2] - d1[2] * d2[1]) + N[1] * (d1[2] * d2[0] - d1[0] * d2[2])
          + N[2] * (d1[0] * d2[1] - d1[1] * d2[0]))
     return b, c
 
 
+def _lowest_sigma(b: np.ndarray, c: np.ndarray, top: float) -> np.ndarray:
+    r"""``(k,)``: the least :math:`\sigma_t(s) = 1 + b s + c s^2` over :math:`s \in [0, top]`."""
+    low = 1.0 + b * top + c * top * top
+    vertex = np.where(c > 0, -b / np.where(c > 0, 2.0 * c, 1.0), 0.0)
+    inside = (vertex > 0) & (vertex < top)
+    return np.where(inside, np.minimum(low, 1.0 - b * b / np.where(c > 0, 4.0 * c, 1.0)),
+                    low)
+
+
+def _limits(s_star: np.ndarray, corners: np.ndarray, size: np.ndarray, terms: dict,
+            reach: float, top: float) -> np.ndarray:
+    r"""``(n,)``: :math:`F_v`, the least over bad triangles :math:`t` (``corners``
+    ``(k, 3)``, their :math:`s^*_t` ``(k,)``) of :math:`s^*_t` plus the shortest path from
+    :math:`t` to :math:`v` along the skin's edges, an edge :math:`vw` weighing
+    :math:`|x_v - x_w| / (\text{reach} \max(|p_v|, |p_w|))` for the pulls' lengths ``size``
+    ``(n,)``; ``inf`` beyond ``top`` and wherever no pull connects :math:`v` to a bad
+    triangle.
+    """
+    n = len(size)
+    e, length = terms["edges"], terms["length"]
+    lift = np.maximum(size[e[:, 0]], size[e[:, 1]])
+    live = np.flatnonzero(lift > 0)
+    least = np.full(n, np.inf)  # a corner of several bad triangles: their least s*
+    np.minimum.at(least, corners.ravel(), np.maximum(np.repeat(s_star, 3), 1e-12))
+    src = np.flatnonzero(np.isfinite(least))
+    rows = np.concatenate([e[live, 0], np.full(len(src), n)])
+    cols = np.concatenate([e[live, 1], src])
+    w = np.concatenate([np.maximum(length[live] / (reach * lift[live]), 1e-300), least[src]])
+    graph = sp.csr_matrix((w, (rows, cols)), shape=(n + 1, n + 1))
+    dist = csgraph.dijkstra(graph, directed=False, indices=n, limit=top)
+    return dist[:n]
+
+
 def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
-               min_area: float = 0.2, knee: float = 0.5, iterations: int = 6,
-               reach: float = 4.0, terms: dict | None = None) -> np.ndarray:
+               min_area: float = 0.2, knee: float = 0.5, iterations: int = 20,
+               reach: float = 4.0, terms: dict | None = None,
+               start: np.ndarray | None = None) -> np.ndarray:
     r"""``(n,)`` in ``(0, 1]``: the factor on each vertex's pull ``deformed - rest``
     ``(n, 3)`` that keeps every triangle ``(m, 3)`` at :math:`\sigma_t \ge`
     ``min_area`` (module notes); exactly 1 where no triangle near the vertex comes within
     the knee (no triangle reaches ``min_area`` before the pull is :math:`1/\kappa` times
-    what it is).
+    what it is), and wherever the pull is too small to matter.
 
     Scaling one vertex's pull and not its neighbours' would shear the skin and turn other
-    triangles over, so the factor varies slowly: a triangle :math:`t` whose pull may only go
-    to :math:`s^*_t` bounds the vertices around it by
-    :math:`F_v = \min_t \big(s^*_t + |x_v - c_t| / L_t\big)`, :math:`L_t` = ``reach``
-    times the largest pull at its corners (a gradient of the factor times the pull stays
-    below 1 / ``reach``), and the factor is :func:`soft_clamp` of 1 below :math:`F_v`. The
-    step is repeated ``iterations`` times on the scaled pull (the factors only decrease).
-    ``terms``: :func:`pull_terms` of the rest skin, when cached.
+    triangles over, so the factor varies slowly against the pull: a triangle :math:`t` whose
+    pull may only go to :math:`s^*_t` bounds the vertices around it by
+    :math:`F_v = \min_t \big(s^*_t + d_t(v)\big)`, :math:`d_t(v)` the shortest path from
+    :math:`t` to :math:`v` along edges weighing :math:`|x_v - x_w| / (\text{reach}
+    \max(|p_v|, |p_w|))` (so that :math:`|F_v - F_w| \max(|p_v|, |p_w|) \le |x_v - x_w| /`
+    ``reach`` on every edge: the shear the factor adds stays below 1 / ``reach``, and the
+    bound grows fast where the pull fades: the guard stays where the pulls are), and the
+    factor is :func:`soft_clamp` of 1 below :math:`F_v`. The step is repeated
+    ``iterations`` times on the scaled pull (the factors only decrease). Only the
+    triangles with a pulled corner are looked at. ``terms``: :func:`pull_terms` of the
+    rest skin, when cached.
+
+    ``start`` ``(n, 3)``: a skin the step begins from (default ``rest``): the step is then
+    ``deformed - start``, and :math:`\sigma_t(s) = \sigma_t(0) + b s + c s^2` is still the
+    signed area along the *rest* normal, relative to the rest area (:math:`\sigma_t(0)`
+    that of ``start``): a chain of steps guarded so never turns a triangle over against the
+    rest skin.
     """
     rest = np.asarray(rest, dtype=float)
-    tri = np.asarray(triangles, dtype=np.intp)
     if terms is None:
-        terms = pull_terms(rest, tri)
-    pull_t = np.ascontiguousarray((np.asarray(deformed, dtype=float) - rest).T)
+        terms = pull_terms(rest, triangles)
+    base = rest if start is None else np.asarray(start, dtype=float)
+    pull_t = np.ascontiguousarray((np.asarray(deformed, dtype=float) - base).T)
     f = np.ones(len(rest))
-    size = None
-    tree = None
+    size = np.sqrt((pull_t * pull_t).sum(axis=0))
+    c0, c1, c2 = terms["corners"]
+    moving = size > 0
+    rows = np.flatnonzero(moving[c0] | moving[c1] | moving[c2])
+    corners = terms["corners"][:, rows]
+    Nt = terms["N"][:, rows]
+    if start is None:
+        a0, A1, A2 = np.ones(len(rows)), terms["A1"][:, rows], terms["A2"][:, rows]
+    else:
+        a0, A1, A2 = _start_terms(Nt, base, corners)
     top = 1.0 / knee
+    scaled = pull_t
     for _ in range(iterations):
-        b, c = _quadratic(pull_t * f if size is not None else pull_t, terms)
-        low = 1.0 + b * top + c * top * top  # sigma at the knee's reach, and at the vertex
-        vertex = np.where(c > 0, -b / np.where(c > 0, 2.0 * c, 1.0), 0.0)
-        inside = (vertex > 0) & (vertex < top)
-        low = np.where(inside, np.minimum(low, 1.0 - b * b / np.where(c > 0, 4.0 * c, 1.0)),
-                       low)
-        bad = np.flatnonzero(low < min_area)
+        if not len(rows):
+            break
+        b, c = _quadratic(scaled, corners, Nt, A1, A2)
+        bad = np.flatnonzero(a0 - 1.0 + _lowest_sigma(b, c, top) < min_area)
         if not len(bad):
             break
-        s_star = _first_root(1.0 - min_area, b[bad], c[bad])
-        if size is None:
-            size = np.sqrt((pull_t * pull_t).sum(axis=0))
-            tree = terms["tree"] if "tree" in terms else cKDTree(rest)
-        corners = tri[bad]
-        L = np.maximum(reach * (f * size)[corners].max(axis=1), 1e-300)
-        centre = terms["centre"][bad]
-        near_m = cKDTree(centre).sparse_distance_matrix(tree, float((L * top).max()),
-                                                        output_type="coo_matrix")
-        keep = near_m.data <= L[near_m.row] * top
-        rows = np.concatenate([near_m.row[keep], np.repeat(np.arange(len(bad)), 3)])
-        cols = np.concatenate([near_m.col[keep], corners.ravel()])
-        dist = np.linalg.norm(rest[cols] - centre[rows], axis=1)
-        limit = np.full(len(rest), np.inf)
-        np.minimum.at(limit, cols, s_star[rows] + dist / L[rows])
-        near = np.flatnonzero(np.isfinite(limit))
+        s_star = _first_root(np.maximum(a0[bad] - min_area, 1e-12), b[bad], c[bad])
+        limit = _limits(s_star, corners[:, bad].T, f * size, terms, reach, top)
+        near = np.flatnonzero(limit < top)
         step = soft_clamp(np.ones(len(near)), limit[near], knee)
         if np.all(step == 1.0):
             break
         f[near] *= step
+        scaled = pull_t * f
     return f
 
 
-def _first_root(a: float, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+def _first_root(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     r"""``(t,)``: the smallest :math:`s > 0` with :math:`a + b s + c s^2 = 0` (``a`` > 0),
-    ``inf`` where there is none.
+    ``inf`` where there is none; ``a``, ``b``, ``c`` ``(t,)``.
     """
+    a = np.broadcast_to(np.asarray(a, dtype=float), b.shape)
     out = np.full(len(b), np.inf)
     lin = np.abs(c) <= 1e-12 * np.maximum(np.abs(b), 1e-300)
     m = lin & (b < 0)
-    out[m] = -a / b[m]
+    out[m] = -a[m] / b[m]
     q = ~lin
-    disc = b[q] * b[q] - 4.0 * a * c[q]
+    disc = b[q] * b[q] - 4.0 * a[q] * c[q]
     ok = disc >= 0
     sq = np.sqrt(np.where(ok, disc, 0.0))
     cq = c[q]
@@ -275,49 +365,140 @@ class GuardResult:
 
 def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
                 triangles: np.ndarray, radii: np.ndarray, guard: FoldGuard = FoldGuard(),
-                pulls: bool = True, terms: dict | None = None) -> GuardResult:
-    r"""Both guards on one frame: ``rest``, ``deformed`` (before :math:`W`) and final
+                pulls: bool = True, terms: dict | None = None, deformed_radii: bool = False
+                ) -> GuardResult:
+    r"""The guards on one frame: ``rest``, ``deformed`` (before :math:`W`) and final
     ``points`` ``(n, 3)``, ``W`` ``(n,)``, ``triangles`` ``(m, 3)``, rest ``radii``
-    ``(n, 2)`` (:func:`medial_radii`).
+    ``(n, 2)`` (:func:`medial_radii`); ``terms``: :func:`pull_terms` of ``rest``, when cached.
 
-    Where neither guard acts, the frame's points are returned as they are (bit for bit).
+    1. The pulls are scaled by :func:`skin_scale` (no triangle keeps less than
+       ``min_area`` of its rest signed area); ``pulls=False`` skips it.
+    2. :math:`W` is clamped by :func:`guard_wrinkles` (below :math:`\eta\, r_\pm`); with
+       ``deformed_radii``, :math:`r_\pm` at each wrinkled vertex is the lesser of ``radii``
+       and the medial radii of the guarded deformed skin itself (the surface :math:`W`
+       displaces; the pulls may have pressed it together).
+    3. The wrinkles' own step, :math:`x' \to x' + W' n'`, is held to the same rule as the
+       pulls, against the guarded deformed skin: :math:`W'` is scaled by
+       :func:`skin_scale` of that step (a steep furrow on small triangles would otherwise
+       turn them over).
+
+    Where no guard acts, the frame's points are returned as they are (bit for bit).
     Elsewhere the final point is :math:`x' + W' n'`, with :math:`x'` the scaled pull and
     :math:`n'` the area-weighted unit normal of the guarded deformed skin; a vertex whose
-    deformed ring moved keeps its own :math:`W` along the new normal. ``pulls=False``
-    guards :math:`W` only.
+    deformed ring moved keeps its own :math:`W` along the new normal.
     """
     tri = np.asarray(triangles, dtype=np.intp)
     rest = np.asarray(rest, dtype=float)
+    if terms is None:
+        terms = pull_terms(rest, tri)
     f = (skin_scale(rest, deformed, tri, guard.min_area, guard.knee, terms=terms) if pulls
          else np.ones(len(rest)))
     W = np.asarray(W, dtype=float)
-    W2 = guard_wrinkles(W, radii, guard)
     moved = f < 1.0
+    d2, p2 = np.asarray(deformed, dtype=float), np.asarray(points, dtype=float)
+    if moved.any():
+        d2 = d2.copy()
+        d2[moved] = rest[moved] + f[moved, None] * (d2[moved] - rest[moved])
+    if deformed_radii:  # unmoved: the frame's own normals, (x_f - x_d) / W, for free
+        radii = _deformed_radii(d2, tri, W, radii, terms, guard,
+                                None if moved.any() else p2 - d2)
+    W2 = guard_wrinkles(W, radii, guard)
     changed_w = W2 != W
-    if not moved.any() and not changed_w.any():
-        return GuardResult(np.asarray(deformed), np.asarray(points), W, f, moved | changed_w)
-    d2 = np.array(deformed, dtype=float, copy=True)
-    d2[moved] = rest[moved] + f[moved, None] * (d2[moved] - rest[moved])
-    ring = np.zeros(len(rest), bool)
-    ring[tri[moved[tri].any(axis=1)].ravel()] = True
-    redo = np.flatnonzero((ring & (W2 != 0.0)) | changed_w)
-    p2 = np.array(points, dtype=float, copy=True)
-    p2[moved] = d2[moved]
-    if len(redo):
-        n = _vertex_normals(d2, tri, redo)
-        p2[redo] = d2[redo] + W2[redo, None] * n
-    return GuardResult(d2, p2, W2, f, moved | changed_w)
+    if moved.any() or changed_w.any():
+        ring = np.zeros(len(rest), bool)
+        ring[tri[moved[tri].any(axis=1)].ravel()] = True
+        redo = np.flatnonzero((ring & (W2 != 0.0)) | changed_w)
+        p2 = p2.copy()
+        p2[moved] = d2[moved]
+        if len(redo):
+            p2[redo] = d2[redo] + W2[redo, None] * _vertex_normals(d2, tri, redo, terms)
+    h = skin_scale(rest, p2, tri, guard.min_area_wrinkles, guard.knee_wrinkles, terms=terms,
+                   start=d2)
+    held = np.flatnonzero(h < 1.0)
+    if len(held):
+        p2 = np.array(p2, dtype=float, copy=True)
+        p2[held] = d2[held] + h[held, None] * (p2[held] - d2[held])
+        W2 = W2.copy()
+        W2[held] *= h[held]
+    acted = moved | (W2 != W)
+    if p2 is not points:
+        acted |= np.any(p2 != points, axis=1)
+    return GuardResult(d2, p2, W2, f, acted)
 
 
-def _vertex_normals(points: np.ndarray, tri: np.ndarray, ids: np.ndarray) -> np.ndarray:
-    """``(k, 3)``: unit area-weighted normals of ``points`` at vertices ``ids`` ``(k,)``."""
-    use = np.flatnonzero(np.isin(tri, ids).any(axis=1))
-    t = tri[use]
-    c = points[t]
-    fn = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
-    inc = sp.csr_matrix((np.ones(3 * len(t)), (t.ravel(), np.repeat(np.arange(len(t)), 3))),
-                        shape=(len(points), len(t)))
-    n = (inc @ fn)[ids]
+def guard_amount(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
+                 result: GuardResult) -> np.ndarray:
+    r"""``(n,)`` in ``[0, 1]``: how much the guard took away at each vertex, the field
+    ``fold_guard`` (0 where it did not act), from the raw frame (``rest``, ``deformed``,
+    ``points`` ``(n, 3)``, ``W`` ``(n,)``) and its :class:`GuardResult`: the largest of the
+    pull's reduction :math:`1 - f`, :math:`W`'s, :math:`1 - |W'| / |W|`, and the final
+    point's shift relative to the raw displacement,
+    :math:`|x'_f - x_f| / (|W| + |x_d - x_r|)` (a vertex whose normal turned with its
+    guarded neighbours).
+    """
+    W = np.asarray(W, dtype=float)
+    ratio = np.divide(np.abs(result.W), np.abs(W), out=np.ones(len(W)), where=W != 0)
+    amount = np.maximum(1.0 - result.scale, 1.0 - ratio)
+    rows = np.flatnonzero(result.acted)
+    if len(rows):
+        shift = np.linalg.norm(result.points[rows] - np.asarray(points)[rows], axis=1)
+        size = np.abs(W[rows]) + np.linalg.norm(
+            np.asarray(deformed)[rows] - np.asarray(rest)[rows], axis=1)
+        amount[rows] = np.maximum(amount[rows], np.minimum(
+            np.divide(shift, size, out=np.ones(len(rows)), where=size > 0), 1.0))
+    return amount
+
+
+def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii: np.ndarray,
+                    terms: dict, guard: FoldGuard, step: np.ndarray | None = None
+                    ) -> np.ndarray:
+    r"""``(n, 2)``: ``radii`` ``(n, 2)``, lowered at the vertices where ``W`` ``(n,)`` is not 0
+    to :math:`\eta_d / \eta` times the medial radii of the skin ``deformed`` ``(n, 3)``
+    along its area-weighted normals (``eta_deformed``: the clamp then keeps
+    :math:`|W| < \eta_d\, r^{\text{def}}_\pm`). The search starts at the radius where
+    the clamp's knee would just reach :math:`|W|`, so it stops at once wherever the clamp
+    would not act. ``step`` ``(n, 3)``: :math:`W n`, when the frame's normals are those of
+    ``deformed`` (else they are computed).
+    """
+    ratio = guard.eta_deformed / guard.eta
+    ids = np.flatnonzero(W)
+    if not len(ids):
+        return radii
+    start = np.abs(W[ids]) / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6)
+    x = deformed[ids]
+    reach = 2.0 * float(start.max())  # a ball of radius R tangent at x lies within 2 R of x
+    box = np.all((deformed >= x.min(axis=0) - reach) & (deformed <= x.max(axis=0) + reach),
+                 axis=1)
+    if step is None:
+        n = _vertex_normals(deformed, tri, ids, terms)
+    else:
+        n = step[ids] / W[ids, None]
+        n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+    side = np.where(W[ids, None] >= 0, [[1.0, 0.0]], [[0.0, 1.0]])  # the side W pushes to
+    r = medial_radii(x, n, samples=deformed[box], r_max=side * start[:, None])
+    r = np.where(side > 0, r, np.inf)
+    out = np.array(radii, dtype=float, copy=True)
+    out[ids] = np.minimum(out[ids], ratio * r)
+    return out
+
+
+def _vertex_normals(points: np.ndarray, tri: np.ndarray, ids: np.ndarray,
+                    terms: dict) -> np.ndarray:
+    """``(k, 3)``: unit area-weighted normals of ``points`` at vertices ``ids`` ``(k,)``
+    (the vertex-triangle incidence is cached in ``terms``).
+    """
+    inc = terms.get("incidence")
+    if inc is None:
+        m = len(tri)
+        inc = terms["incidence"] = sp.csr_matrix(
+            (np.ones(3 * m), (tri.ravel(), np.repeat(np.arange(m), 3))),
+            shape=(len(points), m))
+    sub = inc[ids]
+    use = np.unique(sub.indices)
+    c = points[tri[use]]
+    fn = np.zeros((len(tri), 3))
+    fn[use] = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
+    n = sub @ fn
     return n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
 
 
@@ -343,29 +524,43 @@ def fold_radii(face, skin_face=None) -> np.ndarray:
 
 
 def guarded(face, state, guard: FoldGuard = FoldGuard()):
-    """Apply :func:`guard_frame` to a frame ``state`` of ``face`` (unrefined or refined) in
+    r"""Apply :func:`guard_frame` to a frame ``state`` of ``face`` (unrefined or refined) in
     place: its ``deformed_points``, ``points`` and ``W`` become the guarded ones,
     ``W_raw`` keeps the raw :math:`W` and ``fold_guard`` ``(n,)`` in ``[0, 1]`` says how
-    much the guard took away (the larger of the pull's reduction and :math:`W`'s). Returns
-    ``state``. On a refined frame only :math:`W` is guarded (the refined skin's pulls come
-    from the subdivision hierarchy; guarding them is not done yet).
+    much the guard took away (:func:`guard_amount`). Returns ``state``.
+
+    On the face's own skin, where the pull guard scales a pull, the frame is evaluated
+    again on the guarded deformed skin (as the physical skin's frames are, from their
+    skin): the compression :math:`\varepsilon` (Eq. 9, 10), :math:`A` and :math:`W` of every
+    muscle, and ``state.fields``, are those of the skin the wrinkles sit on; then
+    :math:`W` is guarded on it. ``W_raw`` stays the unguarded frame's :math:`W`.
+
+    A refined frame is guarded on its refined skin (the pulls of its vertices as the
+    subdivision hierarchy evaluated them), with the rest skin's terms cached on the refined
+    face (frames with the same split set share it); its fields stay those of the unguarded
+    pull.
     """
     if not np.any(state.W) and state.deformed_points is state.rest_points:
         return state
     radii = fold_radii(face, state.face)
-    pulls = state.face is face
-    terms = None
-    if pulls:
-        terms = getattr(face._rest, "pull_terms", None)
-        if terms is None:
-            terms = face._rest.pull_terms = pull_terms(face.skin.points, face.skin.triangles)
+    skin = state.face  # the face's own skin, or the refined one of this frame
+    terms = getattr(skin._rest, "pull_terms", None)
+    if terms is None:
+        terms = skin._rest.pull_terms = pull_terms(skin.skin.points, skin.skin.triangles)
     g = guard_frame(state.rest_points, state.deformed_points, state.points, state.W,
-                    state.triangles, radii, guard, pulls=pulls, terms=terms)
+                    state.triangles, radii, guard, terms=terms,
+                    deformed_radii=True)
     if not g.acted.any():
         return state
+    if state.face is face and np.any(g.scale < 1.0):  # the fields see the guarded pull
+        fresh = face._frame(dict(state.activations), g.deformed)
+        w = guard_frame(state.rest_points, fresh.deformed_points, fresh.points, fresh.W,
+                        state.triangles, radii, guard, pulls=False, terms=terms,
+                        deformed_radii=True)
+        g = GuardResult(w.deformed, w.points, w.W, g.scale, g.acted | w.acted)
+        state.fields = fresh.fields
     W = np.asarray(state.W)
-    ratio = np.divide(np.abs(g.W), np.abs(W), out=np.ones(len(W)), where=W != 0)
-    amount = np.maximum(1.0 - g.scale, 1.0 - ratio)
+    amount = guard_amount(state.rest_points, state.deformed_points, state.points, W, g)
     for name, value in (("W_raw", W), ("deformed_points", g.deformed), ("points", g.points),
                         ("W", g.W), ("fold_guard", amount)):
         value = np.asarray(value)
