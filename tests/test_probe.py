@@ -9,6 +9,7 @@ import pytest
 
 import wrinkle_vis as wv
 from wrinkle_vis.app.session import Session, SurfacePoint
+from wrinkle_vis.core.fields import FRAME_FIELDS
 
 
 @pytest.fixture(scope="module")
@@ -26,7 +27,9 @@ def _by_full_fields(state, corners, weights) -> dict:
             return float(v[nearest])
         return float(weights[ok] @ v[ok] / weights[ok].sum())
 
-    out = {"total": {"W": interpolated(state.W)}}
+    out = {"total": {"W": interpolated(state.W),
+                     **{k: interpolated(np.asarray(state.field_values(k)))
+                        for k in FRAME_FIELDS}}}
     for name in state.face.muscle_names:
         values = {f: interpolated(state.fields[name][f]) for f in wv.FIELD_NAMES}
         if any(np.isfinite(v) for v in values.values()):

@@ -241,6 +241,24 @@ def _limits(s_star: np.ndarray, corners: np.ndarray, size: np.ndarray, terms: di
     return dist[:n]
 
 
+def _pulled_triangles(terms: dict, moving: np.ndarray, base: np.ndarray,
+                      start: np.ndarray | None) -> tuple:
+    r"""The triangles of :func:`pull_terms` ``terms`` with a corner where ``moving``
+    ``(n,)``: their ``rows`` ``(k,)``, ``corners`` ``(3, k)``, rest normals ``N`` ``(3, k)``
+    and the terms :math:`\sigma_t(0)`, :math:`A_1`, :math:`A_2` of their signed areas
+    (those of ``base`` when a ``start`` skin is given).
+    """
+    c0, c1, c2 = terms["corners"]
+    rows = np.flatnonzero(moving[c0] | moving[c1] | moving[c2])
+    corners = terms["corners"][:, rows]
+    Nt = terms["N"][:, rows]
+    if start is None:
+        a0, A1, A2 = np.ones(len(rows)), terms["A1"][:, rows], terms["A2"][:, rows]
+    else:
+        a0, A1, A2 = _start_terms(Nt, base, corners)
+    return rows, corners, Nt, a0, A1, A2
+
+
 def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
                min_area: float = 0.2, knee: float = 0.5, iterations: int = 20,
                reach: float = 4.0, terms: dict | None = None,
@@ -277,15 +295,7 @@ def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
     pull_t = np.ascontiguousarray((np.asarray(deformed, dtype=float) - base).T)
     f = np.ones(len(rest))
     size = np.sqrt((pull_t * pull_t).sum(axis=0))
-    c0, c1, c2 = terms["corners"]
-    moving = size > 0
-    rows = np.flatnonzero(moving[c0] | moving[c1] | moving[c2])
-    corners = terms["corners"][:, rows]
-    Nt = terms["N"][:, rows]
-    if start is None:
-        a0, A1, A2 = np.ones(len(rows)), terms["A1"][:, rows], terms["A2"][:, rows]
-    else:
-        a0, A1, A2 = _start_terms(Nt, base, corners)
+    rows, corners, Nt, a0, A1, A2 = _pulled_triangles(terms, size > 0, base, start)
     top = 1.0 / knee
     scaled = pull_t
     for _ in range(iterations):
@@ -363,6 +373,45 @@ class GuardResult:
     acted: np.ndarray
 
 
+def _rewrinkled(points: np.ndarray, d2: np.ndarray, W: np.ndarray, W2: np.ndarray,
+                moved: np.ndarray, tri: np.ndarray, terms: dict) -> np.ndarray:
+    """``(n, 3)``: the final ``points`` with the guarded deformed skin ``d2`` ``(n, 3)``
+    where the pull was scaled (``moved`` ``(n,)``) and :math:`x' + W' n'` where the pull
+    moved a vertex's ring or the clamp changed ``W`` to ``W2`` ``(n,)``; ``points`` itself
+    where neither happened.
+    """
+    changed_w = W2 != W
+    if not (moved.any() or changed_w.any()):
+        return points
+    ring = np.zeros(len(points), bool)
+    ring[tri[moved[tri].any(axis=1)].ravel()] = True
+    redo = np.flatnonzero((ring & (W2 != 0.0)) | changed_w)
+    p2 = points.copy()
+    p2[moved] = d2[moved]
+    if len(redo):
+        p2[redo] = d2[redo] + W2[redo, None] * _vertex_normals(d2, tri, redo, terms)
+    return p2
+
+
+def _held_wrinkles(rest: np.ndarray, d2: np.ndarray, p2: np.ndarray, W2: np.ndarray,
+                   tri: np.ndarray, guard: FoldGuard, terms: dict
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    r"""The wrinkles' own step :math:`x' \to x' + W' n'` (``d2`` to ``p2``, ``(n, 3)``)
+    held by :func:`skin_scale` against the rest skin's signed areas: the points and ``W2``
+    ``(n,)`` scaled by its factor where it is below 1 (as they are elsewhere).
+    """
+    h = skin_scale(rest, p2, tri, guard.min_area_wrinkles, guard.knee_wrinkles, terms=terms,
+                   start=d2)
+    held = np.flatnonzero(h < 1.0)
+    if not len(held):
+        return p2, W2
+    p2 = np.array(p2, dtype=float, copy=True)
+    p2[held] = d2[held] + h[held, None] * (p2[held] - d2[held])
+    W2 = W2.copy()
+    W2[held] *= h[held]
+    return p2, W2
+
+
 def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
                 triangles: np.ndarray, radii: np.ndarray, guard: FoldGuard = FoldGuard(),
                 pulls: bool = True, terms: dict | None = None, deformed_radii: bool = False
@@ -403,23 +452,8 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
         radii = _deformed_radii(d2, tri, W, radii, terms, guard,
                                 None if moved.any() else p2 - d2)
     W2 = guard_wrinkles(W, radii, guard)
-    changed_w = W2 != W
-    if moved.any() or changed_w.any():
-        ring = np.zeros(len(rest), bool)
-        ring[tri[moved[tri].any(axis=1)].ravel()] = True
-        redo = np.flatnonzero((ring & (W2 != 0.0)) | changed_w)
-        p2 = p2.copy()
-        p2[moved] = d2[moved]
-        if len(redo):
-            p2[redo] = d2[redo] + W2[redo, None] * _vertex_normals(d2, tri, redo, terms)
-    h = skin_scale(rest, p2, tri, guard.min_area_wrinkles, guard.knee_wrinkles, terms=terms,
-                   start=d2)
-    held = np.flatnonzero(h < 1.0)
-    if len(held):
-        p2 = np.array(p2, dtype=float, copy=True)
-        p2[held] = d2[held] + h[held, None] * (p2[held] - d2[held])
-        W2 = W2.copy()
-        W2[held] *= h[held]
+    p2 = _rewrinkled(p2, d2, W, W2, moved, tri, terms)
+    p2, W2 = _held_wrinkles(rest, d2, p2, W2, tri, guard, terms)
     acted = moved | (W2 != W)
     if p2 is not points:
         acted |= np.any(p2 != points, axis=1)
