@@ -2,7 +2,7 @@
 by side: the two run alternately, each in a fresh process, round after round (issue 33 M12).
 
 Run:  .venv/bin/python benchmarks/bench_first_frame.py [--baseline REF] [--levels 4]
-      [--rounds 3] [--json out.json]
+      [--rounds 3] [--fold-guard on|off] [--json out.json]
 
 ``--baseline`` is a git revision whose ``wrinkle_vis`` is extracted into a
 temporary folder (``git archive``; ``wrinkle_vis.datasets``, which the editable install maps
@@ -10,7 +10,8 @@ to this tree's ``datasets``, is this tree's for both: only the procedural face i
 from its cache); ``--levels`` midpoint subdivisions of the 5,100-triangle
 procedural face (3: 326 k triangles, 4: 1.3 M). A round times each version once: a fresh
 ``FaceModel`` on the subdivided skin (its edges and incidence built beforehand, as loading a
-mesh does), its first ``evaluate`` with every muscle at 0.7, with tracemalloc running (its
+mesh does), its first ``evaluate`` with every muscle at 0.7 (the fold guard on, or off with
+``--fold-guard off``), with tracemalloc running (its
 peak: numpy and SciPy arrays); the process's peak RSS is reported too. Figures are medians
 over the rounds. The two versions' frames are compared at the end (largest difference of
 the final points and of W).
@@ -33,7 +34,7 @@ CHILD = r"""
 import resource, sys, time, tracemalloc
 import numpy as np
 import wrinkle_vis as wv
-levels, out = int(sys.argv[1]), sys.argv[2]
+levels, out, guard = int(sys.argv[1]), sys.argv[2], sys.argv[3] == "on"
 base = wv.datasets.load_face(5100)
 skin = wv.subdivide(base.skin, levels)
 _ = skin.edges, skin.incidence
@@ -41,7 +42,7 @@ face = wv.FaceModel(skin, base.skull, base.muscles, base.expressions)
 acts = {m: 0.7 for m in face.muscle_names}
 tracemalloc.start()
 t0 = time.perf_counter()
-state = face.evaluate(acts)
+state = face.evaluate(acts, fold_guard=guard)
 seconds = time.perf_counter() - t0
 peak = tracemalloc.get_traced_memory()[1] / 2**20
 tracemalloc.stop()
@@ -51,10 +52,10 @@ print(skin.n_triangles, seconds, peak, rss, wv.__file__)
 """
 
 
-def run(tree: Path, levels: int, out: Path) -> dict:
+def run(tree: Path, levels: int, out: Path, guard: str = "on") -> dict:
     """One first frame in a fresh process importing ``wrinkle_vis`` from ``tree``."""
     env = dict(os.environ, PYTHONPATH=str(tree))
-    text = subprocess.run([sys.executable, "-c", CHILD, str(levels), str(out)], env=env,
+    text = subprocess.run([sys.executable, "-c", CHILD, str(levels), str(out), guard], env=env,
                           cwd=tree, check=True, capture_output=True, text=True).stdout
     tris, seconds, peak, rss, where = text.split()[-5:]
     if not where.startswith(str(tree)):
@@ -70,6 +71,7 @@ def main() -> None:
     parser.add_argument("--baseline", default="HEAD")
     parser.add_argument("--levels", type=int, default=4)
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--fold-guard", choices=("on", "off"), default="on")
     parser.add_argument("--json")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
@@ -83,7 +85,8 @@ def main() -> None:
         rows = {k: [] for k in trees}
         for r in range(args.rounds):
             for name, tree in (trees.items() if r % 2 == 0 else reversed(trees.items())):
-                rows[name].append(run(tree, args.levels, Path(tmp) / f"{name}.npz"))
+                rows[name].append(run(tree, args.levels, Path(tmp) / f"{name}.npz",
+                                     args.fold_guard))
                 print(f"round {r + 1} {name}: {rows[name][-1]}", flush=True)
         a, b = (np.load(Path(tmp) / f"{k}.npz") for k in trees)
         diff = {k: float(np.abs(a[k] - b[k]).max()) for k in ("points", "W")}

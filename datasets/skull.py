@@ -67,12 +67,10 @@ def exterior(skin: TriangleSurface, candidates=None) -> TriangleSurface:
     nostrils, ear canals): those from which no ray escapes.
 
     A triangle is kept when a ray from its centre along its outward normal, or along one
-    of four rays tilted 45 degrees from it, meets no other triangle (VTK's static cell
-    locator). ``candidates`` (``(m,)`` bool) limits the test to some triangles; the others
-    are kept.
+    of four rays tilted 45 degrees from it, meets no other triangle within the skin's size
+    (:func:`_segment_hits`). ``candidates`` (``(m,)`` bool) limits the test to some
+    triangles; the others are kept.
     """
-    import vtk
-
     from wrinkle_vis.core.mesh import tangent_bases, unit_rows
 
     tri = np.asarray(skin.triangles)
@@ -80,19 +78,37 @@ def exterior(skin: TriangleSurface, candidates=None) -> TriangleSurface:
     normal = unit_rows(skin.face_normals())
     u, v = tangent_bases(normal)
     size = float(np.linalg.norm(np.ptp(skin.points, axis=0)))
-    locator = vtk.vtkStaticCellLocator()
-    locator.SetDataSet(_poly(skin))
-    locator.BuildLocator()
-    t, x, pc = vtk.mutable(0.0), [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
-    sub, cell = vtk.mutable(0), vtk.mutable(0)
+    hits = _segment_hits(skin)
     shut = np.ones(len(tri), bool) if candidates is None else np.asarray(candidates, bool)
     shut = shut & np.isfinite(normal).all(axis=1)
     for d in (normal, *[unit_rows(normal + s * w) for w in (u, v) for s in (1.0, -1.0)]):
-        for i in np.flatnonzero(shut):
-            start = centre[i] + 1e-4 * size * d[i]
-            shut[i] = bool(locator.IntersectWithLine(start, centre[i] + size * d[i], 0.0, t,
-                                                     x, pc, sub, cell))
+        ids = np.flatnonzero(shut)
+        shut[ids] = hits(centre[ids] + 1e-4 * size * d[ids], centre[ids] + size * d[ids])
     return TriangleSurface(skin.points, tri[~shut]).without_unused()
+
+
+def _segment_hits(surface: TriangleSurface, cells_per_bucket: int = 1):
+    """Whether segments meet ``surface``, as a function of their ends ``start``, ``end``
+    ``(k, 3)`` that returns ``(k,)`` bool: VTK's static cell locator (``IntersectWithLine``,
+    no tolerance) with ``cells_per_bucket`` triangles a bucket on average, not VTK's ten: a
+    ray then tests about half the triangles (the answers do not depend on the buckets).
+    """
+    import vtk
+
+    locator = vtk.vtkStaticCellLocator()
+    locator.SetDataSet(_poly(surface))
+    locator.SetNumberOfCellsPerNode(cells_per_bucket)
+    locator.SetMaxNumberOfBuckets(max(surface.n_triangles, 1))
+    locator.BuildLocator()
+    t, x, pc = vtk.mutable(0.0), [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
+    sub, cell = vtk.mutable(0), vtk.mutable(0)
+    meets = locator.IntersectWithLine
+
+    def hits(start: np.ndarray, end: np.ndarray) -> np.ndarray:
+        return np.array([bool(meets(a, b, 0.0, t, x, pc, sub, cell))
+                         for a, b in zip(start.tolist(), end.tolist(), strict=True)], bool)
+
+    return hits
 
 
 def _evaluator(surface: TriangleSurface):
