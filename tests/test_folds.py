@@ -497,3 +497,64 @@ def test_the_fields_see_the_guarded_pull(head):
                                       equal_nan=True))
     assert changed > 0
     np.testing.assert_array_equal(s.W_raw, raw.W)
+
+
+def test_rest_radii_are_searched_as_far_as_a_frame_needs():
+    """The rest radii searched up to what a frame needs are the true ones wherever they are
+    below it (the balls tangent at a point on one side nest) and at least what is needed
+    elsewhere; a later frame that needs more searches again, one that needs less does not.
+    """
+    import wrinkle_vis as wv
+    from wrinkle_vis.core import foldguard
+
+    face = wv.datasets.load_face(n_triangles=1200)
+    pts, nrm = face.skin.points, face._rest.normals
+    full = medial_radii(pts, nrm)
+    rng = np.random.default_rng(3)
+    need = np.c_[rng.uniform(0, 20, len(pts)), rng.uniform(0, 20, len(pts))]
+    need[rng.random(len(pts)) < 0.3] = 0.0
+    got = foldguard._rest_radii(face, need).copy()
+    below = full < need
+    assert 0.05 < below[need > 0].mean() < 0.95  # both kinds of vertex are there
+    np.testing.assert_allclose(got[below], full[below], rtol=1e-9)
+    assert np.all(got[~below] >= need[~below] * (1 - 1e-12))
+    calls = []
+    real = foldguard.medial_radii
+    foldguard.medial_radii = lambda *a, **k: calls.append(len(a[0])) or real(*a, **k)
+    try:
+        foldguard._rest_radii(face, 0.5 * need)
+        assert calls == []  # known far enough already
+        more = foldguard._rest_radii(face, 2.0 * need).copy()
+        assert calls and calls[0] < len(pts)  # only the vertices not yet known that far
+    finally:
+        foldguard.medial_radii = real
+    below = full < 2.0 * need
+    np.testing.assert_allclose(more[below], full[below], rtol=1e-9)
+
+
+def test_the_guard_on_needed_radii_gives_the_frame_of_the_true_radii(monkeypatch):
+    """A guarded frame on the radii searched as far as its W needs is bit for bit the one
+    the true radii (searched from the whole diagonal, at every vertex) give; radii searched
+    less far give another frame (the test can fail)."""
+    import wrinkle_vis as wv
+    from wrinkle_vis.core import foldguard
+
+    true_radii = foldguard.fold_radii
+
+    def frame(how):
+        face = _scaled_k0(wv.datasets.load_face(n_triangles=1200), 10.0)
+        if how == "true":
+            full = foldguard.medial_radii(face.skin.points, face._rest.normals)
+            monkeypatch.setattr(foldguard, "fold_radii", lambda *a, **k: full.copy())
+        elif how == "short":  # half as far as needed: the clamp sees smaller radii
+            monkeypatch.setattr(foldguard, "fold_radii", lambda f, s, W, g: true_radii(
+                f, s, 0.25 * np.asarray(W), g))
+        s = face.evaluate("pucker", 1.0)
+        monkeypatch.undo()
+        return s
+
+    needed, true = frame("needed"), frame("true")
+    assert np.any(true.fold_guard > 0)  # the clamp acts on this frame
+    for key in ("points", "W", "deformed_points", "fold_guard"):
+        np.testing.assert_array_equal(getattr(needed, key), getattr(true, key), key)
+    assert not np.array_equal(frame("short").W, true.W)

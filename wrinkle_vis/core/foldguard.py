@@ -98,7 +98,8 @@ def soft_clamp(x: np.ndarray, bound: np.ndarray, knee: float) -> np.ndarray:
 
 
 def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | None = None,
-                 r_max: float | np.ndarray | None = None, iterations: int = 40) -> np.ndarray:
+                 r_max: float | np.ndarray | None = None, iterations: int = 40,
+                 tree: cKDTree | None = None) -> np.ndarray:
     r"""``(n, 2)``: radii :math:`(r_+, r_-)` of the largest balls empty of ``samples`` that
     touch ``points`` ``(n, 3)`` on the side of unit ``normals`` ``(n, 3)`` and against it.
 
@@ -110,11 +111,13 @@ def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | 
     ``points``. ``r_max`` may be ``(n,)``: the balls tangent at a point on one side nest,
     so the result is then :math:`\min(r_\pm, r_{\max})` (all a clamp needs to know, found
     in fewer, nearer steps); ``(n, 2)``, one per side, 0 where that side is not wanted.
+    ``tree``: a ``cKDTree`` of ``samples``, when one is at hand.
     """
     pts = np.asarray(points, dtype=float)
     nrm = np.asarray(normals, dtype=float)
     smp = pts if samples is None else np.asarray(samples, dtype=float)
-    tree = cKDTree(smp, balanced_tree=False)  # built each frame for the deformed skin
+    if tree is None:
+        tree = cKDTree(smp, balanced_tree=False)  # built each frame for the deformed skin
     if r_max is None:
         r_max = float(np.linalg.norm(smp.max(axis=0) - smp.min(axis=0)))
     if not len(pts):
@@ -176,19 +179,23 @@ def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
                      u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]], axis=1)
 
 
-def pull_terms(rest: np.ndarray, triangles: np.ndarray) -> dict:
+def pull_terms(rest: np.ndarray, triangles: np.ndarray, edges: np.ndarray | None = None
+               ) -> dict:
     r"""What :func:`skin_scale` needs of the rest skin ``(n, 3)``, ``(m, 3)``, computed once:
     the corners as rows ``(3, m)``, :math:`N / |N|^2` and the rows
     :math:`A_1 = N \times e_1 / |N|^2`, :math:`A_2 = e_2 \times N / |N|^2` (so that
     :math:`b = \delta_2 \cdot A_1 + \delta_1 \cdot A_2`), each ``(3, m)``; the skin's edges
-    ``(e, 2)`` and their rest lengths ``(e,)``.
+    ``(e, 2)`` and their rest lengths ``(e,)``. ``edges``: the skin's unique edges sorted
+    (``TriangleSurface.edges``), when at hand.
     """
     rest = np.asarray(rest, dtype=float)
     tri = np.asarray(triangles, dtype=np.intp)
     corners = np.ascontiguousarray(tri.T)
     N, A1, A2 = (np.ascontiguousarray(x) for x in _row_terms(rest, corners))
-    edges = np.unique(np.sort(np.vstack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]),
-                              axis=1), axis=0)
+    if edges is None:
+        edges = np.unique(np.sort(np.vstack([tri[:, [0, 1]], tri[:, [1, 2]],
+                                             tri[:, [2, 0]]]), axis=1), axis=0)
+    edges = np.asarray(edges, dtype=np.intp)
     return {"corners": corners, "N": N, "A1": A1, "A2": A2, "edges": edges,
             "length": np.linalg.norm(rest[edges[:, 0]] - rest[edges[:, 1]], axis=1)}
 
@@ -536,25 +543,72 @@ def _vertex_normals(points: np.ndarray, tri: np.ndarray, ids: np.ndarray,
     return n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
 
 
-def fold_radii(face, skin_face=None) -> np.ndarray:
-    r"""``(n, 2)``: :math:`(r_+, r_-)` on the rest skin of ``skin_face`` (default ``face``),
-    computed once per skin and cached with the face's rest frame.
+def _needed(W: np.ndarray, guard: FoldGuard) -> np.ndarray:
+    r"""``(n, 2)``: the radius up to which the clamp needs :math:`r_\pm` at each vertex of a
+    frame's ``W`` ``(n,)``: just above :math:`|W| / (\kappa \eta)` on the side ``W`` pushes to
+    (a radius beyond it leaves the clamp the identity), 0 elsewhere.
+    """
+    W = np.asarray(W, dtype=float)
+    start = np.abs(W) / (guard.knee * guard.eta) * (1.0 + 1e-6)
+    return np.where(W[:, None] >= 0, [[1.0, 0.0]], [[0.0, 1.0]]) * start[:, None]
 
-    A refined skin takes, at each vertex, the smallest radii of the three nearest vertices
-    of ``face``'s own skin (its vertices lie on the smooth surface through them).
+
+def _rest_radii(face, need: np.ndarray) -> np.ndarray:
+    """``(n, 2)``: rest radii of ``face``'s own skin known at least up to ``need``
+    ``(n, 2)``: the true radius where it is below what was ever needed, else a value at or
+    above ``need`` (below which the true radius does not lie). What is found is kept with
+    the rest frame; a vertex is searched again only when a frame needs more of it.
     """
     rest = face._rest
-    radii = getattr(rest, "fold_radii", None)
-    if radii is None:
-        radii = rest.fold_radii = medial_radii(face.skin.points, rest.normals)
-    if skin_face is None or skin_face is face or skin_face.skin is face.skin:
-        return radii
+    known = getattr(rest, "fold_radii", None)
+    if known is None:
+        known = rest.fold_radii = np.zeros((face.skin.n_points, 2))
+        rest.fold_radii_exact = np.zeros((face.skin.n_points, 2), bool)
+    todo = (need > known) & ~rest.fold_radii_exact
+    rows = np.flatnonzero(todo.any(axis=1))
+    if len(rows):
+        r_max = np.where(todo[rows], need[rows], 0.0)
+        r = medial_radii(face.skin.points[rows], rest.normals[rows],
+                         samples=face.skin.points, r_max=r_max, tree=face.skin.kdtree)
+        known[rows] = np.where(todo[rows], r, known[rows])
+        rest.fold_radii_exact[rows] |= todo[rows] & (r < r_max)
+    return known
+
+
+def fold_radii(face, skin_face=None, W: np.ndarray | None = None,
+               guard: FoldGuard = FoldGuard()) -> np.ndarray:
+    r"""``(n, 2)``: :math:`(r_\pm)` on the rest skin of ``skin_face`` (default ``face``) as
+    the clamp of a frame's ``W`` ``(n,)`` on that skin needs them (default: every radius in
+    full).
+
+    The clamp is the identity wherever :math:`|W| \le \kappa \eta r`, so a radius is
+    searched only up to just above :math:`|W| / (\kappa \eta)` (the shrinking-ball search
+    from there gives :math:`\min(r, \cdot)`: the balls tangent at a point on one side
+    nest): the true radius where the clamp acts, a radius it cannot tell from the true one
+    elsewhere, at the cost of a small ball per wrinkled vertex instead of one as large as
+    the skin per vertex (minutes at a million triangles). What is found is kept with the
+    face's rest frame. A refined skin takes, at each vertex, the smallest radii of the
+    three nearest vertices of ``face``'s own skin (its vertices lie on the smooth surface
+    through them); those are searched as far as their refined vertices need.
+    """
+    own = skin_face is None or skin_face is face or skin_face.skin is face.skin
+    n = face.skin.n_points if own else skin_face.skin.n_points
+    if W is None:
+        size = np.linalg.norm(np.ptp(face.skin.points, axis=0))
+        need = np.full((n, 2), 2.0 * size)
+    else:
+        need = _needed(W, guard)
+    if own:
+        return _rest_radii(face, need).copy()
     fine = skin_face._rest
-    out = getattr(fine, "fold_radii", None)
-    if out is None or len(out) != skin_face.skin.n_points:
+    idx = getattr(fine, "fold_radii_nearest", None)
+    if idx is None or len(idx) != n:
         _, idx = face.skin.kdtree.query(skin_face.skin.points, k=3)
-        out = fine.fold_radii = radii[idx].min(axis=1)
-    return out
+        fine.fold_radii_nearest = idx
+    base = np.zeros((face.skin.n_points, 2))
+    for k in range(3):
+        np.maximum.at(base, idx[:, k], need)
+    return _rest_radii(face, base)[idx].min(axis=1)
 
 
 def guarded(face, state, guard: FoldGuard = FoldGuard()):
@@ -576,11 +630,12 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
     """
     if not np.any(state.W) and state.deformed_points is state.rest_points:
         return state
-    radii = fold_radii(face, state.face)
+    radii = fold_radii(face, state.face, state.W, guard)
     skin = state.face  # the face's own skin, or the refined one of this frame
     terms = getattr(skin._rest, "pull_terms", None)
     if terms is None:
-        terms = skin._rest.pull_terms = pull_terms(skin.skin.points, skin.skin.triangles)
+        terms = skin._rest.pull_terms = pull_terms(skin.skin.points, skin.skin.triangles,
+                                                   skin.skin.edges)
     g = guard_frame(state.rest_points, state.deformed_points, state.points, state.W,
                     state.triangles, radii, guard, terms=terms,
                     deformed_radii=True)
@@ -588,6 +643,7 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
         return state
     if state.face is face and np.any(g.scale < 1.0):  # the fields see the guarded pull
         fresh = face._frame(dict(state.activations), g.deformed)
+        radii = fold_radii(face, state.face, fresh.W, guard)  # the fresh frame's W
         w = guard_frame(state.rest_points, fresh.deformed_points, fresh.points, fresh.W,
                         state.triangles, radii, guard, pulls=False, terms=terms,
                         deformed_radii=True)
