@@ -208,7 +208,8 @@ class MainWindow(QtWidgets.QMainWindow):
     # ------------------------------------------------------------------ following
     def _on_document(self, what: str) -> None:
         self._show_muscles(what)
-        self.update_title()
+        if what in ("session", "dirty"):  # a drawn frame updates it too
+            self.update_title()
 
     def _show_muscles(self, what: str) -> None:
         s = self.document.session
