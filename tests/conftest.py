@@ -233,7 +233,10 @@ def _discard_changes(w):
 
 
 def skin_mesh(window):
-    """The mesh the skin view draws."""
+    """The mesh the skin view draws (the frame is drawn first if a change is pending: the
+    app draws once per event-loop turn).
+    """
+    window.frames.flush()
     return window.skin_view.actors["skin"].mapper.dataset
 
 

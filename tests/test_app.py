@@ -204,6 +204,7 @@ def test_a_muscle_is_coloured_by_its_activation_without_sending_its_mesh_again(w
     mesh = actor.mapper.dataset
     stamp = mesh.GetMTime()
     window.intensity_slider.setValue(90)  # a new activation: only the actor's colour
+    window.frames.flush()  # the frame of this event-loop turn, drawn now
     a = window.session.state().activations["frontalis_major_L"]
     assert 0.0 < a < 1.0
     assert mesh.GetMTime() == stamp and actor.mapper.dataset is mesh
@@ -222,6 +223,7 @@ def _drawn_in_place_as_rebuilt(window, view, other_intensity: int) -> None:
     rebuilt = view.screenshot(return_img=True).astype(int)
     assert np.abs(in_place - rebuilt).max() <= 2
     window.intensity_slider.setValue(other_intensity)
+    window.frames.flush()  # the frame of this event-loop turn, drawn now
     assert np.abs(view.screenshot(return_img=True).astype(int) - rebuilt).max() > 20
 
 

@@ -262,12 +262,9 @@ class NewFaceFlow:
         camera = w.skin_view.camera_position
         face = scan_only_face(self.picker.skin, name=self.picker.mesh_path.name,
                               unit=self.picker.unit)
-        w.plain_skin = True
+        w.display.set(plain=True)
         self._own = Session(face)
-        w._show_session(self._own)
-        w.field_box.blockSignals(True)
-        w.field_box.setCurrentText("none")
-        w.field_box.blockSignals(False)
+        w.files.show_session(self._own)
         if not reset_camera:
             w.skin_view.camera_position = camera
         self._show_step()
@@ -363,16 +360,10 @@ class NewFaceFlow:
         self._clear_markers()
         session = Session(face, None, layout=self.picker.layout(face),
                           folder=self.picker.folder)
-        w.plain_skin = False
-        w.field_box.blockSignals(True)
-        w.field_box.setCurrentText("W")
-        w.field_box.blockSignals(False)
+        w.display.set(plain=False)
         self._own = session
-        w._show_session(session)
+        w.files.show_session(session, modified=True)  # new work: unsaved until saved
         w.skin_view.camera_position = camera
-        w.undo_stack.resetClean()  # new work: unsaved until saved
-        session.dirty = True
-        w._update_title()
         self._show_step()
 
     def _show_step(self) -> None:
@@ -446,15 +437,8 @@ class NewFaceFlow:
         if self.picking:
             before, dirty = self._before
             self._clear_markers()
-            w.plain_skin = False
-            w.field_box.blockSignals(True)
-            w.field_box.setCurrentText("W")
-            w.field_box.blockSignals(False)
-            w._show_session(before)
-            if dirty:
-                w.undo_stack.resetClean()
-                before.dirty = True
-                w._update_title()
+            w.display.set(plain=False)
+            w.files.show_session(before, modified=dirty)
         self._end()
 
     def back_to_unsaved(self) -> None:
