@@ -51,7 +51,7 @@ class ParameterPanel(QtWidgets.QWidget):
         self.widgets: dict[str, QtWidgets.QAbstractSpinBox] = {}
         self.option_widgets: dict[str, QtWidgets.QWidget] = {}  # a QCheckBox or a QComboBox
         self.activation_box = self.derived_label = None
-        self._edit = weak(edits.set_parameter)
+        self._edit = weak(edits.set_parameter, keep=2)
         if muscle is None:
             self.form.addRow(QtWidgets.QLabel("Choose a muscle to edit it."))
             return
