@@ -201,14 +201,18 @@ def pull_terms(rest: np.ndarray, triangles: np.ndarray, edges: np.ndarray | None
 
 
 def _quadratic(pull_t: np.ndarray, corners: np.ndarray, N: np.ndarray, A1: np.ndarray,
-               A2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+               A2: np.ndarray, f: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     r"""``(k,)`` twice: :math:`b` and :math:`c` of :math:`\sigma_t(s) = 1 + b s + c s^2` for
-    the pull ``(3, n)`` on the triangles ``corners`` ``(3, k)`` (their :func:`_row_terms`).
+    the pull ``(3, n)``, times the factors ``f`` ``(n,)`` when given, on the triangles
+    ``corners`` ``(3, k)`` (their :func:`_row_terms`).
     """
     c0, c1, c2 = corners
-    p0 = np.take(pull_t, c0, axis=1)
-    d1 = np.take(pull_t, c1, axis=1) - p0
-    d2 = np.take(pull_t, c2, axis=1) - p0
+    if f is None:
+        p0, p1, p2 = (np.take(pull_t, c, axis=1) for c in corners)
+    else:  # the same products as (pull_t * f)[:, c], for the k triangles only
+        p0, p1, p2 = (np.take(pull_t, c, axis=1) * np.take(f, c) for c in corners)
+    d1 = p1 - p0
+    d2 = p2 - p0
     b = (d2 * A1).sum(axis=0) + (d1 * A2).sum(axis=0)
     c = (N[0] * (d1[1] * d2[2] - d1[2] * d2[1]) + N[1] * (d1[2] * d2[0] - d1[0] * d2[2])
          + N[2] * (d1[0] * d2[1] - d1[1] * d2[0]))
@@ -224,27 +228,61 @@ def _lowest_sigma(b: np.ndarray, c: np.ndarray, top: float) -> np.ndarray:
                     low)
 
 
-def _limits(s_star: np.ndarray, corners: np.ndarray, size: np.ndarray, terms: dict,
-            reach: float, top: float) -> np.ndarray:
+def _edge_graph(size: np.ndarray, terms: dict, reach: float) -> dict:
+    r"""The skin's edges with a pulled end (pulls' lengths ``size`` ``(n,)``), in CSR order
+    (by first end, then second): their ends ``a``, ``b`` and rest ``length`` ``(l,)``, the
+    row pointers ``indptr`` ``(n + 1,)`` and the weights ``w`` ``(l,)`` of :func:`_limits`,
+    :math:`|x_v - x_w| / (\text{reach} \max(|p_v|, |p_w|))`, kept up to date by
+    :func:`_reweigh` as the factors change.
+    """
+    e, length = terms["edges"], terms["length"]
+    live = np.flatnonzero(np.maximum(size[e[:, 0]], size[e[:, 1]]) > 0)
+    a, b = e[live, 0], e[live, 1]
+    key = a * len(size) + b
+    if len(key) > 1 and not np.all(key[1:] > key[:-1]):  # not sorted: sort once
+        order = np.argsort(key, kind="stable")
+        live, a, b = live[order], a[order], b[order]
+    graph = {"a": a, "b": b, "length": length[live], "reach": reach,
+             "indptr": np.concatenate([[0], np.cumsum(np.bincount(a, minlength=len(size)))])}
+    graph["w"] = _weights(graph, np.arange(len(a)), size)
+    return graph
+
+
+def _weights(graph: dict, j: np.ndarray, lift_of: np.ndarray) -> np.ndarray:
+    """``(k,)``: the weights of the edges ``j`` ``(k,)`` of ``graph`` for the pulls' lengths
+    ``lift_of`` ``(n,)`` (``inf``, no path through it, where both ends' pulls are 0).
+    """
+    lift = np.maximum(lift_of[graph["a"][j]], lift_of[graph["b"][j]])
+    with np.errstate(divide="ignore"):
+        return np.maximum(graph["length"][j] / (graph["reach"] * lift), 1e-300)
+
+
+def _reweigh(graph: dict, changed: np.ndarray, lift_of: np.ndarray) -> None:
+    """Update ``graph``'s weights in place on the edges with an end in ``changed`` ``(k,)``
+    (vertices whose pulls' lengths ``lift_of`` ``(n,)`` just changed).
+    """
+    mark = np.zeros(len(lift_of), bool)
+    mark[changed] = True
+    j = np.flatnonzero(mark[graph["a"]] | mark[graph["b"]])
+    graph["w"][j] = _weights(graph, j, lift_of)
+
+
+def _limits(s_star: np.ndarray, corners: np.ndarray, graph: dict, top: float) -> np.ndarray:
     r"""``(n,)``: :math:`F_v`, the least over bad triangles :math:`t` (``corners``
     ``(k, 3)``, their :math:`s^*_t` ``(k,)``) of :math:`s^*_t` plus the shortest path from
     :math:`t` to :math:`v` along the skin's edges, an edge :math:`vw` weighing
-    :math:`|x_v - x_w| / (\text{reach} \max(|p_v|, |p_w|))` for the pulls' lengths ``size``
-    ``(n,)``; ``inf`` beyond ``top`` and wherever no pull connects :math:`v` to a bad
-    triangle.
+    :math:`|x_v - x_w| / (\text{reach} \max(|p_v|, |p_w|))` for the pulls' lengths
+    :math:`|p|` (the edges and weights of :func:`_edge_graph` ``graph``); ``inf`` beyond
+    ``top`` and wherever no pull connects :math:`v` to a bad triangle.
     """
-    n = len(size)
-    e, length = terms["edges"], terms["length"]
-    lift = np.maximum(size[e[:, 0]], size[e[:, 1]])
-    live = np.flatnonzero(lift > 0)
+    n = len(graph["indptr"]) - 1
     least = np.full(n, np.inf)  # a corner of several bad triangles: their least s*
     np.minimum.at(least, corners.ravel(), np.maximum(np.repeat(s_star, 3), 1e-12))
-    src = np.flatnonzero(np.isfinite(least))
-    rows = np.concatenate([e[live, 0], np.full(len(src), n)])
-    cols = np.concatenate([e[live, 1], src])
-    w = np.concatenate([np.maximum(length[live] / (reach * lift[live]), 1e-300), least[src]])
-    graph = sp.csr_matrix((w, (rows, cols)), shape=(n + 1, n + 1))
-    dist = csgraph.dijkstra(graph, directed=False, indices=n, limit=top)
+    src = np.flatnonzero(np.isfinite(least))  # a source vertex n, joined to them
+    indptr = np.append(graph["indptr"], graph["indptr"][-1] + len(src))
+    mat = sp.csr_matrix((np.concatenate([graph["w"], least[src]]),
+                         np.concatenate([graph["b"], src]), indptr), shape=(n + 1, n + 1))
+    dist = csgraph.dijkstra(mat, directed=False, indices=n, limit=top)
     return dist[:n]
 
 
@@ -304,23 +342,44 @@ def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
     size = np.sqrt((pull_t * pull_t).sum(axis=0))
     rows, corners, Nt, a0, A1, A2 = _pulled_triangles(terms, size > 0, base, start)
     top = 1.0 / knee
-    scaled = pull_t
+    if not len(rows):
+        return f
+    b, c = _quadratic(pull_t, corners, Nt, A1, A2)
+    low = a0 - 1.0 + _lowest_sigma(b, c, top)
+    graph = _edge_graph(size, terms, reach)
     for _ in range(iterations):
-        if not len(rows):
-            break
-        b, c = _quadratic(scaled, corners, Nt, A1, A2)
-        bad = np.flatnonzero(a0 - 1.0 + _lowest_sigma(b, c, top) < min_area)
+        bad = np.flatnonzero(low < min_area)
         if not len(bad):
             break
         s_star = _first_root(np.maximum(a0[bad] - min_area, 1e-12), b[bad], c[bad])
-        limit = _limits(s_star, corners[:, bad].T, f * size, terms, reach, top)
+        limit = _limits(s_star, corners[:, bad].T, graph, top)
         near = np.flatnonzero(limit < top)
         step = soft_clamp(np.ones(len(near)), limit[near], knee)
         if np.all(step == 1.0):
             break
         f[near] *= step
-        scaled = pull_t * f
+        changed = near[step != 1.0]
+        _update(b, c, low, pull_t, f, changed, corners, (Nt, A1, A2, a0), top)
+        _reweigh(graph, changed, f * size)
     return f
+
+
+def _update(b: np.ndarray, c: np.ndarray, low: np.ndarray, pull_t: np.ndarray, f: np.ndarray,
+            changed: np.ndarray, corners: np.ndarray, rows_terms: tuple, top: float) -> None:
+    r"""Recompute in place :math:`b`, :math:`c` and the least signed area over the clamp's
+    range, ``low`` (``(k,)`` each), of the triangles ``corners`` ``(3, k)`` with a corner
+    in ``changed`` (vertices whose factor in ``f`` ``(n,)`` just changed), for the pull
+    ``pull_t`` ``(3, n)`` times ``f``; ``rows_terms``: their ``N``, ``A1``, ``A2`` ``(3, k)``
+    and :math:`\sigma_t(0)` ``(k,)``. The others' terms are the same as before, bit for bit.
+    """
+    mark = np.zeros(len(f), bool)
+    mark[changed] = True
+    c0, c1, c2 = corners
+    redo = np.flatnonzero(mark[c0] | mark[c1] | mark[c2])
+    Nt, A1, A2, a0 = rows_terms
+    b[redo], c[redo] = _quadratic(pull_t, corners[:, redo], Nt[:, redo], A1[:, redo],
+                                  A2[:, redo], f)
+    low[redo] = a0[redo] - 1.0 + _lowest_sigma(b[redo], c[redo], top)
 
 
 def _first_root(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
