@@ -149,14 +149,32 @@ def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | 
 def _row_terms(points: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, ...]:
     r"""``(3, k)`` thrice: :math:`N / |N|^2`, :math:`A_1 = N \times e_1 / |N|^2` and
     :math:`A_2 = e_2 \times N / |N|^2` of the triangles ``corners`` ``(3, k)`` on ``points``
-    ``(n, 3)`` (0 for a triangle with no area).
+    ``(n, 3)`` (0 for a triangle with no area). Computed as rows, component by component
+    (the products of :func:`numpy.cross`, in its order; :math:`|N|^2` by ``einsum`` on rows).
     """
-    r0, r1, r2 = (np.take(points, c, axis=0) for c in corners)
-    e1, e2 = r1 - r0, r2 - r0
-    N = np.cross(e1, e2)
-    nn = np.einsum("ij,ij->i", N, N)
-    nn = np.where(nn > 0, nn, np.inf)[:, None]
-    return ((N / nn).T, (np.cross(N, e1) / nn).T, (np.cross(e2, N) / nn).T)
+    pts = np.ascontiguousarray(np.asarray(points, dtype=float).T)
+    r0 = np.take(pts, corners[0], axis=1)
+    e1 = np.take(pts, corners[1], axis=1) - r0
+    e2 = np.take(pts, corners[2], axis=1) - r0
+    del r0
+    N = _cross_rows(e1, e2)
+    rows = np.ascontiguousarray(N.T)  # |N|^2 by einsum on rows, its summation order
+    nn = np.einsum("ij,ij->i", rows, rows)
+    del rows
+    nn = np.where(nn > 0, nn, np.inf)
+    A1 = _cross_rows(N, e1)
+    A1 /= nn
+    del e1
+    A2 = _cross_rows(e2, N)
+    A2 /= nn
+    N /= nn
+    return N, A1, A2
+
+
+def _cross_rows(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``(3, k)``: the cross products of the columns of ``u`` and ``v`` ``(3, k)``."""
+    return np.stack([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                     u[0] * v[1] - u[1] * v[0]])
 
 
 def _start_terms(Nt: np.ndarray, start: np.ndarray, corners: np.ndarray
@@ -191,7 +209,7 @@ def pull_terms(rest: np.ndarray, triangles: np.ndarray, edges: np.ndarray | None
     rest = np.asarray(rest, dtype=float)
     tri = np.asarray(triangles, dtype=np.intp)
     corners = np.ascontiguousarray(tri.T)
-    N, A1, A2 = (np.ascontiguousarray(x) for x in _row_terms(rest, corners))
+    N, A1, A2 = _row_terms(rest, corners)
     if edges is None:
         edges = np.unique(np.sort(np.vstack([tri[:, [0, 1]], tri[:, [1, 2]],
                                              tri[:, [2, 0]]]), axis=1), axis=0)
