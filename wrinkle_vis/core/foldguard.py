@@ -184,8 +184,12 @@ def _start_terms(Nt: np.ndarray, start: np.ndarray, corners: np.ndarray
     :math:`N_t = N / |N|^2` ``(3, k)`` and the edges :math:`e_1, e_2` of the triangles
     ``corners`` ``(3, k)`` on the skin ``start`` ``(n, 3)`` a step begins from.
     """
-    r0, r1, r2 = (np.take(start, c, axis=0) for c in corners)
-    e1, e2 = r1 - r0, r2 - r0
+    r0 = np.take(start, corners[0], axis=0)
+    e1 = np.take(start, corners[1], axis=0)
+    e1 -= r0
+    e2 = np.take(start, corners[2], axis=0)
+    e2 -= r0
+    del r0
     N = Nt.T
     return (np.einsum("ij,ij->i", N, _cross(e1, e2)), _cross(N, e1).T, _cross(e2, N).T)
 
@@ -203,7 +207,8 @@ def pull_terms(rest: np.ndarray, triangles: np.ndarray, edges: np.ndarray | None
     the corners as rows ``(3, m)``, :math:`N / |N|^2` and the rows
     :math:`A_1 = N \times e_1 / |N|^2`, :math:`A_2 = e_2 \times N / |N|^2` (so that
     :math:`b = \delta_2 \cdot A_1 + \delta_1 \cdot A_2`), each ``(3, m)``; the skin's edges
-    ``(e, 2)`` and their rest lengths ``(e,)``. ``edges``: the skin's unique edges sorted
+    ``(e, 2)`` (each sorted, and sorted by first end, then second: the order of a sparse
+    matrix's rows) and their rest lengths ``(e,)``. ``edges``: the skin's unique edges sorted
     (``TriangleSurface.edges``), when at hand.
     """
     rest = np.asarray(rest, dtype=float)
@@ -214,6 +219,10 @@ def pull_terms(rest: np.ndarray, triangles: np.ndarray, edges: np.ndarray | None
         edges = np.unique(np.sort(np.vstack([tri[:, [0, 1]], tri[:, [1, 2]],
                                              tri[:, [2, 0]]]), axis=1), axis=0)
     edges = np.asarray(edges, dtype=np.intp)
+    key = edges[:, 0] * len(rest) + edges[:, 1]
+    if len(key) > 1 and not np.all(key[1:] > key[:-1]):  # by first end, then second
+        edges = edges[np.argsort(key, kind="stable")]
+    del key
     return {"corners": corners, "N": N, "A1": A1, "A2": A2, "edges": edges,
             "length": np.linalg.norm(rest[edges[:, 0]] - rest[edges[:, 1]], axis=1)}
 
@@ -224,13 +233,18 @@ def _quadratic(pull_t: np.ndarray, corners: np.ndarray, N: np.ndarray, A1: np.nd
     the pull ``(3, n)``, times the factors ``f`` ``(n,)`` when given, on the triangles
     ``corners`` ``(3, k)`` (their :func:`_row_terms`).
     """
-    c0, c1, c2 = corners
-    if f is None:
-        p0, p1, p2 = (np.take(pull_t, c, axis=1) for c in corners)
-    else:  # the same products as (pull_t * f)[:, c], for the k triangles only
-        p0, p1, p2 = (np.take(pull_t, c, axis=1) * np.take(f, c) for c in corners)
-    d1 = p1 - p0
-    d2 = p2 - p0
+    def at(c: np.ndarray) -> np.ndarray:  # f: the products of (pull_t * f)[:, c]
+        p = np.take(pull_t, c, axis=1)
+        if f is not None:
+            p *= np.take(f, c)
+        return p
+
+    p0 = at(corners[0])
+    d1 = at(corners[1])
+    d1 -= p0
+    d2 = at(corners[2])
+    d2 -= p0
+    del p0
     b = (d2 * A1).sum(axis=0) + (d1 * A2).sum(axis=0)
     c = (N[0] * (d1[1] * d2[2] - d1[2] * d2[1]) + N[1] * (d1[2] * d2[0] - d1[0] * d2[2])
          + N[2] * (d1[0] * d2[1] - d1[1] * d2[0]))
@@ -253,13 +267,9 @@ def _edge_graph(size: np.ndarray, terms: dict, reach: float) -> dict:
     :math:`|x_v - x_w| / (\text{reach} \max(|p_v|, |p_w|))`, kept up to date by
     :func:`_reweigh` as the factors change.
     """
-    e, length = terms["edges"], terms["length"]
+    e, length = terms["edges"], terms["length"]  # sorted (pull_terms)
     live = np.flatnonzero(np.maximum(size[e[:, 0]], size[e[:, 1]]) > 0)
     a, b = e[live, 0], e[live, 1]
-    key = a * len(size) + b
-    if len(key) > 1 and not np.all(key[1:] > key[:-1]):  # not sorted: sort once
-        order = np.argsort(key, kind="stable")
-        live, a, b = live[order], a[order], b[order]
     graph = {"a": a, "b": b, "length": length[live], "reach": reach,
              "indptr": np.concatenate([[0], np.cumsum(np.bincount(a, minlength=len(size)))])}
     graph["w"] = _weights(graph, np.arange(len(a)), size)
@@ -313,10 +323,12 @@ def _pulled_triangles(terms: dict, moving: np.ndarray, base: np.ndarray,
     """
     c0, c1, c2 = terms["corners"]
     rows = np.flatnonzero(moving[c0] | moving[c1] | moving[c2])
-    corners = terms["corners"][:, rows]
-    Nt = terms["N"][:, rows]
+    if len(rows) == c0.shape[0]:  # every triangle: the terms themselves, not copies
+        corners, Nt, A1, A2 = (terms[k] for k in ("corners", "N", "A1", "A2"))
+    else:
+        corners, Nt, A1, A2 = (terms[k][:, rows] for k in ("corners", "N", "A1", "A2"))
     if start is None:
-        a0, A1, A2 = np.ones(len(rows)), terms["A1"][:, rows], terms["A2"][:, rows]
+        a0 = np.ones(len(rows))
     else:
         a0, A1, A2 = _start_terms(Nt, base, corners)
     return rows, corners, Nt, a0, A1, A2
