@@ -270,8 +270,11 @@ def _edge_graph(size: np.ndarray, terms: dict, reach: float) -> dict:
     e, length = terms["edges"], terms["length"]  # sorted (pull_terms)
     live = np.flatnonzero(np.maximum(size[e[:, 0]], size[e[:, 1]]) > 0)
     a, b = e[live, 0], e[live, 1]
-    graph = {"a": a, "b": b, "length": length[live], "reach": reach,
-             "indptr": np.concatenate([[0], np.cumsum(np.bincount(a, minlength=len(size)))])}
+    index = np.int32 if len(size) < 2**31 - 1 else np.intp  # the sparse matrix's own
+    graph = {"a": a, "b": b, "length": length[live], "reach": reach, "index": index,
+             "cols": b.astype(index),
+             "indptr": np.concatenate([[0], np.cumsum(np.bincount(a, minlength=len(size)))]
+                                      ).astype(index)}
     graph["w"] = _weights(graph, np.arange(len(a)), size)
     return graph
 
@@ -309,7 +312,8 @@ def _limits(s_star: np.ndarray, corners: np.ndarray, graph: dict, top: float) ->
     src = np.flatnonzero(np.isfinite(least))  # a source vertex n, joined to them
     indptr = np.append(graph["indptr"], graph["indptr"][-1] + len(src))
     mat = sp.csr_matrix((np.concatenate([graph["w"], least[src]]),
-                         np.concatenate([graph["b"], src]), indptr), shape=(n + 1, n + 1))
+                         np.concatenate([graph["cols"], src.astype(graph["index"])]), indptr),
+                        shape=(n + 1, n + 1))
     dist = csgraph.dijkstra(mat, directed=False, indices=n, limit=top)
     return dist[:n]
 
@@ -731,12 +735,15 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
     if not g.acted.any():
         return state
     if state.face is face and np.any(g.scale < 1.0):  # the fields see the guarded pull
+        scale, acted = g.scale, g.acted
+        del radii  # g's points and W, and the radii, are not needed again: freed first
         fresh = face._frame(dict(state.activations), g.deformed)
+        del g
         radii = fold_radii(face, state.face, fresh.W, guard)  # the fresh frame's W
         w = guard_frame(state.rest_points, fresh.deformed_points, fresh.points, fresh.W,
                         state.triangles, radii, guard, pulls=False, terms=terms,
                         deformed_radii=True)
-        g = GuardResult(w.deformed, w.points, w.W, g.scale, g.acted | w.acted)
+        g = GuardResult(w.deformed, w.points, w.W, scale, acted | w.acted)
         state.fields = fresh.fields
     W = np.asarray(state.W)
     amount = guard_amount(state.rest_points, state.deformed_points, state.points, W, g)
