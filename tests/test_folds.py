@@ -19,6 +19,7 @@ from wrinkle_vis.core.foldguard import (
     FoldGuard,
     guard_frame,
     medial_radii,
+    pull_terms,
     skin_scale,
     soft_clamp,
 )
@@ -340,6 +341,18 @@ def test_the_pull_guard_keeps_triangles_from_turning_over():
     assert np.max(shear / edge) < 0.75  # the factor varies slowly against the pull
     assert FoldGuard().min_area == 0.2
 
+
+
+def test_the_pull_guard_does_not_depend_on_the_order_of_the_edges_given():
+    pts, tri = _sheet(41, 41, lambda x, y: 0.02 * x * x)
+    pull = np.zeros_like(pts)
+    pull[:, 0] = -6.0 * np.exp(-((pts[:, 0] - 2.0) / 1.5) ** 2)
+    edges = TriangleSurface(pts, tri).edges
+    shuffled = edges[np.random.default_rng(3).permutation(len(edges))]
+    f = skin_scale(pts, pts + pull, tri, terms=pull_terms(pts, tri, edges))
+    g = skin_scale(pts, pts + pull, tri, terms=pull_terms(pts, tri, shuffled))
+    assert f.min() < 0.5  # the guard acts (the Dijkstra limits matter)
+    np.testing.assert_array_equal(f, g)
 
 # --- the built-in faces ------------------------------------------------------------------
 

@@ -149,14 +149,32 @@ def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | 
 def _row_terms(points: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, ...]:
     r"""``(3, k)`` thrice: :math:`N / |N|^2`, :math:`A_1 = N \times e_1 / |N|^2` and
     :math:`A_2 = e_2 \times N / |N|^2` of the triangles ``corners`` ``(3, k)`` on ``points``
-    ``(n, 3)`` (0 for a triangle with no area).
+    ``(n, 3)`` (0 for a triangle with no area). Computed as rows, component by component
+    (the products of :func:`numpy.cross`, in its order; :math:`|N|^2` by ``einsum`` on rows).
     """
-    r0, r1, r2 = (np.take(points, c, axis=0) for c in corners)
-    e1, e2 = r1 - r0, r2 - r0
-    N = np.cross(e1, e2)
-    nn = np.einsum("ij,ij->i", N, N)
-    nn = np.where(nn > 0, nn, np.inf)[:, None]
-    return ((N / nn).T, (np.cross(N, e1) / nn).T, (np.cross(e2, N) / nn).T)
+    pts = np.ascontiguousarray(np.asarray(points, dtype=float).T)
+    r0 = np.take(pts, corners[0], axis=1)
+    e1 = np.take(pts, corners[1], axis=1) - r0
+    e2 = np.take(pts, corners[2], axis=1) - r0
+    del r0
+    N = _cross_rows(e1, e2)
+    rows = np.ascontiguousarray(N.T)  # |N|^2 by einsum on rows, its summation order
+    nn = np.einsum("ij,ij->i", rows, rows)
+    del rows
+    nn = np.where(nn > 0, nn, np.inf)
+    A1 = _cross_rows(N, e1)
+    A1 /= nn
+    del e1
+    A2 = _cross_rows(e2, N)
+    A2 /= nn
+    N /= nn
+    return N, A1, A2
+
+
+def _cross_rows(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``(3, k)``: the cross products of the columns of ``u`` and ``v`` ``(3, k)``."""
+    return np.stack([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                     u[0] * v[1] - u[1] * v[0]])
 
 
 def _start_terms(Nt: np.ndarray, start: np.ndarray, corners: np.ndarray
@@ -166,8 +184,12 @@ def _start_terms(Nt: np.ndarray, start: np.ndarray, corners: np.ndarray
     :math:`N_t = N / |N|^2` ``(3, k)`` and the edges :math:`e_1, e_2` of the triangles
     ``corners`` ``(3, k)`` on the skin ``start`` ``(n, 3)`` a step begins from.
     """
-    r0, r1, r2 = (np.take(start, c, axis=0) for c in corners)
-    e1, e2 = r1 - r0, r2 - r0
+    r0 = np.take(start, corners[0], axis=0)
+    e1 = np.take(start, corners[1], axis=0)
+    e1 -= r0
+    e2 = np.take(start, corners[2], axis=0)
+    e2 -= r0
+    del r0
     N = Nt.T
     return (np.einsum("ij,ij->i", N, _cross(e1, e2)), _cross(N, e1).T, _cross(e2, N).T)
 
@@ -185,30 +207,44 @@ def pull_terms(rest: np.ndarray, triangles: np.ndarray, edges: np.ndarray | None
     the corners as rows ``(3, m)``, :math:`N / |N|^2` and the rows
     :math:`A_1 = N \times e_1 / |N|^2`, :math:`A_2 = e_2 \times N / |N|^2` (so that
     :math:`b = \delta_2 \cdot A_1 + \delta_1 \cdot A_2`), each ``(3, m)``; the skin's edges
-    ``(e, 2)`` and their rest lengths ``(e,)``. ``edges``: the skin's unique edges sorted
+    ``(e, 2)`` (each sorted, and sorted by first end, then second: the order of a sparse
+    matrix's rows) and their rest lengths ``(e,)``. ``edges``: the skin's unique edges sorted
     (``TriangleSurface.edges``), when at hand.
     """
     rest = np.asarray(rest, dtype=float)
     tri = np.asarray(triangles, dtype=np.intp)
     corners = np.ascontiguousarray(tri.T)
-    N, A1, A2 = (np.ascontiguousarray(x) for x in _row_terms(rest, corners))
+    N, A1, A2 = _row_terms(rest, corners)
     if edges is None:
         edges = np.unique(np.sort(np.vstack([tri[:, [0, 1]], tri[:, [1, 2]],
                                              tri[:, [2, 0]]]), axis=1), axis=0)
     edges = np.asarray(edges, dtype=np.intp)
+    key = edges[:, 0] * len(rest) + edges[:, 1]
+    if len(key) > 1 and not np.all(key[1:] > key[:-1]):  # by first end, then second
+        edges = edges[np.argsort(key, kind="stable")]
+    del key
     return {"corners": corners, "N": N, "A1": A1, "A2": A2, "edges": edges,
             "length": np.linalg.norm(rest[edges[:, 0]] - rest[edges[:, 1]], axis=1)}
 
 
 def _quadratic(pull_t: np.ndarray, corners: np.ndarray, N: np.ndarray, A1: np.ndarray,
-               A2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+               A2: np.ndarray, f: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     r"""``(k,)`` twice: :math:`b` and :math:`c` of :math:`\sigma_t(s) = 1 + b s + c s^2` for
-    the pull ``(3, n)`` on the triangles ``corners`` ``(3, k)`` (their :func:`_row_terms`).
+    the pull ``(3, n)``, times the factors ``f`` ``(n,)`` when given, on the triangles
+    ``corners`` ``(3, k)`` (their :func:`_row_terms`).
     """
-    c0, c1, c2 = corners
-    p0 = np.take(pull_t, c0, axis=1)
-    d1 = np.take(pull_t, c1, axis=1) - p0
-    d2 = np.take(pull_t, c2, axis=1) - p0
+    def at(c: np.ndarray) -> np.ndarray:  # f: the products of (pull_t * f)[:, c]
+        p = np.take(pull_t, c, axis=1)
+        if f is not None:
+            p *= np.take(f, c)
+        return p
+
+    p0 = at(corners[0])
+    d1 = at(corners[1])
+    d1 -= p0
+    d2 = at(corners[2])
+    d2 -= p0
+    del p0
     b = (d2 * A1).sum(axis=0) + (d1 * A2).sum(axis=0)
     c = (N[0] * (d1[1] * d2[2] - d1[2] * d2[1]) + N[1] * (d1[2] * d2[0] - d1[0] * d2[2])
          + N[2] * (d1[0] * d2[1] - d1[1] * d2[0]))
@@ -224,27 +260,61 @@ def _lowest_sigma(b: np.ndarray, c: np.ndarray, top: float) -> np.ndarray:
                     low)
 
 
-def _limits(s_star: np.ndarray, corners: np.ndarray, size: np.ndarray, terms: dict,
-            reach: float, top: float) -> np.ndarray:
+def _edge_graph(size: np.ndarray, terms: dict, reach: float) -> dict:
+    r"""The skin's edges with a pulled end (pulls' lengths ``size`` ``(n,)``), in CSR order
+    (by first end, then second): their ends ``a``, ``b`` and rest ``length`` ``(l,)``, the
+    row pointers ``indptr`` ``(n + 1,)`` and the weights ``w`` ``(l,)`` of :func:`_limits`,
+    :math:`|x_v - x_w| / (\text{reach} \max(|p_v|, |p_w|))`, kept up to date by
+    :func:`_reweigh` as the factors change.
+    """
+    e, length = terms["edges"], terms["length"]  # sorted (pull_terms)
+    live = np.flatnonzero(np.maximum(size[e[:, 0]], size[e[:, 1]]) > 0)
+    a, b = e[live, 0], e[live, 1]
+    index = np.int32 if len(size) < 2**31 - 1 else np.intp  # the sparse matrix's own
+    graph = {"a": a, "b": b, "length": length[live], "reach": reach, "index": index,
+             "cols": b.astype(index),
+             "indptr": np.concatenate([[0], np.cumsum(np.bincount(a, minlength=len(size)))]
+                                      ).astype(index)}
+    graph["w"] = _weights(graph, np.arange(len(a)), size)
+    return graph
+
+
+def _weights(graph: dict, j: np.ndarray, lift_of: np.ndarray) -> np.ndarray:
+    """``(k,)``: the weights of the edges ``j`` ``(k,)`` of ``graph`` for the pulls' lengths
+    ``lift_of`` ``(n,)`` (``inf``, no path through it, where both ends' pulls are 0).
+    """
+    lift = np.maximum(lift_of[graph["a"][j]], lift_of[graph["b"][j]])
+    with np.errstate(divide="ignore"):
+        return np.maximum(graph["length"][j] / (graph["reach"] * lift), 1e-300)
+
+
+def _reweigh(graph: dict, changed: np.ndarray, lift_of: np.ndarray) -> None:
+    """Update ``graph``'s weights in place on the edges with an end in ``changed`` ``(k,)``
+    (vertices whose pulls' lengths ``lift_of`` ``(n,)`` just changed).
+    """
+    mark = np.zeros(len(lift_of), bool)
+    mark[changed] = True
+    j = np.flatnonzero(mark[graph["a"]] | mark[graph["b"]])
+    graph["w"][j] = _weights(graph, j, lift_of)
+
+
+def _limits(s_star: np.ndarray, corners: np.ndarray, graph: dict, top: float) -> np.ndarray:
     r"""``(n,)``: :math:`F_v`, the least over bad triangles :math:`t` (``corners``
     ``(k, 3)``, their :math:`s^*_t` ``(k,)``) of :math:`s^*_t` plus the shortest path from
     :math:`t` to :math:`v` along the skin's edges, an edge :math:`vw` weighing
-    :math:`|x_v - x_w| / (\text{reach} \max(|p_v|, |p_w|))` for the pulls' lengths ``size``
-    ``(n,)``; ``inf`` beyond ``top`` and wherever no pull connects :math:`v` to a bad
-    triangle.
+    :math:`|x_v - x_w| / (\text{reach} \max(|p_v|, |p_w|))` for the pulls' lengths
+    :math:`|p|` (the edges and weights of :func:`_edge_graph` ``graph``); ``inf`` beyond
+    ``top`` and wherever no pull connects :math:`v` to a bad triangle.
     """
-    n = len(size)
-    e, length = terms["edges"], terms["length"]
-    lift = np.maximum(size[e[:, 0]], size[e[:, 1]])
-    live = np.flatnonzero(lift > 0)
+    n = len(graph["indptr"]) - 1
     least = np.full(n, np.inf)  # a corner of several bad triangles: their least s*
     np.minimum.at(least, corners.ravel(), np.maximum(np.repeat(s_star, 3), 1e-12))
-    src = np.flatnonzero(np.isfinite(least))
-    rows = np.concatenate([e[live, 0], np.full(len(src), n)])
-    cols = np.concatenate([e[live, 1], src])
-    w = np.concatenate([np.maximum(length[live] / (reach * lift[live]), 1e-300), least[src]])
-    graph = sp.csr_matrix((w, (rows, cols)), shape=(n + 1, n + 1))
-    dist = csgraph.dijkstra(graph, directed=False, indices=n, limit=top)
+    src = np.flatnonzero(np.isfinite(least))  # a source vertex n, joined to them
+    indptr = np.append(graph["indptr"], graph["indptr"][-1] + len(src))
+    mat = sp.csr_matrix((np.concatenate([graph["w"], least[src]]),
+                         np.concatenate([graph["cols"], src.astype(graph["index"])]), indptr),
+                        shape=(n + 1, n + 1))
+    dist = csgraph.dijkstra(mat, directed=False, indices=n, limit=top)
     return dist[:n]
 
 
@@ -257,10 +327,12 @@ def _pulled_triangles(terms: dict, moving: np.ndarray, base: np.ndarray,
     """
     c0, c1, c2 = terms["corners"]
     rows = np.flatnonzero(moving[c0] | moving[c1] | moving[c2])
-    corners = terms["corners"][:, rows]
-    Nt = terms["N"][:, rows]
+    if len(rows) == c0.shape[0]:  # every triangle: the terms themselves, not copies
+        corners, Nt, A1, A2 = (terms[k] for k in ("corners", "N", "A1", "A2"))
+    else:
+        corners, Nt, A1, A2 = (terms[k][:, rows] for k in ("corners", "N", "A1", "A2"))
     if start is None:
-        a0, A1, A2 = np.ones(len(rows)), terms["A1"][:, rows], terms["A2"][:, rows]
+        a0 = np.ones(len(rows))
     else:
         a0, A1, A2 = _start_terms(Nt, base, corners)
     return rows, corners, Nt, a0, A1, A2
@@ -304,23 +376,44 @@ def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
     size = np.sqrt((pull_t * pull_t).sum(axis=0))
     rows, corners, Nt, a0, A1, A2 = _pulled_triangles(terms, size > 0, base, start)
     top = 1.0 / knee
-    scaled = pull_t
+    if not len(rows):
+        return f
+    b, c = _quadratic(pull_t, corners, Nt, A1, A2)
+    low = a0 - 1.0 + _lowest_sigma(b, c, top)
+    graph = _edge_graph(size, terms, reach)
     for _ in range(iterations):
-        if not len(rows):
-            break
-        b, c = _quadratic(scaled, corners, Nt, A1, A2)
-        bad = np.flatnonzero(a0 - 1.0 + _lowest_sigma(b, c, top) < min_area)
+        bad = np.flatnonzero(low < min_area)
         if not len(bad):
             break
         s_star = _first_root(np.maximum(a0[bad] - min_area, 1e-12), b[bad], c[bad])
-        limit = _limits(s_star, corners[:, bad].T, f * size, terms, reach, top)
+        limit = _limits(s_star, corners[:, bad].T, graph, top)
         near = np.flatnonzero(limit < top)
         step = soft_clamp(np.ones(len(near)), limit[near], knee)
         if np.all(step == 1.0):
             break
         f[near] *= step
-        scaled = pull_t * f
+        changed = near[step != 1.0]
+        _update(b, c, low, pull_t, f, changed, corners, (Nt, A1, A2, a0), top)
+        _reweigh(graph, changed, f * size)
     return f
+
+
+def _update(b: np.ndarray, c: np.ndarray, low: np.ndarray, pull_t: np.ndarray, f: np.ndarray,
+            changed: np.ndarray, corners: np.ndarray, rows_terms: tuple, top: float) -> None:
+    r"""Recompute in place :math:`b`, :math:`c` and the least signed area over the clamp's
+    range, ``low`` (``(k,)`` each), of the triangles ``corners`` ``(3, k)`` with a corner
+    in ``changed`` (vertices whose factor in ``f`` ``(n,)`` just changed), for the pull
+    ``pull_t`` ``(3, n)`` times ``f``; ``rows_terms``: their ``N``, ``A1``, ``A2`` ``(3, k)``
+    and :math:`\sigma_t(0)` ``(k,)``. The others' terms are the same as before, bit for bit.
+    """
+    mark = np.zeros(len(f), bool)
+    mark[changed] = True
+    c0, c1, c2 = corners
+    redo = np.flatnonzero(mark[c0] | mark[c1] | mark[c2])
+    Nt, A1, A2, a0 = rows_terms
+    b[redo], c[redo] = _quadratic(pull_t, corners[:, redo], Nt[:, redo], A1[:, redo],
+                                  A2[:, redo], f)
+    low[redo] = a0[redo] - 1.0 + _lowest_sigma(b[redo], c[redo], top)
 
 
 def _first_root(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -642,12 +735,15 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
     if not g.acted.any():
         return state
     if state.face is face and np.any(g.scale < 1.0):  # the fields see the guarded pull
+        scale, acted = g.scale, g.acted
+        del radii  # g's points and W, and the radii, are not needed again: freed first
         fresh = face._frame(dict(state.activations), g.deformed)
+        del g
         radii = fold_radii(face, state.face, fresh.W, guard)  # the fresh frame's W
         w = guard_frame(state.rest_points, fresh.deformed_points, fresh.points, fresh.W,
                         state.triangles, radii, guard, pulls=False, terms=terms,
                         deformed_radii=True)
-        g = GuardResult(w.deformed, w.points, w.W, g.scale, g.acted | w.acted)
+        g = GuardResult(w.deformed, w.points, w.W, scale, acted | w.acted)
         state.fields = fresh.fields
     W = np.asarray(state.W)
     amount = guard_amount(state.rest_points, state.deformed_points, state.points, W, g)
