@@ -997,7 +997,21 @@ class _Frame:
         return len(self.deformed_points)
 
 
-class _MuscleFields(Mapping):
+class _FieldMap(Mapping):
+    """A mapping over the field catalogue (:data:`FIELD_NAMES`), each field built on
+    first access and kept in ``_cache``.
+    """
+
+    _cache: dict[str, np.ndarray]
+
+    def __iter__(self):
+        return iter(FIELD_NAMES)
+
+    def __len__(self) -> int:
+        return len(FIELD_NAMES)
+
+
+class _MuscleFields(_FieldMap):
     """The fields of one muscle in one state, full length, ``nan`` where undefined."""
 
     def __init__(self, state: _Frame, muscle: Muscle):
@@ -1005,12 +1019,6 @@ class _MuscleFields(Mapping):
         self._muscle = muscle
         self._cache: dict[str, np.ndarray] = {}
         self._dynamic: dict[str, np.ndarray] | None = None
-
-    def __iter__(self):
-        return iter(FIELD_NAMES)
-
-    def __len__(self) -> int:
-        return len(FIELD_NAMES)
 
     def __getitem__(self, key: str) -> np.ndarray:
         if key not in self._cache:
@@ -1094,7 +1102,7 @@ def _rows_of(ids: np.ndarray, vertices: np.ndarray) -> tuple[np.ndarray, np.ndar
     return hit.argmax(axis=1), hit.any(axis=1)
 
 
-class _PointFields(Mapping):
+class _PointFields(_FieldMap):
     """The fields of one muscle in one state at a few skin vertices ``(k,)``: each ``(k,)``,
     the values the full fields have there, picked from the muscle's compact data (a field
     whose ``compute`` is not pointwise, or already built full, is read from its full array).
@@ -1105,12 +1113,6 @@ class _PointFields(Mapping):
         self._state, self._muscle = fields._state, fields._muscle
         self._cache: dict[str, np.ndarray] = {}
         self._rows: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-
-    def __iter__(self):
-        return iter(FIELD_NAMES)
-
-    def __len__(self) -> int:
-        return len(FIELD_NAMES)
 
     def __getitem__(self, key: str) -> np.ndarray:
         if key not in self._cache:

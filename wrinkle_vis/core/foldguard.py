@@ -692,7 +692,9 @@ def fold_radii(face, skin_face=None, W: np.ndarray | None = None,
     else:
         need = _needed(W, guard)
     if own:
-        return _rest_radii(face, need).copy()
+        view = _rest_radii(face, need).view()  # the cache, read-only: no copy a frame
+        view.setflags(write=False)
+        return view
     fine = skin_face._rest
     idx = getattr(fine, "fold_radii_nearest", None)
     if idx is None or len(idx) != n:

@@ -456,17 +456,7 @@ def ray_on_triangles(surface: TriangleSurface, candidates, origin,
     """
     ids = np.atleast_1d(np.asarray(candidates, dtype=np.intp))
     o, d = np.asarray(origin, float).reshape(3), np.asarray(direction, float).reshape(3)
-    corners = surface.points[surface.triangles[ids]]
-    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
-    p = np.cross(d, e2)
-    det = np.einsum("ij,ij->i", e1, p)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / det
-        t = o - corners[:, 0]
-        u = np.einsum("ij,ij->i", t, p) * inv
-        q = np.cross(t, e1)
-        v = (q @ d) * inv
-        s = np.einsum("ij,ij->i", e2, q) * inv
+    det, u, v, s = _moller_trumbore(o, d, surface.points[surface.triangles[ids]])
     tol = 1e-9
     hit = (np.abs(det) > 0) & (u >= -tol) & (v >= -tol) & (u + v <= 1 + tol)
     if not hit.any():
@@ -564,6 +554,17 @@ def _ray_hits(origins: np.ndarray, d: np.ndarray, c: np.ndarray, min_distance: f
     each of ``origins`` ``(p, 3)`` meets its triangle of corners ``c`` ``(p, 3, 3)``
     (Möller-Trumbore).
     """
+    det, u, v, dist = _moller_trumbore(origins, d, c)
+    return (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (dist > min_distance)
+
+
+def _moller_trumbore(origins: np.ndarray, d: np.ndarray, c: np.ndarray
+                     ) -> tuple[np.ndarray, ...]:
+    r"""``(k,)`` four times: :math:`\det`, :math:`u`, :math:`v` and :math:`t` of the line
+    :math:`o + t\,d = a + u\,(b - a) + v\,(c - a)` from ``origins`` ``(3,)`` or ``(k, 3)``
+    along ``d`` ``(3,)`` through the triangles of corners ``c`` ``(k, 3, 3)``
+    (Möller-Trumbore; inf or nan where :math:`\det = 0`).
+    """
     e1, e2 = c[:, 1] - c[:, 0], c[:, 2] - c[:, 0]
     h = np.cross(d, e2)
     det = np.einsum("ij,ij->i", e1, h)
@@ -574,7 +575,7 @@ def _ray_hits(origins: np.ndarray, d: np.ndarray, c: np.ndarray, min_distance: f
         q = np.cross(t, e1)
         v = (q @ d) * inv
         dist = np.einsum("ij,ij->i", e2, q) * inv
-    return (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (dist > min_distance)
+    return det, u, v, dist
 
 
 def barycentric_points(surface: TriangleSurface, triangles, barycentric,
