@@ -19,11 +19,7 @@ import sys
 import time
 
 import numpy as np
-from qtpy import QtCore, QtWidgets
-
-import wrinkle_vis as wv
-from wrinkle_vis.app.session import Session
-from wrinkle_vis.app.window import MainWindow
+from _app import bench_window
 
 MUSCLE = "frontalis_major_L"
 
@@ -63,15 +59,8 @@ def main() -> int:
     parser.add_argument("--steps", type=int, default=40)
     parser.add_argument("--triangles", type=int, default=4500)
     args = parser.parse_args()
-    app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(sys.argv[:1])
-    settings = QtCore.QSettings(QtCore.QSettings.IniFormat, QtCore.QSettings.UserScope,
-                                "wrinkle-vis-bench", "drag")
-    face = wv.datasets.load_face(args.triangles)
-    window = MainWindow(Session(face), settings)
-    window.resize(1500, 800)
-    window.show()
-    for _ in range(10):
-        app.processEvents()
+    app, window = bench_window(args.triangles, "drag")
+    face = window.session.face
     window.select_muscle(MUSCLE)
     window.set_camera("forehead")
     for _ in range(5):

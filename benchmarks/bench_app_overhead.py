@@ -19,11 +19,7 @@ import statistics
 import sys
 import time
 
-from qtpy import QtCore, QtWidgets
-
-import wrinkle_vis as wv
-from wrinkle_vis.app.session import Session
-from wrinkle_vis.app.window import MainWindow
+from _app import bench_window
 
 
 def step_times(app, window, steps: int) -> list[float]:
@@ -46,15 +42,8 @@ def main() -> int:
     parser.add_argument("--muscle", default="frontalis_major_L",
                         help="the muscle selected (its placement widget follows each frame)")
     args = parser.parse_args()
-    app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(sys.argv[:1])
-    settings = QtCore.QSettings(QtCore.QSettings.IniFormat, QtCore.QSettings.UserScope,
-                                "wrinkle-vis-bench", "overhead")
-    face = wv.datasets.load_face(args.triangles)
-    window = MainWindow(Session(face), settings)
-    window.resize(1500, 800)
-    window.show()
-    for _ in range(10):
-        app.processEvents()
+    app, window = bench_window(args.triangles, "overhead")
+    face = window.session.face
     if args.muscle:
         window.select_muscle(args.muscle)
     for _ in range(5):

@@ -39,11 +39,10 @@ import statistics
 import sys
 import time
 
+from _app import bench_window
 from qtpy import QtCore, QtWidgets
 
-import wrinkle_vis as wv
 from wrinkle_vis.app import trackplot
-from wrinkle_vis.app.session import Session
 from wrinkle_vis.app.window import MainWindow
 
 TARGETS = {False: 30.0, True: 20.0}
@@ -164,15 +163,8 @@ def main() -> int:
                         help="also import this recorded track (File > Import performance) "
                              "and play it, unrefined, on the geometric skin")
     args = parser.parse_args()
-    app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(sys.argv[:1])
-    settings = QtCore.QSettings(QtCore.QSettings.IniFormat, QtCore.QSettings.UserScope,
-                                "wrinkle-vis-bench", "playback")
-    face = wv.datasets.load_face(args.triangles)
-    window = MainWindow(Session(face), settings)
-    window.resize(1500, 800)
-    window.show()
-    for _ in range(10):
-        app.processEvents()
+    app, window = bench_window(args.triangles, "playback")
+    face = window.session.face
     window.expression_box.setCurrentText(args.expression)
     clock = FrameClock(window)
     sizes = [tuple(p.window_size) for p in window.plotters]
