@@ -104,23 +104,31 @@ def test_the_real_head_example_needs_no_scan(tmp_path):
     assert "8844 vertices, 21 muscles, unit mm" in done.stdout
 
 
-def test_the_equations_are_typeset_in_a_browser_without_network(site):
-    """The built site served from this machine: MathJax typesets the API reference's
-    equations and every resource the page loads comes from the same server.
+def _serve(folder: Path) -> tuple[subprocess.Popen, int]:
+    """A static HTTP server of ``folder`` on a free localhost port, once it listens:
+    ``(process, port)``; the caller terminates it.
     """
-    html, _ = site
-    chromium = find_chromium()
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     server = subprocess.Popen([sys.executable, "-m", "http.server", str(port), "--bind",
-                               "127.0.0.1", "--directory", str(html)],
+                               "127.0.0.1", "--directory", str(folder)],
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     for _ in range(100):  # until it listens
         with socket.socket() as s:
             if s.connect_ex(("127.0.0.1", port)) == 0:
                 break
         time.sleep(0.1)
+    return server, port
+
+
+def test_the_equations_are_typeset_in_a_browser_without_network(site):
+    """The built site served from this machine: MathJax typesets the API reference's
+    equations and every resource the page loads comes from the same server.
+    """
+    html, _ = site
+    chromium = find_chromium()
+    server, port = _serve(html)
 
     async def run():
         async with Browser(chromium) as browser:
@@ -178,17 +186,7 @@ def test_wide_equations_scroll_instead_of_being_cut_off(site):
     """
     html, _ = site
     chromium = find_chromium()
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    server = subprocess.Popen([sys.executable, "-m", "http.server", str(port), "--bind",
-                               "127.0.0.1", "--directory", str(html)],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    for _ in range(100):  # until it listens
-        with socket.socket() as s:
-            if s.connect_ex(("127.0.0.1", port)) == 0:
-                break
-        time.sleep(0.1)
+    server, port = _serve(html)
     measure = """(() => Array.from(document.querySelectorAll('mjx-container[display="true"]'))
       .map(el => { let a = el.parentElement;
         while (a && getComputedStyle(a).overflowX === 'visible') a = a.parentElement;
