@@ -18,11 +18,12 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from wrinkle_vis.core.files import input_problem
+from wrinkle_vis.core.skin import DEFAULT_SKIN_MODEL, SKIN_MODELS
 
 CAMERA_CHOICES = ("front", "three_quarter", "side", "forehead", "upper_face")
 FIGURE_CHOICES = ("fig9", "fig10", "fig11")
-#: ``--skin-model`` choices (wrinkle_vis.core.skin.SKIN_MODELS, without importing core here).
-SKIN_MODEL_CHOICES = ("geometric", "physical")
+#: ``--skin-model`` choices (core's declaration; the default is core's DEFAULT_SKIN_MODEL).
+SKIN_MODEL_CHOICES = SKIN_MODELS
 #: The simulated times (seconds after the activation step) fig10 shows by default.
 FIG10_TIMES = (0.033, 0.067, 0.1, 0.2, 0.5)
 FIG9_EXPRESSIONS = ("surprise", "frown", "fear")
@@ -122,7 +123,7 @@ def _common(p: argparse.ArgumentParser, *, expression_many: bool = False,
                    help="geometric: the muscles' summed pulls; physical: the simulated "
                         "mass-spring skin bound to the skull, at equilibrium for a still "
                         "frame, simulated over time for animate, export --sequence and fig10 "
-                        "(default: the layout's, else geometric)")
+                        f"(default: the layout's, else {DEFAULT_SKIN_MODEL})")
     p.add_argument("--unit", choices=UNIT_CHOICES, default=None,
                    help="the unit of the face's lengths (default: the layout's; mm for the "
                         "built-in faces; guessed from a scan's size, with a note)")
@@ -832,8 +833,8 @@ def _summary(args) -> int:
         t0 = time.perf_counter()
         state = face.evaluate(name, intensity=args.intensity)
         ms = 1e3 * (time.perf_counter() - t0)
-        skin = "" if face.skin_model == "geometric" else f", {face.skin_model} skin"
-        print(f"\n== {name} (intensity {args.intensity:g}{skin}, {ms:.2f} ms) ==")
+        print(f"\n== {name} (intensity {args.intensity:g}, {face.skin_model} skin, "
+              f"{ms:.2f} ms) ==")
         print(state.summary())
     return 0
 

@@ -50,7 +50,7 @@ from .mesh import (
 )
 from .muscle import Muscle, check_activation
 from .refined import RefinedEngine, slide_bend
-from .skin import SkinMaterial, SpringSkin, check_skin_model
+from .skin import DEFAULT_SKIN_MODEL, SkinMaterial, SpringSkin, check_skin_model
 from .tracks import Track, TrackMapping, default_mapping, iter_activations
 from .units import LENGTH_UNITS, check_unit, face_unit
 
@@ -437,9 +437,9 @@ class FaceModel:
     mapping : TrackMapping, optional
         Which muscles a recorded track's channels drive (its layout's ``"mapping"``);
         None: :func:`~wrinkle_vis.core.tracks.default_mapping` (:meth:`play`).
-    skin_model : {"geometric", "physical"}, default "geometric"
+    skin_model : {"geometric", "physical"}, optional
         The skin model :meth:`evaluate` uses unless told otherwise (see
-        :meth:`with_skin_model`).
+        :meth:`with_skin_model`); default :data:`~wrinkle_vis.core.skin.DEFAULT_SKIN_MODEL`.
     material : SkinMaterial, optional
         The physical skin's parameters (default :class:`SkinMaterial()`).
 
@@ -456,7 +456,7 @@ class FaceModel:
     def __init__(self, skin: TriangleSurface, skull: TriangleSurface | None = None,
                  muscles: Iterable[Muscle] = (), expressions=None, *, name: str = "face",
                  landmarks=None, unit: str | None = None,
-                 mapping: TrackMapping | None = None, skin_model: str = "geometric",
+                 mapping: TrackMapping | None = None, skin_model: str = DEFAULT_SKIN_MODEL,
                  material: SkinMaterial | None = None, _caches=None, _rest_normals=None):
         if not isinstance(skin, TriangleSurface):
             raise TypeError(f"skin must be a TriangleSurface; got {type(skin).__name__}")

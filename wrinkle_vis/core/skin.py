@@ -84,12 +84,19 @@ from scipy.spatial import cKDTree
 from .mesh import TriangleSurface, barycentric_points, surface_coordinates, unit_rows
 from .params import PARAMETER_KEY, Parameter, ParameterValueError, format_value, parameter
 
-__all__ = ["ACTIVATION_TOL", "SKIN_MODELS", "SkinMaterial", "SpringSkin", "activation_response",
-           "bending_pairs", "check_skin_model", "inverted_triangles", "vertex_areas"]
+__all__ = ["ACTIVATION_TOL", "DEFAULT_SKIN_MODEL", "SKIN_MODELS", "SkinMaterial", "SpringSkin",
+           "activation_response", "bending_pairs", "check_skin_model", "inverted_triangles",
+           "vertex_areas"]
 
-#: The skin models a face can be evaluated with: the geometric pulls (the default) and the
+#: The skin models a face can be evaluated with: the muscles' geometric pulls and the
 #: physically based skin of this module.
 SKIN_MODELS = ("geometric", "physical")
+
+#: The skin model a face evaluates with when nothing says otherwise (a face built without
+#: ``skin_model``, a layout file without one, the command line without ``--skin``, the
+#: app, sweeps): the physically based skin, chosen by measurement (README, "Which skin").
+#: Every layer reads this one name.
+DEFAULT_SKIN_MODEL = "physical"
 
 
 def check_skin_model(skin: str) -> str:

@@ -27,6 +27,7 @@ from wrinkle_vis.core.expressions import Expression
 from wrinkle_vis.core.layout import Layout, LayoutError, load_layout
 from wrinkle_vis.core.muscle import Muscle, MuscleParameterError
 from wrinkle_vis.core.params import Parameter
+from wrinkle_vis.core.skin import DEFAULT_SKIN_MODEL
 
 __all__ = ["IMAGE_FIELDS", "MESH_FORMATS", "Run", "SweepSpec", "SweepSpecError", "load_spec",
            "parse_spec", "run_id"]
@@ -41,6 +42,10 @@ IMAGE_FIELDS = ("W", "none")
 #: Per-vertex arrays a run can save: the frame's own, and per active muscle its fields.
 FRAME_ARRAYS = ("W", "points", "deformed_points", "rest_points", "triangles", "normals")
 MUSCLE_ARRAYS = ("lambda", "gamma", "l", "eps", "At", "A", "H", "w")
+#: The skin model of a run whose parameters name none (:attr:`Run.params`): runs from before
+#: there were skin models were geometric, and their ids stay what they were. Not the default
+#: of a spec that names no skin model (that is :data:`~wrinkle_vis.core.skin.DEFAULT_SKIN_MODEL`).
+ID_SKIN_MODEL = "geometric"
 _TOP_KEYS = {"name", "seed", "samples", "faces", "expressions", "intensity", "times_s",
              "refine", "skin_model", "vary", "outputs", "prominence"}
 _TRACK_KEYS = ("track", "name", "format", "fps", "resample_fps")
@@ -67,7 +72,8 @@ class Run:
         ``{"name", "track", "track_sha256", "format", "fps"}``, the file's name and the hash
         of its contents), ``intensity``, ``time_s`` (None: the expression's peak; on a
         track, seconds from its first frame), ``refine``, ``skin_model`` (only when not
-        ``"geometric"``, so the geometric runs keep their ids) and ``set``: ``{muscle:
+        :data:`ID_SKIN_MODEL`, so the geometric runs keep the ids they had before skin
+        models) and ``set``: ``{muscle:
         {parameter: value}}`` for every muscle a varied parameter touches.
     columns : dict
         The run's row in the table: its plain parameters and one column per varied
@@ -161,7 +167,7 @@ class SweepSpec:
     vary: tuple
     outputs: dict
     raw: dict = field(repr=False, default_factory=dict)
-    skin_models: tuple = ("geometric",)
+    skin_models: tuple = (DEFAULT_SKIN_MODEL,)
     times_given: bool = False
 
     def runs(self) -> list[Run]:
@@ -207,7 +213,7 @@ class SweepSpec:
 
 
 def _run(face: _Face, expr, k: float, t, refine: bool, chosen: list,
-         skin: str = "geometric") -> Run:
+         skin: str = DEFAULT_SKIN_MODEL) -> Run:
     overrides: dict[str, dict] = {}
     track = expr if isinstance(expr, _Track) else None
     columns = {"face": face.label, "n_triangles": face.params["n_triangles"],
@@ -221,7 +227,7 @@ def _run(face: _Face, expr, k: float, t, refine: bool, chosen: list,
     params = {"face": face.params, "expression": track.params if track else expr,
               "intensity": k, "time_s": t, "refine": refine,
               "set": {m: dict(sorted(p.items())) for m, p in sorted(overrides.items())}}
-    if skin != "geometric":  # the geometric runs keep the ids they had before skin models
+    if skin != ID_SKIN_MODEL:  # the geometric runs keep the ids they had before skin models
         params["skin_model"] = skin
     return Run(params, columns, face.path, track.path if track else None)
 
@@ -284,7 +290,7 @@ def parse_spec(data: dict, source: str, base: Path) -> SweepSpec:
     refine = tuple(_bool(e, f"refine[{i}]", x)
                    for i, x in enumerate(_list(e, data, "refine", [False])))
     skins = tuple(_skin_model(e, f"skin_model[{i}]", x)
-                  for i, x in enumerate(_list(e, data, "skin_model", ["geometric"])))
+                  for i, x in enumerate(_list(e, data, "skin_model", [DEFAULT_SKIN_MODEL])))
     if len(set(skins)) != len(skins):
         e.fail("skin_model", "a skin model is listed twice; list each once")
     _check_track_times(e, expressions, times, "times_s" in data)

@@ -30,6 +30,8 @@ from wrinkle_vis.core.expressions import Expression
 from wrinkle_vis.core.files import atomic_write_bytes, atomic_write_text
 from wrinkle_vis.core.metrics import frame_metrics, rest_crossings
 
+from .spec import ID_SKIN_MODEL
+
 __all__ = ["RUNS", "FAILED", "cached_face", "evaluate_run", "execute", "execute_batch",
            "run_dir", "worker_plotter"]
 
@@ -148,7 +150,7 @@ def evaluate_run(params: dict, prominence: float = 0.1, layout_path: str | None 
     acts = _activations(face, params, track_path)
     start = time.perf_counter()
     state = face.evaluate(acts, refine=params["refine"],
-                          skin=params.get("skin_model", "geometric"))
+                          skin=params.get("skin_model", ID_SKIN_MODEL))
     seconds = time.perf_counter() - start
     pairs = None
     if state.face.skin is face.skin:
