@@ -68,11 +68,13 @@ def test_eps_matches_the_public_compression_function(face):
 
 
 def test_deformation_and_final_points(face):
-    """The summed pull made tangent, bent back by the second fundamental form, plus W."""
+    """The summed pull made tangent, bent back by the second fundamental form, plus W (the
+    geometric skin's deformation).
+    """
     from wrinkle_vis.core.face import SLIDE_SCALE
     from wrinkle_vis.core.mesh import shape_operators, smoothed_normals
 
-    state = face.evaluate({"lin": 0.5, "sh": 1.0})
+    state = face.evaluate({"lin": 0.5, "sh": 1.0}, skin="geometric")
     rest = face.skin.points
     radius = SLIDE_SCALE * np.sqrt(face.skin.triangle_areas().sum())
     n = smoothed_normals(face.skin, face.skin.vertex_normals(), radius)
@@ -179,9 +181,14 @@ def test_every_field_is_invariant_under_rigid_motion(seed):
 
 
 def test_lambda_gamma_eps_are_invariant_under_uniform_scaling():
+    """On the geometric skin (the physical one has a length of its own, the square root of
+    its membrane over its attachment stiffness, so a face three times as big deforms
+    otherwise there: by design).
+    """
     skin = grid(41, 41, 80.0, bump=8.0)
-    face0 = wv.FaceModel(skin, None, muscles())
-    face1 = wv.FaceModel(skin.with_points(3.0 * skin.points), None, muscles(scale=3.0))
+    face0 = wv.FaceModel(skin, None, muscles(), skin_model="geometric")
+    face1 = wv.FaceModel(skin.with_points(3.0 * skin.points), None, muscles(scale=3.0),
+                         skin_model="geometric")
     s0, s1 = face0.evaluate({"lin": 1.0, "sh": 1.0}), face1.evaluate({"lin": 1.0, "sh": 1.0})
     for name in face0.muscle_names:
         for key in ("lambda", "gamma", "eps"):

@@ -446,8 +446,12 @@ class SpringSkin:
         """``(n, 3)``: the still frame, the minimum of :math:`E` for ``target_disp``
         ``(n, 3)``, from ``x`` (default the rest skin): local/global iterations, sped up by
         Anderson acceleration over the last ``window`` iterates (Peng et al. 2018), until no
-        vertex moves by more than ``tol`` times the skin's size.
+        vertex moves by more than ``tol`` times the skin's size. With no pull and no start
+        given the answer is the rest skin itself (every term of :math:`E` vanishes there),
+        returned exactly rather than through a solve's rounding.
         """
+        if x is None and not np.any(target_disp):
+            return self.rest.copy()
         lu = self._factor(None)
         fixed = np.asfortranarray(self._anchor_rhs(target_disp))
 
