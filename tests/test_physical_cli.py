@@ -38,7 +38,7 @@ def test_times_belong_to_fig10(tmp_path, capsys):
 
 
 def test_an_expressions_timeline_is_simulated_on_the_physical_skin():
-    face = wv.datasets.load_face()
+    face = wv.datasets.load_face().with_skin_model("geometric")  # each frame on its own
     expression = face.expressions["frown"]
     times = [0.0, 0.1, 0.2, 0.4]
     geo = list(face.expression_states(expression, times))
