@@ -142,8 +142,10 @@ def test_a_refined_frame_on_other_triangles_gets_a_new_mesh_under_the_same_actor
 def test_play_with_refinement_draws_each_frame_refined(window, wv_face, qtbot):
     """The Play button with refinement on: each drawn frame is the refined frame of its
     time, written in place when its triangles are the last frame's, else a new mesh
-    under the same actor.
+    under the same actor. On the geometric skin, each frame evaluated on its own (the
+    physical skin's Play is the simulation: test_app_physical.py).
     """
+    window.skin_box.setCurrentText("geometric")
     window.refine_box.setChecked(True)
     window.time_slider.setValue(0)
     frames = []
@@ -163,7 +165,7 @@ def test_play_with_refinement_draws_each_frame_refined(window, wv_face, qtbot):
     frames = frames[:5]
     assert max(max(acts.values()) for acts, *_ in frames) > 0  # it played the onset
     for (_, before, _, tri_before), (acts, after, kind, tri) in pairwise(frames):
-        expected = wv_face.evaluate(acts, refine=True)
+        expected = wv_face.evaluate(acts, refine=True, skin="geometric")
         np.testing.assert_allclose(after["points"], expected.points, rtol=0, atol=1e-9)
         np.testing.assert_array_equal(tri, expected.triangles)
         assert after["actor"] is before["actor"] and after["mapper"] is before["mapper"]
