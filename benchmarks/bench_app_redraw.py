@@ -101,7 +101,8 @@ def main():
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([])
     settings = QtCore.QSettings(QtCore.QSettings.IniFormat, QtCore.QSettings.UserScope,
                                 "wrinkle-vis-bench", "redraw")
-    window = MainWindow(Session(wv.datasets.load_face(args.triangles)), settings)
+    face = wv.datasets.load_face(args.triangles).with_skin_model("geometric")
+    window = MainWindow(Session(face), settings)
     window.resize(1500, 800)
     window.show()
     for _ in range(10):

@@ -109,7 +109,7 @@ def main():
                              "window, beside its panels: bench_app_playback.py prints them)")
     parser.add_argument("--triangles", type=int, default=4500)
     args = parser.parse_args()
-    face = wv.datasets.load_face(args.triangles)
+    face = wv.datasets.load_face(args.triangles).with_skin_model("geometric")
     face.evaluate("surprise")
     setups = {"ours (in place)": (False, False, True),
               "peer (rebuild each move)": (True, False, True),

@@ -38,7 +38,7 @@ levels, out, guard = int(sys.argv[1]), sys.argv[2], sys.argv[3] == "on"
 base = wv.datasets.load_face(5100)
 skin = wv.subdivide(base.skin, levels)
 _ = skin.edges, skin.incidence
-face = wv.FaceModel(skin, base.skull, base.muscles, base.expressions)
+face = wv.FaceModel(skin, base.skull, base.muscles, base.expressions, skin_model="geometric")
 acts = {m: 0.7 for m in face.muscle_names}
 tracemalloc.start()
 t0 = time.perf_counter()

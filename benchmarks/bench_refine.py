@@ -105,11 +105,11 @@ def _error(hier, ids, x):
 
 
 def first_frames(n_triangles, name):
-    face = wv.datasets.load_face(n_triangles=n_triangles)
+    face = wv.datasets.load_face(n_triangles=n_triangles).with_skin_model("geometric")
     t0 = time.perf_counter()
     face.evaluate(name)
     plain = time.perf_counter() - t0
-    face = wv.datasets.load_face(n_triangles=n_triangles)
+    face = wv.datasets.load_face(n_triangles=n_triangles).with_skin_model("geometric")
     t0 = time.perf_counter()
     face.evaluate(name, refine=True)
     return plain, time.perf_counter() - t0
@@ -118,14 +118,14 @@ def first_frames(n_triangles, name):
 def first_ramp(n_triangles, name, steps):
     """The refined ramp right after loading (the unrefined frame already evaluated once):
     what the first play of an expression meets while the hierarchy is built."""
-    face = wv.datasets.load_face(n_triangles=n_triangles)
+    face = wv.datasets.load_face(n_triangles=n_triangles).with_skin_model("geometric")
     face.evaluate(name)
     times, _ = ramp(face, name, steps, True)
     return times
 
 
 def speed(args):
-    face = wv.datasets.load_face(n_triangles=args.triangles)
+    face = wv.datasets.load_face(n_triangles=args.triangles).with_skin_model("geometric")
     print(f"face: {face.skin.n_triangles} triangles; ramp 0..1 in {args.steps} steps, "
           f"{args.rounds} rounds; refine_angle_deg 3, refine_levels 3")
     for name in EXPRESSIONS:
@@ -159,7 +159,7 @@ def speed(args):
 
 
 def memory(args):
-    face = wv.datasets.load_face(n_triangles=args.triangles)
+    face = wv.datasets.load_face(n_triangles=args.triangles).with_skin_model("geometric")
     rng = np.random.default_rng(0)
     print(f"face: {face.skin.n_triangles} triangles; {args.memory} refined frames, "
           f"expression and intensity changing")

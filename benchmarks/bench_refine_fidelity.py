@@ -93,10 +93,10 @@ def main():
     parser.add_argument("--levels", type=int, default=3, help="refine_levels")
     args = parser.parse_args()
     options = {"refine": True, "refine_angle_deg": args.angle, "refine_levels": args.levels}
-    base = wv.datasets.load_face()
+    base = wv.datasets.load_face().with_skin_model("geometric")
     muscle = base.muscle(MUSCLE)
     ref_face = wv.FaceModel(smooth_uniform(base.skin, 4), base.skull, base.muscles,
-                            base.expressions)
+                            base.expressions, skin_model="geometric")
     refs = {t: fibre_band(ref_face.evaluate("surprise", t), width=0.3)[0] for t in LEVELS}
     ref_points, ref_l, ref_h = fibre_band(ref_face.evaluate("surprise"), width=0.3)
     print(f"reference: {ref_face.skin.n_triangles} triangles, {len(ref_points)} points along "
@@ -104,7 +104,8 @@ def main():
     rows = []
 
     def adaptive_setup():
-        face = wv.FaceModel(base.skin, base.skull, base.muscles, base.expressions)
+        face = wv.FaceModel(base.skin, base.skull, base.muscles, base.expressions,
+                            skin_model="geometric")
         return face.evaluate("surprise", **options)
 
     setup_ms, _ = timed(adaptive_setup)
@@ -115,7 +116,8 @@ def main():
         skin = wv.TriangleSurface(poly.points, poly.faces.reshape(-1, 4)[:, 1:])
 
         def uniform_setup(skin=skin):
-            face = wv.FaceModel(skin, base.skull, base.muscles, base.expressions)
+            face = wv.FaceModel(skin, base.skull, base.muscles, base.expressions,
+                                skin_model="geometric")
             return face.evaluate("surprise")
 
         subdiv_ms, _ = timed(lambda n=n, scheme=scheme: to_surface_polydata(base.skin).subdivide(

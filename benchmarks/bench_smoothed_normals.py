@@ -48,7 +48,8 @@ def first_frame(skin, base, solver) -> tuple[float, float, np.ndarray]:
     before = core_face.smoothed_normals
     core_face.smoothed_normals = solver
     try:
-        face = wv.FaceModel(skin, base.skull, base.muscles, base.expressions)
+        face = wv.FaceModel(skin, base.skull, base.muscles, base.expressions,
+                            skin_model="geometric")
         acts = {m: 0.7 for m in face.muscle_names}
         tracemalloc.start()
         t0 = time.perf_counter()

@@ -28,7 +28,7 @@ def main() -> None:
     args = parser.parse_args()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        face = wv.datasets.load_face()
+        face = wv.datasets.load_face().with_skin_model("geometric")
     read = median_seconds(lambda: wv.read_track(OPENFACE), 3, args.rounds)
     track = wv.read_track(OPENFACE)
     n = track.n_frames
