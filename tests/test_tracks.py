@@ -329,7 +329,8 @@ def test_forehead_w_follows_au01_and_au02(wv_face):
     au2 = 0.8 * np.exp(-((t - 1.3) / 0.35) ** 2)
     track = Track(t, ["AU01", "AU02", "AU12"], np.column_stack([au1, au2, 0 * t]))
     forehead = _region(wv_face, (0, 45), (35, 80))
-    mean_w = [np.abs(s.W[forehead]).mean() for s in wv_face.play(track)]
+    # the mapping's work, the same on either skin: the geometric one is the quicker
+    mean_w = [np.abs(s.W[forehead]).mean() for s in wv_face.play(track, skin="geometric")]
     r = np.corrcoef(mean_w, au1 + au2)[0, 1]
     assert r >= 0.8, r
     assert np.abs(wv_face.evaluate().W).max() == 0.0
@@ -351,7 +352,7 @@ def test_action_units_wrinkle_their_regions(wv_face, head, which, channels, x_ra
                                             y_range):
     face = wv_face if which == "procedural" else head
     track = Track([0.0, 1.0], list(channels), [[0.0] * len(channels), list(channels.values())])
-    first, last = list(face.play(track))
+    first, last = list(face.play(track, skin="geometric"))  # the mapping's work: any skin
     inside = _region(face, x_range, y_range)
     assert np.abs(first.W).max() == 0.0
     assert np.abs(last.W[inside]).max() > 0.05  # mm
