@@ -57,6 +57,7 @@ def test_track_curves_keep_the_channels_that_drive_muscles(tmp_path):
 
 
 def test_import_performance_in_the_window(window, tmp_path):
+    window.skin_box.setCurrentText("geometric")  # its Play: each frame at the track's clock
     name = window.import_performance(_brows(tmp_path))
     s = window.session
     assert name == "brows (track)" and window.expression_box.currentText() == name
