@@ -37,7 +37,9 @@ def test_builtin_face_has_paired_muscles_for_the_paper_expressions(face):
 @pytest.mark.parametrize("expression", ["surprise", "frown", "fear"])
 def test_paper_expressions_wrinkle_the_upper_face_only(face, expression):
     state = face.evaluate(expression)
-    wrinkled = face.skin.points[state.W != 0]
+    # a nanometre: the physical skin's solve leaves |W| of 1e-13 mm where the corrugators'
+    # regions reach below the eyes' line (the geometric skin's W is exactly 0 there)
+    wrinkled = face.skin.points[np.abs(state.W) > 1e-6]
     assert len(wrinkled) > 0
     assert wrinkled[:, 1].min() > 0.0  # above the eyes' centre line: brows and forehead
 
