@@ -437,9 +437,8 @@ def test_a_layout_records_the_skin_model_and_its_material(tmp_path):
 
 def test_load_face_applies_the_layouts_skin_model():
     from wrinkle_vis.core.layout import load_layout
-    from wrinkle_vis.datasets.face import BUILTIN_LAYOUT
-
     from wrinkle_vis.core.skin import DEFAULT_SKIN_MODEL
+    from wrinkle_vis.datasets.face import BUILTIN_LAYOUT
 
     other = "geometric" if DEFAULT_SKIN_MODEL == "physical" else "physical"
     layout = dataclasses.replace(load_layout(BUILTIN_LAYOUT), skin_model=other,
