@@ -710,8 +710,8 @@ class FaceModel:
     def _refined_physical(self, state: FaceState, angle_deg: float, levels: int) -> FaceState:
         if not (0.0 < angle_deg < 180.0):
             raise ValueError(f"refine_angle_deg = {angle_deg:g} is outside (0, 180)")
-        if int(levels) < 0:
-            raise ValueError(f"refine_levels = {levels} must be >= 0")
+        if isinstance(levels, bool) or not isinstance(levels, (int, np.integer)) or levels < 0:
+            raise ValueError(f"refine_levels = {levels!r} must be a whole number >= 0")
         refined = self._refined_frame(state, state.activations, angle_deg, int(levels))
         refined.skin_model, refined.time = "physical", state.time
         refined.velocities = None if refined is not state else state.velocities
