@@ -151,3 +151,34 @@ def test_occluded_agrees_with_vtk_ray_tracing(direction):
     on = s.points[:50]
     far = occluded(s, on, d, 0.05)
     assert not far[on @ d > 0.2].any() and far[on @ d < -0.5].all()
+
+
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 2**16))
+def test_quadratic_points_are_exact_for_a_quadratic_field_on_a_flat_patch(seed):
+    """The local quadratic fit (core/mesh.py ``quadratic_points``) reproduces any field
+    quadratic in the position on a plane (rotated anyhow, jittered vertices, points up to
+    the border), where linear interpolation is off by the curvature's h²/8."""
+    from meshes import rotation
+
+    from wrinkle_vis.core.mesh import barycentric_points, quadratic_points
+
+    rng = np.random.default_rng(seed)
+    flat = grid(9, 7, 8.0)
+    jitter = rng.uniform(-0.2, 0.2, (flat.n_points, 3)) * [1.0, 1.0, 0.0]
+    points = (flat.points + jitter) @ rotation(seed).T + rng.normal(size=3)
+    surface = wv.TriangleSurface(points, flat.triangles)
+    a, b, c = rng.normal(size=(3, 3)), rng.normal(size=(3, 3)), rng.normal(size=(3, 3, 3))
+
+    def field(p):  # (k, 3) -> (k, 3): a + B p + p^T C p, per component
+        return a[0] + p @ b + np.einsum("ki,dij,kj->kd", p, c, p)
+
+    tri = rng.integers(0, surface.n_triangles, 40)
+    bary = rng.dirichlet(np.ones(3), 40)
+    at = barycentric_points(surface, tri, bary)
+    got = quadratic_points(surface, tri, bary, field(surface.points))
+    np.testing.assert_allclose(got, field(at), atol=1e-9 * np.abs(field(at)).max())
+    scalar = quadratic_points(surface, tri, bary, field(surface.points)[:, 0])
+    np.testing.assert_allclose(scalar, got[:, 0], atol=1e-12 * np.abs(got).max())
+    linear = barycentric_points(surface, tri, bary, field(surface.points))
+    assert np.abs(linear - field(at)).max() > 1e-3  # the linear scheme is not exact

@@ -589,6 +589,59 @@ def barycentric_points(surface: TriangleSurface, triangles, barycentric,
     return np.einsum("kj,kjd->kd", np.asarray(barycentric, dtype=float), corners)
 
 
+def quadratic_points(surface: TriangleSurface, triangles, barycentric, values) -> np.ndarray:
+    r"""``(k, d)``: ``values`` ``(n, d)`` given at the surface's vertices, interpolated at
+    ``barycentric`` ``(k, 3)`` in ``triangles`` ``(k,)`` by a local quadratic fit: a moving
+    least-squares quadratic in the triangle's plane over the vertices of the triangles that
+    touch it (its corners and their neighbours, about 12), exact for a field quadratic in
+    the position on a flat patch, where :func:`barycentric_points` is exact only for a
+    linear one.
+
+    With :math:`q` the point, :math:`(x_j, y_j)` the vertices' offsets from it in the
+    triangle's plane over the mean edge length :math:`h`, and
+    :math:`b = (1, x, y, x^2, xy, y^2)`, the value at :math:`q` is the constant term
+    :math:`c_0` of
+
+    .. math::
+
+        c = \arg\min_c \sum_j e^{-(x_j^2 + y_j^2)} \, \| b(x_j, y_j) \cdot c - v_j \|^2
+
+    (a pseudo-inverse, so a stencil too small for a quadratic, as on a border, still gets
+    the best fit it allows).
+    """
+    tri = np.asarray(triangles, dtype=np.intp)
+    v = np.asarray(values, dtype=float)
+    idx, mask = _touching_vertices(surface, tri)
+    corners = surface.points[surface.triangles[tri]]
+    u_axis, v_axis = tangent_bases(unit_rows(np.cross(corners[:, 1] - corners[:, 0],
+                                                      corners[:, 2] - corners[:, 0])))
+    d = surface.points[idx] - barycentric_points(surface, tri, barycentric)[:, None, :]
+    x, y = (np.einsum("kmd,kd->km", d, a) / surface.mean_edge_length for a in (u_axis, v_axis))
+    root = np.sqrt(mask * np.exp(-(x * x + y * y)))  # (k, m) square roots of the weights
+    basis = np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=2) * root[..., None]
+    first = np.linalg.pinv(basis, rcond=1e-10)[:, 0, :]  # (k, m): the row giving c_0
+    return np.einsum("km,km,kmd->kd", first, root, v.reshape(len(v), -1)[idx]).reshape(
+        (len(tri), *v.shape[1:]))
+
+
+def _touching_vertices(surface: TriangleSurface, tri: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """``(k, m)`` ids and ``(k, m)`` 0/1 mask: the vertices of the triangles touching each of
+    ``tri`` ``(k,)`` (corners and their neighbours), padded to the longest row.
+    """
+    n, k = surface.n_points, len(tri)
+    corners = sp.csr_matrix((np.ones(3 * k), surface.triangles[tri].ravel(),
+                             np.arange(0, 3 * k + 1, 3)), shape=(k, n))
+    ring = (corners @ (surface.adjacency + sp.identity(n, format="csr"))).tocsr()
+    count = np.diff(ring.indptr)
+    rows = np.repeat(np.arange(k), count)
+    cols = np.arange(len(ring.indices)) - ring.indptr[rows]
+    idx = np.zeros((k, max(int(count.max(initial=0)), 1)), dtype=np.intp)
+    mask = np.zeros(idx.shape)
+    idx[rows, cols], mask[rows, cols] = ring.indices, 1.0
+    return idx, mask
+
+
 def _barycentric(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
     """``(k, 3)``: barycentric coordinates of points ``(k, 3)`` in triangles ``(k, 3, 3)``."""
     a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
