@@ -588,3 +588,94 @@ def test_the_equilibrium_converges_from_the_20k_to_the_60k_face():
                 for p in a["furrow_points"][np.asarray(a["depths"]) > 0.3]:
                     gap = np.linalg.norm(b["furrow_points"] - p, axis=1).min()
                     assert gap <= 0.1 * period, (a["offset"], p, gap)
+
+
+# ---------------------------------------------------------------- both built-in faces
+#: Vertices of the scanned head's skin inside its skull at rest (VTK's signed distance):
+#: the skull reaches through the scan's skin there (the nose, the lips, the ears); the
+#: physical skin leaves them free by design, so they are exempt from "never inside".
+HEAD_INSIDE_AT_REST = 762
+
+
+def _skull_check(face):
+    """``(check, inside)``: ``check(state)`` asserts that no triangle of the frame turned
+    over and that no vertex outside ``face``'s skull at rest is inside it; ``inside``
+    ``(n,) bool``, the vertices inside at rest (exempt)."""
+    pv = pytest.importorskip("pyvista")
+    vtk = pytest.importorskip("vtk")
+    from vtk.util.numpy_support import numpy_to_vtk, vtk_to_numpy
+
+    implicit = vtk.vtkImplicitPolyDataDistance()
+    implicit.SetInput(pv.PolyData.from_regular_faces(face.skull.points, face.skull.triangles))
+
+    def distance(points):  # positive outside the skull
+        out = vtk.vtkDoubleArray()
+        implicit.FunctionValue(numpy_to_vtk(np.ascontiguousarray(points, dtype=float)), out)
+        return vtk_to_numpy(out).copy()
+
+    enclosed = vtk.vtkSelectEnclosedPoints()  # ray parity: the skull is closed
+    enclosed.Initialize(pv.PolyData.from_regular_faces(face.skull.points,
+                                                       face.skull.triangles))
+    inside = distance(face.skin.points) < 0.0
+
+    def check(state, label) -> None:
+        assert inverted_triangles(state.rest_points, state.deformed_points,
+                                  state.triangles) == 0, label
+        points = state.deformed_points[~inside]
+        d = distance(points)
+        # VTK's sign flips now and then at a point whose closest skull point is a vertex
+        # (one 7.4 mm out by the scanned head's nose reads -7.4, then +7.4 when moved by
+        # 1e-6): a negative distance counts only where ray parity agrees
+        entered = [i for i in np.flatnonzero(d < -1e-6) if enclosed.IsInsideSurface(*points[i])]
+        assert not entered, (label, len(entered), d[entered].min())
+
+    return check, inside
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["procedural", "lee_perry_smith"])
+def test_every_built_in_expression_neither_enters_the_skull_nor_folds_at_any_frame(name):
+    """Issue 27: no skin vertex inside the skull and no inverted triangle at any frame, for
+    every built-in expression (a step to it, 0.2 s in 0.05 s steps, and the still frame),
+    on both built-in faces; on the scanned head the vertices inside its skull at rest are
+    exempt (762 of 8,844)."""
+    face = wv.datasets.load_face() if name == "procedural" else wv.datasets.load_face(name)
+    check, inside = _skull_check(face)
+    assert inside.sum() == (0 if name == "procedural" else HEAD_INSIDE_AT_REST)
+    assert len(face.expressions) >= 14
+    for expression in sorted(face.expressions):
+        for state in face.simulate(expression, 0.2, 0.05):
+            check(state, (expression, state.time))
+        check(face.evaluate(expression, skin="physical"), expression)
+
+
+@pytest.fixture(scope="module")
+def head():
+    face = wv.datasets.load_face("lee_perry_smith")
+    return face, *_skull_check(face)
+
+
+@pytest.mark.slow
+@settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow,
+                                                                HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**16), strength=st.floats(1.0, 3.0))
+@example(seed=5, strength=3.0)
+def test_random_activations_up_to_three_times_the_strength_on_the_scanned_head(
+        head, seed, strength):
+    """The property test above on the scanned head: random activations in [0, 1] with every
+    muscle up to 3x its strength (or the strongest its type allows) never push a vertex
+    outside the skull at rest into it nor turn a triangle over, at any frame."""
+    face, check, _ = head
+    muscles = []
+    for m in face.muscles:
+        try:
+            muscles.append(dataclasses.replace(m, strength=strength * m.strength_value))
+        except ValueError:
+            muscles.append(dataclasses.replace(m, strength=0.99 * m.strength_value
+                                               * _max_factor(m)))
+    strong = wv.FaceModel(face.skin, face.skull, muscles, face.expressions, name="strong",
+                          unit=face.unit)
+    acts = dict(zip(strong.muscle_names,
+                    np.random.default_rng(seed).uniform(0, 1, len(muscles)), strict=True))
+    for state in strong.simulate(acts, 0.15, 0.05):
+        check(state, (seed, strength, state.time))
