@@ -591,10 +591,12 @@ def test_the_equilibrium_converges_from_the_20k_to_the_60k_face():
 
 
 # ---------------------------------------------------------------- both built-in faces
-#: Vertices of the scanned head's skin inside its skull at rest (VTK's signed distance):
-#: the skull reaches through the scan's skin there (the nose, the lips, the ears); the
-#: physical skin leaves them free by design, so they are exempt from "never inside".
-HEAD_INSIDE_AT_REST = 762
+#: The share of the scanned head's skin vertices that may lie inside its skull at rest
+#: (VTK's signed distance): 762 of 8,844 (8.6 %) when measured, in three patches where the
+#: skull reaches through the scan's skin (the eye sockets, 304 and 244, and the mouth and
+#: chin, 214). The physical skin leaves them free by design, so they are exempt from
+#: "never inside".
+HEAD_INSIDE_AT_REST = 0.1
 
 
 def _skull_check(face):
@@ -638,10 +640,10 @@ def test_every_built_in_expression_neither_enters_the_skull_nor_folds_at_any_fra
     """Issue 27: no skin vertex inside the skull and no inverted triangle at any frame, for
     every built-in expression (a step to it, 0.2 s in 0.05 s steps, and the still frame),
     on both built-in faces; on the scanned head the vertices inside its skull at rest are
-    exempt (762 of 8,844)."""
+    exempt (762 of 8,844, :data:`HEAD_INSIDE_AT_REST`)."""
     face = wv.datasets.load_face() if name == "procedural" else wv.datasets.load_face(name)
     check, inside = _skull_check(face)
-    assert inside.sum() == (0 if name == "procedural" else HEAD_INSIDE_AT_REST)
+    assert inside.mean() <= (0.0 if name == "procedural" else HEAD_INSIDE_AT_REST)
     assert len(face.expressions) >= 14
     for expression in sorted(face.expressions):
         for state in face.simulate(expression, 0.2, 0.05):
