@@ -10,7 +10,8 @@ one :class:`~wrinkle_vis.core.simulation.Simulation` and shows its state:
 * **Play** starts the simulation (from rest at :math:`t = 0`, re-simulated to the
   timeline's time as a scrub is) and each timer tick advances it by the wall-clock time
   elapsed since the last tick (:meth:`PhysicalPlayback.tick`): simulated time follows the
-  wall clock. The steps are the material's ``time_step`` :math:`h` (the matrix is
+  wall clock, from when the simulation is ready (:meth:`PhysicalPlayback.sync`: the time
+  the start took is not simulated). The steps are the material's ``time_step`` :math:`h` (the matrix is
   factorized once per step size, so a step is never shortened); what is left of the
   elapsed time waits for the next tick. A tick takes at most :attr:`~PhysicalPlayback.
   max_steps` steps and drops the rest of the lag, so a slow frame slows the simulation
