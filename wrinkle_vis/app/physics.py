@@ -11,13 +11,14 @@ one :class:`~wrinkle_vis.core.simulation.Simulation` and shows its state:
   timeline's time as a scrub is) and each timer tick advances it by the wall-clock time
   elapsed since the last tick (:meth:`PhysicalPlayback.tick`): simulated time follows the
   wall clock, from when the simulation is ready (:meth:`PhysicalPlayback.sync`: the time
-  the start took is not simulated). The steps are the material's ``time_step`` :math:`h` (the matrix is
-  factorized once per step size, so a step is never shortened); what is left of the
-  elapsed time waits for the next tick. A tick takes at most :attr:`~PhysicalPlayback.
-  max_steps` steps and drops the rest of the lag, so a slow frame slows the simulation
-  down instead of making the next frame slower still. The command is the expression's
-  timeline at the simulated time; past the end of the timeline the simulation starts
-  again from rest at :math:`t = 0` (Play goes round and round, as on the geometric skin).
+  the start took is not simulated). The steps are the material's ``time_step``
+  :math:`h` (the matrix is factorized once per step size, so a step is never shortened);
+  what is left of the elapsed time waits for the next tick. A tick takes at most
+  :attr:`~PhysicalPlayback.max_steps` steps and drops the rest of the lag, so a slow frame
+  slows the simulation down instead of making the next frame slower still. The command is
+  the expression's timeline at the simulated time; past the end of the timeline the
+  simulation starts again from rest at :math:`t = 0` (Play goes round and round, as on the
+  geometric skin).
 * **Pause** keeps the simulation's state (shown, and played on from, as it is).
 * **Reset** puts the skin back to rest at :math:`t = 0`.
 * **Scrubbing** the timeline while a simulation runs (playing or paused) re-simulates up
