@@ -380,11 +380,13 @@ def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
         return f
     b, c = _quadratic(pull_t, corners, Nt, A1, A2)
     low = a0 - 1.0 + _lowest_sigma(b, c, top)
-    graph = _edge_graph(size, terms, reach)
+    graph = None  # the edges' weights, built only when a triangle is bad
     for _ in range(iterations):
         bad = np.flatnonzero(low < min_area)
         if not len(bad):
             break
+        if graph is None:
+            graph = _edge_graph(size, terms, reach)
         s_star = _first_root(np.maximum(a0[bad] - min_area, 1e-12), b[bad], c[bad])
         limit = _limits(s_star, corners[:, bad].T, graph, top)
         near = np.flatnonzero(limit < top)
@@ -444,8 +446,12 @@ def guard_wrinkles(W: np.ndarray, radii: np.ndarray, guard: FoldGuard = FoldGuar
     (``radii`` ``(n, 2)``: :math:`r_+, r_-`) by :func:`soft_clamp`.
     """
     W = np.asarray(W, dtype=float)
-    bound = guard.eta * np.where(W >= 0, radii[:, 0], radii[:, 1])
-    return soft_clamp(W, np.maximum(bound, 1e-300), guard.knee)
+    ids = np.flatnonzero(W)  # W = 0 is never clamped: the nonzero part decides
+    w = W[ids]
+    bound = guard.eta * np.where(w >= 0, radii[ids, 0], radii[ids, 1])
+    out = W.copy()
+    out[ids] = soft_clamp(w, np.maximum(bound, 1e-300), guard.knee)
+    return out
 
 
 @dataclass(frozen=True)
@@ -593,6 +599,11 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
     the clamp's knee would just reach :math:`|W|`, so it stops at once wherever the clamp
     would not act. ``step`` ``(n, 3)``: :math:`W n`, when the frame's normals are those of
     ``deformed`` (else they are computed).
+
+    Only the vertices whose ball did shrink are lowered (``radii`` itself, not a copy, when
+    none did): where the search kept its start :math:`R`, :math:`\eta_d R` sits just above
+    :math:`|W| / \kappa` and the clamp would not act on that bound, so whatever the rest
+    radii say decides there (the same clamped :math:`W`, bit for bit).
     """
     ratio = guard.eta_deformed / guard.eta
     ids = np.flatnonzero(W)
@@ -601,19 +612,34 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
     start = np.abs(W[ids]) / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6)
     x = deformed[ids]
     reach = 2.0 * float(start.max())  # a ball of radius R tangent at x lies within 2 R of x
-    box = np.all((deformed >= x.min(axis=0) - reach) & (deformed <= x.max(axis=0) + reach),
-                 axis=1)
     if step is None:
         n = _vertex_normals(deformed, tri, ids, terms)
     else:
         n = step[ids] / W[ids, None]
         n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
     side = np.where(W[ids, None] >= 0, [[1.0, 0.0]], [[0.0, 1.0]])  # the side W pushes to
-    r = medial_radii(x, n, samples=deformed[box], r_max=side * start[:, None])
+    samples = deformed[_in_box(deformed, x.min(axis=0) - reach, x.max(axis=0) + reach)]
+    r = medial_radii(x, n, samples=samples, r_max=side * start[:, None])
     r = np.where(side > 0, r, np.inf)
+    low = np.flatnonzero(r.min(axis=1) < start)  # the balls that shrank
+    if not len(low):
+        return radii
     out = np.array(radii, dtype=float, copy=True)
-    out[ids] = np.minimum(out[ids], ratio * r)
+    out[ids[low]] = np.minimum(out[ids[low]], ratio * r[low])
     return out
+
+
+def _in_box(points: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """``(k,)``: the indices (ascending) of ``points`` ``(n, 3)`` in the closed box
+    ``lo``-``hi`` ``(3,)``, filtered one coordinate at a time (the first over every point,
+    the others over what is left).
+    """
+    x = points[:, 0]
+    idx = np.flatnonzero((x >= lo[0]) & (x <= hi[0]))
+    for k in (1, 2):
+        c = points[idx, k]
+        idx = idx[(c >= lo[k]) & (c <= hi[k])]
+    return idx
 
 
 def _vertex_normals(points: np.ndarray, tri: np.ndarray, ids: np.ndarray,
@@ -637,34 +663,40 @@ def _vertex_normals(points: np.ndarray, tri: np.ndarray, ids: np.ndarray,
 
 
 def _needed(W: np.ndarray, guard: FoldGuard) -> np.ndarray:
-    r"""``(n, 2)``: the radius up to which the clamp needs :math:`r_\pm` at each vertex of a
-    frame's ``W`` ``(n,)``: just above :math:`|W| / (\kappa \eta)` on the side ``W`` pushes to
-    (a radius beyond it leaves the clamp the identity), 0 elsewhere.
+    r"""``(k, 2)``: the radius up to which the clamp needs :math:`r_\pm` at each vertex of
+    ``W`` ``(k,)`` (a frame's, or its nonzero part): just above :math:`|W| / (\kappa \eta)`
+    on the side ``W`` pushes to (a radius beyond it leaves the clamp the identity), 0
+    elsewhere.
     """
     W = np.asarray(W, dtype=float)
     start = np.abs(W) / (guard.knee * guard.eta) * (1.0 + 1e-6)
     return np.where(W[:, None] >= 0, [[1.0, 0.0]], [[0.0, 1.0]]) * start[:, None]
 
 
-def _rest_radii(face, need: np.ndarray) -> np.ndarray:
+def _rest_radii(face, need: np.ndarray, ids: np.ndarray | None = None) -> np.ndarray:
     """``(n, 2)``: rest radii of ``face``'s own skin known at least up to ``need``
-    ``(n, 2)``: the true radius where it is below what was ever needed, else a value at or
-    above ``need`` (below which the true radius does not lie). What is found is kept with
-    the rest frame; a vertex is searched again only when a frame needs more of it.
+    (``(n, 2)``, or ``(k, 2)`` at the vertices ``ids`` ``(k,)``, 0 at the others): the true
+    radius where it is below what was ever needed, else a value at or above ``need`` (below
+    which the true radius does not lie). What is found is kept with the rest frame; a
+    vertex is searched again only when a frame needs more of it. Only the rows ``ids`` are
+    looked at (a frame's wrinkled vertices: the cost goes with them, not with the skin).
     """
     rest = face._rest
     known = getattr(rest, "fold_radii", None)
     if known is None:
         known = rest.fold_radii = np.zeros((face.skin.n_points, 2))
         rest.fold_radii_exact = np.zeros((face.skin.n_points, 2), bool)
-    todo = (need > known) & ~rest.fold_radii_exact
-    rows = np.flatnonzero(todo.any(axis=1))
-    if len(rows):
-        r_max = np.where(todo[rows], need[rows], 0.0)
+    if ids is None:
+        ids = np.arange(len(known))
+    todo = (need > known[ids]) & ~rest.fold_radii_exact[ids]
+    sub = np.flatnonzero(todo.any(axis=1))
+    if len(sub):
+        rows, todo, need = ids[sub], todo[sub], need[sub]
+        r_max = np.where(todo, need, 0.0)
         r = medial_radii(face.skin.points[rows], rest.normals[rows],
                          samples=face.skin.points, r_max=r_max, tree=face.skin.kdtree)
-        known[rows] = np.where(todo[rows], r, known[rows])
-        rest.fold_radii_exact[rows] |= todo[rows] & (r < r_max)
+        known[rows] = np.where(todo, r, known[rows])
+        rest.fold_radii_exact[rows] |= todo & (r < r_max)
     return known
 
 
@@ -688,11 +720,14 @@ def fold_radii(face, skin_face=None, W: np.ndarray | None = None,
     n = face.skin.n_points if own else skin_face.skin.n_points
     if W is None:
         size = np.linalg.norm(np.ptp(face.skin.points, axis=0))
+        ids = np.arange(n)
         need = np.full((n, 2), 2.0 * size)
-    else:
-        need = _needed(W, guard)
+    else:  # a vertex with no W needs nothing
+        W = np.asarray(W, dtype=float)
+        ids = np.flatnonzero(W)
+        need = _needed(W[ids], guard)
     if own:
-        view = _rest_radii(face, need).view()  # the cache, read-only: no copy a frame
+        view = _rest_radii(face, need, ids).view()  # the cache, read-only: no copy a frame
         view.setflags(write=False)
         return view
     fine = skin_face._rest
@@ -702,8 +737,9 @@ def fold_radii(face, skin_face=None, W: np.ndarray | None = None,
         fine.fold_radii_nearest = idx
     base = np.zeros((face.skin.n_points, 2))
     for k in range(3):
-        np.maximum.at(base, idx[:, k], need)
-    return _rest_radii(face, base)[idx].min(axis=1)
+        np.maximum.at(base, idx[ids, k], need)
+    near = np.unique(idx[ids])  # the coarse vertices a wrinkled fine one takes radii from
+    return _rest_radii(face, base[near], near)[idx].min(axis=1)
 
 
 def guarded(face, state, guard: FoldGuard = FoldGuard()):
