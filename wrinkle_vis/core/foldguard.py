@@ -325,17 +325,44 @@ def _pulled_triangles(terms: dict, moving: np.ndarray, base: np.ndarray,
     and the terms :math:`\sigma_t(0)`, :math:`A_1`, :math:`A_2` of their signed areas
     (those of ``base`` when a ``start`` skin is given).
     """
-    c0, c1, c2 = terms["corners"]
-    rows = np.flatnonzero(moving[c0] | moving[c1] | moving[c2])
-    if len(rows) == c0.shape[0]:  # every triangle: the terms themselves, not copies
-        corners, Nt, A1, A2 = (terms[k] for k in ("corners", "N", "A1", "A2"))
-    else:
-        corners, Nt, A1, A2 = (terms[k][:, rows] for k in ("corners", "N", "A1", "A2"))
+    rows, corners, Nt, A1, A2 = _triangles_of(terms, moving)
     if start is None:
         a0 = np.ones(len(rows))
     else:
         a0, A1, A2 = _start_terms(Nt, base, corners)
     return rows, corners, Nt, a0, A1, A2
+
+
+_SUBSETS = 8  # the pulled regions a skin's terms remember (an expression's muscles, ...)
+_SUBSET_BYTES = 1 << 24  # and only those up to this size each
+
+
+def _triangles_of(terms: dict, moving: np.ndarray) -> tuple:
+    r"""The triangles of :func:`pull_terms` ``terms`` with a corner where ``moving``
+    ``(n,)``: their ``rows`` ``(k,)`` and ``corners``, ``N``, ``A1``, ``A2`` ``(3, k)``.
+
+    These depend on the rest skin and on which vertices move only, so they are kept in
+    ``terms`` for the last few moving sets (a frame of the same muscles, at any
+    activation, finds them there); every triangle: the terms themselves, not copies.
+    """
+    key = np.flatnonzero(moving)
+    key = key.tobytes()
+    memo = terms.setdefault("subsets", {})
+    hit = memo.pop(key, None)
+    if hit is not None:
+        memo[key] = hit  # the most recent last
+        return hit
+    c0, c1, c2 = terms["corners"]
+    rows = np.flatnonzero(moving[c0] | moving[c1] | moving[c2])
+    if len(rows) == c0.shape[0]:
+        hit = (rows, *(terms[k] for k in ("corners", "N", "A1", "A2")))
+    else:
+        hit = (rows, *(terms[k][:, rows] for k in ("corners", "N", "A1", "A2")))
+    if len(rows) * 96 + len(key) <= _SUBSET_BYTES:
+        memo[key] = hit
+        while len(memo) > _SUBSETS:
+            memo.pop(next(iter(memo)))
+    return hit
 
 
 def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
@@ -619,13 +646,23 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
         n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
     side = np.where(W[ids, None] >= 0, [[1.0, 0.0]], [[0.0, 1.0]])  # the side W pushes to
     samples = deformed[_in_box(deformed, x.min(axis=0) - reach, x.max(axis=0) + reach)]
-    r = medial_radii(x, n, samples=samples, r_max=side * start[:, None])
-    r = np.where(side > 0, r, np.inf)
-    low = np.flatnonzero(r.min(axis=1) < start)  # the balls that shrank
+    tree = cKDTree(samples, balanced_tree=False)
+    # the search's first step for every ball at once: only a ball with a sample inside
+    # shrinks (medial_radii's result at the others is their start, exactly)
+    c = x + np.where(W[ids] >= 0, 1.0, -1.0)[:, None] * start[:, None] * n
+    dist, _ = tree.query(c, distance_upper_bound=float(start.max()))
+    hit = np.flatnonzero(dist < start * (1.0 - 1e-9))
+    if not len(hit):
+        return radii
+    r = medial_radii(x[hit], n[hit], samples=samples, r_max=side[hit] * start[hit, None],
+                     tree=tree)
+    r = np.where(side[hit] > 0, r, np.inf)
+    low = np.flatnonzero(r.min(axis=1) < start[hit])  # the balls that shrank
     if not len(low):
         return radii
+    rows = ids[hit[low]]
     out = np.array(radii, dtype=float, copy=True)
-    out[ids[low]] = np.minimum(out[ids[low]], ratio * r[low])
+    out[rows] = np.minimum(out[rows], ratio * r[low])
     return out
 
 
