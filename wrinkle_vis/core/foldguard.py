@@ -261,22 +261,50 @@ def _lowest_sigma(b: np.ndarray, c: np.ndarray, top: float) -> np.ndarray:
 
 
 def _edge_graph(size: np.ndarray, terms: dict, reach: float) -> dict:
-    r"""The skin's edges with a pulled end (pulls' lengths ``size`` ``(n,)``), in CSR order
-    (by first end, then second): their ends ``a``, ``b`` and rest ``length`` ``(l,)``, the
-    row pointers ``indptr`` ``(n + 1,)`` and the weights ``w`` ``(l,)`` of :func:`_limits`,
-    :math:`|x_v - x_w| / (\text{reach} \max(|p_v|, |p_w|))`, kept up to date by
-    :func:`_reweigh` as the factors change.
+    r"""The graph :func:`_limits` searches, for the pulls' lengths ``size`` ``(n,)``: the
+    skin's edges ``a``, ``b``, their rest ``length`` and weights ``w`` ``(e,)``,
+    :math:`|x_v - x_w| / (\text{reach} \max(|p_v|, |p_w|))` (``inf``, no path, where
+    neither end is pulled), kept up to date by :func:`_reweigh` as the factors change; and
+    ``mat``, a CSR matrix ``(n + 1, n + 1)`` of those weights, each edge both ways, with a
+    last row, the source, joined to every vertex (its weights, the last ``n`` entries, are
+    set by each search; ``inf``, no edge, where unused). The matrix's structure depends on
+    the rest skin only and is built once (:func:`_edge_structure`); a frame sets the
+    weights of its pulled edges.
     """
     e, length = terms["edges"], terms["length"]  # sorted (pull_terms)
+    st = terms.get("edge_structure")
+    if st is None:
+        st = terms["edge_structure"] = _edge_structure(e, len(size))
     live = np.flatnonzero(np.maximum(size[e[:, 0]], size[e[:, 1]]) > 0)
-    a, b = e[live, 0], e[live, 1]
-    index = np.int32 if len(size) < 2**31 - 1 else np.intp  # the sparse matrix's own
-    graph = {"a": a, "b": b, "length": length[live], "reach": reach, "index": index,
-             "cols": b.astype(index),
-             "indptr": np.concatenate([[0], np.cumsum(np.bincount(a, minlength=len(size)))]
-                                      ).astype(index)}
-    graph["w"] = _weights(graph, np.arange(len(a)), size)
+    graph = {"a": e[:, 0], "b": e[:, 1], "length": length, "reach": reach,
+             "w": np.full(len(e), np.inf), "slot": st["slot"], "slots": st["slots"],
+             "indptr": st["indptr"]}
+    graph["w"][live] = _weights(graph, live, size)
+    data = np.full(len(st["indices"]), np.inf)
+    data[st["slots"][0, live]] = graph["w"][live]
+    data[st["slots"][1, live]] = graph["w"][live]
+    graph["mat"] = sp.csr_matrix((data, st["indices"], st["indptr"]),
+                                 shape=(len(size) + 1, len(size) + 1), copy=False)
     return graph
+
+
+def _edge_structure(edges: np.ndarray, n: int) -> dict:
+    """The structure of :func:`_edge_graph`'s matrix for the skin's ``edges`` ``(e, 2)`` on
+    ``n`` vertices, once per skin: ``indices`` and ``indptr`` (each edge both ways, by row
+    then column, then the source's row to every vertex), ``slot`` ``(2 e,)``, the edge of
+    each stored entry, and ``slots`` ``(2, e)``, the two entries of each edge.
+    """
+    a, b = edges[:, 0], edges[:, 1]
+    index = np.int32 if n < 2**31 - 2 and 2 * len(a) + n < 2**31 - 1 else np.intp
+    rows, cols = np.concatenate([a, b]), np.concatenate([b, a])
+    order = np.lexsort((cols, rows))  # by row, then column
+    slot = np.concatenate([np.arange(len(a)), np.arange(len(a))])[order]
+    slots = np.empty(2 * len(a), dtype=np.intp)
+    slots[order] = np.arange(2 * len(a))
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n)),
+                             [2 * len(a) + n]]).astype(index)
+    return {"indices": np.concatenate([cols[order], np.arange(n)]).astype(index),
+            "indptr": indptr, "slot": slot, "slots": slots.reshape(2, -1)}
 
 
 def _weights(graph: dict, j: np.ndarray, lift_of: np.ndarray) -> np.ndarray:
@@ -290,12 +318,22 @@ def _weights(graph: dict, j: np.ndarray, lift_of: np.ndarray) -> np.ndarray:
 
 def _reweigh(graph: dict, changed: np.ndarray, lift_of: np.ndarray) -> None:
     """Update ``graph``'s weights in place on the edges with an end in ``changed`` ``(k,)``
-    (vertices whose pulls' lengths ``lift_of`` ``(n,)`` just changed).
+    (vertices whose pulls' lengths ``lift_of`` ``(n,)`` just changed), found through the
+    graph's rows (the work goes with the changed vertices, not with the skin).
     """
-    mark = np.zeros(len(lift_of), bool)
-    mark[changed] = True
-    j = np.flatnonzero(mark[graph["a"]] | mark[graph["b"]])
-    graph["w"][j] = _weights(graph, j, lift_of)
+    indptr = graph["indptr"]
+    lo, hi = indptr[changed].astype(np.intp), indptr[changed + 1].astype(np.intp)
+    count = hi - lo
+    ends = np.cumsum(count)
+    at = np.arange(int(ends[-1]) if len(ends) else 0) + np.repeat(lo - (ends - count), count)
+    j = np.sort(graph["slot"][at])  # each edge once (np.unique hashes: slower here)
+    if len(j) > 1:
+        j = j[np.concatenate([[True], j[1:] != j[:-1]])]
+    w = _weights(graph, j, lift_of)
+    graph["w"][j] = w
+    data = graph["mat"].data
+    data[graph["slots"][0, j]] = w
+    data[graph["slots"][1, j]] = w
 
 
 def _limits(s_star: np.ndarray, corners: np.ndarray, graph: dict, top: float) -> np.ndarray:
@@ -306,15 +344,12 @@ def _limits(s_star: np.ndarray, corners: np.ndarray, graph: dict, top: float) ->
     :math:`|p|` (the edges and weights of :func:`_edge_graph` ``graph``); ``inf`` beyond
     ``top`` and wherever no pull connects :math:`v` to a bad triangle.
     """
-    n = len(graph["indptr"]) - 1
-    least = np.full(n, np.inf)  # a corner of several bad triangles: their least s*
+    mat = graph["mat"]
+    n = mat.shape[0] - 1
+    least = mat.data[-n:] if n else mat.data[:0]  # the source's edges: a corner of
+    least[:] = np.inf  # several bad triangles takes their least s*
     np.minimum.at(least, corners.ravel(), np.maximum(np.repeat(s_star, 3), 1e-12))
-    src = np.flatnonzero(np.isfinite(least))  # a source vertex n, joined to them
-    indptr = np.append(graph["indptr"], graph["indptr"][-1] + len(src))
-    mat = sp.csr_matrix((np.concatenate([graph["w"], least[src]]),
-                         np.concatenate([graph["cols"], src.astype(graph["index"])]), indptr),
-                        shape=(n + 1, n + 1))
-    dist = csgraph.dijkstra(mat, directed=False, indices=n, limit=top)
+    dist = csgraph.dijkstra(mat, directed=True, indices=n, limit=top)
     return dist[:n]
 
 
@@ -447,24 +482,26 @@ def _update(b: np.ndarray, c: np.ndarray, low: np.ndarray, pull_t: np.ndarray, f
 
 def _first_root(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     r"""``(t,)``: the smallest :math:`s > 0` with :math:`a + b s + c s^2 = 0` (``a`` > 0),
-    ``inf`` where there is none; ``a``, ``b``, ``c`` ``(t,)``.
+    ``inf`` where there is none; ``a``, ``b``, ``c`` ``(t,)``: :math:`-a / b` where
+    :math:`|c| \le 10^{-12} |b|` (linear), else the least positive of
+    :math:`(-b \mp \sqrt{b^2 - 4 a c}) / 2c`. Both branches are evaluated on every entry and
+    the right one is picked (fewer array calls than masking each: this runs once per
+    iteration of :func:`skin_scale`).
     """
     a = np.broadcast_to(np.asarray(a, dtype=float), b.shape)
-    out = np.full(len(b), np.inf)
     lin = np.abs(c) <= 1e-12 * np.maximum(np.abs(b), 1e-300)
-    m = lin & (b < 0)
-    out[m] = -a[m] / b[m]
-    q = ~lin
-    disc = b[q] * b[q] - 4.0 * a[q] * c[q]
-    ok = disc >= 0
-    sq = np.sqrt(np.where(ok, disc, 0.0))
-    cq = c[q]
-    r1 = (-b[q] - sq) / (2.0 * cq)
-    r2 = (-b[q] + sq) / (2.0 * cq)
-    r1 = np.where(r1 > 0, r1, np.inf)
-    r2 = np.where(r2 > 0, r2, np.inf)
-    out[q] = np.where(ok, np.minimum(r1, r2), np.inf)
-    return out
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        disc = b * b - 4.0 * a * c
+        ok = disc >= 0
+        sq = np.sqrt(np.where(ok, disc, 0.0))
+        c2 = 2.0 * c
+        r1 = (-b - sq) / c2
+        r2 = (-b + sq) / c2
+        r1 = np.where(r1 > 0, r1, np.inf)
+        r2 = np.where(r2 > 0, r2, np.inf)
+        quad = np.where(ok, np.minimum(r1, r2), np.inf)
+        linear = np.where(b < 0, -a / b, np.inf)
+    return np.where(lin, linear, quad)
 
 
 def guard_wrinkles(W: np.ndarray, radii: np.ndarray, guard: FoldGuard = FoldGuard()
