@@ -299,7 +299,8 @@ def _edge_structure(edges: np.ndarray, n: int) -> dict:
     rows, cols = np.concatenate([a, b]), np.concatenate([b, a])
     order = np.lexsort((cols, rows))  # by row, then column
     slot = np.concatenate([np.arange(len(a)), np.arange(len(a))])[order]
-    slots = np.empty(2 * len(a), dtype=np.intp)
+    slot = slot.astype(index)
+    slots = np.empty(2 * len(a), dtype=index)
     slots[order] = np.arange(2 * len(a))
     indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n)),
                              [2 * len(a) + n]]).astype(index)
@@ -809,11 +810,14 @@ def fold_radii(face, skin_face=None, W: np.ndarray | None = None,
     if idx is None or len(idx) != n:
         _, idx = face.skin.kdtree.query(skin_face.skin.points, k=3)
         fine.fold_radii_nearest = idx
-    base = np.zeros((face.skin.n_points, 2))
+    base = np.zeros((2, face.skin.n_points))  # by side: numpy's fast 1-D ufunc.at
     for k in range(3):
-        np.maximum.at(base, idx[ids, k], need)
-    near = np.unique(idx[ids])  # the coarse vertices a wrinkled fine one takes radii from
-    return _rest_radii(face, base[near], near)[idx].min(axis=1)
+        col = idx[ids, k]
+        np.maximum.at(base[0], col, need[:, 0])
+        np.maximum.at(base[1], col, need[:, 1])
+    near = np.flatnonzero((base[0] > 0) | (base[1] > 0))  # what wrinkled fine vertices need
+    known = _rest_radii(face, base[:, near].T, near)
+    return np.minimum(np.minimum(known[idx[:, 0]], known[idx[:, 1]]), known[idx[:, 2]])
 
 
 def guarded(face, state, guard: FoldGuard = FoldGuard()):
