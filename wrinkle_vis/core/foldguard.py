@@ -370,7 +370,7 @@ def _pulled_triangles(terms: dict, moving: np.ndarray, base: np.ndarray,
 
 
 _SUBSETS = 8  # the pulled regions a skin's terms remember (an expression's muscles, ...)
-_SUBSET_BYTES = 1 << 24  # and only those up to this size each
+_SUBSET_BYTES = 1 << 24  # and at most this many bytes of them together
 
 
 def _triangles_of(terms: dict, moving: np.ndarray) -> tuple:
@@ -379,7 +379,9 @@ def _triangles_of(terms: dict, moving: np.ndarray) -> tuple:
 
     These depend on the rest skin and on which vertices move only, so they are kept in
     ``terms`` for the last few moving sets (a frame of the same muscles, at any
-    activation, finds them there); every triangle: the terms themselves, not copies.
+    activation, finds them there: :data:`_SUBSETS` of them, :data:`_SUBSET_BYTES` in all,
+    the least recently used dropped first); every triangle: the terms themselves, not
+    copies.
     """
     key = np.flatnonzero(moving)
     key = key.tobytes()
@@ -394,10 +396,13 @@ def _triangles_of(terms: dict, moving: np.ndarray) -> tuple:
         hit = (rows, *(terms[k] for k in ("corners", "N", "A1", "A2")))
     else:
         hit = (rows, *(terms[k][:, rows] for k in ("corners", "N", "A1", "A2")))
-    if len(rows) * 96 + len(key) <= _SUBSET_BYTES:
-        memo[key] = hit
-        while len(memo) > _SUBSETS:
-            memo.pop(next(iter(memo)))
+    memo[key] = hit
+
+    def size(entry: tuple) -> int:
+        return sum(a.nbytes for a in entry)
+
+    while len(memo) > _SUBSETS or (memo and sum(map(size, memo.values())) > _SUBSET_BYTES):
+        memo.pop(next(iter(memo)))  # (a subset larger than the budget is not kept at all)
     return hit
 
 
