@@ -657,6 +657,15 @@ def test_the_search_graph_updated_in_place_matches_one_built_from_scratch(seed):
     pts, tri = _sheet(9, 7, lambda x, y: 0.1 * x * y)
     size = rng.uniform(0, 2, len(pts)) * (rng.random(len(pts)) < 0.6)
     terms = pull_terms(pts, tri)
+    cap = foldguard._GRAPH_CACHE_EDGES
+    try:  # a skin's structure kept (every edge), or built for the frame (pulled edges only)
+        for foldguard._GRAPH_CACHE_EDGES in (cap, 0):
+            _reweigh_and_search(foldguard, rng, pts, tri, size, terms)
+    finally:
+        foldguard._GRAPH_CACHE_EDGES = cap
+
+
+def _reweigh_and_search(foldguard, rng, pts, tri, size, terms):
     graph = foldguard._edge_graph(size, terms, 4.0)
     f = np.ones(len(pts))
     for _ in range(3):

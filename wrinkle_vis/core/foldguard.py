@@ -260,25 +260,36 @@ def _lowest_sigma(b: np.ndarray, c: np.ndarray, top: float) -> np.ndarray:
                     low)
 
 
+_GRAPH_CACHE_EDGES = 1 << 20  # skins with more edges build their graph per frame, small
+
+
 def _edge_graph(size: np.ndarray, terms: dict, reach: float) -> dict:
-    r"""The graph :func:`_limits` searches, for the pulls' lengths ``size`` ``(n,)``: the
-    skin's edges ``a``, ``b``, their rest ``length`` and weights ``w`` ``(e,)``,
+    r"""The graph :func:`_limits` searches, for the pulls' lengths ``size`` ``(n,)``: edges
+    ``a``, ``b``, their rest ``length`` and weights ``w`` ``(e,)``,
     :math:`|x_v - x_w| / (\text{reach} \max(|p_v|, |p_w|))` (``inf``, no path, where
     neither end is pulled), kept up to date by :func:`_reweigh` as the factors change; and
     ``mat``, a CSR matrix ``(n + 1, n + 1)`` of those weights, each edge both ways, with a
     last row, the source, joined to every vertex (its weights, the last ``n`` entries, are
-    set by each search; ``inf``, no edge, where unused). The matrix's structure depends on
-    the rest skin only and is built once (:func:`_edge_structure`); a frame sets the
-    weights of its pulled edges.
+    set by each search; ``inf``, no edge, where unused).
+
+    The edges are all the skin's, and the matrix's structure (:func:`_edge_structure`) is
+    built once per skin and kept in ``terms``, up to :data:`_GRAPH_CACHE_EDGES` edges; a
+    larger skin takes only its edges with a pulled end, structured for this frame (what is
+    kept would outweigh the frame). Either way a path runs only through pulled edges.
     """
     e, length = terms["edges"], terms["length"]  # sorted (pull_terms)
-    st = terms.get("edge_structure")
-    if st is None:
-        st = terms["edge_structure"] = _edge_structure(e, len(size))
     live = np.flatnonzero(np.maximum(size[e[:, 0]], size[e[:, 1]]) > 0)
-    graph = {"a": e[:, 0], "b": e[:, 1], "length": length, "reach": reach,
-             "w": np.full(len(e), np.inf), "slot": st["slot"], "slots": st["slots"],
-             "indptr": st["indptr"]}
+    if len(e) <= _GRAPH_CACHE_EDGES:
+        st = terms.get("edge_structure")
+        if st is None:
+            st = terms["edge_structure"] = _edge_structure(e, len(size))
+        graph = {"a": e[:, 0], "b": e[:, 1], "length": length, "w": np.full(len(e), np.inf)}
+    else:
+        st = _edge_structure(e[live], len(size))
+        graph = {"a": e[live, 0], "b": e[live, 1], "length": length[live]}
+        live = np.arange(len(live))
+        graph["w"] = np.empty(len(live))
+    graph.update(reach=reach, slot=st["slot"], slots=st["slots"], indptr=st["indptr"])
     graph["w"][live] = _weights(graph, live, size)
     data = np.full(len(st["indices"]), np.inf)
     data[st["slots"][0, live]] = graph["w"][live]
@@ -290,22 +301,31 @@ def _edge_graph(size: np.ndarray, terms: dict, reach: float) -> dict:
 
 def _edge_structure(edges: np.ndarray, n: int) -> dict:
     """The structure of :func:`_edge_graph`'s matrix for the skin's ``edges`` ``(e, 2)`` on
-    ``n`` vertices, once per skin: ``indices`` and ``indptr`` (each edge both ways, by row
-    then column, then the source's row to every vertex), ``slot`` ``(2 e,)``, the edge of
-    each stored entry, and ``slots`` ``(2, e)``, the two entries of each edge.
+    ``n`` vertices (each edge sorted, the edges by first end then second, as
+    :func:`pull_terms` keeps them), once per skin: ``indices`` and ``indptr`` (each edge both
+    ways, by row then column, then the source's row to every vertex), ``slot`` ``(2 e,)``,
+    the edge of each stored entry, and ``slots`` ``(2, e)``, the two entries of each edge.
+    Row v holds the edges ending at v (columns below v, in the order of a stable sort of the
+    second ends) and then those starting there (columns above v, already in order): one
+    sort of ``e`` keys.
     """
     a, b = edges[:, 0], edges[:, 1]
-    index = np.int32 if n < 2**31 - 2 and 2 * len(a) + n < 2**31 - 1 else np.intp
-    rows, cols = np.concatenate([a, b]), np.concatenate([b, a])
-    order = np.lexsort((cols, rows))  # by row, then column
-    slot = np.concatenate([np.arange(len(a)), np.arange(len(a))])[order]
-    slot = slot.astype(index)
-    slots = np.empty(2 * len(a), dtype=index)
-    slots[order] = np.arange(2 * len(a))
-    indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n)),
-                             [2 * len(a) + n]]).astype(index)
-    return {"indices": np.concatenate([cols[order], np.arange(n)]).astype(index),
-            "indptr": indptr, "slot": slot, "slots": slots.reshape(2, -1)}
+    m = len(a)
+    index = np.int32 if n < 2**31 - 2 and 2 * m + n < 2**31 - 1 else np.intp
+    into, out_ = np.bincount(b, minlength=n), np.bincount(a, minlength=n)
+    indptr = np.concatenate([[0], np.cumsum(into + out_), [2 * m + n]])
+    ids = np.arange(m)
+    by_b = np.argsort(b, kind="stable")  # ends at v: grouped by v, then by first end
+    first_in = np.cumsum(into) - into
+    rev = np.empty(m, dtype=np.intp)
+    rev[by_b] = indptr[b[by_b]] + ids - first_in[b[by_b]]
+    fwd = indptr[a] + into[a] + ids - (np.cumsum(out_) - out_)[a]
+    indices = np.empty(2 * m + n, dtype=index)
+    indices[rev], indices[fwd], indices[2 * m:] = a, b, np.arange(n)
+    slot = np.empty(2 * m, dtype=index)
+    slot[rev], slot[fwd] = ids, ids
+    return {"indices": indices, "indptr": indptr.astype(index), "slot": slot,
+            "slots": np.stack([fwd, rev]).astype(index)}
 
 
 def _weights(graph: dict, j: np.ndarray, lift_of: np.ndarray) -> np.ndarray:
