@@ -571,3 +571,141 @@ def test_the_guard_on_needed_radii_gives_the_frame_of_the_true_radii(monkeypatch
     for key in ("points", "W", "deformed_points", "fold_guard"):
         np.testing.assert_array_equal(getattr(needed, key), getattr(true, key), key)
     assert not np.array_equal(frame("short").W, true.W)
+
+
+# --- the guard's cost: rest work once, per-frame checks where the frame acts (guard29) ----
+
+
+def _pulled_sheet():
+    """The pull guard's sheet (a pull dragging skin over its neighbour) and its pull."""
+    pts, tri = _sheet(41, 41, lambda x, y: 0.02 * x * x)
+    pull = np.zeros_like(pts)
+    pull[:, 0] = -6.0 * np.exp(-((pts[:, 0] - 2.0) / 1.5) ** 2)
+    return pts, tri, pull
+
+
+def test_an_idle_frame_builds_no_path_graph_and_searches_no_deformed_ball(procedural,
+                                                                         monkeypatch):
+    """Where no guard acts (every unrefined frame of the procedural face), the frame pays
+    for its checks only: no shortest-path graph (built when a triangle is within reach of
+    the pull guard's bound) and no shrinking-ball search on the deformed skin (a single
+    nearest-sample query finds no ball with a sample inside)."""
+    from wrinkle_vis.core import foldguard
+
+    names = [n for n in procedural.expressions if n != "neutral"]
+    before = {n: procedural.evaluate(n) for n in names}  # rest radii and terms: cached
+    searched = []
+    real = foldguard.medial_radii
+    monkeypatch.setattr(foldguard, "medial_radii",
+                        lambda *a, **k: searched.append(len(a[0])) or real(*a, **k))
+
+    def no_graph(*a, **k):
+        raise AssertionError("an idle frame built the pull guard's graph")
+
+    monkeypatch.setattr(foldguard, "_edge_graph", no_graph)
+    for name in names:
+        s = procedural.evaluate(name)
+        assert not np.any(s.fold_guard), name
+        np.testing.assert_array_equal(s.points, before[name].points)
+    assert searched == []
+
+
+def test_the_pull_guards_rest_structures_are_built_once_and_give_the_same_factors():
+    """The pulled triangles' rest terms (per moving set) and the search graph's structure
+    (per skin) are kept in the terms: a second frame reuses them, and its factors are bit
+    for bit those of fresh terms."""
+    pts, tri, pull = _pulled_sheet()
+    terms = pull_terms(pts, tri)
+    f = skin_scale(pts, pts + pull, tri, terms=terms)
+    assert f.min() < 0.5  # the guard acts
+    structure, subsets = terms["edge_structure"], dict(terms["subsets"])
+    g = skin_scale(pts, pts + 0.9 * pull, tri, terms=terms)  # the same vertices move
+    assert terms["edge_structure"] is structure
+    assert len(terms["subsets"]) == 1
+    assert all(terms["subsets"][k][1] is v[1] for k, v in subsets.items())
+    np.testing.assert_array_equal(g, skin_scale(pts, pts + 0.9 * pull, tri))
+    np.testing.assert_array_equal(f, skin_scale(pts, pts + pull, tri))
+
+
+def _limits_from_scratch(graph, s_star, corners, top):
+    """The shortest-path bound on a matrix built from scratch (the edges once, undirected,
+    a source joined to the bad triangles' corners): what ``_limits`` must give."""
+    import scipy.sparse as sp
+    from scipy.sparse import csgraph
+
+    n = len(graph["indptr"]) - 2
+    least = np.full(n, np.inf)
+    np.minimum.at(least, corners.ravel(), np.maximum(np.repeat(s_star, 3), 1e-12))
+    src = np.flatnonzero(np.isfinite(least))
+    live = np.flatnonzero(np.isfinite(graph["w"]))
+    rows = np.r_[graph["a"][live], np.full(len(src), n)]
+    cols = np.r_[graph["b"][live], src]
+    mat = sp.csr_matrix((np.r_[graph["w"][live], least[src]], (rows, cols)),
+                        shape=(n + 1, n + 1))
+    return csgraph.dijkstra(mat, directed=False, indices=n, limit=top)[:n]
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1))
+def test_the_search_graph_updated_in_place_matches_one_built_from_scratch(seed):
+    """After random factors change the pulls' lengths, the graph's weights updated in
+    place (``_reweigh``) equal those of a graph built afresh, and the bound found on it
+    equals the one a matrix built from scratch gives, bit for bit."""
+    from wrinkle_vis.core import foldguard
+
+    rng = np.random.default_rng(seed)
+    pts, tri = _sheet(9, 7, lambda x, y: 0.1 * x * y)
+    size = rng.uniform(0, 2, len(pts)) * (rng.random(len(pts)) < 0.6)
+    terms = pull_terms(pts, tri)
+    cap = foldguard._GRAPH_CACHE_EDGES
+    try:  # a skin's structure kept (every edge), or built for the frame (pulled edges only)
+        for foldguard._GRAPH_CACHE_EDGES in (cap, 0):
+            _reweigh_and_search(foldguard, rng, pts, tri, size, terms)
+    finally:
+        foldguard._GRAPH_CACHE_EDGES = cap
+
+
+def _reweigh_and_search(foldguard, rng, pts, tri, size, terms):
+    graph = foldguard._edge_graph(size, terms, 4.0)
+    f = np.ones(len(pts))
+    for _ in range(3):
+        changed = np.flatnonzero(rng.random(len(pts)) < 0.3)
+        f[changed] *= rng.uniform(0.2, 1.0, len(changed))
+        foldguard._reweigh(graph, changed, f * size)
+        fresh = foldguard._edge_graph(f * size, terms, 4.0)
+        np.testing.assert_array_equal(graph["w"], fresh["w"])
+        np.testing.assert_array_equal(graph["mat"].data[:-len(pts)],
+                                      fresh["mat"].data[:-len(pts)])
+        bad = rng.choice(len(tri), size=3, replace=False)
+        s_star = rng.uniform(0.1, 1.5, 3)
+        got = foldguard._limits(s_star, tri[bad], graph, 2.0)
+        np.testing.assert_array_equal(got, _limits_from_scratch(graph, s_star, tri[bad], 2.0))
+
+
+def test_the_first_root_is_the_masked_one_bit_for_bit():
+    """``_first_root`` (both branches evaluated, then picked) against the masked form on
+    linear, two-root, no-root and tangent quadratics."""
+    from wrinkle_vis.core.foldguard import _first_root
+
+    rng = np.random.default_rng(5)
+    k = 4000
+    a = rng.uniform(1e-12, 2, k)
+    b = rng.normal(0, 3, k)
+    c = rng.normal(0, 3, k) * (rng.random(k) < 0.8)  # a fifth linear
+    c[:50] = b[:50] ** 2 / (4 * a[:50])  # tangent
+    c[50:100] = 1e-13 * b[50:100]  # linear by the tolerance
+    out = np.full(k, np.inf)
+    lin = np.abs(c) <= 1e-12 * np.maximum(np.abs(b), 1e-300)
+    m = lin & (b < 0)
+    out[m] = -a[m] / b[m]
+    q = ~lin
+    disc = b[q] * b[q] - 4.0 * a[q] * c[q]
+    ok = disc >= 0
+    sq = np.sqrt(np.where(ok, disc, 0.0))
+    r1 = (-b[q] - sq) / (2.0 * c[q])
+    r2 = (-b[q] + sq) / (2.0 * c[q])
+    out[q] = np.where(ok, np.minimum(np.where(r1 > 0, r1, np.inf),
+                                     np.where(r2 > 0, r2, np.inf)), np.inf)
+    got = _first_root(a, b, c)
+    np.testing.assert_array_equal(got, out)
+    assert np.isfinite(got).sum() > k // 4 and np.isinf(got).sum() > k // 10
