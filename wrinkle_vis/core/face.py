@@ -32,9 +32,9 @@ from .refined import RefinedEngine
 from .refinedfields import _RefinedSource
 from .restgeometry import REFINE_CACHE_BYTES as REFINE_CACHE_BYTES
 from .restgeometry import SLIDE_SCALE as SLIDE_SCALE
-from .restgeometry import _RestFrame
+from .restgeometry import _RestGeometry
 from .skin import SkinMaterial, SpringSkin, check_skin_model
-from .stacked import _Assembly
+from .stacked import _StackedMuscles
 from .state import FaceState, _readonly
 from .tracks import Track, TrackMapping, default_mapping, iter_activations
 from .units import LENGTH_UNITS, check_unit, face_unit
@@ -118,10 +118,10 @@ class FaceModel:
         self.mapping = mapping
         if _caches is None:
             _check_skin(skin)
-            _caches = ({}, OrderedDict(), _RestFrame(skin, _rest_normals))
+            _caches = ({}, OrderedDict(), _RestGeometry(skin, _rest_normals))
         self._muscle_data: dict[Muscle, _MuscleData] = _caches[0]
         self._assemblies: OrderedDict = _caches[1] if _caches[1] is not None else OrderedDict()
-        self._rest: _RestFrame = _caches[2]
+        self._rest: _RestGeometry = _caches[2]
         self._springs: dict[SkinMaterial, SpringSkin] = {}  # the physical skin, per material
 
     # ------------------------------------------------------------------ access
@@ -224,8 +224,8 @@ class FaceModel:
             self._muscle_data[muscle] = data
         return data
 
-    def _assembly(self, names: tuple[str, ...]) -> _Assembly:
-        return _lru(self._assemblies, names, 32, lambda: _Assembly.build(
+    def _assembly(self, names: tuple[str, ...]) -> _StackedMuscles:
+        return _lru(self._assemblies, names, 32, lambda: _StackedMuscles.build(
             self.skin, names, [self.muscle_data(self.muscle(n)) for n in names], self._rest))
 
     # ------------------------------------------------------------------ physical skin
@@ -514,7 +514,7 @@ class FaceModel:
         remap[order] = np.arange(len(order))
         surface = TriangleSurface._derived(np.take(hier.rest, order, axis=0),
                                            np.take(remap, tris))
-        rest = _RestFrame(surface, np.take(hier.normal, order, axis=0), self._rest.radius)
+        rest = _RestGeometry(surface, np.take(hier.normal, order, axis=0), self._rest.radius)
         rest.slide_normals = np.take(hier.slide, order, axis=0)
         rest.shape6 = np.take(hier.shape6, order, axis=0)
         face = FaceModel(surface, self.skull, self.muscles, self.expressions, name=self.name,

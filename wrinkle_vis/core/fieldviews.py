@@ -20,16 +20,16 @@ from .muscle import Muscle
 if TYPE_CHECKING:
     from .face import FaceModel
     from .refinedfields import _RefinedSource
-    from .stacked import _Assembly
+    from .stacked import _StackedMuscles
 
 
 @dataclass(frozen=True, eq=False)
-class _Frame:
+class _StateData:
     """What the lazy field views of a state need (not the state: no reference cycle)."""
 
     face: FaceModel
     deformed_points: np.ndarray
-    assembly: _Assembly | None
+    assembly: _StackedMuscles | None
     compact: dict
     source: _RefinedSource | None = None
 
@@ -55,7 +55,7 @@ class _FieldMap(Mapping):
 class _MuscleFields(_FieldMap):
     """The fields of one muscle in one state, full length, ``nan`` where undefined."""
 
-    def __init__(self, state: _Frame, muscle: Muscle):
+    def __init__(self, state: _StateData, muscle: Muscle):
         self._state = state
         self._muscle = muscle
         self._cache: dict[str, np.ndarray] = {}
@@ -215,7 +215,7 @@ class _PointFields(_FieldMap):
 
 
 class _StateFields(Mapping):
-    def __init__(self, state: _Frame):
+    def __init__(self, state: _StateData):
         self._state = state
         self._by_name: dict[str, _MuscleFields] = {}
 

@@ -82,7 +82,7 @@ def _unit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
     return v
 
 
-class _Assembly(HoldsArrays):
+class _RefinedRows(HoldsArrays):
     r"""The active muscles' data on the hierarchy's new vertices, one row per vertex that a
     muscle moves and one column per muscle acting there (padded with an inactive one),
     built once per active set and extended as the hierarchy grows.
@@ -201,14 +201,14 @@ class _Assembly(HoldsArrays):
         return out
 
 
-#: The per-row arrays of an :class:`_Assembly` (``coef`` and ``area`` only with the
+#: The per-row arrays of a :class:`_RefinedRows` (``coef`` and ``area`` only with the
 #: ``"gradient"`` option).
 _ROW_FIELDS = ("moved", "muscle", "unit", "weights", "coef", "area", "hat")
 
 
 def _stacked_rows(levels: list[MuscleLevels], start: int) -> dict:
     """The muscles' rows of the vertices ``start`` and above, stacked: one row a vertex,
-    one column a muscle acting there (padded), as :class:`_Assembly` holds them, and
+    one column a muscle acting there (padded), as :class:`_RefinedRows` holds them, and
     ``u`` ``(r, c)``: the half periods where a muscle wrinkles (``inf`` elsewhere).
     """
     first_row = [int(np.searchsorted(m.ids, start)) for m in levels]  # ids increase
@@ -267,7 +267,7 @@ class _Dynamic:
     is reset) or fresh arrays.
     """
 
-    def __init__(self, hier: Hierarchy, asm: _Assembly, root, a: np.ndarray, buffers=None,
+    def __init__(self, hier: Hierarchy, asm: _RefinedRows, root, a: np.ndarray, buffers=None,
                  root_influenced: np.ndarray | None = None):
         self.hier, self.asm, self.a, self.face = hier, asm, a, root.face
         asm.set_root_periods(root.face)
@@ -298,7 +298,7 @@ class _Dynamic:
         self._carry = _skin_correction(root)
         self._carried: np.ndarray | None = None
 
-    def grow(self, asm: _Assembly) -> None:
+    def grow(self, asm: _RefinedRows) -> None:
         """Take in the vertices the hierarchy built since (``asm``: the assembly brought up
         to date): they start at rest, not evaluated; what was evaluated keeps its values
         (a vertex's values depend on its own data alone).
@@ -559,7 +559,7 @@ class RefinedEngine:
             self.cache.reweigh(key)
         return lv
 
-    def assembly(self, muscles) -> _Assembly:
+    def assembly(self, muscles) -> _RefinedRows:
         """The stacked rows of the active ``muscles``, for the hierarchy as it is now.
 
         The latest active set's data is also held outside the cache, so a working set
@@ -570,11 +570,11 @@ class RefinedEngine:
         if asm is not None and asm.version == (self.hier.version, self.hier.n_points):
             return asm  # its muscles' data were brought up to date with it
         levels = [self.levels(m) for m in muscles]
-        asm = self.cache.get(key, lambda: self._current.get(key) or _Assembly(self.hier,
-                                                                              levels))
+        asm = self.cache.get(key, lambda: self._current.get(key)
+                             or _RefinedRows(self.hier, levels))
         if asm.version != (self.hier.version, self.hier.n_points):
             if not asm.extend(self.hier, levels):
-                asm = _Assembly(self.hier, levels)
+                asm = _RefinedRows(self.hier, levels)
             self.cache.put(key, asm)
         self._current = {key: asm, **{("muscle", m): lv for m, lv in zip(muscles, levels,
                                                                          strict=True)}}

@@ -1,6 +1,6 @@
 """The rest skin's geometry, shared by every face on the same skin: its normals, the
 normals and shape operators of the surface the skin slides along, and its refinement
-engines (:class:`_RestFrame`).
+engines (:class:`_RestGeometry`).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ SLIDE_SCALE = 0.029
 REFINE_CACHE_BYTES = 160 * 2**20
 
 
-class _RestFrame:
+class _RestGeometry:
     """The rest skin's normals and shape operators (built on first use), shared by every face
     on the same skin.
 

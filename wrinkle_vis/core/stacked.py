@@ -2,7 +2,7 @@ r"""A frame of the face model, stacked over its active muscles (see :doc:`/model
 
 Everything that depends only on the rest skin and a muscle's parameters is computed once per
 muscle and cached (:class:`_MuscleData`). Everything that depends on which muscles are active
-is stacked once per set of active muscles (:class:`_Assembly`), so a frame is a fixed number
+is stacked once per set of active muscles (:class:`_StackedMuscles`), so a frame is a fixed number
 of vectorized steps whatever the number of muscles:
 
 1. skin displacement: one sparse sum of the active muscles' unit displacements times their
@@ -33,7 +33,7 @@ from .refined import slide_bend
 
 if TYPE_CHECKING:
     from .muscledata import _MuscleData
-    from .restgeometry import _RestFrame
+    from .restgeometry import _RestGeometry
 
 
 def _summing(ids_list: list[np.ndarray]) -> tuple[np.ndarray, sp.csr_matrix]:
@@ -77,7 +77,7 @@ def morton_order(points: np.ndarray, bits: int = 10) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class _Assembly:
+class _StackedMuscles:
     """Stacked operators for one set of active muscles.
 
     The frame works on a compact *local* copy of the vertices it touches, in Morton order and
@@ -115,7 +115,7 @@ class _Assembly:
 
     @classmethod
     def build(cls, skin: TriangleSurface, names, datas: list[_MuscleData],
-              rest: _RestFrame) -> _Assembly:
+              rest: _RestGeometry) -> _StackedMuscles:
         k_counts = np.array([len(d.aoi) for d in datas], dtype=np.intp)
         k_offsets = np.concatenate([[0], np.cumsum(k_counts)])
         r_offsets = np.concatenate([[0], np.cumsum([len(d.region_pos) for d in datas])])

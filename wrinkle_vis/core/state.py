@@ -10,7 +10,7 @@ from functools import cached_property, lru_cache
 import numpy as np
 
 from .fields import check_field
-from .fieldviews import _Frame, _StateFields
+from .fieldviews import _StateData, _StateFields
 from .mesh import TriangleSurface
 from .units import face_unit
 
@@ -65,7 +65,7 @@ class FaceState:
         self.W = _readonly(total)
         self.W_raw = self.W  # the fold guard replaces W and keeps the raw one here
         self.fold_guard = _zeros(len(self.W))  # how much the guard took away, in [0, 1]
-        self.fields = _StateFields(_Frame(face, self.deformed_points, assembly, compact,
+        self.fields = _StateFields(_StateData(face, self.deformed_points, assembly, compact,
                                           source))
 
     @property
