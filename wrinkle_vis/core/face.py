@@ -323,11 +323,11 @@ class FaceModel:
         times = [float(t) for t in times]
         if any(b < a for a, b in zip(times, times[1:], strict=False)):
             raise ValueError("times must be ascending")
-        options = {"refine": refine, "refine_angle_deg": refine_angle_deg,
-                   "refine_levels": refine_levels}
         if self.skin_model != "physical":
             for t in times:
-                yield self.evaluate(expression.at(t, intensity), **options)
+                yield self.evaluate(expression.at(t, intensity), refine=refine,
+                                    refine_angle_deg=refine_angle_deg,
+                                    refine_levels=refine_levels)
             return
         sim = self.simulator(lambda t: expression.at(t, intensity))
         for t in times:
@@ -544,8 +544,12 @@ def _renamed(expression: Expression, old: str, new: str | None) -> Expression:
     """``expression`` with muscle ``old`` called ``new`` (None: dropped)."""
     if old not in expression.activations:
         return expression
-    acts = {(new if k == old else k): v for k, v in expression.activations.items()
-            if k != old or new is not None}
+    acts: dict[str, float] = {}
+    for k, v in expression.activations.items():
+        if k != old:
+            acts[k] = v
+        elif new is not None:
+            acts[new] = v  # in the old one's place
     return dataclasses.replace(expression, activations=acts)
 
 

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .equations import anisotropy
-from .fields import FIELD_NAMES, field_spec
+from .fields import FIELD_NAMES, FieldSpec, field_spec
 from .muscle import Muscle
 
 if TYPE_CHECKING:
@@ -64,7 +64,7 @@ class _MuscleFields(_FieldMap):
     def __getitem__(self, key: str) -> np.ndarray:
         if key not in self._cache:
             spec = field_spec(key)  # KeyError lists the fields
-            arr = np.array(spec.compute(self), dtype=float)  # a copy: ours to freeze
+            arr = _compute_field(spec, self)  # a copy: ours to freeze
             if arr.shape != (self._state.n_points,):
                 raise ValueError(f"field {key!r} computed shape {arr.shape}; expected "
                                  f"({self._state.n_points},), one value per skin vertex")
@@ -133,6 +133,16 @@ class _MuscleFields(_FieldMap):
         return {"eps": eps, "A": anisotropy(eps), "W": np.zeros(len(data.region_pos))}
 
 
+def _compute_field(spec: FieldSpec, fields: Mapping[str, np.ndarray]) -> np.ndarray:
+    """``spec.compute(fields)`` as a new float array (``(n,)`` on the whole skin, ``(k,)``
+    at a few vertices).
+    """
+    compute = spec.compute
+    if compute is None:  # FieldSpec sets or requires one: a spec made some other way
+        raise ValueError(f"field {spec.key!r} has no compute(fields)")
+    return np.array(compute(fields), dtype=float)
+
+
 def _rows_of(ids: np.ndarray, vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(k,)`` rows of ``ids`` ``(r,)`` holding ``vertices`` ``(k,)`` and ``(k,) bool``
     whether each is there at all (its row is then meaningless).
@@ -174,7 +184,7 @@ class _PointFields(_FieldMap):
         if key not in self._fields._cache and spec.pointwise:
             if not self.defined:
                 return np.full(len(self._vertices), np.nan)
-            arr = np.array(spec.compute(self), dtype=float)
+            arr = _compute_field(spec, self)
             if arr.shape == self._vertices.shape:
                 return arr
         return self._fields[key][self._vertices]

@@ -19,7 +19,7 @@ The skin's own vertices keep the unrefined frame's values exactly.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -33,6 +33,10 @@ from .hierarchy import (
     grown,
     refined_topology,
 )
+
+if TYPE_CHECKING:
+    from .face import FaceModel
+    from .muscle import Muscle
 
 __all__ = ["RefinedEngine", "bent", "slide_bend"]
 
@@ -106,6 +110,25 @@ class _RefinedRows(HoldsArrays):
         wrinkling region holds it (``inf``: none); the skin's vertices once
         :meth:`set_root_periods` ran.
     """
+
+    # the rows (:data:`_ROW_FIELDS`, from :func:`_stacked_rows`)
+    moved: np.ndarray  # (r,) int
+    muscle: np.ndarray  # (r, c) int
+    unit: np.ndarray  # (r, c, 3)
+    weights: np.ndarray  # (r, c, 6)
+    hat: np.ndarray  # (r, c)
+    coef: np.ndarray  # (r, c, 6, 2): only with has_grad
+    area: np.ndarray  # (r, c, 6): only with has_grad
+    # the vertices
+    slot: np.ndarray  # (v,) int: each vertex's row, -1: none
+    influenced: np.ndarray  # (v,) bool: slot >= 0
+    half_period: np.ndarray  # (v,)
+    unfinished: np.ndarray  # (u,) int
+    # the active set and the hierarchy the rows were made for
+    muscles: list[Muscle]
+    has_grad: bool  # whether a muscle has the "gradient" option (coef and area are there)
+    root_periods: bool  # whether half_period is set on the skin's vertices
+    version: tuple[int, int]  # the hierarchy's version and number of vertices
 
     def __init__(self, hier: Hierarchy, levels: list[MuscleLevels]):
         self.muscles = [m.muscle for m in levels]
@@ -546,9 +569,10 @@ class RefinedEngine:
         self.hier = hier
         self.cache = ByteBudgetCache(budget)
         self._tangential = tangential
-        self.last = None  # (key, face, order) of the latest split set
-        self.buffers = None  # the frame arrays, reused
-        self._current: dict = {}  # the latest active set's data, whatever the budget
+        # (key, face, order) of the latest split set (FaceModel._refined_face)
+        self.last: tuple[tuple[Any, ...], FaceModel, np.ndarray] | None = None
+        self.buffers: dict[str, np.ndarray] | None = None  # the frame arrays, reused
+        self._current: dict[tuple[Any, ...], Any] = {}  # the latest active set's data
         self._zone: _Zone | None = None  # the latest frame's
 
     def levels(self, muscle) -> MuscleLevels:
