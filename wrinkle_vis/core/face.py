@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 from collections import OrderedDict
 from collections.abc import Iterable, Iterator, Mapping
+from typing import NamedTuple
 
 import numpy as np
 
@@ -40,6 +41,17 @@ from .tracks import Track, TrackMapping, default_mapping, iter_activations
 from .units import LENGTH_UNITS, check_unit, face_unit
 
 __all__ = ["FIELD_NAMES", "FaceModel", "FaceState"]
+
+
+class _SharedCaches(NamedTuple):
+    """What a face shares with the faces derived from it (:meth:`FaceModel.with_muscle`
+    and the like), all on the same rest skin.
+    """
+
+    muscle_data: dict[Muscle, _MuscleData]  # each muscle's rest data, by muscle
+    stacked: OrderedDict | None  # the stacked operators of the latest active sets (None: new)
+    rest: _RestGeometry  # the rest skin's normals, shape operators, refinement engines
+
 
 class FaceModel:
     """An anatomy-based face: skin, skull and muscles (paper Sec. 2.1).
@@ -87,7 +99,7 @@ class FaceModel:
                  muscles: Iterable[Muscle] = (), expressions=None, *, name: str = "face",
                  landmarks=None, unit: str | None = None,
                  mapping: TrackMapping | None = None, skin_model: str = "geometric",
-                 material: SkinMaterial | None = None, _caches=None, _rest_normals=None):
+                 material: SkinMaterial | None = None, _caches: _SharedCaches | None = None):
         if not isinstance(skin, TriangleSurface):
             raise TypeError(f"skin must be a TriangleSurface; got {type(skin).__name__}")
         if skull is not None and not isinstance(skull, TriangleSurface):
@@ -118,10 +130,11 @@ class FaceModel:
         self.mapping = mapping
         if _caches is None:
             _check_skin(skin)
-            _caches = ({}, OrderedDict(), _RestGeometry(skin, _rest_normals))
-        self._muscle_data: dict[Muscle, _MuscleData] = _caches[0]
-        self._assemblies: OrderedDict = _caches[1] if _caches[1] is not None else OrderedDict()
-        self._rest: _RestGeometry = _caches[2]
+            _caches = _SharedCaches({}, OrderedDict(), _RestGeometry(skin))
+        self._muscle_data: dict[Muscle, _MuscleData] = _caches.muscle_data
+        self._assemblies: OrderedDict = (OrderedDict() if _caches.stacked is None
+                                         else _caches.stacked)
+        self._rest: _RestGeometry = _caches.rest
         self._springs: dict[SkinMaterial, SpringSkin] = {}  # the physical skin, per material
 
     # ------------------------------------------------------------------ access
@@ -193,7 +206,7 @@ class FaceModel:
                          self.expressions if expressions is None else expressions,
                          name=self.name, landmarks=self.landmarks, unit=self.unit,
                          mapping=self.mapping, skin_model=self.skin_model,
-                         material=self.material, _caches=(cache, None, self._rest))
+                         material=self.material, _caches=_SharedCaches(cache, None, self._rest))
 
     def with_skin_model(self, skin_model: str, material: SkinMaterial | None = None
                         ) -> FaceModel:
@@ -518,7 +531,8 @@ class FaceModel:
         rest.slide_normals = np.take(hier.slide, order, axis=0)
         rest.shape6 = np.take(hier.shape6, order, axis=0)
         face = FaceModel(surface, self.skull, self.muscles, self.expressions, name=self.name,
-                         landmarks=self.landmarks, unit=self.unit, _caches=({}, None, rest))
+                         landmarks=self.landmarks, unit=self.unit,
+                         _caches=_SharedCaches({}, None, rest))
         engine.last = (key, face, order)
         return face, order
 
