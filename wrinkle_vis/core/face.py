@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import dataclasses
 from collections import OrderedDict
-from collections.abc import Iterable, Iterator, Mapping
-from typing import NamedTuple
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from typing import TYPE_CHECKING, NamedTuple, TypeAlias
 
 import numpy as np
 
@@ -40,7 +40,17 @@ from .state import FaceState, _readonly
 from .tracks import Track, TrackMapping, default_mapping, iter_activations
 from .units import LENGTH_UNITS, check_unit, face_unit
 
+if TYPE_CHECKING:
+    from .simulation import Simulation
+
 __all__ = ["FIELD_NAMES", "FaceModel", "FaceState"]
+
+#: What :meth:`FaceModel.evaluate` takes: an expression name, an :class:`Expression`, or
+#: muscle name to activation.
+Activations: TypeAlias = "str | Expression | Mapping[str, float]"
+#: What :meth:`FaceModel.simulator` follows: activations (a step at t = 0) or a callable
+#: ``t -> activations``.
+Timeline: TypeAlias = "Activations | Callable[[float], Activations]"
 
 
 class _SharedCaches(NamedTuple):
@@ -96,10 +106,12 @@ class FaceModel:
     fold_guard: bool = True
 
     def __init__(self, skin: TriangleSurface, skull: TriangleSurface | None = None,
-                 muscles: Iterable[Muscle] = (), expressions=None, *, name: str = "face",
-                 landmarks=None, unit: str | None = None,
+                 muscles: Iterable[Muscle] = (),
+                 expressions: Mapping[str, Expression] | None = None, *, name: str = "face",
+                 landmarks: Mapping[str, Iterable[float]] | None = None, unit: str | None = None,
                  mapping: TrackMapping | None = None, skin_model: str = "geometric",
-                 material: SkinMaterial | None = None, _caches: _SharedCaches | None = None):
+                 material: SkinMaterial | None = None,
+                 _caches: _SharedCaches | None = None) -> None:
         if not isinstance(skin, TriangleSurface):
             raise TypeError(f"skin must be a TriangleSurface; got {type(skin).__name__}")
         if skull is not None and not isinstance(skull, TriangleSurface):
@@ -179,7 +191,7 @@ class FaceModel:
         expressions = {k: _renamed(ex, name, None) for k, ex in self.expressions.items()}
         return self._derived([m for m in self.muscles if m.name != name], expressions)
 
-    def with_expressions(self, expressions) -> FaceModel:
+    def with_expressions(self, expressions: Mapping[str, Expression]) -> FaceModel:
         """A face with these expressions (``{name: Expression}``) and the same muscles."""
         return self._derived(self.muscles, dict(expressions))
 
@@ -300,7 +312,8 @@ class FaceModel:
         state.muscle_pull = None if muscle_pull is None else _readonly(np.array(muscle_pull))
         return state
 
-    def simulator(self, timeline=None, *, material: SkinMaterial | None = None):
+    def simulator(self, timeline: Timeline | None = None, *,
+                  material: SkinMaterial | None = None) -> Simulation:
         """A :class:`~wrinkle_vis.core.simulation.Simulation` of the physically based skin
         for ``timeline`` (an expression name or activations: a step at t = 0; a callable
         ``t -> activations``), with ``step(dt)`` and ``reset()``.
@@ -309,9 +322,10 @@ class FaceModel:
 
         return Simulation(self, timeline, material)
 
-    def simulate(self, timeline, duration: float, dt: float | None = None, *,
+    def simulate(self, timeline: Timeline, duration: float, dt: float | None = None, *,
                  material: SkinMaterial | None = None, refine: bool = False,
-                 refine_angle_deg: float = 3.0, refine_levels: int = 3):
+                 refine_angle_deg: float = 3.0, refine_levels: int = 3
+                 ) -> Iterator[FaceState]:
         """Yield the physically based skin's states over ``duration`` seconds, one every
         ``dt`` (default the material's ``time_step``), from rest at t = 0, for
         ``timeline`` (see :meth:`simulator`); each :class:`FaceState` has ``time`` and
@@ -324,9 +338,10 @@ class FaceModel:
                     self._refined_physical(state, refine_angle_deg, refine_levels), None)
             yield state
 
-    def expression_states(self, expression: Expression, times, intensity: float = 1.0, *,
-                          refine: bool = False, refine_angle_deg: float = 3.0,
-                          refine_levels: int = 3):
+    def expression_states(self, expression: Expression, times: Iterable[float],
+                          intensity: float = 1.0, *, refine: bool = False,
+                          refine_angle_deg: float = 3.0, refine_levels: int = 3
+                          ) -> Iterator[FaceState]:
         """Yield the states of ``expression``'s timeline (onset, hold, release:
         :meth:`Expression.at`) at ``times`` (seconds, ascending), one at a time: on the
         geometric skin each evaluated on its own; on the physical skin (the face's
@@ -361,7 +376,8 @@ class FaceModel:
         return refined
 
     # ------------------------------------------------------------------ evaluation
-    def activations_for(self, activations, intensity: float = 1.0) -> dict[str, float]:
+    def activations_for(self, activations: Activations, intensity: float = 1.0
+                        ) -> dict[str, float]:
         """Resolve an expression name, an :class:`Expression` or a mapping to activations.
 
         Returns
@@ -374,23 +390,25 @@ class FaceModel:
                 raise KeyError(f"unknown expression {activations!r}; this face has: "
                                f"{', '.join(self.expressions)}")
             activations = self.expressions[activations]
+        acts: Mapping[str, float]
         if isinstance(activations, Expression):
-            activations = activations.scaled(intensity)
+            acts = activations.scaled(intensity)
         elif isinstance(activations, Mapping):
             k = float(intensity)
             if not (0.0 <= k <= 1.0):
                 raise ValueError(f"intensity = {k:g} is outside [0, 1]")
-            activations = {m: check_activation(m, a) * k for m, a in activations.items()}
+            acts = {m: check_activation(m, a) * k for m, a in activations.items()}
         else:
             raise TypeError("activations must be an expression name, an Expression or a "
                             f"mapping of muscle name to activation; got {type(activations)}")
-        unknown = sorted(set(activations) - set(self.muscle_names))
+        unknown = sorted(set(acts) - set(self.muscle_names))
         if unknown:
             raise KeyError(f"no muscle named {', '.join(map(repr, unknown))} in this face; its "
                            f"muscles are: {', '.join(self.muscle_names) or 'none'}")
-        return {n: float(activations.get(n, 0.0)) for n in self.muscle_names}
+        return {n: float(acts.get(n, 0.0)) for n in self.muscle_names}
 
-    def evaluate(self, activations=None, intensity: float = 1.0, *, refine: bool = False,
+    def evaluate(self, activations: Activations | None = None, intensity: float = 1.0, *,
+                 refine: bool = False,
                  refine_angle_deg: float = 3.0, refine_levels: int = 3,
                  skin: str | None = None, material: SkinMaterial | None = None,
                  fold_guard: bool | None = None) -> FaceState:
@@ -513,7 +531,8 @@ class FaceModel:
         return FaceState(face, acts, deformed, points,
                          dyn.W[order], None, {}, source)
 
-    def _refined_face(self, engine: RefinedEngine, split, split_ids, tris):
+    def _refined_face(self, engine: RefinedEngine, split: np.ndarray, split_ids: np.ndarray,
+                      tris: np.ndarray) -> tuple[FaceModel, np.ndarray]:
         """The face on the refined skin of a split set (the latest one is kept, so frames
         with the same split set share their face, triangles and rest skin).
         """

@@ -30,7 +30,7 @@ class _StateData:
     face: FaceModel
     deformed_points: np.ndarray
     assembly: _StackedMuscles | None
-    compact: dict
+    compact: dict[str, np.ndarray]  # the frame's eps (K,) and W (R,), stacked
     source: _RefinedSource | None = None
 
     @property

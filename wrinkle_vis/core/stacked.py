@@ -200,7 +200,8 @@ class _StackedMuscles:
         self._slide(p)
         return p
 
-    def frame(self, rest: np.ndarray, a: np.ndarray, skin_points: np.ndarray | None = None):
+    def frame(self, rest: np.ndarray, a: np.ndarray, skin_points: np.ndarray | None = None
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
         """One frame for activations ``a`` ``(M,)``; ``skin_points`` ``(n, 3)``: the
         deformed skin when another skin model computed it (the physical skin), else the
         geometric displacement (:meth:`displaced`).

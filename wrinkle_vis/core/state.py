@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from functools import cached_property, lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -13,6 +14,11 @@ from .fields import check_field
 from .fieldviews import _StateData, _StateFields
 from .mesh import TriangleSurface
 from .units import face_unit
+
+if TYPE_CHECKING:
+    from .face import FaceModel
+    from .refinedfields import _RefinedSource
+    from .stacked import _StackedMuscles
 
 
 class FaceState:
@@ -54,8 +60,10 @@ class FaceState:
     #: computing it again.
     muscle_pull: np.ndarray | None = None
 
-    def __init__(self, face, activations, deformed, points, total, assembly, compact,
-                 source=None):
+    def __init__(self, face: FaceModel, activations: Mapping[str, float],
+                 deformed: np.ndarray, points: np.ndarray, total: np.ndarray,
+                 assembly: _StackedMuscles | None, compact: dict[str, np.ndarray],
+                 source: _RefinedSource | None = None) -> None:
         self.face = face
         self.activations = dict(activations)
         self.rest_points = face.skin.points
