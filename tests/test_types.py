@@ -30,6 +30,13 @@ def test_the_test_command_runs_mypy_before_pytest():
     assert ".venv/bin/mypy" in lines[:pytest_line]
 
 
+def test_the_package_says_it_is_typed():
+    """PEP 561: ``py.typed`` in the package, and installed with it."""
+    assert (ROOT / "wrinkle_vis" / "py.typed").is_file()
+    data = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    assert "py.typed" in data["package-data"]["wrinkle_vis"]
+
+
 @pytest.mark.slow
 def test_mypy_finds_no_error_in_the_core(tmp_path):
     done = subprocess.run([sys.executable, "-m", "mypy", "--cache-dir", str(tmp_path)],
