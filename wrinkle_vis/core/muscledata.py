@@ -1,0 +1,90 @@
+"""What one muscle defines on the rest skin, computed once per muscle and kept compact
+(its area of influence's rows only): :class:`_MuscleData`, and the tangent projection
+its pulls go through (:func:`tangential`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from .equations import compression_operator, gradient_compression_operator, triangle_stretch
+from .mesh import TriangleSurface
+from .muscle import Muscle
+
+
+@dataclass(frozen=True, eq=False)
+class _MuscleData:
+    """What one muscle defines on the rest skin, compact (AOI rows only)."""
+
+    aoi: np.ndarray  # (k,) vertex ids
+    region_pos: np.ndarray  # (r,) positions within aoi of the wrinkling region
+    unit_disp: np.ndarray  # (k, 3)
+    lam: np.ndarray  # (k,)
+    gamma: np.ndarray  # (k,)
+    l: np.ndarray  # (k,)
+    at: np.ndarray  # (k,)
+    w: np.ndarray  # (r,)
+    h: np.ndarray  # (r,)
+    edge_ids: np.ndarray  # (q,) global edge ids incident to the AOI ("edges" only)
+    eps_op: sp.csr_matrix  # (k, q): Eq. 10
+    tri_ids: np.ndarray  # (t,) global triangle ids incident to the AOI ("gradient" only)
+    tri_coef: np.ndarray  # (t, 2): F_t d_t = c0 (x_b - x_a) + c1 (x_c - x_a)
+    grad_op: sp.csr_matrix  # (k, t): area-weighted mean of 1 - |F_t d_t|
+
+    @property
+    def region(self) -> np.ndarray:
+        """``(r,)`` vertex ids of the wrinkling region."""
+        return self.aoi[self.region_pos]
+
+    @classmethod
+    def build(cls, skin: TriangleSurface, muscle: Muscle, normals: np.ndarray) -> _MuscleData:
+        cand = muscle.candidates(skin)  # the AOI's neighbourhood: a big scan's is small
+        reg = muscle.region(skin.points[cand])
+        in_cand = reg["in_aoi"].copy()
+        inside = np.flatnonzero(in_cand)
+        in_cand[inside[muscle.hidden(skin.points[cand[inside]], skin)]] = False  # skin behind
+        at = np.flatnonzero(in_cand)  # the AOI's positions in cand
+        aoi = cand[at]
+        in_aoi = np.zeros(skin.n_points, bool)
+        in_aoi[aoi] = True
+        region_pos = np.flatnonzero(reg["in_region"][at])
+        directions = np.zeros((skin.n_points, 3))
+        directions[cand] = np.nan_to_num(reg["direction"], nan=0.0)
+        if muscle.compression == "gradient":
+            edge_ids = np.zeros(0, np.intp)
+            op = sp.csr_matrix((len(aoi), 0))
+            tri_ids, coef, grad_op = gradient_compression_operator(
+                skin.points, skin.triangles, directions, rows=aoi)
+        else:
+            edges = skin.edges
+            edge_ids = np.flatnonzero(in_aoi[edges[:, 0]] | in_aoi[edges[:, 1]])
+            op = compression_operator(skin.points, edges[edge_ids], directions, rows=aoi)
+            tri_ids, coef = np.zeros(0, np.intp), np.zeros((0, 2))
+            grad_op = sp.csr_matrix((len(aoi), 0))
+        unit = tangential(muscle.unit_displacement(skin.points[aoi]), normals[aoi])
+        return cls(aoi=aoi, region_pos=region_pos, unit_disp=unit, lam=reg["lam"][at],
+                   gamma=reg["gamma"][at], l=reg["l"][at], at=reg["At"][at],
+                   w=reg["w"][at][region_pos], h=reg["H"][at][region_pos],
+                   edge_ids=edge_ids, eps_op=op, tri_ids=tri_ids, tri_coef=coef,
+                   grad_op=grad_op)
+
+    def compression(self, skin: TriangleSurface, points: np.ndarray) -> np.ndarray:
+        r"""``(k,)``: :math:`\varepsilon` on the AOI for deformed ``points`` ``(n, 3)``
+        (the muscle's own measure; the frame computes it stacked, this is for a muscle at
+        rest).
+        """
+        e = skin.edges[self.edge_ids]
+        vec = points[e[:, 1]] - points[e[:, 0]]
+        tau = 1.0 - np.linalg.norm(vec, axis=1) / skin.rest_edge_lengths[self.edge_ids]
+        stretch = triangle_stretch(points, skin.triangles[self.tri_ids], self.tri_coef)
+        return self.eps_op @ tau + self.grad_op @ (1.0 - stretch)
+
+
+def tangential(vectors: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    r"""``(k, 3)``: ``vectors`` ``(k, 3)`` without their part along unit ``normals``,
+    :math:`v - (v \cdot n)\, n`.
+    """
+    return vectors - np.einsum("ij,ij->i", vectors, normals)[:, None] * normals
