@@ -403,8 +403,7 @@ def _triangles_of(terms: dict, moving: np.ndarray) -> tuple:
     the least recently used dropped first); every triangle: the terms themselves, not
     copies.
     """
-    key = np.flatnonzero(moving)
-    key = key.tobytes()
+    key = np.flatnonzero(moving).tobytes()
     memo = terms.setdefault("subsets", {})
     hit = memo.pop(key, None)
     if hit is not None:
