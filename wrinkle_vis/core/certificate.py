@@ -311,8 +311,10 @@ def _irregular_vertices(tri: np.ndarray, n_points: int) -> np.ndarray:
     """``(n,) bool``: vertices on an edge that is not shared by exactly two triangles
     running it in opposite directions (boundary, non-manifold or misoriented edges).
     """
-    a, b = tri.ravel(), tri[:, [1, 2, 0]].ravel()
-    key = np.sort((np.minimum(a, b) * np.int64(n_points) + np.maximum(a, b)) * 2 + (a < b))
+    small = 2 * n_points * n_points < 2**31  # int32 keys sort faster
+    a, b = (x.astype(np.int32 if small else np.int64)
+            for x in (tri.ravel(), tri[:, [1, 2, 0]].ravel()))
+    key = np.sort((np.minimum(a, b) * n_points + np.maximum(a, b)) * 2 + (a < b))
     und = key >> 1
     start = np.flatnonzero(np.r_[True, und[1:] != und[:-1]])
     size = np.diff(np.r_[start, len(key)])
@@ -448,6 +450,8 @@ def _cell_entries(c0: np.ndarray, n: np.ndarray, dims: np.ndarray
                     firsts.append(np.full(len(sel), (dx == 0) | (dy == 0) << 1
                                           | (dz == 0) << 2, np.uint8))
         cell, t, first = np.concatenate(cells), np.concatenate(tris), np.concatenate(firsts)
+    if int(dims.prod()) < 2**31:  # int32 keys sort faster
+        cell = cell.astype(np.int32)
     order = np.argsort(cell, kind="stable")
     return cell[order], t[order], first[order]
 
@@ -535,9 +539,10 @@ def _narrow_phase(pts, tri, corners, normal, perm, pairs) -> tuple[np.ndarray, n
     """
     ta, tb = tri[pairs[:, 0]], tri[pairs[:, 1]]
     eq = eq_all = ta[:, :, None] == tb[:, None, :]  # (k, 3, 3): corner i of a is j of b
-    keep = np.flatnonzero(
-        ~(_separated(pts, ta, pairs[:, 1], eq.any(axis=2), corners, normal, perm)
-          | _separated(pts, tb, pairs[:, 0], eq.any(axis=1), corners, normal, perm)))
+    keep = np.flatnonzero(~_separated(pts, ta, pairs[:, 1], eq.any(axis=2), corners, normal,
+                                      perm))
+    keep = keep[~_separated(pts, tb[keep], pairs[keep, 0], eq[keep].any(axis=1), corners,
+                            normal, perm)]
     pairs, ta, tb, eq = pairs[keep], ta[keep], tb[keep], eq[keep]
     shared = eq.sum(axis=(1, 2))
     hit = np.zeros(len(pairs), bool)
@@ -561,14 +566,16 @@ def _separated(pts, tv, other, is_shared, corners, normal, perm) -> np.ndarray:
     strictly on one side of the plane of triangles ``other`` ``(k,)``, certainly (float
     signs beyond the error bound; an uncertain sign keeps the pair for the exact test).
     """
-    t0 = corners[other, 0]
-    n, pm = normal[other], perm[other]
+    t0 = [np.ascontiguousarray(corners[other, 0, c]) for c in range(3)]
+    n = [normal[other, c] for c in range(3)]
+    pm = [perm[other, c] for c in range(3)]
     pos = np.ones(len(tv), bool)
     neg = np.ones(len(tv), bool)
     for i in range(3):
-        u = pts[tv[:, i]] - t0
-        det = np.einsum("ij,ij->i", u, n)
-        bound = _ERR3 * np.einsum("ij,ij->i", np.abs(u), pm)
+        p = pts[tv[:, i]]
+        u = [p[:, c] - t0[c] for c in range(3)]
+        det = u[0] * n[0] + u[1] * n[1] + u[2] * n[2]
+        bound = _ERR3 * (np.abs(u[0]) * pm[0] + np.abs(u[1]) * pm[1] + np.abs(u[2]) * pm[2])
         free = ~is_shared[:, i]
         pos &= ~free | (det > bound)
         neg &= ~free | (det < -bound)
@@ -576,15 +583,14 @@ def _separated(pts, tv, other, is_shared, corners, normal, perm) -> np.ndarray:
 
 
 def _disjoint(pts, pairs, ta, tb, eq, corners, normal, perm):
-    hit = np.zeros(len(pairs), bool)
-    degen = np.zeros(len(pairs), bool)
-    for other, tv in ((1, ta), (0, tb)):
-        for i, j in ((0, 1), (1, 2), (2, 0)):
-            h, d, _, _ = _segment_meets(pts[tv[:, i]], pts[tv[:, j]], pairs[:, other],
-                                        corners, normal, perm)
-            hit |= h
-            degen |= d
-    return hit, degen
+    """The six edges of two triangles with no common vertex against the other triangle,
+    in one call.
+    """
+    p = np.concatenate([pts[tv[:, i]] for tv in (ta, tb) for i in range(3)])
+    q = np.concatenate([pts[tv[:, j]] for tv in (ta, tb) for j in (1, 2, 0)])
+    against = np.concatenate([np.tile(pairs[:, 1], 3), np.tile(pairs[:, 0], 3)])
+    h, d, _, _ = _segment_meets(p, q, against, corners, normal, perm)
+    return h.reshape(6, -1).any(axis=0), d.reshape(6, -1).any(axis=0)
 
 
 def _one_shared(pts, pairs, ta, tb, eq, corners, normal, perm):
