@@ -362,18 +362,26 @@ def _clear_stars(pts: np.ndarray, tri: np.ndarray, normal: np.ndarray, perm: np.
     d = _AHEAD[(np.abs(_AHEAD[0] @ nv) > 0.8 * ln).astype(np.intp)]
     g = _cross_cols([d[:, 0], d[:, 1], d[:, 2]], nv)
     lg = np.sqrt(_dot(g, g))
-    ok = _dot(nt, _gather(tuple(nv), v)) > _STAR_MARGIN * (
-        np.repeat(np.sqrt(_dot(*[[perm[:, k] for k in range(3)]] * 2)), 3) * ln[v])
-    # edge k of each triangle runs from corner k to corner k + 1: x of corner k, -y of k + 1
-    corners = [pts[tri, k] for k in range(3)]
-    edge = [(np.roll(c, -1, axis=1) - c).ravel() for c in corners]
-    ledge = np.sqrt(_dot(edge, edge))
-    back = np.arange(len(v)).reshape(-1, 3)[:, [2, 0, 1]].ravel()
+    lperm = np.sqrt(np.einsum("ij,ij->i", perm, perm))
+    ok = _dot(nt, _gather(tuple(nv), v)) > _STAR_MARGIN * np.repeat(lperm, 3) * ln[v]
+    # edge k of each triangle runs from corner k to corner k + 1: a - v at corner k, and
+    # edge k + 2 is v - b there
+    edge, before = [], []
+    for k in range(3):
+        x = np.ascontiguousarray(pts[:, k])[tri]
+        e = np.empty_like(x)
+        e[:, :2] = x[:, 1:] - x[:, :2]
+        e[:, 2] = x[:, 0] - x[:, 2]
+        b = np.empty_like(x)
+        b[:, 0], b[:, 1:] = e[:, 2], e[:, :2]
+        edge.append(e.ravel())
+        before.append(b.ravel())
+    ledge, lbefore = np.sqrt(_dot(edge, edge)), np.sqrt(_dot(before, before))
     gv = _gather(tuple(g), v)
     out = _dot(edge, gv)  # (a - v) . g
-    into = -_dot([e[back] for e in edge], gv)  # (b - v) . g
+    into = -_dot(before, gv)  # (b - v) . g
     margin = _STAR_MARGIN * lg[v]
-    ok &= (np.abs(out) > margin * ledge) & (np.abs(into) > margin * ledge[back])
+    ok &= (np.abs(out) > margin * ledge) & (np.abs(into) > margin * lbefore)
     winding = np.bincount(v, (out > 0) & (into < 0), n_points)
     doubt = np.bincount(v, ~ok, n_points)
     return (winding == 1) & (doubt == 0) & ~_irregular_vertices(tri, n_points)
@@ -456,6 +464,33 @@ def _cell_entries(c0: np.ndarray, n: np.ndarray, dims: np.ndarray
     return cell[order], t[order], first[order]
 
 
+def _home_pairs(cell: np.ndarray, t: np.ndarray, first: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """``(p,)`` int twice: the pairs of entries ``t`` in the same cell of the sorted
+    ``cell`` ``(e,)`` whose masks ``first`` together hold every axis (the pair's home
+    cell), entry ``i`` with entry ``i + d`` for ``d = 1, 2, ...``.
+    """
+    end = np.r_[np.flatnonzero(cell[1:] != cell[:-1]) + 1, len(cell)]
+    end = np.repeat(end, np.diff(np.r_[0, end])).astype(np.int32)
+    idx = np.arange(len(cell), dtype=np.int32)
+    out_a, out_b = [], []
+    d = 1
+    while True:
+        idx = idx[idx + d < end[idx]]
+        if not len(idx):
+            break
+        home = idx[(first[idx] | first[idx + d]) == 7]
+        out_a.append(t[home])
+        out_b.append(t[home + d])
+        d += 1
+    if not out_a:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    return np.concatenate(out_a), np.concatenate(out_b)
+
+
+_CELL = 1.5
+
+
 def _grid_cells(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(3, m)`` int twice: the first and last cells of boxes ``lo``, ``hi`` ``(3, m)``
     on a grid of cubes 1.5 times the median box's longest side, larger where that would
@@ -464,7 +499,7 @@ def _grid_cells(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     origin = lo.min(axis=1)[:, None]
     span = float((hi.max(axis=1) - origin[:, 0]).max())
     side = np.maximum(np.maximum(hi[0] - lo[0], hi[1] - lo[1]), hi[2] - lo[2])
-    size = max(1.5 * float(np.partition(side, len(side) // 2)[len(side) // 2]), span / 1024.0)
+    size = max(_CELL * float(np.partition(side, len(side) // 2)[len(side) // 2]), span / 1024.0)
     if not np.isfinite(size) or size <= 0.0:
         size = span if span > 0 else 1.0
     while True:
@@ -494,19 +529,17 @@ def _apart_pairs(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
         np.maximum(np.maximum(a, b, out=hi[k]), c, out=hi[k])
     c0, c1 = _grid_cells(lo, hi)
     cell, t, first = _cell_entries(c0.T, (c1 - c0 + 1).T, c1.max(axis=1) + 1)
-    i, j = _within_groups(cell)
-    home = np.flatnonzero((first[i] | first[j]) == 7)
-    a, b = t[i[home]], t[j[home]]
+    a, b = _home_pairs(cell, t, first)
+    for k in range(3):  # the boxes overlap, one axis at a time
+        lk, hk = lo[k], hi[k]
+        meet = np.flatnonzero((lk[a] <= hk[b]) & (lk[b] <= hk[a]))
+        a, b = a[meet], b[meet]
     ta, tb = [c[a] for c in cols], [c[b] for c in cols]
     common = (ta[0] == tb[0]) | (ta[0] == tb[1]) | (ta[0] == tb[2])
     for p in ta[1:]:
         common |= (p == tb[0]) | (p == tb[1]) | (p == tb[2])
     apart = np.flatnonzero(~common)
     a, b = a[apart], b[apart]
-    for k in range(3):  # the boxes overlap, one axis at a time
-        lk, hk = lo[k], hi[k]
-        meet = np.flatnonzero((lk[a] <= hk[b]) & (lk[b] <= hk[a]))
-        a, b = a[meet], b[meet]
     return np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)
 
 
@@ -524,13 +557,15 @@ def intersecting_pairs(points, triangles, *, with_degenerate: bool = False):
     e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
     normal, perm = _cross(e1, e2), _abs_cross(e1, e2)
     if len(tri) < 2:
-        pairs = np.zeros((0, 2), np.intp)
+        pairs, degen = np.zeros((0, 2), np.intp), np.zeros(0, bool)
     else:
         unclear = ~_clear_stars(pts, tri, normal, perm)
-        pairs = np.concatenate([_star_pairs(tri, unclear), _apart_pairs(tri, pts)])
-        pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
-    hit, degen = _narrow_phase(pts, tri, corners, normal, perm, pairs)
-    return (pairs[hit], degen[hit]) if with_degenerate else pairs[hit]
+        star, apart = _star_pairs(tri, unclear), _apart_pairs(tri, pts)
+        h1, d1 = _narrow_phase(pts, tri, corners, normal, perm, star)
+        h2, d2 = _apart_narrow_phase(pts, tri, corners, normal, perm, apart)
+        pairs, degen = np.concatenate([star[h1], apart[h2]]), np.concatenate([d1[h1], d2[h2]])
+    order = np.lexsort((pairs[:, 1], pairs[:, 0]))
+    return (pairs[order], degen[order]) if with_degenerate else pairs[order]
 
 
 def _narrow_phase(pts, tri, corners, normal, perm, pairs) -> tuple[np.ndarray, np.ndarray]:
@@ -559,6 +594,20 @@ def _narrow_phase(pts, tri, corners, normal, perm, pairs) -> tuple[np.ndarray, n
     full_hit, full_degen = np.zeros(len(eq_all), bool), np.zeros(len(eq_all), bool)
     full_hit[keep], full_degen[keep] = hit, degen & hit
     return full_hit, full_degen
+
+
+def _apart_narrow_phase(pts, tri, corners, normal, perm, pairs
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_narrow_phase` for ``pairs`` ``(k, 2)`` of triangles that share no vertex."""
+    ta, tb = tri[pairs[:, 0]], tri[pairs[:, 1]]
+    none = np.zeros(ta.shape, bool)
+    keep = np.flatnonzero(~_separated(pts, ta, pairs[:, 1], none, corners, normal, perm))
+    keep = keep[~_separated(pts, tb[keep], pairs[keep, 0], none[keep], corners, normal, perm)]
+    hit, degen = np.zeros(len(pairs), bool), np.zeros(len(pairs), bool)
+    if len(keep):
+        h, d = _disjoint(pts, pairs[keep], ta[keep], tb[keep], None, corners, normal, perm)
+        hit[keep], degen[keep] = h | d, d & ~h
+    return hit, degen
 
 
 def _separated(pts, tv, other, is_shared, corners, normal, perm) -> np.ndarray:
