@@ -494,12 +494,12 @@ def _home_pairs(cell: np.ndarray, t: np.ndarray, first: np.ndarray
     return np.concatenate(out_a), np.concatenate(out_b)
 
 
-_CELL = 1.5
+_CELL = 1.25  # the grid cube over the median box's longest side
 
 
 def _grid_cells(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(3, m)`` int twice: the first and last cells of boxes ``lo``, ``hi`` ``(3, m)``
-    on a grid of cubes 1.5 times the median box's longest side, larger where that would
+    on a grid of cubes ``_CELL`` times the median box's longest side, larger where that would
     put a box in more than 6 cells on average, and at most 1024 cubes along an axis.
     """
     origin = lo.min(axis=1)[:, None]
