@@ -606,14 +606,33 @@ def _apart_narrow_phase(pts, tri, corners, normal, perm, pairs
                         ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_narrow_phase` for ``pairs`` ``(k, 2)`` of triangles that share no vertex."""
     ta, tb = tri[pairs[:, 0]], tri[pairs[:, 1]]
-    none = np.zeros(ta.shape, bool)
-    keep = np.flatnonzero(~_separated(pts, ta, pairs[:, 1], none, corners, normal, perm))
-    keep = keep[~_separated(pts, tb[keep], pairs[keep, 0], none[keep], corners, normal, perm)]
+    cols = [np.ascontiguousarray(x) for x in (*pts.T, *corners[:, 0].T, *normal.T, *perm.T)]
+    keep = np.flatnonzero(~_apart_separated(cols, ta, pairs[:, 1]))
+    keep = keep[~_apart_separated(cols, tb[keep], pairs[keep, 0])]
     hit, degen = np.zeros(len(pairs), bool), np.zeros(len(pairs), bool)
     if len(keep):
         h, d = _disjoint(pts, pairs[keep], ta[keep], tb[keep], None, corners, normal, perm)
         hit[keep], degen[keep] = h | d, d & ~h
     return hit, degen
+
+
+def _apart_separated(cols: list[np.ndarray], tv: np.ndarray, other: np.ndarray
+                     ) -> np.ndarray:
+    """:func:`_separated` for triangles that share no corner, on columns ``cols``: the
+    points' three coordinates, then the triangles' first corners', normals' and
+    permanents'.
+    """
+    t0 = [c[other] for c in cols[3:6]]
+    n = [c[other] for c in cols[6:9]]
+    pm = [c[other] for c in cols[9:12]]
+    pos = neg = None
+    for i in range(3):
+        u = [c[tv[:, i]] - t for c, t in zip(cols[:3], t0, strict=True)]
+        det = u[0] * n[0] + u[1] * n[1] + u[2] * n[2]
+        bound = _ERR3 * (np.abs(u[0]) * pm[0] + np.abs(u[1]) * pm[1] + np.abs(u[2]) * pm[2])
+        above, below = det > bound, det < -bound
+        pos, neg = (above, below) if pos is None else (pos & above, neg & below)
+    return pos | neg
 
 
 def _separated(pts, tv, other, is_shared, corners, normal, perm) -> np.ndarray:
