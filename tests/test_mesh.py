@@ -129,30 +129,6 @@ def test_vector_lengths_are_numpys_norm_to_the_bit(e):
     np.testing.assert_array_equal(vector_lengths(e), np.linalg.norm(e, axis=-1))
 
 
-@pytest.mark.parametrize("direction", [(0.0, 0.0, 1.0), (0.3, -0.5, 0.8), (1.0, 0.0, 0.0)])
-def test_occluded_agrees_with_vtk_ray_tracing(direction):
-    """Which points have the surface in front of them along a direction: the grid of
-    triangles gives what VTK's OBB tree gives for each ray, inside and outside a sphere."""
-    import pyvista as pv
-
-    from wrinkle_vis.core.mesh import occluded
-    from wrinkle_vis.plotting import to_surface_polydata
-
-    s = sphere(3)
-    points = np.random.default_rng(1).uniform(-1.3, 1.3, (400, 3))
-    got = occluded(s, points, direction, 0.0)
-    d = np.asarray(direction) / np.linalg.norm(direction)
-    poly = to_surface_polydata(s)
-    want = [len(poly.ray_trace(p, p + 5.0 * d)[0]) > 0 for p in points]
-    assert isinstance(poly, pv.PolyData)
-    np.testing.assert_array_equal(got, want)
-    assert 50 < got.sum() < 350
-    # a point on the surface is not hidden by the surface it lies on past min_distance
-    on = s.points[:50]
-    far = occluded(s, on, d, 0.05)
-    assert not far[on @ d > 0.2].any() and far[on @ d < -0.5].all()
-
-
 def _crossings_of_every_pair(surface) -> set:
     """``self_intersections``' edge test on every pair of triangles sharing at most one
     vertex: no broad phase."""
@@ -185,3 +161,27 @@ def test_self_intersections_find_what_testing_every_pair_finds(seed, shake):
         got = self_intersections(s)
         assert np.all(np.diff(got[:, 0]) >= 0)  # lexicographic order
         assert {tuple(p) for p in got.tolist()} == _crossings_of_every_pair(s)
+
+
+@pytest.mark.parametrize("direction", [(0.0, 0.0, 1.0), (0.3, -0.5, 0.8), (1.0, 0.0, 0.0)])
+def test_occluded_agrees_with_vtk_ray_tracing(direction):
+    """Which points have the surface in front of them along a direction: the grid of
+    triangles gives what VTK's OBB tree gives for each ray, inside and outside a sphere."""
+    import pyvista as pv
+
+    from wrinkle_vis.core.mesh import occluded
+    from wrinkle_vis.plotting import to_surface_polydata
+
+    s = sphere(3)
+    points = np.random.default_rng(1).uniform(-1.3, 1.3, (400, 3))
+    got = occluded(s, points, direction, 0.0)
+    d = np.asarray(direction) / np.linalg.norm(direction)
+    poly = to_surface_polydata(s)
+    want = [len(poly.ray_trace(p, p + 5.0 * d)[0]) > 0 for p in points]
+    assert isinstance(poly, pv.PolyData)
+    np.testing.assert_array_equal(got, want)
+    assert 50 < got.sum() < 350
+    # a point on the surface is not hidden by the surface it lies on past min_distance
+    on = s.points[:50]
+    far = occluded(s, on, d, 0.05)
+    assert not far[on @ d > 0.2].any() and far[on @ d < -0.5].all()
