@@ -44,8 +44,7 @@ def certificate(rounds: int) -> dict:
     for label, surf in (("wavy 50k", wavy_surface()), ("head scan", head)):
         ours = median_seconds(lambda s=surf: intersecting_pairs(s.points, s.triangles), 3,
                               rounds)
-        slow = label == "head scan"  # the peer takes about 30 s there: one call a round
-        old = median_seconds(lambda s=surf: self_intersections(s), 1 if slow else 3, rounds)
+        old = median_seconds(lambda s=surf: self_intersections(s), 3, rounds)
         out[label] = {"triangles": int(surf.n_triangles), "certificate_s": ours,
                       "self_intersections_s": old,
                       "pairs": int(len(intersecting_pairs(surf.points, surf.triangles)))}

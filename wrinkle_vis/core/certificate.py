@@ -13,9 +13,15 @@ computed in floating point and accepted when it exceeds Shewchuk's static error 
 signs it cannot certify are recomputed in rational arithmetic (:class:`fractions.Fraction`
 holds every double exactly), so a sign is never wrong.
 
-* Broad phase: the triangles' axis-aligned boxes are binned on a uniform grid; a pair is a
-  candidate when the boxes overlap, and is produced once, in the cell holding the lower corner
-  of the overlap.
+* Broad phase, in two parts. Triangles that share a vertex: the star of each vertex is
+  tested once (:func:`_clear_stars`): where, seen along the sum of its face normals, its
+  triangles are sectors that all turn the same way, close into cycles and wind around the
+  vertex once, two of them meet only in the vertex or the edge they share, and no pair of
+  that star needs a test; the pairs of the other stars go to the narrow phase. Triangles
+  that share no vertex: their axis-aligned boxes are binned on a uniform grid, and a pair is
+  a candidate when the boxes overlap, produced once, in the lower corner of the two boxes'
+  common cells (:func:`_apart_pairs`). On a skin nearly every star passes, so the narrow
+  phase sees about a tenth of the pairs of overlapping boxes.
 * Narrow phase, for triangles in general position: two triangles with no common vertex
   intersect iff an edge of one meets the other (closed segment against closed triangle: the
   endpoints are not strictly on one side of its plane and the line through them passes on
@@ -171,10 +177,6 @@ def _ray_in_cone(v, p, b1, b2, tc) -> np.ndarray:
     return (orient2(v2, c1, p2) * s >= 0) & (orient2(v2, p2, c2) * s >= 0) & (s != 0)
 
 
-def _boxes(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    return corners.min(axis=1), corners.max(axis=1)
-
-
 def candidate_pairs(corners: np.ndarray) -> np.ndarray:
     """``(k, 2)`` int, ``i < j``: the triangles ``(m, 3, 3)`` whose closed bounding boxes
     overlap, each pair once (uniform grid on the boxes, cell about twice the median box).
@@ -290,24 +292,298 @@ def _folded_flat(pts, u, v, a, b) -> bool:
     return sum(x * y for x, y in zip(ca, cb, strict=True)) > 0
 
 
+# --- broad phase: stars that cannot cross, and the pairs that share no corner ------------
+
+_STAR_MARGIN = 1e-10
+
+
+def _gather(cols: tuple[np.ndarray, ...], idx: np.ndarray) -> list[np.ndarray]:
+    return [c[idx] for c in cols]
+
+
+def _sub(u: list[np.ndarray], v: list[np.ndarray]) -> list[np.ndarray]:
+    return [p - q for p, q in zip(u, v, strict=True)]
+
+
+def _dot(u: list[np.ndarray], v: list[np.ndarray]) -> np.ndarray:
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+
+
+def _cross_cols(u: list[np.ndarray], v: list[np.ndarray]) -> list[np.ndarray]:
+    return [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+
+
+def _irregular_vertices(tri: np.ndarray, n_points: int) -> np.ndarray:
+    """``(n,) bool``: vertices on an edge that is not shared by exactly two triangles
+    running it in opposite directions (boundary, non-manifold or misoriented edges).
+    """
+    small = 2 * n_points * n_points < 2**31  # int32 keys sort faster
+    a, b = (x.astype(np.int32 if small else np.int64)
+            for x in (tri.ravel(), tri[:, [1, 2, 0]].ravel()))
+    key = np.sort((np.minimum(a, b) * n_points + np.maximum(a, b)) * 2 + (a < b))
+    und = key >> 1
+    start = np.flatnonzero(np.r_[True, und[1:] != und[:-1]])
+    size = np.diff(np.r_[start, len(key)])
+    two = np.flatnonzero(size == 2)
+    pair = np.zeros(len(start), bool)
+    pair[two] = ((key[start[two]] & 1) == 0) & ((key[start[two] + 1] & 1) == 1)
+    bad = und[start[~pair]]
+    out = np.zeros(n_points, bool)
+    out[bad // n_points] = True
+    out[bad % n_points] = True
+    return out
+
+
+_AHEAD = np.array([[0.5257311, 0.6881910, 0.5000000], [-0.8090170, 0.2628656, 0.5257311]])
+
+
+def _clear_stars(pts: np.ndarray, tri: np.ndarray, normal: np.ndarray, perm: np.ndarray
+                 ) -> np.ndarray:
+    r"""``(n,) bool``: vertices ``v`` whose star cannot intersect itself: two triangles
+    that share ``v`` meet only in ``v`` or in the edge they share.
+
+    Seen along :math:`N = \sum_t n_t` (the star's face normals), every triangle
+    :math:`t = (v, a, b)` of the star must turn counter-clockwise, certainly
+    (:math:`n_t \cdot N > 0`), so that it is a sector of angle below :math:`\pi` seen
+    from ``v`` and its projection is one to one. Every edge at ``v`` must be shared by two
+    triangles running it in opposite directions, so that the sectors close into cycles,
+    and the sectors must wind around ``v`` once: exactly one holds a direction ``d`` not
+    along ``N``, certainly, in its angle (:math:`(a - v) \cdot g > 0 > (b - v) \cdot g`
+    with :math:`g = d \times N`; each cycle winds at least once). Then the sectors'
+    interiors are disjoint and their boundary rays distinct but for the shared edges: two
+    triangles of the star project onto sets that meet only in ``v`` or along the edge
+    they share, and, each projection being one to one, meet only there.
+
+    A sign is taken as certain when the product exceeds :math:`10^{-10}` times the
+    product of the lengths (of :math:`N` and the permanent of :math:`n_t`, or of the
+    edge and :math:`g`), far above its rounding (a few :math:`\epsilon` of that, the
+    rounding of the differences and of :math:`n_t` included); any doubt leaves the vertex
+    to the exact pairwise test.
+    """
+    n_points = len(pts)
+    v = tri.ravel()
+    nt = [np.repeat(normal[:, k], 3) for k in range(3)]
+    nv = [np.bincount(v, c, n_points) for c in nt]
+    ln = np.sqrt(_dot(nv, nv))
+    d = _AHEAD[(np.abs(_AHEAD[0] @ nv) > 0.8 * ln).astype(np.intp)]
+    g = _cross_cols([d[:, 0], d[:, 1], d[:, 2]], nv)
+    lg = np.sqrt(_dot(g, g))
+    lperm = np.sqrt(np.einsum("ij,ij->i", perm, perm))
+    ok = _dot(nt, _gather(tuple(nv), v)) > _STAR_MARGIN * np.repeat(lperm, 3) * ln[v]
+    # edge k of each triangle runs from corner k to corner k + 1: a - v at corner k, and
+    # edge k + 2 is v - b there
+    edge, before = [], []
+    for k in range(3):
+        x = np.ascontiguousarray(pts[:, k])[tri]
+        e = np.empty_like(x)
+        e[:, :2] = x[:, 1:] - x[:, :2]
+        e[:, 2] = x[:, 0] - x[:, 2]
+        b = np.empty_like(x)
+        b[:, 0], b[:, 1:] = e[:, 2], e[:, :2]
+        edge.append(e.ravel())
+        before.append(b.ravel())
+    ledge, lbefore = np.sqrt(_dot(edge, edge)), np.sqrt(_dot(before, before))
+    gv = _gather(tuple(g), v)
+    out = _dot(edge, gv)  # (a - v) . g
+    into = -_dot(before, gv)  # (b - v) . g
+    margin = _STAR_MARGIN * lg[v]
+    ok &= (np.abs(out) > margin * ledge) & (np.abs(into) > margin * lbefore)
+    winding = np.bincount(v, (out > 0) & (into < 0), n_points)
+    doubt = np.bincount(v, ~ok, n_points)
+    return (winding == 1) & (doubt == 0) & ~_irregular_vertices(tri, n_points)
+
+
+def _within_groups(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(p,)`` int twice: positions ``i < j`` of every pair of equal entries of the
+    sorted ``key`` ``(e,)``.
+    """
+    if len(key) < 2:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    start = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    end = np.repeat(np.r_[start[1:], len(key)], np.diff(np.r_[start, len(key)]))
+    count = end - np.arange(len(key)) - 1
+    first = np.repeat(np.arange(len(key)), count)
+    offset = np.arange(len(first)) - np.repeat(np.cumsum(count) - count, count)
+    return first, first + 1 + offset
+
+
+def _star_pairs(tri: np.ndarray, unclear: np.ndarray) -> np.ndarray:
+    """``(k, 2)`` int, ``i < j``: the pairs of triangles ``(m, 3)`` that share a vertex
+    and whose shared vertices are all ``unclear`` ``(n,) bool``.
+    """
+    t = np.repeat(np.arange(len(tri)), 3)
+    v = tri.ravel()
+    sel = np.flatnonzero(unclear[v])
+    order = np.argsort(v[sel], kind="stable")
+    t, v = t[sel][order], v[sel][order]
+    i, j = _within_groups(v)
+    a, b = t[i], t[j]
+    ta = tri[a]
+    shared = (ta[:, :, None] == tri[b][:, None, :]).any(axis=2)
+    shared_clear = (shared & ~unclear[ta]).any(axis=1)
+    # a pair sharing two unclear vertices is found at both: keep it at the smaller
+    found_before = (shared & (ta < v[i][:, None])).any(axis=1)
+    keep = ~shared_clear & ~found_before
+    return np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)[keep]
+
+
+def _boxes(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(m, 3)`` twice: the lower and upper corners of triangles ``(m, 3, 3)``' boxes."""
+    c0, c1, c2 = corners[:, 0], corners[:, 1], corners[:, 2]
+    return np.minimum(np.minimum(c0, c1), c2), np.maximum(np.maximum(c0, c1), c2)
+
+
+def _cell_entries(c0: np.ndarray, n: np.ndarray, dims: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(e,)`` three times, sorted by cell: every (cell, triangle) of boxes covering the
+    cells ``c0`` to ``c0 + n - 1`` ``(m, 3)`` int on a grid ``dims`` ``(3,)`` (a cell's
+    key: :math:`(z d_y + y) d_x + x`), and a 3-bit mask of the axes along which the cell
+    is the box's first.
+    """
+    key0 = (c0[:, 2] * dims[1] + c0[:, 1]) * dims[0] + c0[:, 0]
+    reach = n.max(axis=0)
+    if int(reach.prod()) > 27:  # a few boxes span many cells: one entry per cell at once
+        count = n.prod(axis=1)
+        t = np.repeat(np.arange(len(n)), count)
+        k = np.arange(len(t)) - np.repeat(np.cumsum(count) - count, count)
+        nt = n[t]
+        d = np.stack([k % nt[:, 0], (k // nt[:, 0]) % nt[:, 1], k // (nt[:, 0] * nt[:, 1])],
+                     axis=1)
+        cell = key0[t] + (d[:, 2] * dims[1] + d[:, 1]) * dims[0] + d[:, 0]
+        first = (d == 0).astype(np.uint8) @ np.array([1, 2, 4], np.uint8)
+    else:  # one run of entries sorted by cell per offset, merged by the stable sort
+        order = np.argsort(key0)
+        n, key0 = n[order], key0[order]
+        cells, tris, firsts = [], [], []
+        for dz in range(int(reach[2])):
+            for dy in range(int(reach[1])):
+                for dx in range(int(reach[0])):
+                    sel = np.flatnonzero((n[:, 0] > dx) & (n[:, 1] > dy) & (n[:, 2] > dz))
+                    cells.append(key0[sel] + ((dz * dims[1] + dy) * dims[0] + dx))
+                    tris.append(order[sel])
+                    firsts.append(np.full(len(sel), (dx == 0) | (dy == 0) << 1
+                                          | (dz == 0) << 2, np.uint8))
+        cell, t, first = np.concatenate(cells), np.concatenate(tris), np.concatenate(firsts)
+    if int(dims.prod()) < 2**31:  # int32 keys sort faster
+        cell = cell.astype(np.int32)
+    order = np.argsort(cell, kind="stable")
+    return cell[order], t[order], first[order]
+
+
+def _home_pairs(cell: np.ndarray, t: np.ndarray, first: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """``(p,)`` int twice: the pairs of entries ``t`` in the same cell of the sorted
+    ``cell`` ``(e,)`` whose masks ``first`` together hold every axis (the pair's home
+    cell), entry ``i`` with entry ``i + d`` for ``d = 1, 2, ...``.
+    """
+    end = np.r_[np.flatnonzero(cell[1:] != cell[:-1]) + 1, len(cell)]
+    end = np.repeat(end, np.diff(np.r_[0, end])).astype(np.int32)
+    idx = np.arange(len(cell), dtype=np.int32)
+    out_a, out_b = [], []
+    d = 1
+    while True:
+        idx = idx[idx + d < end[idx]]
+        if not len(idx):
+            break
+        home = idx[(first[idx] | first[idx + d]) == 7]
+        out_a.append(t[home])
+        out_b.append(t[home + d])
+        d += 1
+    if not out_a:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    return np.concatenate(out_a), np.concatenate(out_b)
+
+
+_CELL = 1.25  # the grid cube over the median box's longest side
+
+
+def _grid_cells(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(3, m)`` int twice: the first and last cells of boxes ``lo``, ``hi`` ``(3, m)``
+    on a grid of cubes ``_CELL`` times the median box's longest side, larger where that would
+    put a box in more than 6 cells on average, and at most 1024 cubes along an axis.
+    """
+    origin = lo.min(axis=1)[:, None]
+    span = float((hi.max(axis=1) - origin[:, 0]).max())
+    side = np.maximum(np.maximum(hi[0] - lo[0], hi[1] - lo[1]), hi[2] - lo[2])
+    size = max(_CELL * float(np.partition(side, len(side) // 2)[len(side) // 2]), span / 1024.0)
+    if not np.isfinite(size) or size <= 0.0:
+        size = span if span > 0 else 1.0
+    while True:
+        c0 = ((lo - origin) * (1.0 / size)).astype(np.int64)
+        c1 = ((hi - origin) * (1.0 / size)).astype(np.int64)
+        if ((c1[0] - c0[0] + 1) * (c1[1] - c0[1] + 1) * (c1[2] - c0[2] + 1)).sum() \
+                <= 6 * len(side) or size >= span:
+            return c0, c1
+        size *= 4.0 / 3.0
+
+
+def _apart_pairs(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """``(k, 2)`` int, ``i < j``: the pairs of triangles ``(m, 3)`` on ``pts`` ``(n, 3)``
+    that share no vertex and whose closed bounding boxes overlap.
+
+    The boxes are binned on a uniform grid (:func:`_grid_cells`); a pair is kept in the
+    one cell it shares that is the lower corner of the two boxes' common range of cells:
+    there, along every axis, the cell is the first of one of the two boxes (a 3-bit mask
+    per entry).
+    """
+    cols = [np.ascontiguousarray(tri[:, k], dtype=np.int32) for k in range(3)]
+    lo, hi = np.empty((3, len(tri))), np.empty((3, len(tri)))
+    for k in range(3):
+        x = np.ascontiguousarray(pts[:, k])
+        a, b, c = x[cols[0]], x[cols[1]], x[cols[2]]
+        np.minimum(np.minimum(a, b, out=lo[k]), c, out=lo[k])
+        np.maximum(np.maximum(a, b, out=hi[k]), c, out=hi[k])
+    c0, c1 = _grid_cells(lo, hi)
+    cell, t, first = _cell_entries(c0.T, (c1 - c0 + 1).T, c1.max(axis=1) + 1)
+    a, b = _home_pairs(cell, t, first)
+    for k in range(3):  # the boxes overlap, one axis at a time
+        lk, hk = lo[k], hi[k]
+        meet = np.flatnonzero((lk[a] <= hk[b]) & (lk[b] <= hk[a]))
+        a, b = a[meet], b[meet]
+    ta, tb = [c[a] for c in cols], [c[b] for c in cols]
+    common = (ta[0] == tb[0]) | (ta[0] == tb[1]) | (ta[0] == tb[2])
+    for p in ta[1:]:
+        common |= (p == tb[0]) | (p == tb[1]) | (p == tb[2])
+    apart = np.flatnonzero(~common)
+    a, b = a[apart], b[apart]
+    return np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)
+
+
 def intersecting_pairs(points, triangles, *, with_degenerate: bool = False):
-    """``(k, 2)`` int, ``i < j``: the pairs of ``triangles`` ``(m, 3)`` on ``points``
-    ``(n, 3)`` that intersect other than through their shared vertices or edge (see the
-    module notes; exact).
+    """``(k, 2)`` int, ``i < j``, in lexicographic order: the pairs of ``triangles``
+    ``(m, 3)`` on ``points`` ``(n, 3)`` that intersect other than through their shared
+    vertices or edge (see the module notes; exact).
 
     With ``with_degenerate``, also returns a ``(k,)`` bool marking the pairs reported only
     because their configuration is degenerate (contact, decided conservatively).
     """
     pts = np.ascontiguousarray(points, dtype=float)
-    tri = np.asarray(triangles, dtype=np.intp)
+    tri = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
     corners = pts[tri]
-    pairs = candidate_pairs(corners)
     e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
     normal, perm = _cross(e1, e2), _abs_cross(e1, e2)
+    if len(tri) < 2:
+        pairs, degen = np.zeros((0, 2), np.intp), np.zeros(0, bool)
+    else:
+        unclear = ~_clear_stars(pts, tri, normal, perm)
+        star, apart = _star_pairs(tri, unclear), _apart_pairs(tri, pts)
+        h1, d1 = _narrow_phase(pts, tri, corners, normal, perm, star)
+        h2, d2 = _apart_narrow_phase(pts, tri, corners, normal, perm, apart)
+        pairs, degen = np.concatenate([star[h1], apart[h2]]), np.concatenate([d1[h1], d2[h2]])
+    order = np.lexsort((pairs[:, 1], pairs[:, 0]))
+    return (pairs[order], degen[order]) if with_degenerate else pairs[order]
+
+
+def _narrow_phase(pts, tri, corners, normal, perm, pairs) -> tuple[np.ndarray, np.ndarray]:
+    """``(k,) bool`` twice: which candidate ``pairs`` ``(k, 2)`` intersect (exact), and
+    which of them only as a degenerate contact.
+    """
     ta, tb = tri[pairs[:, 0]], tri[pairs[:, 1]]
-    eq = ta[:, :, None] == tb[:, None, :]  # (k, 3, 3): corner i of a is corner j of b
-    keep = ~(_separated(pts, ta, pairs[:, 1], eq.any(axis=2), corners, normal, perm)
-             | _separated(pts, tb, pairs[:, 0], eq.any(axis=1), corners, normal, perm))
+    eq = eq_all = ta[:, :, None] == tb[:, None, :]  # (k, 3, 3): corner i of a is j of b
+    keep = np.flatnonzero(~_separated(pts, ta, pairs[:, 1], eq.any(axis=2), corners, normal,
+                                      perm))
+    keep = keep[~_separated(pts, tb[keep], pairs[keep, 0], eq[keep].any(axis=1), corners,
+                            normal, perm)]
     pairs, ta, tb, eq = pairs[keep], ta[keep], tb[keep], eq[keep]
     shared = eq.sum(axis=(1, 2))
     hit = np.zeros(len(pairs), bool)
@@ -321,8 +597,42 @@ def intersecting_pairs(points, triangles, *, with_degenerate: bool = False):
     if len(two):
         hit[two] = _two_shared(pts, pairs[two], ta[two], tb[two], eq[two], corners, normal,
                                perm)
-    out = pairs[hit]
-    return (out, degen[hit]) if with_degenerate else out
+    full_hit, full_degen = np.zeros(len(eq_all), bool), np.zeros(len(eq_all), bool)
+    full_hit[keep], full_degen[keep] = hit, degen & hit
+    return full_hit, full_degen
+
+
+def _apart_narrow_phase(pts, tri, corners, normal, perm, pairs
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_narrow_phase` for ``pairs`` ``(k, 2)`` of triangles that share no vertex."""
+    ta, tb = tri[pairs[:, 0]], tri[pairs[:, 1]]
+    cols = [np.ascontiguousarray(x) for x in (*pts.T, *corners[:, 0].T, *normal.T, *perm.T)]
+    keep = np.flatnonzero(~_apart_separated(cols, ta, pairs[:, 1]))
+    keep = keep[~_apart_separated(cols, tb[keep], pairs[keep, 0])]
+    hit, degen = np.zeros(len(pairs), bool), np.zeros(len(pairs), bool)
+    if len(keep):
+        h, d = _disjoint(pts, pairs[keep], ta[keep], tb[keep], None, corners, normal, perm)
+        hit[keep], degen[keep] = h | d, d & ~h
+    return hit, degen
+
+
+def _apart_separated(cols: list[np.ndarray], tv: np.ndarray, other: np.ndarray
+                     ) -> np.ndarray:
+    """:func:`_separated` for triangles that share no corner, on columns ``cols``: the
+    points' three coordinates, then the triangles' first corners', normals' and
+    permanents'.
+    """
+    t0 = [c[other] for c in cols[3:6]]
+    n = [c[other] for c in cols[6:9]]
+    pm = [c[other] for c in cols[9:12]]
+    pos = neg = None
+    for i in range(3):
+        u = [c[tv[:, i]] - t for c, t in zip(cols[:3], t0, strict=True)]
+        det = u[0] * n[0] + u[1] * n[1] + u[2] * n[2]
+        bound = _ERR3 * (np.abs(u[0]) * pm[0] + np.abs(u[1]) * pm[1] + np.abs(u[2]) * pm[2])
+        above, below = det > bound, det < -bound
+        pos, neg = (above, below) if pos is None else (pos & above, neg & below)
+    return pos | neg
 
 
 def _separated(pts, tv, other, is_shared, corners, normal, perm) -> np.ndarray:
@@ -330,14 +640,16 @@ def _separated(pts, tv, other, is_shared, corners, normal, perm) -> np.ndarray:
     strictly on one side of the plane of triangles ``other`` ``(k,)``, certainly (float
     signs beyond the error bound; an uncertain sign keeps the pair for the exact test).
     """
-    t0 = corners[other, 0]
-    n, pm = normal[other], perm[other]
+    t0 = [np.ascontiguousarray(corners[other, 0, c]) for c in range(3)]
+    n = [normal[other, c] for c in range(3)]
+    pm = [perm[other, c] for c in range(3)]
     pos = np.ones(len(tv), bool)
     neg = np.ones(len(tv), bool)
     for i in range(3):
-        u = pts[tv[:, i]] - t0
-        det = np.einsum("ij,ij->i", u, n)
-        bound = _ERR3 * np.einsum("ij,ij->i", np.abs(u), pm)
+        p = pts[tv[:, i]]
+        u = [p[:, c] - t0[c] for c in range(3)]
+        det = u[0] * n[0] + u[1] * n[1] + u[2] * n[2]
+        bound = _ERR3 * (np.abs(u[0]) * pm[0] + np.abs(u[1]) * pm[1] + np.abs(u[2]) * pm[2])
         free = ~is_shared[:, i]
         pos &= ~free | (det > bound)
         neg &= ~free | (det < -bound)
@@ -345,15 +657,14 @@ def _separated(pts, tv, other, is_shared, corners, normal, perm) -> np.ndarray:
 
 
 def _disjoint(pts, pairs, ta, tb, eq, corners, normal, perm):
-    hit = np.zeros(len(pairs), bool)
-    degen = np.zeros(len(pairs), bool)
-    for other, tv in ((1, ta), (0, tb)):
-        for i, j in ((0, 1), (1, 2), (2, 0)):
-            h, d, _, _ = _segment_meets(pts[tv[:, i]], pts[tv[:, j]], pairs[:, other],
-                                        corners, normal, perm)
-            hit |= h
-            degen |= d
-    return hit, degen
+    """The six edges of two triangles with no common vertex against the other triangle,
+    in one call.
+    """
+    p = np.concatenate([pts[tv[:, i]] for tv in (ta, tb) for i in range(3)])
+    q = np.concatenate([pts[tv[:, j]] for tv in (ta, tb) for j in (1, 2, 0)])
+    against = np.concatenate([np.tile(pairs[:, 1], 3), np.tile(pairs[:, 0], 3)])
+    h, d, _, _ = _segment_meets(p, q, against, corners, normal, perm)
+    return h.reshape(6, -1).any(axis=0), d.reshape(6, -1).any(axis=0)
 
 
 def _one_shared(pts, pairs, ta, tb, eq, corners, normal, perm):

@@ -10,6 +10,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 from scipy.spatial import cKDTree
 
+from .certificate import _abs_cross, _apart_pairs, _clear_stars, _cross, _star_pairs
+
 __all__ = ["MeshError", "MeshReport", "TriangleSurface", "barycentric_points", "block_pcg",
            "closest_on_triangles", "closest_points", "cotangent_laplacian", "occluded",
            "phong_midpoints", "ray_on_triangles", "self_intersections", "shape_operators",
@@ -1101,23 +1103,24 @@ def self_intersections(surface: TriangleSurface, chunk: int = 200_000) -> np.nda
     :math:`(a, b, c)` at barycentric :math:`(1 - u - v, u, v)` with :math:`0 < t < 1`,
     :math:`u, v > 0`, :math:`u + v < 1`, all strictly, by a margin of 1e-9). A shared corner
     is a touch, not a crossing: a pair sharing a vertex crosses only if an edge away from
-    that vertex passes through the other. Candidate pairs are those whose bounding spheres
-    (centroid, farthest corner) overlap. Coplanar overlaps are not reported.
+    that vertex passes through the other. Candidate pairs are those whose bounding boxes
+    overlap (the certificate's grid, :mod:`~wrinkle_vis.core.certificate`), less the pairs
+    sharing a vertex whose star the certificate proves cannot cross itself; the pairs come
+    in lexicographic order. Coplanar overlaps are not reported.
     """
     pts = np.asarray(surface.points, float)
     tri = np.asarray(surface.triangles)
     if len(tri) < 2:
         return np.zeros((0, 2), np.intp)
+    # pairs that share one vertex whose star may cross itself (every such pair has
+    # overlapping boxes), and those that share no vertex and whose boxes overlap
     corners = pts[tri]
-    centre = corners.mean(axis=1)
-    radius = np.linalg.norm(corners - centre[:, None], axis=2).max(axis=1)
-    pairs = cKDTree(centre).query_pairs(2.0 * float(radius.max()), output_type="ndarray")
-    if len(pairs) == 0:
-        return np.zeros((0, 2), np.intp)
-    gap = np.linalg.norm(centre[pairs[:, 0]] - centre[pairs[:, 1]], axis=1)
-    pairs = pairs[gap <= radius[pairs[:, 0]] + radius[pairs[:, 1]]]
+    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    unclear = ~_clear_stars(pts, tri, _cross(e1, e2), _abs_cross(e1, e2))
+    pairs = np.concatenate([_star_pairs(tri, unclear), _apart_pairs(tri, pts)])
     shared = (tri[pairs[:, 0]][:, :, None] == tri[pairs[:, 1]][:, None, :]).sum(axis=(1, 2))
     pairs = pairs[shared < 2]
+    pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
     hits = np.zeros(len(pairs), bool)
     for start in range(0, len(pairs), chunk):
         part = pairs[start:start + chunk]
