@@ -318,8 +318,9 @@ def _irregular_vertices(tri: np.ndarray, n_points: int) -> np.ndarray:
     running it in opposite directions (boundary, non-manifold or misoriented edges).
     """
     small = 2 * n_points * n_points < 2**31  # int32 keys sort faster
-    a, b = (x.astype(np.int32 if small else np.int64)
-            for x in (tri.ravel(), tri[:, [1, 2, 0]].ravel()))
+    kind = np.int32 if small else np.int64
+    a: np.ndarray = tri.ravel().astype(kind)
+    b: np.ndarray = tri[:, [1, 2, 0]].ravel().astype(kind)
     key = np.sort((np.minimum(a, b) * n_points + np.maximum(a, b)) * 2 + (a < b))
     und = key >> 1
     start = np.flatnonzero(np.r_[True, und[1:] != und[:-1]])
@@ -625,13 +626,12 @@ def _apart_separated(cols: list[np.ndarray], tv: np.ndarray, other: np.ndarray
     t0 = [c[other] for c in cols[3:6]]
     n = [c[other] for c in cols[6:9]]
     pm = [c[other] for c in cols[9:12]]
-    pos = neg = None
+    pos = neg = np.ones(len(other), dtype=bool)
     for i in range(3):
         u = [c[tv[:, i]] - t for c, t in zip(cols[:3], t0, strict=True)]
         det = u[0] * n[0] + u[1] * n[1] + u[2] * n[2]
         bound = _ERR3 * (np.abs(u[0]) * pm[0] + np.abs(u[1]) * pm[1] + np.abs(u[2]) * pm[2])
-        above, below = det > bound, det < -bound
-        pos, neg = (above, below) if pos is None else (pos & above, neg & below)
+        pos, neg = pos & (det > bound), neg & (det < -bound)
     return pos | neg
 
 
