@@ -32,7 +32,6 @@ from scipy.sparse.linalg import spsolve
 from wrinkle_vis.core.certificate import intersecting_pairs
 
 __all__ = ["separate_crossings"]
-_DEBUG = False
 
 
 def _unit_normals(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
@@ -161,7 +160,6 @@ def separate_crossings(points: np.ndarray, triangles: np.ndarray, region: np.nda
         targets, asked = _targets(pts, tri, seen, gap)
         if not len(pairs) and np.linalg.norm(targets, axis=1).max() <= 0.025 * gap:
             return pts
-        if _DEBUG: print(len(pairs), len(seen), asked.sum(), np.linalg.norm(targets, axis=1).max(), flush=True)
         pts += _smooth_step(adjacency, targets, asked, smoothness, rings)
     raise RuntimeError(f"the sheets still cross after {max_steps} steps; "
                        "raise max_steps or smoothness")
