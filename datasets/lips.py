@@ -101,7 +101,7 @@ def _smooth_step(adjacency: sp.csr_matrix, targets: np.ndarray, asked: np.ndarra
 
 
 def folded_pairs(points: np.ndarray, triangles: np.ndarray, region: np.ndarray,
-                 max_cos: float = -0.5, radius: float = 0.0) -> np.ndarray:
+                 max_cos: float = -0.5) -> np.ndarray:
     """``(k, 2)`` int: pairs of triangles ``(m, 3)`` inside ``region`` ``(n,) bool`` that
     share a vertex and face each other (the cosine of their normals at most ``max_cos``):
     the skin folded back on itself around that vertex (the corners of a closed mouth).
@@ -113,11 +113,6 @@ def folded_pairs(points: np.ndarray, triangles: np.ndarray, region: np.ndarray,
     inc = inc[np.flatnonzero(region)]
     pairs = sp.triu(inc.T @ inc, k=1).tocoo()
     pairs = np.column_stack([pairs.row, pairs.col]).astype(np.intp)
-    if radius > 0:
-        from scipy.spatial import cKDTree
-        c = np.asarray(points, float)[tri].mean(axis=1)
-        near = cKDTree(c).query_pairs(radius, output_type="ndarray").astype(np.intp)
-        pairs = np.unique(np.vstack([pairs, np.sort(near, axis=1)]), axis=0)
     inside = np.asarray(region, bool)[tri].all(axis=1)
     pairs = pairs[inside[pairs].all(axis=1)]
     fn = _unit_normals(np.asarray(points, float), tri)
@@ -127,8 +122,8 @@ def folded_pairs(points: np.ndarray, triangles: np.ndarray, region: np.ndarray,
 
 def separate_crossings(points: np.ndarray, triangles: np.ndarray, region: np.ndarray,
                        gap: float = 1.0, smoothness: float = 1.0, rings: int = 2,
-                       max_steps: int = 100, float32: bool = True, folds: bool = False,
-                       near: float = 0.0) -> np.ndarray:
+                       max_steps: int = 100, float32: bool = True, folds: bool = False
+                       ) -> np.ndarray:
     r"""``(n, 3)``: ``points`` ``(n, 3)`` with the sheets of ``triangles`` ``(m, 3)`` that
     cross each other inside ``region`` ``(n,) bool`` (both triangles' corners in it) moved
     apart until none does and every pair that crossed stands ``gap`` apart (to within
@@ -147,8 +142,7 @@ def separate_crossings(points: np.ndarray, triangles: np.ndarray, region: np.nda
                               shape=(n, n)).tocsr()
     adjacency.data[:] = 1.0
     inside = np.asarray(region, bool)[tri].all(axis=1)
-    seen = (folded_pairs(pts, tri, region, radius=near) if folds
-            else np.zeros((0, 2), np.intp))
+    seen = folded_pairs(pts, tri, region) if folds else np.zeros((0, 2), np.intp)
     for _ in range(max_steps):
         if float32:
             pts = pts.astype(np.float32).astype(float)
