@@ -120,16 +120,45 @@ def folded_pairs(points: np.ndarray, triangles: np.ndarray, region: np.ndarray,
     return pairs[cos <= max_cos]
 
 
+def facing_pairs(points: np.ndarray, triangles: np.ndarray, region: np.ndarray,
+                 distance: float, max_cos: float = -0.5) -> np.ndarray:
+    """``(k, 2)`` int: pairs of triangles ``(m, 3)`` inside ``region`` ``(n,) bool`` with no
+    common vertex, facing each other (cosine of their normals at most ``max_cos``), with
+    corners closer than ``distance``: the two lips across a narrow slit.
+    """
+    from scipy.spatial import cKDTree
+
+    tri = np.asarray(triangles, dtype=np.intp)
+    pts = np.asarray(points, dtype=float)
+    inside = np.flatnonzero(np.asarray(region, bool)[tri].all(axis=1))
+    ids = np.unique(tri[inside])
+    close = ids[cKDTree(pts[ids]).query_pairs(distance, output_type="ndarray")]
+    m = len(tri)
+    inc = sp.csr_matrix((np.ones(3 * len(inside)), (tri[inside].ravel(),
+                                                    np.repeat(inside, 3))), shape=(len(pts), m))
+    link = sp.csr_matrix((np.ones(len(close)), (close[:, 0], close[:, 1])),
+                         shape=(len(pts), len(pts)))
+    near = (inc.T @ (link + link.T) @ inc).tocoo()
+    pairs = np.column_stack([near.row, near.col]).astype(np.intp)
+    pairs = pairs[pairs[:, 0] < pairs[:, 1]]
+    shared = (tri[pairs[:, 0]][:, :, None] == tri[pairs[:, 1]][:, None, :]).any(axis=(1, 2))
+    fn = _unit_normals(pts, tri)
+    cos = np.einsum("ij,ij->i", fn[pairs[:, 0]], fn[pairs[:, 1]])
+    return pairs[~shared & (cos <= max_cos)]
+
+
 def separate_crossings(points: np.ndarray, triangles: np.ndarray, region: np.ndarray,
                        gap: float = 1.0, smoothness: float = 1.0, rings: int = 2,
-                       max_steps: int = 100, float32: bool = True, folds: bool = False
-                       ) -> np.ndarray:
+                       max_steps: int = 100, float32: bool = True, folds: bool = False,
+                       hold: np.ndarray | None = None, strict: bool = True) -> np.ndarray:
     r"""``(n, 3)``: ``points`` ``(n, 3)`` with the sheets of ``triangles`` ``(m, 3)`` that
     cross each other inside ``region`` ``(n,) bool`` (both triangles' corners in it) moved
     apart until none does and every pair that crossed stands ``gap`` apart (to within
     5 %) along the other's normal (module notes); ``smoothness`` is :math:`\lambda`.
     ``float32``: the result rounded to float32 (as the package stores it) and checked so.
-    ``folds``: the pairs of :func:`folded_pairs` at rest are held ``gap`` apart as well.
+    ``folds``: the pairs of :func:`folded_pairs` at rest are held ``gap`` apart as well;
+    so are the triangle pairs ``hold`` ``(h, 2)``. ``strict=False``: when the gap is not
+    reached within ``max_steps``, the last step's skin that had no crossing is returned.
 
     Raises ``RuntimeError`` when crossings are left after ``max_steps`` steps.
     """
@@ -143,6 +172,9 @@ def separate_crossings(points: np.ndarray, triangles: np.ndarray, region: np.nda
     adjacency.data[:] = 1.0
     inside = np.asarray(region, bool)[tri].all(axis=1)
     seen = folded_pairs(pts, tri, region) if folds else np.zeros((0, 2), np.intp)
+    if hold is not None and len(hold):
+        seen = np.unique(np.vstack([seen, np.sort(np.asarray(hold, np.intp), axis=1)]), axis=0)
+    clear = None
     for _ in range(max_steps):
         if float32:
             pts = pts.astype(np.float32).astype(float)
@@ -152,8 +184,12 @@ def separate_crossings(points: np.ndarray, triangles: np.ndarray, region: np.nda
         if not len(seen):
             return pts
         targets, asked = _targets(pts, tri, seen, gap)
-        if not len(pairs) and np.linalg.norm(targets, axis=1).max() <= 0.025 * gap:
-            return pts
+        if not len(pairs):
+            if np.linalg.norm(targets, axis=1).max() <= 0.025 * gap:
+                return pts
+            clear = pts.copy()
         pts += _smooth_step(adjacency, targets, asked, smoothness, rings)
+    if clear is not None and not strict:
+        return clear
     raise RuntimeError(f"the sheets still cross after {max_steps} steps; "
                        "raise max_steps or smoothness")

@@ -24,7 +24,7 @@ import wrinkle_vis as wv
 from wrinkle_vis.core.mesh import closest_points
 from wrinkle_vis.datasets import BUILTIN_LAYOUT, read_surface, transfer_layout
 from wrinkle_vis.datasets.lee_perry_smith import DATA, LAYOUT
-from wrinkle_vis.datasets.lips import separate_crossings
+from wrinkle_vis.datasets.lips import facing_pairs, separate_crossings
 from wrinkle_vis.datasets.scans import similarity_transform
 from wrinkle_vis.datasets.skull import scan_skull
 from wrinkle_vis.plotting.bake import read_obj_uvs
@@ -52,19 +52,27 @@ def to_builtin_frame(skin, landmarks):
 LIPS_RADIUS = 40.0
 #: How far apart the lips' sheets are held where they crossed or folded onto each other, mm.
 LIPS_GAP = 1.0
+#: Then how far apart the lips are held across the slit wherever they face each other closer
+#: than LIPS_GAP + 0.1 mm (the mouth's corners, where the pulls press them together), mm.
+LIPS_SLIT = 1.8
 
 
 def separate_lips(skin, marks):
     """The skin with the lips' sheets, which pass through each other at the closed mouth's
     slit and fold flat onto each other at its corners, moved apart
-    (:func:`~wrinkle_vis.datasets.lips.separate_crossings`, float32 as stored): the rest
-    skin then crosses itself only at the eyelids.
+    (:func:`~wrinkle_vis.datasets.lips.separate_crossings`, float32 as stored), then held
+    :data:`LIPS_SLIT` apart wherever they face each other across the slit closer than
+    :data:`LIPS_GAP` + 0.1 mm (as far as 40 steps get, never crossing): the rest skin then
+    crosses itself only at the eyelids and an ear.
     """
     mid = 0.5 * (np.asarray(marks["mouth_corner_L"]) + np.asarray(marks["mouth_corner_R"]))
     region = np.linalg.norm(skin.points - mid, axis=1) < LIPS_RADIUS
-    points = separate_crossings(skin.points, skin.triangles, region, gap=LIPS_GAP,
-                                folds=True)
-    return wv.TriangleSurface(points, skin.triangles)
+    tri = skin.triangles
+    points = separate_crossings(skin.points, tri, region, gap=LIPS_GAP, folds=True)
+    slit = facing_pairs(points, tri, region, LIPS_GAP + 0.1, max_cos=-0.8)
+    points = separate_crossings(points, tri, region, gap=LIPS_SLIT, folds=True, hold=slit,
+                                strict=False, max_steps=40)
+    return wv.TriangleSurface(points, tri)
 
 
 def compact(surface):
