@@ -7,8 +7,7 @@ read and welded (datasets.read_surface), its corner UVs read (plotting.bake.read
 moved into the built-in frame in millimetres by the rotation of the similarity that takes
 the procedural face's landmarks onto the scan's (datasets/examples/lee_perry_smith.json,
 picked on a front view), its lips moved apart where they pass through each other at the
-slit or fold flat onto each other at the corners (separate_lips; the skull is that of the
-scan before), and stored as float32; the skull is the level set of
+slit or fold flat onto each other at the corners (separate_lips), and stored as float32; the skull is the level set of
 datasets.skull.scan_skull; the muscles are the procedural layout moved by the landmarks
 (datasets.scans.transfer_layout), then the frontalis sheets refitted to this forehead
 (fit_frontalis). The original OBJ is never copied into the package.
@@ -110,8 +109,8 @@ def main(path: Path) -> None:
     scanned = compact(scan.with_points(move(scan.points)))
     marks = {k: tuple(map(float, closest_points(scanned, move(v)[None])[0]))
              for k, v in marks_m.items()}
-    skull = compact(scan_skull(scanned, marks))  # the scan's, as before the lips moved
     skin = separate_lips(scanned, marks)
+    skull = compact(scan_skull(skin, marks))
     assert all(np.allclose(closest_points(skin, np.asarray(v)[None])[0], v)
                for v in marks.values()), "a landmark sits on the lips that moved"
     layout = transfer_layout(wv.load_layout(BUILTIN_LAYOUT), skin, marks, skull)
