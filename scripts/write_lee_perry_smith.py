@@ -7,10 +7,10 @@ read and welded (datasets.read_surface), its corner UVs read (plotting.bake.read
 moved into the built-in frame in millimetres by the rotation of the similarity that takes
 the procedural face's landmarks onto the scan's (datasets/examples/lee_perry_smith.json,
 picked on a front view), its lips moved apart where they pass through each other at the
-slit or fold flat onto each other at the corners (separate_lips), and stored as float32; the skull is the level set of
-datasets.skull.scan_skull; the muscles are the procedural layout moved by the landmarks
-(datasets.scans.transfer_layout), then the frontalis sheets refitted to this forehead
-(fit_frontalis). The original OBJ is never copied into the package.
+slit or fold flat onto each other at the corners (separate_lips), and stored as float32;
+the skull is the level set of datasets.skull.scan_skull; the muscles are the procedural
+layout moved by the landmarks (datasets.scans.transfer_layout), then the frontalis sheets
+refitted to this forehead (fit_frontalis). The original OBJ is never copied into the package.
 """
 
 import dataclasses
