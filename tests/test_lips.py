@@ -126,3 +126,13 @@ def test_facing_pairs_and_hold_open_a_narrow_slit():
     out = separate_crossings(pts, tri, everywhere, gap=0.8, hold=slit, float32=False)
     n = len(lower)
     assert (out[n:, 2] - out[:n, 2]).min() > 0.95 * 0.8 - 1e-9
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ("smile", "pucker"))
+def test_the_heads_refined_smile_and_pucker_add_no_crossing(head, name):
+    # main's head: 995 and 1,269 added pairs on 712 and 1,157 at rest (the refined slit)
+    s = head.evaluate(name, 1.0, refine=True)
+    rest = intersecting_pairs(s.rest_points, s.triangles)
+    assert len(rest) <= 125  # the eyelids and an ear; the refined lips cross nowhere
+    assert fold_report(s.rest_points, s.points, s.triangles, rest).ok
