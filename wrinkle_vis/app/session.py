@@ -15,7 +15,7 @@ import numpy as np
 from ..core.editing import mirror_name, mirrored, snapped, unique_name
 from ..core.expressions import Expression
 from ..core.face import FIELD_NAMES, FaceModel, FaceState
-from ..core.fields import FRAME_FIELDS, check_field
+from ..core.fields import FRAME_FIELDS, check_field, field_spec
 from ..core.layout import Layout, load_layout, save_layout
 from ..core.muscle import Muscle
 from ..core.params import Parameter
@@ -144,6 +144,9 @@ class Session:
         self.frame_ms = 0.0  # how long the last evaluation took
         self.performance: Performance | None = None  # a recorded track, shown by its name
         self._state: FaceState | None = None
+        # the probed point's muscles and rest-skin fields (:meth:`_probe_rest`)
+        self._probe_memo: tuple | None = None
+        self._above_memo: tuple | None = None
         # Play on the physical skin: the simulation (:mod:`wrinkle_vis.app.physics`)
         self.physics = PhysicalPlayback(self.activations_at,
                                         lambda: self.current_expression().duration_s)
@@ -580,7 +583,7 @@ class Session:
         refined frame (whose vertices and numbering change with each evaluation) the
         closest point of its rest skin to ``where``'s rest position.
         """
-        from ..core.mesh import barycentric_points, closest_on_triangles, ray_on_triangles
+        from ..core.mesh import closest_on_triangles, ray_on_triangles
 
         state, base = self.state(), self.face.skin
         if not 0 <= where.triangle < base.n_triangles:
@@ -592,17 +595,32 @@ class Session:
         # a refined frame: its triangles over the base triangle, bent onto the smooth rest
         # surface; the point is the one straight above (or below) ``where`` along the base
         # triangle's normal, as :meth:`surface_point` projects it back down
-        rest = barycentric_points(base, [where.triangle], bary[None])[0]
-        corners = base.points[base.triangles[where.triangle]]
-        reach = 2.0 * np.linalg.norm(corners - corners.mean(axis=0), axis=1).max()
+        rest, normal, reach = self._above(where)
         skin = state.face.skin
-        near = np.linalg.norm(skin.points - rest, axis=1) <= reach
-        candidates = np.flatnonzero(near[skin.triangles].any(axis=1))
-        normal = np.cross(corners[1] - corners[0], corners[2] - corners[0])
+        candidates = _triangles_near(skin.points, skin.triangles, rest, reach)
         found = ray_on_triangles(skin, candidates, rest, normal)
         tri, weights = found if found is not None else closest_on_triangles(
             skin, candidates, rest)
         return state, skin.triangles[tri], weights
+
+    def _above(self, where: SurfacePoint) -> tuple[np.ndarray, np.ndarray, float]:
+        """Where ``where`` is on the skin at rest ``(3,)``, its triangle's normal ``(3,)``
+        (not normalized) and how far a refined frame's triangles over it may reach (twice
+        its largest distance from a corner to the middle), kept for the face and point.
+        """
+        from ..core.mesh import barycentric_points
+
+        memo = self._above_memo
+        if memo is not None and memo[0] is self.face and memo[1] == where:
+            return memo[2]
+        base = self.face.skin
+        rest = barycentric_points(base, [where.triangle],
+                                  np.asarray(where.barycentric, float)[None])[0]
+        corners = base.points[base.triangles[where.triangle]]
+        reach = 2.0 * float(np.linalg.norm(corners - corners.mean(axis=0), axis=1).max())
+        normal = np.cross(corners[1] - corners[0], corners[2] - corners[0])
+        self._above_memo = (self.face, where, (rest, normal, reach))
+        return rest, normal, reach
 
     def probe(self, where: SurfacePoint | int) -> dict:
         r"""Every field's value in the frame shown at rest-skin point ``where`` (or at skin
@@ -620,15 +638,38 @@ class Session:
         if not isinstance(where, SurfacePoint):
             where = self.vertex_point(int(where))
         state, corners, weights = self._located(where)
-        at = state.values_at(corners)  # from the compact per-muscle data
-        out = {"total": {"W": _interpolated(at["total"]["W"], weights),
+        out = {"total": {"W": _interpolated(state.W[corners], weights),
                          **{k: _interpolated(np.asarray(state.field_values(k))[corners],
                                              weights) for k in FRAME_FIELDS}}}
-        for name in (m for m in self.face.muscle_names if m in at):  # the others: nan
-            values = {f: _interpolated(at[name][f], weights) for f in FIELD_NAMES}
+        for name, kept in self._probe_rest(state, corners, weights).items():
+            at = state.fields[name].at(corners)  # from the compact per-muscle data
+            values = {f: kept[f] if f in kept else _interpolated(at[f], weights)
+                      for f in FIELD_NAMES}
             if any(np.isfinite(v) for v in values.values()):
                 out[name] = values
         return out
+
+    def _probe_rest(self, state: FaceState, corners: np.ndarray, weights: np.ndarray
+                    ) -> dict[str, dict[str, float]]:
+        """The muscles whose AOI holds one of the probed point's ``corners`` ``(3,)`` (the
+        others have no value there), each with its fields that depend on the rest skin
+        alone (:attr:`~wrinkle_vis.core.fields.FieldSpec.rest`) at the point: read from
+        the compact per-muscle data (:meth:`FaceState.values_at`) once, then kept while
+        the face, the corners' rest positions and the weights stay the same (Play moves
+        the frame, not the point; a refined frame renumbers its vertices, so the corners
+        are known by where they are at rest).
+        """
+        rest = state.face.skin.points[corners]
+        key = (rest.tobytes(), weights.tobytes(), tuple(FIELD_NAMES))
+        memo = self._probe_memo
+        if memo is not None and memo[0] is self.face and memo[1] == key:
+            return memo[2]
+        at = state.values_at(corners)
+        static = [f for f in FIELD_NAMES if field_spec(f).rest]
+        kept = {name: {f: _interpolated(at[name][f], weights) for f in static}
+                for name in self.face.muscle_names if name in at}
+        self._probe_memo = (self.face, key, kept)
+        return kept
 
     def probe_position(self, where: SurfacePoint | int) -> tuple[np.ndarray, np.ndarray]:
         """``((3,), (3,))``: rest-skin point ``where`` at rest and in the frame shown (its
@@ -745,6 +786,17 @@ def _interpolated(v: np.ndarray, weights: np.ndarray) -> float:
     if not ok[nearest] or weights[nearest] == 1.0:
         return float(v[nearest])  # undefined, or at a vertex: its value as it is
     return float(weights[ok] @ v[ok] / weights[ok].sum())
+
+
+def _triangles_near(points: np.ndarray, triangles: np.ndarray, centre: np.ndarray,
+                    reach: float) -> np.ndarray:
+    r"""``(t,)``: the triangles ``(m, 3)`` with a corner of ``points`` ``(n, 3)`` within
+    ``reach`` of ``centre`` ``(3,)`` (:math:`|p - c|^2 \le r^2`).
+    """
+    d = points - centre
+    near = np.einsum("ij,ij->i", d, d) <= reach * reach
+    hit = near.take(triangles.ravel()).reshape(-1, 3)
+    return np.flatnonzero(hit[:, 0] | hit[:, 1] | hit[:, 2])
 
 
 def playback_position(start: int, elapsed_s: float, duration_s: float,
