@@ -139,7 +139,6 @@ class Session:
         self.muscle: str | None = None  # None: the total
         self.refine = False  # adaptive refinement (paper Fig. 11)
         self.overrides: dict[str, float] = {}  # activations set by hand, over the expression
-        self.fixed_range: tuple[float, float] | None = None  # colour range (None: automatic)
         self.dirty = False
         self.frame_ms = 0.0  # how long the last evaluation took
         self.performance: Performance | None = None  # a recorded track, shown by its name
@@ -347,21 +346,11 @@ class Session:
         active = [m for m in self.face.muscles if state.activations.get(m.name, 0.0) > 0.0]
         return undersampled_line(undersampled_muscles(self.face.skin, active))
 
-    def set_fixed_range(self, lo_hi: tuple[float, float] | None) -> None:
-        """Fix the colour range to ``(lo, hi)`` with ``lo < hi`` (None: automatic)."""
-        if lo_hi is not None:
-            lo, hi = map(float, lo_hi)
-            if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
-                raise ValueError(f"colour range [{lo:g}, {hi:g}]: min must be below max")
-            lo_hi = (lo, hi)
-        self.fixed_range = lo_hi
-
     def colour_range(self, state: FaceState | None = None) -> tuple[float, float]:
-        """The colour range of the field on display: the fixed one, else the frame's own
-        (:func:`~wrinkle_vis.plotting.field_range`).
+        """The frame's own colour range of the field on display
+        (:func:`~wrinkle_vis.plotting.field_range`; a fixed one is the display's,
+        :class:`~wrinkle_vis.app.models.DisplayOptions`).
         """
-        if self.fixed_range is not None:
-            return self.fixed_range
         return field_range(field_info(self.field), self.field_values(state))
 
     def ramp_range(self, samples: int = 9) -> tuple[float, float]:
@@ -369,8 +358,6 @@ class Session:
         the current intensity, without refinement): the union of ``samples`` frames of the
         onset and the peak. The release mirrors the onset.
         """
-        if self.fixed_range is not None:
-            return self.fixed_range
         info = field_info(self.field)
         if info.limits is not None:
             return info.limits
