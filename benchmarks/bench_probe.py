@@ -1,6 +1,7 @@
 """The app's probe per frame (``Session.probe``: every field at the probed point of the rest
-skin, read from the compact per-muscle data), with this tree's code and a baseline tree's,
-side by side in one run.
+skin, read from the compact per-muscle data, and ``Session.probe_position``, where its
+marker goes: what the probe panel asks each frame), with this tree's code and a baseline
+tree's, side by side in one run.
 
 Run:  .venv/bin/python benchmarks/bench_probe.py [--baseline /tmp/base] [--triangles 4500]
       [--expressions surprise frown] [--frames 15] [--rounds 3]
@@ -81,6 +82,7 @@ def one_round(triangles: int, expressions: list[str], frames: int) -> dict:
                     session.state()
                     t1, c1 = time.perf_counter(), time.process_time()
                     got = session.probe(where)
+                    session.probe_position(where)  # the marker's: the panel asks both
                     t2, c2 = time.perf_counter(), time.process_time()
                     if not timed:
                         continue
