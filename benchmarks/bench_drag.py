@@ -53,7 +53,7 @@ def drag_times(face, size, steps: int, rebuild: bool, anti_aliasing: bool,
     """Seconds of each of ``steps`` updates of one drag of the muscle's insertion handle."""
     session = Session(face)
     session.set_field("W", MUSCLE)
-    options = DisplayOptions(field="W", muscle=MUSCLE)  # multisampling: the theme's
+    options = DisplayOptions(field="W", muscle=MUSCLE, anti_aliasing=anti_aliasing)
     views = make_views(size, anti_aliasing)
     times: list[float] = []
 

@@ -210,3 +210,15 @@ def test_the_display_owns_the_colour_map_range_and_camera(make_window, wv_face):
     assert w.skin_view.camera_position == position
     w.range_box.setCurrentText("automatic")
     assert w.display.options.clim is None and not w.range_min.isEnabled()
+
+
+def test_the_views_multisample_only_when_the_display_says(make_window):
+    """PyVista's theme turns multisampling on (about 2.5x the render in software); the
+    views follow the display's option from the first frame on."""
+    w = make_window()
+    samples = lambda: [p.render_window.GetMultiSamples() for p in w.plotters]  # noqa: E731
+    assert not w.display.options.anti_aliasing and samples() == [0, 0, 0]
+    w.set_anti_aliasing(True)
+    assert all(n > 1 for n in samples())
+    w.set_anti_aliasing(False)
+    assert samples() == [0, 0, 0]

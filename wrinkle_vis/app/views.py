@@ -77,7 +77,9 @@ class LinkedViews:
         self.on_move, self.on_start = on_move, on_start
         self.placement = None
         self.raking_light = False
-        self.anti_aliasing = False
+        # multisampling as the options last said (None: as the plotters' theme made it,
+        # which the first draw replaces: PyVista's theme may turn it on)
+        self.anti_aliasing: bool | None = None
         self._key = None
         self._topology = None  # (number of points, triangles) of the drawn skin
         self._ghost_topology = None  # the same of the muscles view's skin
