@@ -631,13 +631,13 @@ class Session:
         if not isinstance(where, SurfacePoint):
             where = self.vertex_point(int(where))
         state, corners, weights = self._located(where)
-        out = {"total": {"W": _interpolated(state.W[corners], weights),
-                         **{k: _interpolated(np.asarray(state.field_values(k))[corners],
-                                             weights) for k in FRAME_FIELDS}}}
+        interpolated = _Interpolated(weights)
+        out = {"total": {"W": interpolated(state.W[corners]),
+                         **{k: interpolated(np.asarray(state.field_values(k))[corners])
+                            for k in FRAME_FIELDS}}}
         for name, kept in self._probe_rest(state, corners, weights).items():
             at = state.fields[name].at(corners)  # from the compact per-muscle data
-            values = {f: kept[f] if f in kept else _interpolated(at[f], weights)
-                      for f in FIELD_NAMES}
+            values = {f: kept[f] if f in kept else interpolated(at[f]) for f in FIELD_NAMES}
             if any(np.isfinite(v) for v in values.values()):
                 out[name] = values
         return out
@@ -659,7 +659,8 @@ class Session:
             return memo[2]
         at = state.values_at(corners)
         static = [f for f in FIELD_NAMES if field_spec(f).rest]
-        kept = {name: {f: _interpolated(at[name][f], weights) for f in static}
+        interpolated = _Interpolated(weights)
+        kept = {name: {f: interpolated(at[name][f]) for f in static}
                 for name in self.face.muscle_names if name in at}
         self._probe_memo = (self.face, key, kept)
         return kept
@@ -769,16 +770,29 @@ class SurfacePoint:
     barycentric: tuple[float, float, float]
 
 
-def _interpolated(v: np.ndarray, weights: np.ndarray) -> float:
+class _Interpolated:
     """Values ``v`` ``(3,)`` on a triangle's corners at the point with ``weights`` ``(3,)``
-    there: the weighted mean over the corners where it is finite; NaN where it is not at
-    the corner of the largest weight.
+    there (``interpolated(v)``): the weighted mean over the corners where it is finite;
+    NaN where it is not at the corner of the largest weight; at a vertex its value as it
+    is. What depends on the weights alone is found once for all the fields.
     """
-    ok = np.isfinite(v)
-    nearest = int(np.argmax(weights))
-    if not ok[nearest] or weights[nearest] == 1.0:
-        return float(v[nearest])  # undefined, or at a vertex: its value as it is
-    return float(weights[ok] @ v[ok] / weights[ok].sum())
+
+    def __init__(self, weights: np.ndarray):
+        self.weights = weights
+        self.nearest = int(np.argmax(weights))
+        self.at_vertex = bool(weights[self.nearest] == 1.0)
+        self.total = weights.sum()
+
+    def __call__(self, v: np.ndarray) -> float:
+        if self.at_vertex:
+            return float(v[self.nearest])
+        ok = np.isfinite(v)
+        if ok.all():  # the same sums as over ``ok`` below, with no copies
+            return float(self.weights @ v / self.total)
+        if not ok[self.nearest]:
+            return float(v[self.nearest])  # undefined
+        w = self.weights[ok]
+        return float(w @ v[ok] / w.sum())
 
 
 def _triangles_near(points: np.ndarray, triangles: np.ndarray, centre: np.ndarray,
