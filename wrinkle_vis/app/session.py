@@ -147,7 +147,7 @@ class Session:
         # the probed point's muscles and rest-skin fields (:meth:`_probe_rest`)
         self._probe_memo: tuple | None = None
         self._above_memo: tuple | None = None
-        self._located_memo: tuple | None = None  # a refined frame's triangle at the point
+        self._located_memo: tuple | None = None  # a refined skin's triangle at the point
         # Play on the physical skin: the simulation (:mod:`wrinkle_vis.app.physics`)
         self.physics = PhysicalPlayback(self.activations_at,
                                         lambda: self.current_expression().duration_s)
@@ -584,16 +584,17 @@ class Session:
         # a refined frame: its triangles over the base triangle, bent onto the smooth rest
         # surface; the point is the one straight above (or below) ``where`` along the base
         # triangle's normal, as :meth:`surface_point` projects it back down
-        memo = self._located_memo  # the probe's values and its position: found once
-        if memo is not None and memo[0]() is state and memo[1] == where:
+        # found once for the refinement's skin: the frames of one split set share it (the
+        # probe's values and its position ask for it both)
+        memo, skin = self._located_memo, state.face.skin
+        if memo is not None and memo[0]() is skin and memo[1] == where:
             return state, *memo[2]
         rest, normal, reach = self._above(where)
-        skin = state.face.skin
         candidates = _triangles_near(skin.points, skin.triangles, rest, reach)
         found = ray_on_triangles(skin, candidates, rest, normal)
         tri, weights = found if found is not None else closest_on_triangles(
             skin, candidates, rest)
-        self._located_memo = (weakref.ref(state), where, (skin.triangles[tri], weights))
+        self._located_memo = (weakref.ref(skin), where, (skin.triangles[tri], weights))
         return state, skin.triangles[tri], weights
 
     def _above(self, where: SurfacePoint) -> tuple[np.ndarray, np.ndarray, float]:
