@@ -34,7 +34,7 @@ from .refinedfields import _RefinedSource
 from .restgeometry import REFINE_CACHE_BYTES as REFINE_CACHE_BYTES
 from .restgeometry import SLIDE_SCALE as SLIDE_SCALE
 from .restgeometry import _RestGeometry
-from .skin import SkinMaterial, SpringSkin, check_skin_model
+from .skin import SkinMaterial, SpringSkin, _Skull, check_skin_model
 from .stacked import _StackedMuscles
 from .state import FaceState, _readonly
 from .tracks import Track, TrackMapping, default_mapping, iter_activations
@@ -148,6 +148,7 @@ class FaceModel:
                                          else _caches.stacked)
         self._rest: _RestGeometry = _caches.rest
         self._springs: dict[SkinMaterial, SpringSkin] = {}  # the physical skin, per material
+        self._contact: _Skull | None = None  # the skull contact without a physical skin
 
     # ------------------------------------------------------------------ access
     @property
@@ -493,7 +494,26 @@ class FaceModel:
         when ``fold_guard`` (None: the face's :attr:`fold_guard`) says so, on either skin.
         """
         on = self.fold_guard if fold_guard is None else fold_guard
-        return guarded(self, state) if on else state
+        if not on:
+            return state
+        state = guarded(self, state)
+        if state.skin_model == "physical" and state.face is self and self.skull is not None:
+            _keep_out_of_skull(self._skull_contact(), state)
+        return state
+
+    def _skull_contact(self) -> _Skull:
+        """The skull contact of the physical skin (:class:`~wrinkle_vis.core.skin._Skull`):
+        a built physical skin's, else one of its own, kept (it depends on the rest skin and
+        the skull only).
+        """
+        for springs in self._springs.values():
+            if springs.skull is not None:
+                return springs.skull
+        contact = self._contact
+        if contact is None:
+            assert self.skull is not None
+            contact = self._contact = _Skull(self.skull, self.skin.points)
+        return contact
 
     def play(self, track: Track, fps: float | None = None, *, smooth_s: float = 0.0,
              mapping: TrackMapping | None = None, **evaluate_options) -> Iterator[FaceState]:
@@ -640,3 +660,24 @@ def _check_skin(skin: TriangleSurface) -> None:
             f"the skin has {skin.n_triangles - rep_dupes} duplicate triangle(s); remove them "
             "with skin.cleaned()"
         )
+
+
+def _keep_out_of_skull(contact: _Skull, state: FaceState) -> None:
+    r"""Put the vertices of a guarded physical frame ``state`` that the pull guard's
+    scaling took into the skull back on it (:meth:`~wrinkle_vis.core.skin._Skull.project`,
+    as the simulation's every step does), in place: ``deformed_points`` and ``points``
+    (the wrinkled skin, :math:`x + W n`) move by the same amount there.
+
+    The guard scales a vertex's displacement, :math:`x = r + s\,u` with :math:`s < 1`;
+    from a vertex the skin's solve left on the skull's surface that can end a few
+    nanometres inside a concave skull.
+    """
+    deformed = np.array(state.deformed_points)
+    moved = contact.project(deformed)
+    if not len(moved):
+        return
+    points = np.array(state.points)
+    points[moved] += deformed[moved] - state.deformed_points[moved]
+    for name, value in (("deformed_points", deformed), ("points", points)):
+        value.setflags(write=False)
+        setattr(state, name, value)
