@@ -8,6 +8,8 @@ import dataclasses
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import wrinkle_vis as wv
 from wrinkle_vis.core.fields import FIELD_NAMES, FIELDS, FieldSpec, register_field
@@ -93,3 +95,23 @@ def test_a_registered_field_is_computed_at_the_vertices_only_when_pointwise(face
         assert np.array_equal(at, full, equal_nan=True) and np.isfinite(at).any()
     finally:
         FIELDS.pop("HAt")
+
+
+@settings(max_examples=25, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**32 - 1), gradient=st.booleans(), k=st.integers(0, 6))
+def test_compression_at_a_few_rows_is_the_whole_aois_there_bit_for_bit(face, seed, gradient,
+                                                                        k):
+    """A muscle's compression at a few AOI rows (what a probe reads of a muscle at rest)
+    is its compression over the whole AOI at those rows, to the last bit, for random
+    deformations, both compression measures."""
+    rng = np.random.default_rng(seed)
+    muscle = face.muscles[int(rng.integers(len(face.muscles)))]
+    muscle = dataclasses.replace(muscle, compression="gradient" if gradient else "edges")
+    data = face.with_muscle(muscle).muscle_data(muscle)
+    skin = face.skin
+    points = skin.points + 0.02 * np.ptp(skin.points) * rng.standard_normal(skin.points.shape)
+    rows = rng.integers(0, len(data.aoi), k)
+    got = data.compression_at(skin, points, rows)
+    assert got.shape == (k,)
+    assert np.array_equal(got.view(np.int64), data.compression(skin, points)[rows].view(np.int64))
