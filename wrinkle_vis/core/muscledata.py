@@ -85,18 +85,25 @@ class _MuscleData:
     def compression_at(self, skin: TriangleSurface, points: np.ndarray,
                        rows: np.ndarray) -> np.ndarray:
         r"""``(r,)``: :meth:`compression` at the AOI's rows ``rows`` ``(r,)`` alone, bit for
-        bit: the edges and triangles of those rows only (a probe's few vertices, not the
+        bit: the edges or triangles of those rows only (a probe's few vertices, not the
         whole AOI), each row's sum in the operator's order, as its product sums it.
         """
         rows = np.asarray(rows, np.intp)
-        e_cols, e_coef, e_mask = _row_entries(self.eps_op, rows)
-        e = skin.edges[self.edge_ids[e_cols]]
-        vec = points[e[:, 1]] - points[e[:, 0]]
-        tau = 1.0 - np.linalg.norm(vec, axis=1) / skin.rest_edge_lengths[self.edge_ids[e_cols]]
-        t_cols, t_coef, t_mask = _row_entries(self.grad_op, rows)
-        stretch = triangle_stretch(points, skin.triangles[self.tri_ids[t_cols]],
-                                   self.tri_coef[t_cols])
-        return (_row_sums(e_coef, e_mask, tau) + _row_sums(t_coef, t_mask, 1.0 - stretch))
+        out = np.zeros(len(rows))
+        if self.eps_op.nnz:  # "edges": tau of the rows' edges
+            cols, coef, mask = _row_entries(self.eps_op, rows)
+            ids = self.edge_ids.take(cols)
+            e = skin.edges.take(ids, axis=0)
+            vec = points.take(e[:, 1], axis=0) - points.take(e[:, 0], axis=0)
+            out = out + _row_sums(coef, mask, 1.0 - np.linalg.norm(vec, axis=1)
+                                  / skin.rest_edge_lengths.take(ids))
+        if self.grad_op.nnz:  # "gradient": 1 - |F d| of the rows' triangles
+            cols, coef, mask = _row_entries(self.grad_op, rows)
+            stretch = triangle_stretch(points, skin.triangles.take(self.tri_ids.take(cols),
+                                                                  axis=0),
+                                       self.tri_coef.take(cols, axis=0))
+            out = out + _row_sums(coef, mask, 1.0 - stretch)
+        return out
 
 
 def _row_entries(op: sp.csr_matrix, rows: np.ndarray
@@ -105,23 +112,23 @@ def _row_entries(op: sp.csr_matrix, rows: np.ndarray
     stored order: their columns ``(e,)`` and values ``(e,)`` row after row, and which slots
     of an ``(r, m)`` table (``m``: the longest row) they fill ``(r, m) bool``.
     """
-    start, stop = op.indptr[rows], op.indptr[rows + 1]
-    mask = np.arange(int((stop - start).max(initial=0))) < (stop - start)[:, None]
-    at = (start[:, None] + np.arange(mask.shape[1]))[mask]
-    return op.indices[at], op.data[at], mask
+    start = op.indptr.take(rows)
+    count = op.indptr.take(rows + 1) - start
+    slots = np.arange(int(count.max(initial=0)))
+    mask = slots < count[:, None]
+    at = (start[:, None] + slots)[mask]
+    return op.indices.take(at), op.data.take(at), mask
 
 
 def _row_sums(coef: np.ndarray, mask: np.ndarray, values: np.ndarray) -> np.ndarray:
     r"""``(r,)``: :math:`\sum_j c_j x_j` per row of the table ``mask`` ``(r, m)`` (entries
-    ``coef`` ``(e,)`` times ``values`` ``(e,)``, row after row), added left to right from 0
-    as a CSR product adds them (so the sums are the product's, bit for bit).
+    ``coef`` ``(e,)`` times ``values`` ``(e,)``, row after row), added left to right from
+    +0 as a CSR product adds them (a running sum: the product's sums, bit for bit; the
+    empty slots after a row's last entry add +0, which leaves a sum from +0 as it is).
     """
-    table = np.zeros(mask.shape)
-    table[mask] = coef * values
-    out = np.zeros(len(mask))
-    for j in range(mask.shape[1]):
-        out = np.where(mask[:, j], out + table[:, j], out)
-    return out
+    table = np.zeros((len(mask), mask.shape[1] + 1))
+    table[:, 1:][mask] = coef * values
+    return np.cumsum(table, axis=1)[:, -1]
 
 
 def tangential(vectors: np.ndarray, normals: np.ndarray) -> np.ndarray:
