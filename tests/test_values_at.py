@@ -56,6 +56,15 @@ def test_values_at_are_the_full_fields_there_bit_for_bit(face, refine):
     _assert_same_as_full(state, vertices)
 
 
+def test_values_at_on_a_refined_physical_frame_bit_for_bit(face):
+    """The physical skin's correction carried to the new vertices is read as the full
+    fields read it."""
+    state = face.evaluate("fear", 0.9, refine=True, skin="physical")
+    vertices = _sample(state, seed=1)
+    assert (vertices >= face.skin.n_points).any(), "no new vertex sampled"
+    _assert_same_as_full(state, vertices)
+
+
 def test_values_at_with_the_gradient_option_and_a_muscle_at_rest(face):
     m = face.muscle("frontalis_major_L")
     g = face.with_muscle(dataclasses.replace(m, compression="gradient"))

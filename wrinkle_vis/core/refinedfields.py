@@ -53,6 +53,10 @@ class _RefinedSource:
     def _dyn(self):
         return self._engine.dynamic(self._root, *self._active)
 
+    @cached_property
+    def _dyn_at(self):
+        return self._engine.dynamic_at(self._root, *self._active)
+
     def _start(self, muscle: Muscle, key: str):
         """The field's values on the skin's vertices (from the unrefined frame) and where
         the muscle's refined data go: ``(out, levels, positions, kept)``.
@@ -100,7 +104,7 @@ class _RefinedSource:
         out = at.start(key)
         if at.levels is not None and len(at.rows):
             if "eps" not in at.eps:
-                at.eps["eps"] = self._dyn.compression(at.levels, at.rows)
+                at.eps["eps"] = self._dyn_at.compression(at.levels, at.rows)
             out[at.found] = self._new_values(muscle, key, at.levels, at.rows, at.eps["eps"])
         return out
 
