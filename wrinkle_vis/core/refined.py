@@ -464,19 +464,29 @@ class _DynamicAt(_Dynamic):
         self.a_padded = np.append(a, 0.0)  # the padding muscle does not act
         self._carry = _skin_correction(root)
         self._carried = None
+        self._deltas: dict[bytes, np.ndarray] = {}
 
     def ring_deltas(self, v: np.ndarray) -> np.ndarray:
         """``(3, 6, k)``: :meth:`_Dynamic.ring_deltas`, from the deformed points of ``v``
-        ``(k,)`` and their rings only.
+        ``(k,)`` and their rings only (kept for ``v``: the probe's muscles share them).
         """
-        ring = self.hier.safe_ring(v)
-        need = np.unique(np.concatenate([v, ring.ravel()]))
-        points = np.empty((len(need), 3))
+        key = v.tobytes()
+        if key not in self._deltas:
+            self._deltas[key] = self._ring_deltas(v)
+        return self._deltas[key]
+
+    def _ring_deltas(self, v: np.ndarray) -> np.ndarray:
+        k = len(v)
+        need = np.concatenate([v, self.hier.safe_ring(v).ravel()])  # rows: v, then rings
         old = need < self.hier.n_root
-        points[old] = self._root.deformed_points.take(need[old], axis=0)
-        points[~old] = self._pulled(need[~old])
-        ring = np.searchsorted(need, np.ascontiguousarray(ring.T))
-        at = np.searchsorted(need, v)
+        if old.all():
+            points = self._root.deformed_points.take(need, axis=0)
+        else:
+            points = np.empty((len(need), 3))
+            points[old] = self._root.deformed_points.take(need[old], axis=0)
+            points[~old] = self._pulled(need[~old])
+        ring = np.arange(k, 7 * k).reshape(k, 6).T.copy()  # (6, k): the rings' rows
+        at = np.arange(k)
         out = np.empty((3, *ring.shape))
         for c, dc in enumerate(np.ascontiguousarray(points.T)):
             np.subtract(dc.take(ring), dc.take(at), out=out[c])
