@@ -119,8 +119,11 @@ def test_compression_at_a_few_rows_is_the_whole_aois_there_bit_for_bit(face, see
     muscle = dataclasses.replace(muscle, compression="gradient" if gradient else "edges")
     data = face.with_muscle(muscle).muscle_data(muscle)
     skin = face.skin
-    points = skin.points + 0.02 * np.ptp(skin.points) * rng.standard_normal(skin.points.shape)
     rows = rng.integers(0, len(data.aoi), k)
-    got = data.compression_at(skin, points, rows)
-    assert got.shape == (k,)
-    assert np.array_equal(got.view(np.int64), data.compression(skin, points)[rows].view(np.int64))
+    for _ in range(2):  # the second through what the first kept of the rows
+        points = skin.points + 0.02 * np.ptp(skin.points) * rng.standard_normal(
+            skin.points.shape)
+        got = data.compression_at(skin, points, rows)
+        assert got.shape == (k,)
+        assert np.array_equal(got.view(np.int64),
+                              data.compression(skin, points)[rows].view(np.int64))
