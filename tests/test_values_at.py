@@ -56,6 +56,15 @@ def test_values_at_are_the_full_fields_there_bit_for_bit(face, refine):
     _assert_same_as_full(state, vertices)
 
 
+def test_values_at_the_unrefined_skins_vertices_of_a_refined_frame_bit_for_bit(face):
+    """At vertices the unrefined frame has (a probe's corners often are), the refined
+    frame's values are read from the unrefined frame's: the full fields' there."""
+    rng = np.random.default_rng(2)
+    for _ in range(6):
+        state = face.evaluate("fear", 0.9, refine=True)  # no full field built yet
+        _assert_same_as_full(state, rng.choice(face.skin.n_points, 3, replace=False))
+
+
 def test_values_at_on_a_refined_physical_frame_bit_for_bit(face):
     """The physical skin's correction carried to the new vertices is read as the full
     fields read it."""

@@ -184,6 +184,10 @@ class _PointFields(_FieldMap):
         if key not in self._fields._cache and spec.pointwise:
             if not self.defined:
                 return np.full(len(self._vertices), np.nan)
+            source = self._state.source
+            root = source.old_at(self._muscle, self._vertices) if source is not None else None
+            if root is not None:  # the unrefined frame's vertices: its values, as they are
+                return root[key].copy()
             arr = _compute_field(spec, self)
             if arr.shape == self._vertices.shape:
                 return arr

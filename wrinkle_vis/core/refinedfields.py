@@ -84,6 +84,14 @@ class _RefinedSource:
             self._points[key] = _RefinedAt(old, root, lv, rows[found], found, {})
         return self._points[key]
 
+    def old_at(self, muscle: Muscle, vertices: np.ndarray) -> _PointFields | None:
+        """The unrefined frame's fields at skin vertices ``vertices`` ``(k,)`` when all of
+        them are its vertices (a pointwise field's values there are the unrefined frame's,
+        which the refined frame takes as they are), else None.
+        """
+        at = self._at(muscle, vertices)
+        return at.root if at.old.all() else None
+
     def defined_at(self, muscle: Muscle, vertices: np.ndarray) -> bool:
         """Whether one of skin vertices ``vertices`` is in the muscle's AOI."""
         at = self._at(muscle, vertices)
