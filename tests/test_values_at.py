@@ -65,6 +65,17 @@ def test_values_at_the_unrefined_skins_vertices_of_a_refined_frame_bit_for_bit(f
         _assert_same_as_full(state, rng.choice(face.skin.n_points, 3, replace=False))
 
 
+def test_the_muscles_levels_list_their_vertices_in_ascending_order(face):
+    """What the refined values at a few vertices search in: each muscle's levels on the
+    hierarchy, added to as it grows over several expressions, keep their ids ascending."""
+    for expression in ("fear", "surprise", "smile"):
+        state = face.evaluate(expression, 1.0, refine=True)
+    engine = state.fields._state.source._engine
+    for m in face.muscles:
+        ids = engine.levels(m).ids
+        assert np.all(np.diff(ids) > 0), m.name
+
+
 def test_values_at_on_a_refined_physical_frame_bit_for_bit(face):
     """The physical skin's correction carried to the new vertices is read as the full
     fields read it."""

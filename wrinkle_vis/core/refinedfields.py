@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from .equations import anisotropy
-from .fieldviews import _PointFields, _rows_of
+from .fieldviews import _PointFields
 from .hierarchy import MuscleLevels
 from .muscle import Muscle
 from .refined import RefinedEngine
@@ -38,6 +38,17 @@ class _RefinedAt(NamedTuple):
         out = np.full(len(self.old), np.nan)
         out[self.old] = self.root[key]
         return out
+
+
+def _sorted_rows_of(ids: np.ndarray, vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`~wrinkle_vis.core.fieldviews._rows_of` for ascending ``ids`` ``(r,)`` (a
+    muscle's levels add the hierarchy's vertices in the order it builds them): a binary
+    search, not a comparison with every row.
+    """
+    if not len(ids):
+        return np.zeros(len(vertices), np.intp), np.zeros(len(vertices), bool)
+    rows = np.minimum(np.searchsorted(ids, vertices), len(ids) - 1)
+    return rows, ids.take(rows) == vertices
 
 
 class _RefinedSource:
@@ -80,7 +91,7 @@ class _RefinedSource:
                 lv, rows, found = None, np.zeros(len(vertices), np.intp), ~old
             else:
                 lv = self._engine.levels(muscle)
-                rows, found = _rows_of(lv.ids, self._order[vertices])
+                rows, found = _sorted_rows_of(lv.ids, self._order.take(vertices))
             self._points[key] = _RefinedAt(old, root, lv, rows[found], found, {})
         return self._points[key]
 
