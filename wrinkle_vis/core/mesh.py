@@ -458,7 +458,8 @@ def ray_on_triangles(surface: TriangleSurface, candidates, origin,
     """
     ids = np.atleast_1d(np.asarray(candidates, dtype=np.intp))
     o, d = np.asarray(origin, float).reshape(3), np.asarray(direction, float).reshape(3)
-    det, u, v, s = _moller_trumbore(o, d, surface.points[surface.triangles[ids]])
+    det, u, v, s = _moller_trumbore(o, d, surface.points.take(
+        surface.triangles.take(ids, axis=0), axis=0))
     tol = 1e-9
     hit = (np.abs(det) > 0) & (u >= -tol) & (v >= -tol) & (u + v <= 1 + tol)
     if not hit.any():

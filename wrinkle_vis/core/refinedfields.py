@@ -36,7 +36,8 @@ class _RefinedAt(NamedTuple):
     def start(self, key: str) -> np.ndarray:
         """``(k,)``: field ``key`` of the unrefined frame on its vertices, ``nan`` else."""
         out = np.full(len(self.old), np.nan)
-        out[self.old] = self.root[key]
+        if self.old.any():  # (none: the unrefined frame has nothing to say)
+            out[self.old] = self.root[key]
         return out
 
 
