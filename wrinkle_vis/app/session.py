@@ -801,8 +801,8 @@ def _triangles_near(points: np.ndarray, triangles: np.ndarray, centre: np.ndarra
     r"""``(t,)``: the triangles ``(m, 3)`` with a corner of ``points`` ``(n, 3)`` within
     ``reach`` of ``centre`` ``(3,)`` (:math:`|p - c|^2 \le r^2`).
     """
-    d = points - centre
-    near = np.einsum("ij,ij->i", d, d) <= reach * reach
+    x, y, z = (points[:, k] - centre[k] for k in range(3))  # no (n, 3) temporary
+    near = x * x + y * y + z * z <= reach * reach
     hit = near.take(triangles.ravel()).reshape(-1, 3)
     return np.flatnonzero(hit[:, 0] | hit[:, 1] | hit[:, 2])
 

@@ -184,6 +184,10 @@ class _PointFields(_FieldMap):
         if key not in self._fields._cache and spec.pointwise:
             if not self.defined:
                 return np.full(len(self._vertices), np.nan)
+            source = self._state.source
+            root = source.old_at(self._muscle, self._vertices) if source is not None else None
+            if root is not None:  # the unrefined frame's vertices: its values, as they are
+                return root[key].copy()
             arr = _compute_field(spec, self)
             if arr.shape == self._vertices.shape:
                 return arr
@@ -211,7 +215,39 @@ class _PointFields(_FieldMap):
         """``(k,)``: :meth:`_MuscleFields.frame_value` at the vertices."""
         if self._state.source is not None:
             return self._state.source.dynamic_at(self._muscle, key, self._vertices)
+        if self._fields._dynamic is None and not self._active():
+            return self._at_rest(key, where)
         return self._picked(where, lambda: self._fields.dynamic()[key])
+
+    def _active(self) -> bool:
+        """Whether the frame's stacked data hold the muscle (it acts in the frame)."""
+        asm = self._state.assembly
+        return asm is not None and self._muscle.name in asm.names
+
+    def _at_rest(self, key: str, where: str) -> np.ndarray:
+        r"""``(k,)``: :meth:`frame_value` of a muscle that does not act in the frame, from
+        its compression at the vertices' AOI rows alone (:meth:`_MuscleData.compression_at`,
+        not over its whole AOI): :math:`\varepsilon` or :math:`A(\varepsilon)`, or W = 0,
+        on the vertices in its ``where``, ``nan`` elsewhere.
+        """
+        if key == "W":
+            value = np.zeros(len(self._vertices))
+        else:
+            value = self._rest_eps if key == "eps" else anisotropy(self._rest_eps)
+        out = np.full(len(self._vertices), np.nan)
+        found = self._rows_in(where)[1]
+        out[found] = value[found]
+        return out
+
+    @cached_property
+    def _rest_eps(self) -> np.ndarray:
+        """``(k,)``: the muscle's compression at the vertices in its AOI (``nan`` else)."""
+        rows, found = self._rows_in("aoi")
+        state = self._state
+        eps = np.full(len(self._vertices), np.nan)
+        eps[found] = state.face.muscle_data(self._muscle).compression_at(
+            state.face.skin, state.deformed_points, rows[found])
+        return eps
 
     def _picked(self, where: str, values) -> np.ndarray:
         """``(k,)``: compact ``values()`` (on the muscle's ``where``) at the vertices,

@@ -458,7 +458,8 @@ def ray_on_triangles(surface: TriangleSurface, candidates, origin,
     """
     ids = np.atleast_1d(np.asarray(candidates, dtype=np.intp))
     o, d = np.asarray(origin, float).reshape(3), np.asarray(direction, float).reshape(3)
-    det, u, v, s = _moller_trumbore(o, d, surface.points[surface.triangles[ids]])
+    det, u, v, s = _moller_trumbore(o, d, surface.points.take(
+        surface.triangles.take(ids, axis=0), axis=0))
     tol = 1e-9
     hit = (np.abs(det) > 0) & (u >= -tol) & (v >= -tol) & (u + v <= 1 + tol)
     if not hit.any():
@@ -560,6 +561,20 @@ def _ray_hits(origins: np.ndarray, d: np.ndarray, c: np.ndarray, min_distance: f
     return (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (dist > min_distance)
 
 
+def _cross_any(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    r"""``(..., 3)``: :math:`a \times b` of ``a`` and ``b`` ``(..., 3)`` (broadcast), the
+    same products and differences as ``np.cross`` (so its values, bit for bit) without its
+    general-axis handling: a ray test's few triangles pay for that overhead, not the work.
+    """
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out
+
+
 def _moller_trumbore(origins: np.ndarray, d: np.ndarray, c: np.ndarray
                      ) -> tuple[np.ndarray, ...]:
     r"""``(k,)`` four times: :math:`\det`, :math:`u`, :math:`v` and :math:`t` of the line
@@ -568,13 +583,13 @@ def _moller_trumbore(origins: np.ndarray, d: np.ndarray, c: np.ndarray
     (Möller-Trumbore; inf or nan where :math:`\det = 0`).
     """
     e1, e2 = c[:, 1] - c[:, 0], c[:, 2] - c[:, 0]
-    h = np.cross(d, e2)
+    h = _cross_any(d, e2)
     det = np.einsum("ij,ij->i", e1, h)
     with np.errstate(divide="ignore", invalid="ignore"):
         inv = 1.0 / det
         t = origins - c[:, 0]
         u = np.einsum("ij,ij->i", t, h) * inv
-        q = np.cross(t, e1)
+        q = _cross_any(t, e1)
         v = (q @ d) * inv
         dist = np.einsum("ij,ij->i", e2, q) * inv
     return det, u, v, dist

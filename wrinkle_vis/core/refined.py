@@ -363,6 +363,12 @@ class _Dynamic:
         """
         if not len(v):
             return
+        self.deformed[:, v] = self._pulled(v).T
+        self.computed[v] = True
+        self._moved.append(v)
+
+    def _pulled(self, v: np.ndarray) -> np.ndarray:
+        """``(k, 3)``: the deformed points of new vertices ``v`` ``(k,)`` (:meth:`_deform`)."""
         asm, hier = self.asm, self.hier
         p = asm.slot[v]
         has = np.flatnonzero(p >= 0)
@@ -374,9 +380,7 @@ class _Dynamic:
         moved = hier.rest.take(v, axis=0) + pull - bend[:, None] * hier.slide.take(v, axis=0)
         if self._carry is not None:
             moved += self.carried().take(v, axis=0)
-        self.deformed[:, v] = moved.T
-        self.computed[v] = True
-        self._moved.append(v)
+        return moved
 
     def carried(self) -> np.ndarray:
         r"""``(v, 3)``: what another skin model (the physical skin) adds to the muscles'
@@ -447,6 +451,46 @@ class _Dynamic:
             return _stretch_mean(levels.coef[rows], levels.area[rows], dx, dy, dz)
         tau = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / self.hier.ring_len[v]
         return (levels.weights[rows] * tau).sum(axis=1)
+
+
+class _DynamicAt(_Dynamic):
+    """A frame's values at a few of the hierarchy's vertices (:meth:`compression` where a
+    probe reads them): the deformed points of those and their rings alone, computed as
+    :class:`_Dynamic` computes them (bit for bit), with no array as long as the hierarchy.
+    """
+
+    def __init__(self, hier: Hierarchy, asm: _RefinedRows, root, a: np.ndarray):
+        self.hier, self.asm, self.a, self.face, self._root = hier, asm, a, root.face, root
+        self.a_padded = np.append(a, 0.0)  # the padding muscle does not act
+        self._carry = _skin_correction(root)
+        self._carried = None
+        self._deltas: dict[bytes, np.ndarray] = {}
+
+    def ring_deltas(self, v: np.ndarray) -> np.ndarray:
+        """``(3, 6, k)``: :meth:`_Dynamic.ring_deltas`, from the deformed points of ``v``
+        ``(k,)`` and their rings only (kept for ``v``: the probe's muscles share them).
+        """
+        key = v.tobytes()
+        if key not in self._deltas:
+            self._deltas[key] = self._ring_deltas(v)
+        return self._deltas[key]
+
+    def _ring_deltas(self, v: np.ndarray) -> np.ndarray:
+        k = len(v)
+        need = np.concatenate([v, self.hier.safe_ring(v).ravel()])  # rows: v, then rings
+        old = need < self.hier.n_root
+        if old.all():
+            points = self._root.deformed_points.take(need, axis=0)
+        else:
+            points = np.empty((len(need), 3))
+            points[old] = self._root.deformed_points.take(need[old], axis=0)
+            points[~old] = self._pulled(need[~old])
+        ring = np.arange(k, 7 * k).reshape(k, 6).T.copy()  # (6, k): the rings' rows
+        at = np.arange(k)
+        out = np.empty((3, *ring.shape))
+        for c, dc in enumerate(np.ascontiguousarray(points.T)):
+            np.subtract(dc.take(ring), dc.take(at), out=out[c])
+        return out
 
 
 class _Zone(NamedTuple):
@@ -702,3 +746,7 @@ class RefinedEngine:
         fields, which must not change when the engine moves on to the next frame).
         """
         return _Dynamic(self.hier, self.assembly(muscles), root, a)
+
+    def dynamic_at(self, root, muscles, a: np.ndarray) -> _DynamicAt:
+        """:meth:`dynamic` for values at a few vertices (a probe's): no full-length array."""
+        return _DynamicAt(self.hier, self.assembly(muscles), root, a)

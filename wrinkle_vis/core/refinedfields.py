@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from .equations import anisotropy
-from .fieldviews import _PointFields, _rows_of
+from .fieldviews import _PointFields
 from .hierarchy import MuscleLevels
 from .muscle import Muscle
 from .refined import RefinedEngine
@@ -36,8 +36,20 @@ class _RefinedAt(NamedTuple):
     def start(self, key: str) -> np.ndarray:
         """``(k,)``: field ``key`` of the unrefined frame on its vertices, ``nan`` else."""
         out = np.full(len(self.old), np.nan)
-        out[self.old] = self.root[key]
+        if self.old.any():  # (none: the unrefined frame has nothing to say)
+            out[self.old] = self.root[key]
         return out
+
+
+def _sorted_rows_of(ids: np.ndarray, vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`~wrinkle_vis.core.fieldviews._rows_of` for ascending ``ids`` ``(r,)`` (a
+    muscle's levels add the hierarchy's vertices in the order it builds them): a binary
+    search, not a comparison with every row.
+    """
+    if not len(ids):
+        return np.zeros(len(vertices), np.intp), np.zeros(len(vertices), bool)
+    rows = np.minimum(np.searchsorted(ids, vertices), len(ids) - 1)
+    return rows, ids.take(rows) == vertices
 
 
 class _RefinedSource:
@@ -52,6 +64,10 @@ class _RefinedSource:
     @cached_property
     def _dyn(self):
         return self._engine.dynamic(self._root, *self._active)
+
+    @cached_property
+    def _dyn_at(self):
+        return self._engine.dynamic_at(self._root, *self._active)
 
     def _start(self, muscle: Muscle, key: str):
         """The field's values on the skin's vertices (from the unrefined frame) and where
@@ -76,9 +92,17 @@ class _RefinedSource:
                 lv, rows, found = None, np.zeros(len(vertices), np.intp), ~old
             else:
                 lv = self._engine.levels(muscle)
-                rows, found = _rows_of(lv.ids, self._order[vertices])
+                rows, found = _sorted_rows_of(lv.ids, self._order.take(vertices))
             self._points[key] = _RefinedAt(old, root, lv, rows[found], found, {})
         return self._points[key]
+
+    def old_at(self, muscle: Muscle, vertices: np.ndarray) -> _PointFields | None:
+        """The unrefined frame's fields at skin vertices ``vertices`` ``(k,)`` when all of
+        them are its vertices (a pointwise field's values there are the unrefined frame's,
+        which the refined frame takes as they are), else None.
+        """
+        at = self._at(muscle, vertices)
+        return at.root if at.old.all() else None
 
     def defined_at(self, muscle: Muscle, vertices: np.ndarray) -> bool:
         """Whether one of skin vertices ``vertices`` is in the muscle's AOI."""
@@ -100,7 +124,7 @@ class _RefinedSource:
         out = at.start(key)
         if at.levels is not None and len(at.rows):
             if "eps" not in at.eps:
-                at.eps["eps"] = self._dyn.compression(at.levels, at.rows)
+                at.eps["eps"] = self._dyn_at.compression(at.levels, at.rows)
             out[at.found] = self._new_values(muscle, key, at.levels, at.rows, at.eps["eps"])
         return out
 
