@@ -363,35 +363,31 @@ def _clear_stars(pts: np.ndarray, tri: np.ndarray, normal: np.ndarray, perm: np.
     """
     n_points = len(pts)
     v = tri.ravel()
-    nt = [np.repeat(normal[:, k], 3) for k in range(3)]
-    nv = [np.bincount(v, c, n_points) for c in nt]
+    nv = [np.bincount(v, np.repeat(normal[:, k], 3), n_points) for k in range(3)]
     ln = np.sqrt(_dot(nv, nv))
     d = _AHEAD[(np.abs(_AHEAD[0] @ nv) > 0.8 * ln).astype(np.intp)]
     g = _cross_cols([d[:, 0], d[:, 1], d[:, 2]], nv)
     lg = np.sqrt(_dot(g, g))
-    lperm = np.sqrt(np.einsum("ij,ij->i", perm, perm))
-    ok = _dot(nt, _gather(tuple(nv), v)) > _STAR_MARGIN * np.repeat(lperm, 3) * ln[v]
-    # edge k of each triangle runs from corner k to corner k + 1: a - v at corner k, and
-    # edge k + 2 is v - b there
-    edge, before = [], []
+    lperm = _STAR_MARGIN * np.sqrt(np.einsum("ij,ij->i", perm, perm))
+    nt = [np.ascontiguousarray(normal[:, k]) for k in range(3)]
+    # per triangle, edge k runs from corner k to corner k + 1: a - v at corner k is edge k,
+    # and b - v is minus edge k + 2
+    corner = [np.ascontiguousarray(tri[:, k]) for k in range(3)]
+    x = [[np.ascontiguousarray(pts[:, c])[corner[k]] for c in range(3)] for k in range(3)]
+    edge = [_sub(x[(k + 1) % 3], x[k]) for k in range(3)]
+    ledge = [np.sqrt(_dot(e, e)) for e in edge]
+    weight = np.empty((len(tri), 3))
     for k in range(3):
-        x = np.ascontiguousarray(pts[:, k])[tri]
-        e = np.empty_like(x)
-        e[:, :2] = x[:, 1:] - x[:, :2]
-        e[:, 2] = x[:, 0] - x[:, 2]
-        b = np.empty_like(x)
-        b[:, 0], b[:, 1:] = e[:, 2], e[:, :2]
-        edge.append(e.ravel())
-        before.append(b.ravel())
-    ledge, lbefore = np.sqrt(_dot(edge, edge)), np.sqrt(_dot(before, before))
-    gv = _gather(tuple(g), v)
-    out = _dot(edge, gv)  # (a - v) . g
-    into = -_dot(before, gv)  # (b - v) . g
-    margin = _STAR_MARGIN * lg[v]
-    ok &= (np.abs(out) > margin * ledge) & (np.abs(into) > margin * lbefore)
-    winding = np.bincount(v, (out > 0) & (into < 0), n_points)
-    doubt = np.bincount(v, ~ok, n_points)
-    return (winding == 1) & (doubt == 0) & ~_irregular_vertices(tri, n_points)
+        vk = corner[k]
+        ok = _dot(nt, _gather(tuple(nv), vk)) > lperm * ln[vk]
+        gv = _gather(tuple(g), vk)
+        out = _dot(edge[k], gv)  # (a - v) . g
+        into = -_dot(edge[(k + 2) % 3], gv)  # (b - v) . g
+        margin = _STAR_MARGIN * lg[vk]
+        ok &= (np.abs(out) > margin * ledge[k]) & (np.abs(into) > margin * ledge[(k + 2) % 3])
+        # winding + 2 doubts: the star passes where its sum is 1
+        weight[:, k] = ((out > 0) & (into < 0)) + 2.0 * ~ok
+    return (np.bincount(v, weight.ravel(), n_points) == 1) & ~_irregular_vertices(tri, n_points)
 
 
 def _within_groups(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
