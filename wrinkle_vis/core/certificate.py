@@ -474,18 +474,18 @@ def _home_pairs(cell: np.ndarray, t: np.ndarray, first: np.ndarray
     cell), entry ``i`` with entry ``i + d`` for ``d = 1, 2, ...``.
     """
     end = np.r_[np.flatnonzero(cell[1:] != cell[:-1]) + 1, len(cell)]
-    end = np.repeat(end, np.diff(np.r_[0, end])).astype(np.int32)
-    idx = np.arange(len(cell), dtype=np.int32)
+    rem = np.repeat(end, np.diff(np.r_[0, end])) - np.arange(len(cell))  # entries from i on
+    idx = np.flatnonzero(rem > 1)  # intp: numpy converts other indices before gathering
+    rem, fi = rem.take(idx), first.take(idx)
     out_a, out_b = [], []
     d = 1
-    while True:
-        idx = idx[idx + d < end[idx]]
-        if not len(idx):
-            break
-        home = idx[(first[idx] | first[idx + d]) == 7]
-        out_a.append(t[home])
-        out_b.append(t[home + d])
+    while len(idx):
+        home = idx.take(np.flatnonzero((fi | first.take(idx + d)) == 7))
+        out_a.append(t.take(home))
+        out_b.append(t.take(home + d))
         d += 1
+        more = np.flatnonzero(rem > d)
+        idx, rem, fi = idx.take(more), rem.take(more), fi.take(more)
     if not out_a:
         return np.zeros(0, np.intp), np.zeros(0, np.intp)
     return np.concatenate(out_a), np.concatenate(out_b)
@@ -523,7 +523,7 @@ def _apart_pairs(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
     there, along every axis, the cell is the first of one of the two boxes (a 3-bit mask
     per entry).
     """
-    cols = [np.ascontiguousarray(tri[:, k], dtype=np.int32) for k in range(3)]
+    cols = [np.ascontiguousarray(tri[:, k], dtype=np.intp) for k in range(3)]
     lo, hi = np.empty((3, len(tri))), np.empty((3, len(tri)))
     for k in range(3):
         x = np.ascontiguousarray(pts[:, k])
@@ -535,9 +535,12 @@ def _apart_pairs(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
     a, b = _home_pairs(cell, t, first)
     for k in range(3):  # the boxes overlap, one axis at a time
         lk, hk = lo[k], hi[k]
-        meet = np.flatnonzero((lk[a] <= hk[b]) & (lk[b] <= hk[a]))
-        a, b = a[meet], b[meet]
-    ta, tb = [c[a] for c in cols], [c[b] for c in cols]
+        meet = lk.take(a) <= hk.take(b)
+        meet &= lk.take(b) <= hk.take(a)
+        keep = np.flatnonzero(meet)
+        a, b = a.take(keep), b.take(keep)
+    small = [c.astype(np.int32) for c in cols] if len(pts) < 2**31 else cols
+    ta, tb = [c.take(a) for c in small], [c.take(b) for c in small]
     common = (ta[0] == tb[0]) | (ta[0] == tb[1]) | (ta[0] == tb[2])
     for p in ta[1:]:
         common |= (p == tb[0]) | (p == tb[1]) | (p == tb[2])
