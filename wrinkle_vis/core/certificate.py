@@ -46,6 +46,7 @@ against the rest skin's).
 """
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from fractions import Fraction
 
@@ -449,46 +450,50 @@ def _cell_entries(c0: np.ndarray, n: np.ndarray, dims: np.ndarray
         cell = key0[t] + (d[:, 2] * dims[1] + d[:, 1]) * dims[0] + d[:, 0]
         first = (d == 0).astype(np.uint8) @ np.array([1, 2, 4], np.uint8)
     else:  # one run of entries sorted by cell per offset, merged by the stable sort
+        if int(dims.prod()) < 2**31:  # int32 keys sort faster
+            key0 = key0.astype(np.int32)
         order = np.argsort(key0)
-        n, key0 = n[order], key0[order]
+        key0 = key0.take(order)
+        spans = [[n[:, k].take(order) > o for o in range(int(reach[k]))] for k in range(3)]
         cells, tris, firsts = [], [], []
         for dz in range(int(reach[2])):
             for dy in range(int(reach[1])):
+                inside_yz = spans[1][dy] & spans[2][dz]
                 for dx in range(int(reach[0])):
-                    sel = np.flatnonzero((n[:, 0] > dx) & (n[:, 1] > dy) & (n[:, 2] > dz))
-                    cells.append(key0[sel] + ((dz * dims[1] + dy) * dims[0] + dx))
-                    tris.append(order[sel])
+                    sel = np.flatnonzero(inside_yz & spans[0][dx] if dx else inside_yz)
+                    cells.append(key0.take(sel) + ((dz * dims[1] + dy) * dims[0] + dx))
+                    tris.append(order.take(sel))
                     firsts.append(np.full(len(sel), (dx == 0) | (dy == 0) << 1
                                           | (dz == 0) << 2, np.uint8))
         cell, t, first = np.concatenate(cells), np.concatenate(tris), np.concatenate(firsts)
-    if int(dims.prod()) < 2**31:  # int32 keys sort faster
-        cell = cell.astype(np.int32)
+    if int(dims.prod()) < 2**31:
+        cell = cell.astype(np.int32, copy=False)
     order = np.argsort(cell, kind="stable")
-    return cell[order], t[order], first[order]
+    return cell.take(order), t.take(order), first.take(order)
+
+
+_CHUNK = 1 << 15  # pairs filtered at once, so that their temporaries stay in cache
 
 
 def _home_pairs(cell: np.ndarray, t: np.ndarray, first: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray]:
-    """``(p,)`` int twice: the pairs of entries ``t`` in the same cell of the sorted
-    ``cell`` ``(e,)`` whose masks ``first`` together hold every axis (the pair's home
-    cell), entry ``i`` with entry ``i + d`` for ``d = 1, 2, ...``.
+                ) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """``(p,)`` int twice, in pieces of at most ``_CHUNK``: the pairs of entries ``t`` in
+    the same cell of the sorted ``cell`` ``(e,)`` whose masks ``first`` together hold every
+    axis (the pair's home cell), entry ``i`` with entry ``i + d`` for ``d = 1, 2, ...``.
     """
     end = np.r_[np.flatnonzero(cell[1:] != cell[:-1]) + 1, len(cell)]
     rem = np.repeat(end, np.diff(np.r_[0, end])) - np.arange(len(cell))  # entries from i on
     idx = np.flatnonzero(rem > 1)  # intp: numpy converts other indices before gathering
     rem, fi = rem.take(idx), first.take(idx)
-    out_a, out_b = [], []
     d = 1
     while len(idx):
         home = idx.take(np.flatnonzero((fi | first.take(idx + d)) == 7))
-        out_a.append(t.take(home))
-        out_b.append(t.take(home + d))
+        for s in range(0, len(home), _CHUNK):
+            piece = home[s:s + _CHUNK]
+            yield t.take(piece), t.take(piece + d)
         d += 1
         more = np.flatnonzero(rem > d)
         idx, rem, fi = idx.take(more), rem.take(more), fi.take(more)
-    if not out_a:
-        return np.zeros(0, np.intp), np.zeros(0, np.intp)
-    return np.concatenate(out_a), np.concatenate(out_b)
 
 
 _CELL = 1.25  # the grid cube over the median box's longest side
@@ -532,20 +537,23 @@ def _apart_pairs(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
         np.maximum(np.maximum(a, b, out=hi[k]), c, out=hi[k])
     c0, c1 = _grid_cells(lo, hi)
     cell, t, first = _cell_entries(c0.T, (c1 - c0 + 1).T, c1.max(axis=1) + 1)
-    a, b = _home_pairs(cell, t, first)
-    for k in range(3):  # the boxes overlap, one axis at a time
-        lk, hk = lo[k], hi[k]
-        meet = lk.take(a) <= hk.take(b)
-        meet &= lk.take(b) <= hk.take(a)
-        keep = np.flatnonzero(meet)
-        a, b = a.take(keep), b.take(keep)
     small = [c.astype(np.int32) for c in cols] if len(pts) < 2**31 else cols
-    ta, tb = [c.take(a) for c in small], [c.take(b) for c in small]
-    common = (ta[0] == tb[0]) | (ta[0] == tb[1]) | (ta[0] == tb[2])
-    for p in ta[1:]:
-        common |= (p == tb[0]) | (p == tb[1]) | (p == tb[2])
-    apart = np.flatnonzero(~common)
-    a, b = a[apart], b[apart]
+    out_a, out_b = [np.zeros(0, np.intp)], [np.zeros(0, np.intp)]
+    for a, b in _home_pairs(cell, t, first):
+        for k in range(3):  # the boxes overlap, one axis at a time
+            lk, hk = lo[k], hi[k]
+            meet = lk.take(a) <= hk.take(b)
+            meet &= lk.take(b) <= hk.take(a)
+            keep = np.flatnonzero(meet)
+            a, b = a.take(keep), b.take(keep)
+        ta, tb = [c.take(a) for c in small], [c.take(b) for c in small]
+        common = (ta[0] == tb[0]) | (ta[0] == tb[1]) | (ta[0] == tb[2])
+        for p in ta[1:]:
+            common |= (p == tb[0]) | (p == tb[1]) | (p == tb[2])
+        apart = np.flatnonzero(~common)
+        out_a.append(a.take(apart))
+        out_b.append(b.take(apart))
+    a, b = np.concatenate(out_a), np.concatenate(out_b)
     return np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)
 
 
