@@ -228,16 +228,17 @@ def candidate_pairs(corners: np.ndarray) -> np.ndarray:
     return np.concatenate(out) if out else np.zeros((0, 2), np.intp)
 
 
-def _segment_meets(p, q, tri_idx, corners, normal, perm):
+def _segment_meets(p, q, tri_idx, corners, normal, perm, sides=None):
     """``(k,) bool`` twice: the closed segments ``p q`` ``(k, 3)`` meet the closed triangles
     ``corners[tri_idx]`` (general position), and the configuration is degenerate (segment in
     the triangle's plane, or the line through an edge's line); then ``(k,)`` int8 twice: the
-    sides of ``p`` and ``q`` against the triangle's plane.
+    sides of ``p`` and ``q`` against the triangle's plane (or ``sides``, when known).
     """
-    t0 = corners[tri_idx, 0]
-    n, pm = normal[tri_idx], perm[tri_idx]
-    sp = _side(p, t0, n, pm, corners, tri_idx)
-    sq = _side(q, t0, n, pm, corners, tri_idx)
+    if sides is None:
+        t0 = corners[tri_idx, 0]
+        n, pm = normal[tri_idx], perm[tri_idx]
+        sides = _side(p, t0, n, pm, corners, tri_idx), _side(q, t0, n, pm, corners, tri_idx)
+    sp, sq = sides
     reach = (sp * sq) <= 0
     in_plane = (sp == 0) & (sq == 0)
     hit = reach & ~in_plane
@@ -612,34 +613,60 @@ def _narrow_phase(pts, tri, corners, normal, perm, pairs) -> tuple[np.ndarray, n
 
 def _apart_narrow_phase(pts, tri, corners, normal, perm, pairs
                         ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_narrow_phase` for ``pairs`` ``(k, 2)`` of triangles that share no vertex."""
+    """:func:`_narrow_phase` for ``pairs`` ``(k, 2)`` of triangles that share no vertex.
+
+    The sides of each triangle's corners against the other's plane are computed once: they
+    separate the pair when all three are certainly on one side, and otherwise they are the
+    edges' end sides of the segment tests (uncertain ones recomputed exactly).
+    """
     ta, tb = tri[pairs[:, 0]], tri[pairs[:, 1]]
     cols = [np.ascontiguousarray(x) for x in (*pts.T, *corners[:, 0].T, *normal.T, *perm.T)]
-    keep = np.flatnonzero(~_apart_separated(cols, ta, pairs[:, 1]))
-    keep = keep[~_apart_separated(cols, tb[keep], pairs[keep, 0])]
+    sep, det_a, bound_a = _apart_separated(cols, ta, pairs[:, 1])
+    keep = np.flatnonzero(~sep)
+    sep, det_b, bound_b = _apart_separated(cols, tb[keep], pairs[keep, 0])
+    keep, det_a, bound_a = keep[~sep], det_a[:, keep[~sep]], bound_a[:, keep[~sep]]
+    det_b, bound_b = det_b[:, ~sep], bound_b[:, ~sep]
     hit, degen = np.zeros(len(pairs), bool), np.zeros(len(pairs), bool)
     if len(keep):
-        h, d = _disjoint(pts, pairs[keep], ta[keep], tb[keep], None, corners, normal, perm)
+        kp, ka, kb = pairs[keep], ta[keep], tb[keep]
+        side_a = _certain_sides(pts, ka, kp[:, 1], corners, det_a, bound_a)
+        side_b = _certain_sides(pts, kb, kp[:, 0], corners, det_b, bound_b)
+        h, d = _disjoint(pts, kp, ka, kb, None, corners, normal, perm, (side_a, side_b))
         hit[keep], degen[keep] = h | d, d & ~h
     return hit, degen
 
 
+def _certain_sides(pts, tv, other, corners, det, bound) -> np.ndarray:
+    """``(3, k)`` int8: the exact sides of the corners of triangles ``tv`` ``(k, 3)``
+    against the planes of triangles ``other`` ``(k,)``, from their float determinants
+    ``det`` and error bounds ``bound`` ``(3, k)`` (rational where the bound does not
+    certify the sign).
+    """
+    sign = np.sign(det).astype(np.int8)
+    for i, k in zip(*np.nonzero((np.abs(det) <= bound) & (bound > 0)), strict=True):
+        tc = corners[other[k]]
+        sign[i, k] = _exact_orient(pts[tv[k, i]], tc[1], tc[2], tc[0])
+    return sign
+
+
 def _apart_separated(cols: list[np.ndarray], tv: np.ndarray, other: np.ndarray
-                     ) -> np.ndarray:
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`_separated` for triangles that share no corner, on columns ``cols``: the
     points' three coordinates, then the triangles' first corners', normals' and
-    permanents'.
+    permanents'; also the corners' float determinants and their error bounds ``(3, k)``.
     """
     t0 = [c[other] for c in cols[3:6]]
     n = [c[other] for c in cols[6:9]]
     pm = [c[other] for c in cols[9:12]]
-    pos = neg = np.ones(len(other), dtype=bool)
+    dets, bounds = np.empty((3, len(other))), np.empty((3, len(other)))
     for i in range(3):
         u = [c[tv[:, i]] - t for c, t in zip(cols[:3], t0, strict=True)]
-        det = u[0] * n[0] + u[1] * n[1] + u[2] * n[2]
-        bound = _ERR3 * (np.abs(u[0]) * pm[0] + np.abs(u[1]) * pm[1] + np.abs(u[2]) * pm[2])
-        pos, neg = pos & (det > bound), neg & (det < -bound)
-    return pos | neg
+        dets[i] = u[0] * n[0] + u[1] * n[1] + u[2] * n[2]
+        bounds[i] = _ERR3 * (np.abs(u[0]) * pm[0] + np.abs(u[1]) * pm[1]
+                             + np.abs(u[2]) * pm[2])
+    pos = ((dets > bounds).all(axis=0))
+    neg = ((dets < -bounds).all(axis=0))
+    return pos | neg, dets, bounds
 
 
 def _separated(pts, tv, other, is_shared, corners, normal, perm) -> np.ndarray:
@@ -663,14 +690,19 @@ def _separated(pts, tv, other, is_shared, corners, normal, perm) -> np.ndarray:
     return pos | neg
 
 
-def _disjoint(pts, pairs, ta, tb, eq, corners, normal, perm):
+def _disjoint(pts, pairs, ta, tb, eq, corners, normal, perm, sides=None):
     """The six edges of two triangles with no common vertex against the other triangle,
-    in one call.
+    in one call (``sides``: the exact sides ``(3, k)`` twice of the corners of ``ta`` and
+    ``tb`` against the other's plane, when known).
     """
     p = np.concatenate([pts[tv[:, i]] for tv in (ta, tb) for i in range(3)])
     q = np.concatenate([pts[tv[:, j]] for tv in (ta, tb) for j in (1, 2, 0)])
     against = np.concatenate([np.tile(pairs[:, 1], 3), np.tile(pairs[:, 0], 3)])
-    h, d, _, _ = _segment_meets(p, q, against, corners, normal, perm)
+    ends = None
+    if sides is not None:
+        ends = (np.concatenate([sides[0].ravel(), sides[1].ravel()]),
+                np.concatenate([sides[0][[1, 2, 0]].ravel(), sides[1][[1, 2, 0]].ravel()]))
+    h, d, _, _ = _segment_meets(p, q, against, corners, normal, perm, ends)
     return h.reshape(6, -1).any(axis=0), d.reshape(6, -1).any(axis=0)
 
 
