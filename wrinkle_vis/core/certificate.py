@@ -89,9 +89,12 @@ def orient(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> np.nda
     when ``a`` lies on the side of plane ``(d, b, c)`` that ``(b - d) \times (c - d)``
     points to.
     """
-    u, v, w = a - d, b - d, c - d
-    det = np.einsum("ij,ij->i", u, _cross(v, w))
-    bound = _ERR3 * np.einsum("ij,ij->i", np.abs(u), _abs_cross(v, w))
+    (u0, u1, u2), (v0, v1, v2), (w0, w1, w2) = (a - d).T, (b - d).T, (c - d).T
+    x0, x1, x2 = v1 * w2, v2 * w0, v0 * w1
+    y0, y1, y2 = v2 * w1, v0 * w2, v1 * w0
+    det = u0 * (x0 - y0) + u1 * (x1 - y1) + u2 * (x2 - y2)
+    bound = _ERR3 * (np.abs(u0) * (np.abs(x0) + np.abs(y0)) + np.abs(u1) * (np.abs(x1)
+                     + np.abs(y1)) + np.abs(u2) * (np.abs(x2) + np.abs(y2)))
     sign = np.sign(det).astype(np.int8)
     unsure = np.flatnonzero((np.abs(det) <= bound) & (bound > 0))
     for k in unsure:
