@@ -667,9 +667,8 @@ def _apart_separated(cols: list[np.ndarray], tv: np.ndarray, other: np.ndarray
         dets[i] = u[0] * n[0] + u[1] * n[1] + u[2] * n[2]
         bounds[i] = _ERR3 * (np.abs(u[0]) * pm[0] + np.abs(u[1]) * pm[1]
                              + np.abs(u[2]) * pm[2])
-    pos = ((dets > bounds).all(axis=0))
-    neg = ((dets < -bounds).all(axis=0))
-    return pos | neg, dets, bounds
+    sure = np.asarray((dets > bounds).all(axis=0) | (dets < -bounds).all(axis=0))
+    return sure, dets, bounds
 
 
 def _separated(pts, tv, other, is_shared, corners, normal, perm) -> np.ndarray:
