@@ -51,6 +51,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 
 import numpy as np
+from scipy import sparse
 
 __all__ = ["FoldReport", "fold_report", "intersecting_pairs", "turned_over"]
 
@@ -320,31 +321,38 @@ def _cross_cols(u: list[np.ndarray], v: list[np.ndarray]) -> list[np.ndarray]:
 
 def _irregular_vertices(tri: np.ndarray, n_points: int) -> np.ndarray:
     """``(n,) bool``: vertices on an edge that is not shared by exactly two triangles
-    running it in opposite directions (boundary, non-manifold or misoriented edges).
+    running it in opposite directions (boundary, non-manifold or misoriented edges), or on
+    a triangle with a repeated corner.
+
+    The directed edges are counted in a sparse matrix :math:`D` (:math:`D_{ab}`: the
+    triangles running ``a`` to ``b``); an edge is regular iff :math:`D_{ab} = D_{ba} = 1`.
     """
-    small = 2 * n_points * n_points < 2**31  # int32 keys sort faster
-    kind = np.int32 if small else np.int64
-    a: np.ndarray = tri.ravel().astype(kind)
-    b: np.ndarray = tri[:, [1, 2, 0]].ravel().astype(kind)
-    key = np.sort((np.minimum(a, b) * n_points + np.maximum(a, b)) * 2 + (a < b))
-    und = key >> 1
-    start = np.flatnonzero(np.r_[True, und[1:] != und[:-1]])
-    size = np.diff(np.r_[start, len(key)])
-    two = np.flatnonzero(size == 2)
-    pair = np.zeros(len(start), bool)
-    pair[two] = ((key[start[two]] & 1) == 0) & ((key[start[two] + 1] & 1) == 1)
-    bad = und[start[~pair]]
+    a = tri.ravel()
+    b = tri[:, [1, 2, 0]].ravel()
+    count = sparse.csr_matrix((np.ones(len(a), np.int32), (a, b)), shape=(n_points, n_points))
+    count.sum_duplicates()
     out = np.zeros(n_points, bool)
-    out[bad // n_points] = True
-    out[bad % n_points] = True
+    entries = count.tocoo()
+    twice = entries.data != 1
+    unmatched = (count - count.T).tocoo()
+    unmatched.eliminate_zeros()
+    for rows in (entries.row[twice], entries.col[twice], unmatched.row, unmatched.col,
+                 a[a == b]):
+        out[rows] = True
     return out
+
+
+def _corner_columns(pts: np.ndarray, tri: np.ndarray) -> list[list[np.ndarray]]:
+    """``[k][c]`` ``(m,)``: coordinate ``c`` of corner ``k`` of triangles ``(m, 3)``."""
+    axes = [np.ascontiguousarray(pts[:, c]) for c in range(3)]
+    return [[x.take(tri[:, k]) for x in axes] for k in range(3)]
 
 
 _AHEAD = np.array([[0.5257311, 0.6881910, 0.5000000], [-0.8090170, 0.2628656, 0.5257311]])
 
 
-def _clear_stars(pts: np.ndarray, tri: np.ndarray, normal: np.ndarray, perm: np.ndarray
-                 ) -> np.ndarray:
+def _clear_stars(pts: np.ndarray, tri: np.ndarray, normal: np.ndarray, perm: np.ndarray,
+                 x: list[list[np.ndarray]] | None = None) -> np.ndarray:
     r"""``(n,) bool``: vertices ``v`` whose star cannot intersect itself: two triangles
     that share ``v`` meet only in ``v`` or in the edge they share.
 
@@ -378,7 +386,7 @@ def _clear_stars(pts: np.ndarray, tri: np.ndarray, normal: np.ndarray, perm: np.
     # per triangle, edge k runs from corner k to corner k + 1: a - v at corner k is edge k,
     # and b - v is minus edge k + 2
     corner = [np.ascontiguousarray(tri[:, k]) for k in range(3)]
-    x = [[np.ascontiguousarray(pts[:, c])[corner[k]] for c in range(3)] for k in range(3)]
+    x = _corner_columns(pts, tri) if x is None else x
     edge = [_sub(x[(k + 1) % 3], x[k]) for k in range(3)]
     ledge = [np.sqrt(_dot(e, e)) for e in edge]
     weight = np.empty((len(tri), 3))
@@ -523,7 +531,8 @@ def _grid_cells(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]
         size *= 4.0 / 3.0
 
 
-def _apart_pairs(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
+def _apart_pairs(tri: np.ndarray, pts: np.ndarray, x: list[list[np.ndarray]] | None = None
+                 ) -> np.ndarray:
     """``(k, 2)`` int, ``i < j``: the pairs of triangles ``(m, 3)`` on ``pts`` ``(n, 3)``
     that share no vertex and whose closed bounding boxes overlap.
 
@@ -533,10 +542,10 @@ def _apart_pairs(tri: np.ndarray, pts: np.ndarray) -> np.ndarray:
     per entry).
     """
     cols = [np.ascontiguousarray(tri[:, k], dtype=np.intp) for k in range(3)]
+    x = _corner_columns(pts, tri) if x is None else x
     lo, hi = np.empty((3, len(tri))), np.empty((3, len(tri)))
     for k in range(3):
-        x = np.ascontiguousarray(pts[:, k])
-        a, b, c = x[cols[0]], x[cols[1]], x[cols[2]]
+        a, b, c = x[0][k], x[1][k], x[2][k]
         np.minimum(np.minimum(a, b, out=lo[k]), c, out=lo[k])
         np.maximum(np.maximum(a, b, out=hi[k]), c, out=hi[k])
     c0, c1 = _grid_cells(lo, hi)
@@ -577,8 +586,9 @@ def intersecting_pairs(points, triangles, *, with_degenerate: bool = False):
     if len(tri) < 2:
         pairs, degen = np.zeros((0, 2), np.intp), np.zeros(0, bool)
     else:
-        unclear = ~_clear_stars(pts, tri, normal, perm)
-        star, apart = _star_pairs(tri, unclear), _apart_pairs(tri, pts)
+        x = _corner_columns(pts, tri)
+        unclear = ~_clear_stars(pts, tri, normal, perm, x)
+        star, apart = _star_pairs(tri, unclear), _apart_pairs(tri, pts, x)
         h1, d1 = _narrow_phase(pts, tri, corners, normal, perm, star)
         h2, d2 = _apart_narrow_phase(pts, tri, corners, normal, perm, apart)
         pairs, degen = np.concatenate([star[h1], apart[h2]]), np.concatenate([d1[h1], d2[h2]])
