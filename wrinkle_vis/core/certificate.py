@@ -13,15 +13,35 @@ computed in floating point and accepted when it exceeds Shewchuk's static error 
 signs it cannot certify are recomputed in rational arithmetic (:class:`fractions.Fraction`
 holds every double exactly), so a sign is never wrong.
 
-* Broad phase, in two parts. Triangles that share a vertex: the star of each vertex is
-  tested once (:func:`_clear_stars`): where, seen along the sum of its face normals, its
-  triangles are sectors that all turn the same way, close into cycles and wind around the
-  vertex once, two of them meet only in the vertex or the edge they share, and no pair of
-  that star needs a test; the pairs of the other stars go to the narrow phase. Triangles
-  that share no vertex: their axis-aligned boxes are binned on a uniform grid, and a pair is
-  a candidate when the boxes overlap, produced once, in the lower corner of the two boxes'
-  common cells (:func:`_apart_pairs`). On a skin nearly every star passes, so the narrow
-  phase sees about a tenth of the pairs of overlapping boxes.
+* Broad phase, in two parts (:func:`intersecting_pairs` runs these steps once each, on
+  coordinate columns of the triangles' corners gathered once).
+
+  1. Triangles that share a vertex: the star of each vertex is tested once
+     (:func:`_clear_stars`, per triangle corner, one :func:`numpy.bincount` of windings and
+     doubts): where, seen along the sum of its face normals, its triangles are sectors that
+     all turn the same way, close into cycles (every edge run once each way: a sparse
+     matrix of directed edges, :func:`_irregular_vertices`) and wind around the vertex once,
+     two of them meet only in the vertex or the edge they share, and no pair of that star
+     needs a test; the pairs of the other stars go to the narrow phase
+     (:func:`_star_pairs`).
+  2. Triangles that share no vertex (:func:`_apart_pairs`): their axis-aligned boxes are
+     binned on a uniform grid of cubes 1.25 times the median box (:func:`_grid_cells`); the
+     (cell, triangle) entries are made per cell offset on int32 keys and merged by one
+     stable sort (:func:`_cell_entries`).
+  3. A pair is produced once, in the lower corner of the two boxes' common cells (a 3-bit
+     mask per entry), entry ``i`` with entry ``i + d`` of the same cell for ``d = 1, 2,
+     ...`` (:func:`_home_pairs`, each entry carrying how many follow it in its cell), and
+     filtered as it is made, in pieces small enough for the cache: the boxes overlap (one
+     axis at a time), then the triangles share no vertex.
+
+  On a skin nearly every star passes, so the narrow phase sees about a tenth of the pairs
+  of overlapping boxes. The steps are deterministic and the pairs are sorted
+  lexicographically at the end, so the result depends on the mesh only.
+* Plane filter for pairs that share no vertex (:func:`_apart_narrow_phase`): the sides of
+  each triangle's corners against the other's plane are computed once in floating point
+  with their error bounds; a pair is separated when all three are certainly on one side;
+  otherwise the same sides (the uncertain ones recomputed exactly) are the end sides of the
+  six segment tests below.
 * Narrow phase, for triangles in general position: two triangles with no common vertex
   intersect iff an edge of one meets the other (closed segment against closed triangle: the
   endpoints are not strictly on one side of its plane and the line through them passes on
