@@ -610,7 +610,7 @@ def intersecting_pairs(points, triangles, *, with_degenerate: bool = False):
         unclear = ~_clear_stars(pts, tri, normal, perm, x)
         star, apart = _star_pairs(tri, unclear), _apart_pairs(tri, pts, x)
         h1, d1 = _narrow_phase(pts, tri, corners, normal, perm, star)
-        h2, d2 = _apart_narrow_phase(pts, tri, corners, normal, perm, apart)
+        h2, d2 = _apart_narrow_phase(pts, tri, corners, normal, perm, apart, x)
         pairs, degen = np.concatenate([star[h1], apart[h2]]), np.concatenate([d1[h1], d2[h2]])
     order = np.lexsort((pairs[:, 1], pairs[:, 0]))
     return (pairs[order], degen[order]) if with_degenerate else pairs[order]
@@ -644,24 +644,28 @@ def _narrow_phase(pts, tri, corners, normal, perm, pairs) -> tuple[np.ndarray, n
     return full_hit, full_degen
 
 
-def _apart_narrow_phase(pts, tri, corners, normal, perm, pairs
+def _apart_narrow_phase(pts, tri, corners, normal, perm, pairs,
+                        x: list[list[np.ndarray]] | None = None
                         ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_narrow_phase` for ``pairs`` ``(k, 2)`` of triangles that share no vertex.
+    """:func:`_narrow_phase` for ``pairs`` ``(k, 2)`` of triangles that share no vertex
+    (``x``: the corner columns of :func:`_corner_columns`, when known).
 
     The sides of each triangle's corners against the other's plane are computed once: they
     separate the pair when all three are certainly on one side, and otherwise they are the
     edges' end sides of the segment tests (uncertain ones recomputed exactly).
     """
-    ta, tb = tri[pairs[:, 0]], tri[pairs[:, 1]]
-    cols = [np.ascontiguousarray(x) for x in (*pts.T, *corners[:, 0].T, *normal.T, *perm.T)]
-    sep, det_a, bound_a = _apart_separated(cols, ta, pairs[:, 1])
+    x = _corner_columns(pts, tri) if x is None else x
+    planes = [np.ascontiguousarray(c) for c in (*normal.T, *perm.T)]
+    a, b = pairs[:, 0], pairs[:, 1]
+    sep, det_a, bound_a = _apart_separated(x, planes, a, b)
     keep = np.flatnonzero(~sep)
-    sep, det_b, bound_b = _apart_separated(cols, tb[keep], pairs[keep, 0])
+    sep, det_b, bound_b = _apart_separated(x, planes, b.take(keep), a.take(keep))
     keep, det_a, bound_a = keep[~sep], det_a[:, keep[~sep]], bound_a[:, keep[~sep]]
     det_b, bound_b = det_b[:, ~sep], bound_b[:, ~sep]
     hit, degen = np.zeros(len(pairs), bool), np.zeros(len(pairs), bool)
     if len(keep):
-        kp, ka, kb = pairs[keep], ta[keep], tb[keep]
+        kp = pairs[keep]
+        ka, kb = tri[kp[:, 0]], tri[kp[:, 1]]
         side_a = _certain_sides(pts, ka, kp[:, 1], corners, det_a, bound_a)
         side_b = _certain_sides(pts, kb, kp[:, 0], corners, det_b, bound_b)
         h, d = _disjoint(pts, kp, ka, kb, None, corners, normal, perm, (side_a, side_b))
@@ -682,18 +686,19 @@ def _certain_sides(pts, tv, other, corners, det, bound) -> np.ndarray:
     return sign
 
 
-def _apart_separated(cols: list[np.ndarray], tv: np.ndarray, other: np.ndarray
-                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`_separated` for triangles that share no corner, on columns ``cols``: the
-    points' three coordinates, then the triangles' first corners', normals' and
-    permanents'; also the corners' float determinants and their error bounds ``(3, k)``.
+def _apart_separated(x: list[list[np.ndarray]], planes: list[np.ndarray], tv: np.ndarray,
+                     other: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_separated` for triangles ``tv`` ``(k,)`` against triangles ``other``
+    ``(k,)`` that share no corner with them, on the corner columns ``x`` and the columns of
+    the normals and their permanents ``planes``; also the corners' float determinants and
+    their error bounds ``(3, k)``.
     """
-    t0 = [c[other] for c in cols[3:6]]
-    n = [c[other] for c in cols[6:9]]
-    pm = [c[other] for c in cols[9:12]]
+    t0 = [c.take(other) for c in x[0]]
+    n = [c.take(other) for c in planes[:3]]
+    pm = [c.take(other) for c in planes[3:]]
     dets, bounds = np.empty((3, len(other))), np.empty((3, len(other)))
     for i in range(3):
-        u = [c[tv[:, i]] - t for c, t in zip(cols[:3], t0, strict=True)]
+        u = [c.take(tv) - t for c, t in zip(x[i], t0, strict=True)]
         dets[i] = u[0] * n[0] + u[1] * n[1] + u[2] * n[2]
         bounds[i] = _ERR3 * (np.abs(u[0]) * pm[0] + np.abs(u[1]) * pm[1]
                              + np.abs(u[2]) * pm[2])
