@@ -463,12 +463,14 @@ def _boxes(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.minimum(np.minimum(c0, c1), c2), np.maximum(np.maximum(c0, c1), c2)
 
 
-def _cell_entries(c0: np.ndarray, n: np.ndarray, dims: np.ndarray
+def _cell_entries(c0: np.ndarray, n: np.ndarray, dims: np.ndarray,
+                  rank: np.ndarray | None = None
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(e,)`` three times, sorted by cell: every (cell, triangle) of boxes covering the
     cells ``c0`` to ``c0 + n - 1`` ``(m, 3)`` int on a grid ``dims`` ``(3,)`` (a cell's
     key: :math:`(z d_y + y) d_x + x`), and a 3-bit mask of the axes along which the cell
-    is the box's first.
+    is the box's first. With ``rank`` ``(m,)`` (distinct, below ``m``), the entries of a
+    cell are in the order of their triangles' ranks.
     """
     key0 = (c0[:, 2] * dims[1] + c0[:, 1]) * dims[0] + c0[:, 0]
     reach = n.max(axis=0)
@@ -482,9 +484,12 @@ def _cell_entries(c0: np.ndarray, n: np.ndarray, dims: np.ndarray
         cell = key0[t] + (d[:, 2] * dims[1] + d[:, 1]) * dims[0] + d[:, 0]
         first = (d == 0).astype(np.uint8) @ np.array([1, 2, 4], np.uint8)
     else:  # one run of entries sorted by cell per offset, merged by the stable sort
-        if int(dims.prod()) < 2**31:  # int32 keys sort faster
-            key0 = key0.astype(np.int32)
-        order = np.argsort(key0)
+        if rank is not None:  # runs sorted by cell, then rank
+            order = np.argsort(key0.astype(np.int64) * len(n) + rank)
+        else:
+            if int(dims.prod()) < 2**31:  # int32 keys sort faster
+                key0 = key0.astype(np.int32)
+            order = np.argsort(key0)
         key0 = key0.take(order)
         spans = [[n[:, k].take(order) > o for o in range(int(reach[k]))] for k in range(3)]
         cells, tris, firsts = [], [], []
@@ -498,27 +503,39 @@ def _cell_entries(c0: np.ndarray, n: np.ndarray, dims: np.ndarray
                     firsts.append(np.full(len(sel), (dx == 0) | (dy == 0) << 1
                                           | (dz == 0) << 2, np.uint8))
         cell, t, first = np.concatenate(cells), np.concatenate(tris), np.concatenate(firsts)
-    if int(dims.prod()) < 2**31:
-        cell = cell.astype(np.int32, copy=False)
-    order = np.argsort(cell, kind="stable")
+    if rank is not None:
+        order = np.argsort(cell.astype(np.int64) * len(n) + rank.take(t), kind="stable")
+    else:
+        if int(dims.prod()) < 2**31:
+            cell = cell.astype(np.int32, copy=False)
+        order = np.argsort(cell, kind="stable")
     return cell.take(order), t.take(order), first.take(order)
 
 
 _CHUNK = 1 << 15  # pairs filtered at once, so that their temporaries stay in cache
 
 
-def _home_pairs(cell: np.ndarray, t: np.ndarray, first: np.ndarray
+def _home_pairs(cell: np.ndarray, t: np.ndarray, first: np.ndarray,
+                sweep: tuple[np.ndarray, np.ndarray] | None = None
                 ) -> Iterator[tuple[np.ndarray, np.ndarray]]:
     """``(p,)`` int twice, in pieces of at most ``_CHUNK``: the pairs of entries ``t`` in
     the same cell of the sorted ``cell`` ``(e,)`` whose masks ``first`` together hold every
     axis (the pair's home cell), entry ``i`` with entry ``i + d`` for ``d = 1, 2, ...``.
+
+    With ``sweep``, the entries' lower and upper x bounds ``(e,)`` twice, nondecreasing
+    lower bounds within each cell: only the pairs whose x ranges overlap, and entry ``i``
+    stops at the first ``i + d`` that starts beyond its upper bound (the later ones do too).
     """
     end = np.r_[np.flatnonzero(cell[1:] != cell[:-1]) + 1, len(cell)]
     rem = np.repeat(end, np.diff(np.r_[0, end])) - np.arange(len(cell))  # entries from i on
     idx = np.flatnonzero(rem > 1)  # intp: numpy converts other indices before gathering
     rem, fi = rem.take(idx), first.take(idx)
+    top = sweep[1].take(idx) if sweep is not None else None
     d = 1
     while len(idx):
+        if sweep is not None and top is not None:
+            go = np.flatnonzero(sweep[0].take(idx + d) <= top)
+            idx, rem, fi, top = idx.take(go), rem.take(go), fi.take(go), top.take(go)
         home = idx.take(np.flatnonzero((fi | first.take(idx + d)) == 7))
         for s in range(0, len(home), _CHUNK):
             piece = home[s:s + _CHUNK]
@@ -526,15 +543,18 @@ def _home_pairs(cell: np.ndarray, t: np.ndarray, first: np.ndarray
         d += 1
         more = np.flatnonzero(rem > d)
         idx, rem, fi = idx.take(more), rem.take(more), fi.take(more)
+        if top is not None:
+            top = top.take(more)
 
 
 _CELL = 1.25  # the grid cube over the median box's longest side
 
 
-def _grid_cells(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _grid_cells(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
     """``(3, m)`` int twice: the first and last cells of boxes ``lo``, ``hi`` ``(3, m)``
     on a grid of cubes ``_CELL`` times the median box's longest side, larger where that would
-    put a box in more than 6 cells on average, and at most 1024 cubes along an axis.
+    put a box in more than 6 cells on average, and at most 1024 cubes along an axis; and
+    whether the cubes were made larger (boxes of very different sizes: many per cube).
     """
     origin = lo.min(axis=1)[:, None]
     span = float((hi.max(axis=1) - origin[:, 0]).max())
@@ -542,13 +562,15 @@ def _grid_cells(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     size = max(_CELL * float(np.partition(side, len(side) // 2)[len(side) // 2]), span / 1024.0)
     if not np.isfinite(size) or size <= 0.0:
         size = span if span > 0 else 1.0
+    widened = False
     while True:
         c0 = ((lo - origin) * (1.0 / size)).astype(np.int64)
         c1 = ((hi - origin) * (1.0 / size)).astype(np.int64)
         if ((c1[0] - c0[0] + 1) * (c1[1] - c0[1] + 1) * (c1[2] - c0[2] + 1)).sum() \
                 <= 6 * len(side) or size >= span:
-            return c0, c1
+            return c0, c1, widened
         size *= 4.0 / 3.0
+        widened = True
 
 
 def _apart_pairs(tri: np.ndarray, pts: np.ndarray, x: list[list[np.ndarray]] | None = None
@@ -568,12 +590,18 @@ def _apart_pairs(tri: np.ndarray, pts: np.ndarray, x: list[list[np.ndarray]] | N
         a, b, c = x[0][k], x[1][k], x[2][k]
         np.minimum(np.minimum(a, b, out=lo[k]), c, out=lo[k])
         np.maximum(np.maximum(a, b, out=hi[k]), c, out=hi[k])
-    c0, c1 = _grid_cells(lo, hi)
-    cell, t, first = _cell_entries(c0.T, (c1 - c0 + 1).T, c1.max(axis=1) + 1)
+    c0, c1, widened = _grid_cells(lo, hi)
+    rank, sweep, axes = None, None, (0, 1, 2)  # type: tuple[np.ndarray | None, tuple[np.ndarray, np.ndarray] | None, tuple[int, ...]]
+    if widened:  # many boxes per cube: sweep along x inside each cube
+        rank = np.empty(len(tri), np.int64)
+        rank[np.argsort(lo[0])] = np.arange(len(tri))
+    cell, t, first = _cell_entries(c0.T, (c1 - c0 + 1).T, c1.max(axis=1) + 1, rank)
+    if widened:
+        sweep, axes = (lo[0].take(t), hi[0].take(t)), (1, 2)
     small = [c.astype(np.int32) for c in cols] if len(pts) < 2**31 else cols
     out_a, out_b = [np.zeros(0, np.intp)], [np.zeros(0, np.intp)]
-    for a, b in _home_pairs(cell, t, first):
-        for k in range(3):  # the boxes overlap, one axis at a time
+    for a, b in _home_pairs(cell, t, first, sweep):
+        for k in axes:  # the boxes overlap, one axis at a time
             lk, hk = lo[k], hi[k]
             meet = lk.take(a) <= hk.take(b)
             meet &= lk.take(b) <= hk.take(a)
