@@ -32,7 +32,11 @@ holds every double exactly), so a sign is never wrong.
      mask per entry), entry ``i`` with entry ``i + d`` of the same cell for ``d = 1, 2,
      ...`` (:func:`_home_pairs`, each entry carrying how many follow it in its cell), and
      filtered as it is made, in pieces small enough for the cache: the boxes overlap (one
-     axis at a time), then the triangles share no vertex.
+     axis at a time), then the triangles share no vertex. Where the cubes had to be
+     widened (boxes of very different sizes, as on a scan: many boxes per cube), the
+     entries of a cube are ordered by their boxes' lower x bound and entry ``i`` stops at
+     the first ``i + d`` that starts beyond its upper x bound (a sweep along x: the pairs
+     made overlap along x).
 
   On a skin nearly every star passes, so the narrow phase sees about a tenth of the pairs
   of overlapping boxes. The steps are deterministic and the pairs are sorted
