@@ -595,7 +595,9 @@ def _apart_pairs(tri: np.ndarray, pts: np.ndarray, x: list[list[np.ndarray]] | N
         np.minimum(np.minimum(a, b, out=lo[k]), c, out=lo[k])
         np.maximum(np.maximum(a, b, out=hi[k]), c, out=hi[k])
     c0, c1, widened = _grid_cells(lo, hi)
-    rank, sweep, axes = None, None, (0, 1, 2)  # type: tuple[np.ndarray | None, tuple[np.ndarray, np.ndarray] | None, tuple[int, ...]]
+    rank: np.ndarray | None = None
+    sweep: tuple[np.ndarray, np.ndarray] | None = None
+    axes: tuple[int, ...] = (0, 1, 2)
     if widened:  # many boxes per cube: sweep along x inside each cube
         rank = np.empty(len(tri), np.int64)
         rank[np.argsort(lo[0])] = np.arange(len(tri))
