@@ -372,6 +372,22 @@ def _corner_columns(pts: np.ndarray, tri: np.ndarray) -> list[list[np.ndarray]]:
     return [[x.take(tri[:, k]) for x in axes] for k in range(3)]
 
 
+def _normals(x: list[list[np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(m, 3)`` twice: :math:`n = (b - a) \times (c - a)` of triangles ``(a, b, c)`` given
+    by their corner columns ``x`` (:func:`_corner_columns`), and its permanent (the same
+    products' absolute values added), as :func:`_cross` and :func:`_abs_cross` give them.
+    """
+    e1 = [x[1][c] - x[0][c] for c in range(3)]
+    e2 = [x[2][c] - x[0][c] for c in range(3)]
+    normal, perm = np.empty((len(e1[0]), 3)), np.empty((len(e1[0]), 3))
+    for c in range(3):
+        i, j = (c + 1) % 3, (c + 2) % 3
+        p, q = e1[i] * e2[j], e1[j] * e2[i]
+        np.subtract(p, q, out=normal[:, c])
+        np.add(np.abs(p, out=p), np.abs(q, out=q), out=perm[:, c])
+    return normal, perm
+
+
 _AHEAD = np.array([[0.5257311, 0.6881910, 0.5000000], [-0.8090170, 0.2628656, 0.5257311]])
 
 
@@ -634,13 +650,12 @@ def intersecting_pairs(points, triangles, *, with_degenerate: bool = False):
     """
     pts = np.ascontiguousarray(points, dtype=float)
     tri = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
-    corners = pts[tri]
-    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
-    normal, perm = _cross(e1, e2), _abs_cross(e1, e2)
+    x = _corner_columns(pts, tri)
+    corners = np.stack([np.stack(x[k], axis=1) for k in range(3)], axis=1)  # pts[tri]
+    normal, perm = _normals(x)
     if len(tri) < 2:
         pairs, degen = np.zeros((0, 2), np.intp), np.zeros(0, bool)
     else:
-        x = _corner_columns(pts, tri)
         unclear = ~_clear_stars(pts, tri, normal, perm, x)
         star, apart = _star_pairs(tri, unclear), _apart_pairs(tri, pts, x)
         h1, d1 = _narrow_phase(pts, tri, corners, normal, perm, star)
