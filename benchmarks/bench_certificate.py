@@ -6,9 +6,11 @@ Run:  .venv/bin/python benchmarks/bench_certificate.py [--baseline main] [--roun
       [--json out.json]
 
 ``--baseline`` is a git revision whose ``wrinkle_vis/core/certificate.py`` (numpy only) is
-loaded beside this tree's. Every figure is the median over ``--rounds`` rounds; each round
-calls the baseline and this tree once each, in alternating order. The load average before
-and after is printed: on a shared machine the CPU seconds move less than the wall-clock ones.
+loaded beside this tree's, or the path of a module with the same ``intersecting_pairs`` (for
+example ``tests/certificate_reference.py``, stop 35's certificate kept verbatim). Every
+figure is the median over ``--rounds`` rounds; each round calls the baseline and this tree
+once each, in alternating order. The load average before and after is printed: on a shared
+machine the CPU seconds move less than the wall-clock ones.
 """
 
 from __future__ import annotations
@@ -89,12 +91,16 @@ def main() -> None:
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
     load_before = os.getloadavg()
-    with tempfile.TemporaryDirectory() as tmp:
-        src = Path(tmp) / "certificate_baseline.py"
-        src.write_bytes(subprocess.run(
-            ["git", "-C", str(ROOT), "show", f"{args.baseline}:wrinkle_vis/core/certificate.py"],
-            check=True, capture_output=True).stdout)
-        old = _module(src, "certificate_baseline")
+    if args.baseline.endswith(".py"):
+        old = _module(ROOT / args.baseline, "certificate_baseline")
+    else:
+        with tempfile.TemporaryDirectory() as tmp:
+            src = Path(tmp) / "certificate_baseline.py"
+            src.write_bytes(subprocess.run(
+                ["git", "-C", str(ROOT), "show",
+                 f"{args.baseline}:wrinkle_vis/core/certificate.py"],
+                check=True, capture_output=True).stdout)
+            old = _module(src, "certificate_baseline")
     new = _module(ROOT / "wrinkle_vis" / "core" / "certificate.py", "certificate_this_tree")
     res = {name: compare(old, new, pts, tri, args.rounds)
            for name, (pts, tri) in meshes().items()}

@@ -172,6 +172,30 @@ def test_broad_phase_keeps_every_overlapping_box_once(mesh):
     assert set(map(tuple, got)) == want
 
 
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_grid_sweep_keeps_every_apart_overlapping_pair_once(seed):
+    """Boxes of very different sizes widen the grid's cubes, and the pairs come from a sweep
+    along x inside each cube: the same pairs as testing every pair."""
+    from wrinkle_vis.core.certificate import _apart_pairs, _grid_cells
+
+    rng = np.random.default_rng(seed)
+    centres = np.repeat(rng.uniform(0, 1, (6, 3)), 12, axis=0)  # 6 clusters of 12 points
+    pts = np.concatenate([centres + rng.normal(0, 0.02, (72, 3)), rng.uniform(0, 1, (6, 3))])
+    small = [12 * rng.integers(6) + rng.choice(12, 3, replace=False) for _ in range(60)]
+    large = [rng.choice(len(pts), 3, replace=False) for _ in range(4)]
+    tris = np.array(small + large)
+    corners = pts[tris]
+    lo, hi = corners.min(axis=1), corners.max(axis=1)
+    assert _grid_cells(lo.T, hi.T)[2]  # the cubes were widened: the sweep runs
+    want = {(i, j) for i, j in combinations(range(len(tris)), 2)
+            if np.all(np.maximum(lo[i], lo[j]) <= np.minimum(hi[i], hi[j]))
+            and not set(tris[i]) & set(tris[j])}
+    got = _apart_pairs(tris, pts).tolist()
+    assert len(got) == len(set(map(tuple, got)))
+    assert set(map(tuple, got)) == want
+
+
 @settings(max_examples=80, deadline=None)
 @given(small_meshes(), st.data())
 def test_fold_report_tests_only_the_moved_region_and_finds_the_same(mesh, data):
