@@ -27,6 +27,7 @@ import numpy as np
 import pyvista as pv
 
 import wrinkle_vis as wv
+from wrinkle_vis.app.models import DisplayOptions
 from wrinkle_vis.app.session import Session
 from wrinkle_vis.app.views import LinkedViews
 from wrinkle_vis.core.editing import with_point
@@ -52,6 +53,7 @@ def drag_times(face, size, steps: int, rebuild: bool, anti_aliasing: bool,
     """Seconds of each of ``steps`` updates of one drag of the muscle's insertion handle."""
     session = Session(face)
     session.set_field("W", MUSCLE)
+    options = DisplayOptions(field="W", muscle=MUSCLE, anti_aliasing=anti_aliasing)
     views = make_views(size, anti_aliasing)
     times: list[float] = []
 
@@ -60,14 +62,14 @@ def drag_times(face, size, steps: int, rebuild: bool, anti_aliasing: bool,
             with_point(session.face.muscle(MUSCLE), handle.param, handle.index, point)))
         if rebuild:
             views.invalidate()
-        views.draw(session, session.state())
+        views.draw(session.state(), options, session.face)
         views.render(only_changed=True, skip=(views.skin_view,))  # the widget renders it
 
     views.on_move = on_move
     views.on_start = lambda handle: views.begin_drag() if hide_skin else None
     for p in views.plotters:  # the interactors first, then the widgets on them
         p.show(auto_close=False, interactive=False)
-    views.draw(session, session.state())
+    views.draw(session.state(), options, session.face)
     set_camera(views.skin_view, "forehead", face)
     views.render()
     widget = views.placement

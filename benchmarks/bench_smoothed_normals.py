@@ -43,10 +43,10 @@ def jacobi_cg_normals(surface, normals, radius: float) -> np.ndarray:
 def first_frame(skin, base, solver) -> tuple[float, float, np.ndarray]:
     """Seconds and peak traced MiB of a fresh face's first frame, and its slide normals."""
     import wrinkle_vis as wv
-    import wrinkle_vis.core.face as core_face
+    import wrinkle_vis.core.restgeometry as rest_geometry
 
-    before = core_face.smoothed_normals
-    core_face.smoothed_normals = solver
+    before = rest_geometry.smoothed_normals
+    rest_geometry.smoothed_normals = solver
     try:
         face = wv.FaceModel(skin, base.skull, base.muscles, base.expressions,
                             skin_model="geometric")
@@ -59,7 +59,7 @@ def first_frame(skin, base, solver) -> tuple[float, float, np.ndarray]:
         tracemalloc.stop()
         return seconds, peak, face._rest.slide_normals
     finally:
-        core_face.smoothed_normals = before
+        rest_geometry.smoothed_normals = before
 
 
 def main() -> None:

@@ -6,10 +6,11 @@ The scan ("Infinite, 3D Head Scan" by Lee Perry-Smith / Infinite Realities, CC B
 read and welded (datasets.read_surface), its corner UVs read (plotting.bake.read_obj_uvs),
 moved into the built-in frame in millimetres by the rotation of the similarity that takes
 the procedural face's landmarks onto the scan's (datasets/examples/lee_perry_smith.json,
-picked on a front view), and stored as float32; the skull is the level set of
-datasets.skull.scan_skull; the muscles are the procedural layout moved by the landmarks
-(datasets.scans.transfer_layout), then the frontalis sheets refitted to this forehead
-(fit_frontalis). The original OBJ is never copied into the package.
+picked on a front view), its lips moved apart where they pass through each other at the
+slit or fold flat onto each other at the corners (separate_lips), and stored as float32;
+the skull is the level set of datasets.skull.scan_skull; the muscles are the procedural
+layout moved by the landmarks (datasets.scans.transfer_layout), then the frontalis sheets
+refitted to this forehead (fit_frontalis). The original OBJ is never copied into the package.
 """
 
 import dataclasses
@@ -22,6 +23,7 @@ import wrinkle_vis as wv
 from wrinkle_vis.core.mesh import closest_points
 from wrinkle_vis.datasets import BUILTIN_LAYOUT, read_surface, transfer_layout
 from wrinkle_vis.datasets.lee_perry_smith import DATA, LAYOUT
+from wrinkle_vis.datasets.lips import facing_pairs, separate_crossings
 from wrinkle_vis.datasets.scans import similarity_transform
 from wrinkle_vis.datasets.skull import scan_skull
 from wrinkle_vis.plotting.bake import read_obj_uvs
@@ -43,6 +45,33 @@ def to_builtin_frame(skin, landmarks):
         return 1000.0 * (np.asarray(p, float) - shift) @ rot
 
     return move
+
+
+#: The lips' region: within this many mm of the mid-point of the mouth corners.
+LIPS_RADIUS = 40.0
+#: How far apart the lips' sheets are held where they crossed or folded onto each other, mm.
+LIPS_GAP = 1.0
+#: Then how far apart the lips are held across the slit wherever they face each other closer
+#: than LIPS_GAP + 0.1 mm (the mouth's corners, where the pulls press them together), mm.
+LIPS_SLIT = 1.8
+
+
+def separate_lips(skin, marks):
+    """The skin with the lips' sheets, which pass through each other at the closed mouth's
+    slit and fold flat onto each other at its corners, moved apart
+    (:func:`~wrinkle_vis.datasets.lips.separate_crossings`, float32 as stored), then held
+    :data:`LIPS_SLIT` apart wherever they face each other across the slit closer than
+    :data:`LIPS_GAP` + 0.1 mm (as far as 40 steps get, never crossing): the rest skin then
+    crosses itself only at the eyelids and an ear.
+    """
+    mid = 0.5 * (np.asarray(marks["mouth_corner_L"]) + np.asarray(marks["mouth_corner_R"]))
+    region = np.linalg.norm(skin.points - mid, axis=1) < LIPS_RADIUS
+    tri = skin.triangles
+    points = separate_crossings(skin.points, tri, region, gap=LIPS_GAP, folds=True)
+    slit = facing_pairs(points, tri, region, LIPS_GAP + 0.1, max_cos=-0.8)
+    points = separate_crossings(points, tri, region, gap=LIPS_SLIT, folds=True, hold=slit,
+                                strict=False, max_steps=40)
+    return wv.TriangleSurface(points, tri)
 
 
 def compact(surface):
@@ -77,10 +106,13 @@ def main(path: Path) -> None:
     uvs = read_obj_uvs(path, scan)  # (m, 3, 2), corners of the welded triangles
     marks_m = wv.load_layout(EXAMPLE).landmarks
     move = to_builtin_frame(scan, marks_m)
-    skin = compact(scan.with_points(move(scan.points)))
-    marks = {k: tuple(map(float, closest_points(skin, move(v)[None])[0]))
+    scanned = compact(scan.with_points(move(scan.points)))
+    marks = {k: tuple(map(float, closest_points(scanned, move(v)[None])[0]))
              for k, v in marks_m.items()}
+    skin = separate_lips(scanned, marks)
     skull = compact(scan_skull(skin, marks))
+    assert all(np.allclose(closest_points(skin, np.asarray(v)[None])[0], v)
+               for v in marks.values()), "a landmark sits on the lips that moved"
     layout = transfer_layout(wv.load_layout(BUILTIN_LAYOUT), skin, marks, skull)
     layout = dataclasses.replace(fit_frontalis(layout), name=NAME, landmarks=marks, unit="mm",
                                  face="lee_perry_smith", skin=None, skull=None)

@@ -4,9 +4,11 @@ frame per event-loop turn, and a plug-in muscle type's own parameter panel.
 
 from __future__ import annotations
 
+import dataclasses
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 import wrinkle_vis as wv
@@ -137,3 +139,86 @@ def test_a_plugin_type_brings_its_own_parameter_panel(make_window, wv_face):
         assert type(w.parameters.panel) is ParameterPanel
     finally:
         _LOOKUP.registered.pop(ring_type, None)
+
+
+def test_the_views_draw_a_frame_as_the_options_say_with_no_session(wv_face):
+    """LinkedViews.draw takes the frame, a frozen DisplayOptions (field, muscle, colour map
+    and range, switches) and the face: no session; a new colour map rebuilds the scene."""
+    import inspect
+
+    import pyvista as pv
+    from matplotlib import colormaps
+
+    from wrinkle_vis.app.views import LinkedViews
+    from wrinkle_vis.plotting.polydata import field_array_name
+
+    assert "session" not in inspect.signature(LinkedViews.draw).parameters
+    plotters = [pv.Plotter(off_screen=True, window_size=(200, 160)) for _ in range(3)]
+    try:
+        views = LinkedViews(*plotters)
+        state = wv_face.evaluate("frown")
+        options = DisplayOptions(field="eps", muscle="corrugator_L", cmap="magma",
+                                 clim=(-0.1, 0.2), raking_light=True)
+        assert views.draw(state, options, wv_face)
+        mapper = plotters[0].actors["skin"].mapper
+        assert tuple(mapper.scalar_range) == (-0.1, 0.2)
+        assert mapper.dataset.active_scalars_name == field_array_name("eps", "corrugator_L")
+        table = mapper.lookup_table
+        assert np.allclose(table.GetTableValue(0)[:3], colormaps["magma"](0.0)[:3], atol=0.01)
+        assert views.placement.muscle.name == "corrugator_L" and views.raking_light
+        same = dataclasses.replace(options, clim=(-0.2, 0.3))
+        assert not views.draw(wv_face.evaluate("fear"), same, wv_face)  # in place
+        assert tuple(mapper.scalar_range) == (-0.2, 0.3)
+        assert views.draw(state, dataclasses.replace(same, cmap=None), wv_face)  # rebuilt
+        table = plotters[0].actors["skin"].mapper.lookup_table
+        assert np.allclose(table.GetTableValue(0)[:3], colormaps["PuOr_r"](0.0)[:3],
+                           atol=0.01)  # eps's own map
+        with pytest.raises(ValueError, match="min must be below max"):
+            DisplayOptions(clim=(1.0, 1.0))
+    finally:
+        views.close_placement()
+        for p in plotters:
+            p.close()
+
+
+def test_the_display_owns_the_colour_map_range_and_camera(make_window, wv_face):
+    """The colour map box, the range controls and the View menu's cameras are bound to
+    the Display model: a control sets it, a change of it shows in the controls (no echo),
+    and a new face keeps them (shown from the camera chosen)."""
+    from wrinkle_vis.plotting import set_camera
+
+    w = make_window()
+    heard = []
+    w.display.changed.connect(heard.append)
+    w.cmap_box.setCurrentText("magma")
+    assert w.display.options.cmap == "magma" and heard == ["cmap"]
+    w.display.set(cmap=None)
+    assert w.cmap_box.currentText() == "field's own"
+    w.display.set(clim=(-0.5, 0.25))
+    assert w.range_box.currentText() == "fixed" and w.range_min.isEnabled()
+    assert (w.range_min.value(), w.range_max.value()) == (-0.5, 0.25)
+    assert tuple(w.skin_view.actors["skin"].mapper.scalar_range) == (-0.5, 0.25)
+    w.set_camera("forehead")
+    assert w.display.options.camera == "forehead" and heard[-1] == "camera"
+    w.document.replace(Session(wv_face))  # a new face: the display's choices stay
+    position = w.skin_view.camera_position
+    assert w.range_box.currentText() == "fixed"
+    assert tuple(w.skin_view.actors["skin"].mapper.scalar_range) == (-0.5, 0.25)
+    set_camera(w.skin_view, "front", wv_face)
+    assert w.skin_view.camera_position != position  # it was the forehead's
+    set_camera(w.skin_view, "forehead", wv_face)
+    assert w.skin_view.camera_position == position
+    w.range_box.setCurrentText("automatic")
+    assert w.display.options.clim is None and not w.range_min.isEnabled()
+
+
+def test_the_views_multisample_only_when_the_display_says(make_window):
+    """PyVista's theme turns multisampling on (about 2.5x the render in software); the
+    views follow the display's option from the first frame on."""
+    w = make_window()
+    samples = lambda: [p.render_window.GetMultiSamples() for p in w.plotters]  # noqa: E731
+    assert not w.display.options.anti_aliasing and samples() == [0, 0, 0]
+    w.set_anti_aliasing(True)
+    assert all(n > 1 for n in samples())
+    w.set_anti_aliasing(False)
+    assert samples() == [0, 0, 0]

@@ -47,6 +47,48 @@ def test_ticks_follow_the_wall_clock_in_whole_steps_and_a_slow_frame_is_capped(p
     np.testing.assert_array_equal(pb.simulation.x, x)
 
 
+def _counted(pb):
+    """Count the steps ``pb``'s simulations take (each ``advance``), whatever the tick
+    says: ``counted[0]`` steps of ``h`` are the simulated seconds, ``counted[0] * H``.
+    """
+    counted = [0]
+    start = pb._start
+
+    def counting_start(*args):
+        start(*args)
+        advance = pb.simulation.advance
+
+        def counting(dt=None):
+            counted[0] += 1
+            advance(dt)
+
+        pb.simulation.advance = counting
+
+    pb._start = counting_start
+    return counted
+
+
+@pytest.mark.parametrize("interval", [0.016, 0.045, 0.07])
+def test_simulated_time_is_the_wall_clock_time_across_the_end_of_the_timeline(
+        physical, interval):
+    """Ticks at the app's intervals (a 60 Hz timer; frames of 45 and 70 ms, slower than a
+    step) over 1.2 s of wall clock on a 0.5 s timeline that goes round twice: the steps
+    taken are the wall-clock time, to within the lag left (less than a step), nothing
+    dropped; :attr:`played_s` counts them.
+    """
+    ex = physical.expressions["surprise"]
+    pb = PhysicalPlayback(ex.at, lambda: 0.5)
+    counted = _counted(pb)
+    pb.play(physical, 0.0, now=10.0)
+    ticks = round(1.2 / interval)
+    for k in range(1, ticks + 1):
+        pb.tick(10.0 + k * interval)
+    wall = ticks * interval
+    assert 0.0 <= wall - counted[0] * H < H
+    assert pb.played_s == pytest.approx(counted[0] * H) and pb.dropped_s == 0.0
+    assert pb.time == pytest.approx((counted[0] * H) % (15 * H) or 15 * H)  # went round
+
+
 def test_play_is_the_simulation_of_the_timeline(physical):
     """Ticks give the states of ``face.simulate`` for the expression's timeline."""
     pb = _playback(physical)
@@ -178,6 +220,34 @@ def test_play_on_the_physical_skin_follows_the_wall_clock(clocked):
     from conftest import skin_mesh
 
     np.testing.assert_allclose(skin_mesh(w).point_data["W"], state.W, rtol=0, atol=1e-9)
+
+
+def test_play_follows_the_wall_clock_from_when_the_simulation_is_ready(clocked):
+    """Play on the physical skin, ticked at 45 ms (a frame's time at paper size) across the
+    end of the timeline: the simulated seconds (the steps taken, counted) are the
+    wall-clock seconds since the simulation was ready, to within a step; the 0.4 s the
+    start took (a scrub to 2.7 s simulates its last 0.5 s) is not simulated.
+    """
+    w = clocked
+    _physical(w)
+    s = w.session
+    counted = _counted(s.physics)
+    w.time_slider.setValue(270)  # 2.7 s of 3
+    play = s.play
+
+    def slow_play(now):  # starting the simulation takes 0.4 s of wall clock
+        play(now)
+        w.clock.now += 0.4
+
+    s.play = slow_play
+    played0 = s.physics.played_s
+    _play(w, 0.02, ticks=1)
+    assert counted[0] == 0 and s.physics.time == pytest.approx(2.7)  # 20 ms: no step yet
+    _play(w, 0.9, ticks=20)
+    assert 0.0 <= 0.92 - counted[0] * H < H and s.physics.dropped_s == 0.0
+    assert s.physics.played_s - played0 == pytest.approx(counted[0] * H)
+    assert s.physics.time == pytest.approx(2.7 + counted[0] * H - 3.0)  # went round
+    assert w.time_slider.value() == round(TIMELINE_STEPS * s.physics.time / 3.0)
 
 
 def test_pause_keeps_the_state_and_reset_returns_to_rest(clocked, qtbot):

@@ -13,8 +13,8 @@ from meshes import grid, sphere
 
 import wrinkle_vis as wv
 from wrinkle_vis import LinearMuscle, SheetMuscle, TriangleSurface
-from wrinkle_vis.core.face import _MuscleData, tangential
 from wrinkle_vis.core.mesh import cotangent_laplacian, occluded, shape_operators
+from wrinkle_vis.core.muscledata import _MuscleData, tangential
 from wrinkle_vis.core.sphincter import SphincterMuscle
 
 coordinate = st.floats(-50.0, 50.0)
@@ -159,7 +159,7 @@ def test_occlusion_matches_every_ray_against_every_triangle():
 
 
 def test_unique_ids_are_numpys_unique():
-    from wrinkle_vis.core.face import _unique_ids
+    from wrinkle_vis.core.stacked import _unique_ids
 
     ids = np.random.default_rng(2).integers(0, 500, 3000)
     union, inverse = _unique_ids(ids, return_inverse=True)

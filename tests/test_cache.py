@@ -1,7 +1,7 @@
 import numpy as np
 
 import wrinkle_vis as wv
-from wrinkle_vis.core import face as face_module
+from wrinkle_vis.core import restgeometry
 from wrinkle_vis.core.cache import ByteBudgetCache, nbytes
 
 
@@ -52,7 +52,7 @@ def test_an_entry_that_grows_is_weighed_again_and_the_newest_stays_even_alone():
 
 
 def test_refined_frames_of_an_animation_stay_within_the_byte_budget(monkeypatch):
-    monkeypatch.setattr(face_module, "REFINE_CACHE_BYTES", 2 * 2**20)
+    monkeypatch.setattr(restgeometry, "REFINE_CACHE_BYTES", 2 * 2**20)
     face = wv.datasets.load_face()
     names = ("surprise", "fear", "frown")
     for i in range(12):
@@ -61,7 +61,7 @@ def test_refined_frames_of_an_animation_stay_within_the_byte_budget(monkeypatch)
         assert cache.total <= 2 * 2**20 or len(cache) == 1  # only an entry over budget
     assert len(cache) >= 1
     # the frames still agree with a face whose cache never dropped anything
-    monkeypatch.setattr(face_module, "REFINE_CACHE_BYTES", 2**40)
+    monkeypatch.setattr(restgeometry, "REFINE_CACHE_BYTES", 2**40)
     fresh = wv.datasets.load_face(n_triangles=face.skin.n_triangles)
     a = face.evaluate("fear", 0.8, refine=True)
     b = fresh.evaluate("fear", 0.8, refine=True)

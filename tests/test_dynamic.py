@@ -344,11 +344,11 @@ def test_the_muscles_rows_extended_as_the_hierarchy_grows_are_those_built_at_onc
         monkeypatch):
     """Frames of several expressions grow the hierarchy; each active set's rows, extended
     with every growth, equal the rows built in one go from the muscles' data."""
-    from wrinkle_vis.core.refined import _Assembly
+    from wrinkle_vis.core.refined import _RefinedRows
 
     extended = []
-    extend = _Assembly.extend
-    monkeypatch.setattr(_Assembly, "extend",
+    extend = _RefinedRows.extend
+    monkeypatch.setattr(_RefinedRows, "extend",
                         lambda self, *a: extended.append(extend(self, *a)) or extended[-1])
     face = wv.datasets.load_face(n_triangles=2000)
     for name, t in (("frown", 0.3), ("fear", 0.5), ("surprise", 0.4), ("frown", 1.0),
@@ -360,7 +360,7 @@ def test_the_muscles_rows_extended_as_the_hierarchy_grows_are_those_built_at_onc
     assert len(keys) >= 2
     for _, muscles in keys:
         asm = engine.assembly(muscles)
-        fresh = _Assembly(engine.hier, [engine.levels(m) for m in muscles])
+        fresh = _RefinedRows(engine.hier, [engine.levels(m) for m in muscles])
         assert asm.version == fresh.version
         for name in ("moved", "muscle", "unit", "weights", "hat", "slot", "influenced"):
             np.testing.assert_array_equal(getattr(asm, name), getattr(fresh, name))

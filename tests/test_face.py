@@ -106,6 +106,18 @@ def test_intensity_and_expressions():
                                   f.evaluate({"lin": 0.5, "sh": 0.25}).points)
 
 
+def test_a_renamed_muscle_is_renamed_in_place_in_every_expression():
+    f = wv.FaceModel(grid(21, 21, 80.0), None, muscles(),
+                     {"both": wv.Expression("both", {"lin": 1.0, "sh": 0.5}),
+                      "sheet": wv.Expression("sheet", {"sh": 0.7})})
+    g = f.with_muscle(f.muscle("lin").replace(name="line"), replacing="lin")
+    assert g.muscle_names == ("line", "sh")
+    assert list(g.expressions["both"].activations.items()) == [("line", 1.0), ("sh", 0.5)]
+    assert g.expressions["sheet"] is f.expressions["sheet"]  # untouched: the same object
+    h = g.without_muscle("line")
+    assert dict(h.expressions["both"].activations) == {"sh": 0.5}
+
+
 @pytest.mark.parametrize(
     ("activations", "error", "message"),
     [

@@ -172,6 +172,30 @@ def test_broad_phase_keeps_every_overlapping_box_once(mesh):
     assert set(map(tuple, got)) == want
 
 
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_grid_sweep_keeps_every_apart_overlapping_pair_once(seed):
+    """Boxes of very different sizes widen the grid's cubes, and the pairs come from a sweep
+    along x inside each cube: the same pairs as testing every pair."""
+    from wrinkle_vis.core.certificate import _apart_pairs, _grid_cells
+
+    rng = np.random.default_rng(seed)
+    centres = np.repeat(rng.uniform(0, 1, (6, 3)), 12, axis=0)  # 6 clusters of 12 points
+    pts = np.concatenate([centres + rng.normal(0, 0.02, (72, 3)), rng.uniform(0, 1, (6, 3))])
+    small = [12 * rng.integers(6) + rng.choice(12, 3, replace=False) for _ in range(60)]
+    large = [rng.choice(len(pts), 3, replace=False) for _ in range(4)]
+    tris = np.array(small + large)
+    corners = pts[tris]
+    lo, hi = corners.min(axis=1), corners.max(axis=1)
+    assert _grid_cells(lo.T, hi.T)[2]  # the cubes were widened: the sweep runs
+    want = {(i, j) for i, j in combinations(range(len(tris)), 2)
+            if np.all(np.maximum(lo[i], lo[j]) <= np.minimum(hi[i], hi[j]))
+            and not set(tris[i]) & set(tris[j])}
+    got = _apart_pairs(tris, pts).tolist()
+    assert len(got) == len(set(map(tuple, got)))
+    assert set(map(tuple, got)) == want
+
+
 @settings(max_examples=80, deadline=None)
 @given(small_meshes(), st.data())
 def test_fold_report_tests_only_the_moved_region_and_finds_the_same(mesh, data):
@@ -232,6 +256,157 @@ def test_fold_report_counts_only_what_the_frame_adds():
     flipped = dome.points * [1, -1, -1]  # half a turn about x: every triangle turned over
     assert len(turned_over(dome.points, flipped, dome.triangles)) == dome.n_triangles
     assert len(turned_over(dome.points, dome.points, dome.triangles)) == 0
+
+
+# --- the fast broad phase against the reference it replaced (stop 36) -------------------
+
+
+def _sorted_pairs(pairs, degenerate):
+    order = np.lexsort((pairs[:, 1], pairs[:, 0]))
+    return pairs[order], degenerate[order]
+
+
+def _assert_as_reference(pts, tris):
+    """The certificate equals the reference (every pair of overlapping boxes through the
+    exact narrow phase, kept from before stop 36) pair for pair, degenerate flags too, and
+    lists its pairs in lexicographic order."""
+    from certificate_reference import intersecting_pairs as reference
+
+    got, degenerate = intersecting_pairs(pts, tris, with_degenerate=True)
+    want, want_degenerate = _sorted_pairs(*reference(pts, tris, with_degenerate=True))
+    np.testing.assert_array_equal(got.reshape(-1, 2), want.reshape(-1, 2))
+    np.testing.assert_array_equal(degenerate, want_degenerate)
+    return got
+
+
+@st.composite
+def folded_grids(draw, most: int = 6):
+    """A grid of ``nx x ny`` vertices on the integer lattice with heights in {-1, 0, 1}
+    (coplanar quads, shared edges folded flat, vertices on faces abound), some vertices
+    thrown across their neighbours, some triangles turned round or left out (boundaries,
+    holes, misoriented edges)."""
+    nx, ny = draw(st.integers(2, most)), draw(st.integers(2, most))
+    x, y = np.meshgrid(np.arange(nx), np.arange(ny))
+    z = np.array(draw(st.lists(st.integers(-1, 1), min_size=nx * ny, max_size=nx * ny)))
+    pts = np.c_[x.ravel(), y.ravel(), z].astype(float)
+    for k in draw(st.lists(st.integers(0, nx * ny - 1), max_size=3)):
+        pts[k] += draw(st.tuples(*[st.integers(-2, 2)] * 3))
+    idx = np.arange(nx * ny).reshape(ny, nx)
+    a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
+    c, d = idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
+    tri = np.r_[np.c_[a, b, c], np.c_[a, c, d]]
+    turn = np.array(draw(st.lists(st.booleans(), min_size=len(tri), max_size=len(tri))))
+    tri[turn & (np.arange(len(tri)) % 5 == 0)] = tri[turn & (np.arange(len(tri)) % 5 == 0)][
+        :, ::-1]
+    keep = np.array(draw(st.lists(st.booleans(), min_size=len(tri), max_size=len(tri))))
+    keep |= np.arange(len(tri)) % 3 != 0
+    return pts * draw(st.sampled_from([1.0, 0.1, 1e-3])), tri[keep]
+
+
+@settings(max_examples=150, deadline=None)
+@given(folded_grids())
+def test_certificate_equals_the_reference_on_folded_grids(mesh):
+    pts, tris = mesh
+    _assert_as_reference(pts, tris)
+
+
+@settings(max_examples=40, deadline=None)
+@given(folded_grids(most=4))
+def test_certificate_equals_a_rational_brute_force_on_folded_grids(mesh):
+    pts, tris = mesh
+    corners = pts[tris]
+    if not np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]).any(
+            axis=1).all():
+        return  # the brute force does not call contacts with flat triangles
+    got = _assert_as_reference(pts, tris)
+    assert {tuple(p) for p in got.tolist()} == brute_force(pts, tris)
+
+
+def _fan(angles, heights, closed=True, radius=None):
+    """A fan of triangles around a vertex at the origin, its rim at ``angles`` and
+    ``heights`` (closed: the last rim vertex joins the first)."""
+    angles = np.asarray(angles, float)
+    r = np.ones_like(angles) if radius is None else np.asarray(radius, float)
+    rim = np.c_[r * np.cos(angles), r * np.sin(angles), heights]
+    pts = np.vstack([[0.0, 0.0, 0.0], rim])
+    k = np.arange(1, len(angles) + 1)
+    nxt = np.roll(k, -1) if closed else k[1:]
+    tri = np.c_[np.zeros(len(nxt), int), k[:len(nxt)], nxt]
+    return pts, tri
+
+
+def test_the_star_test_clears_only_stars_that_wind_once():
+    from wrinkle_vis.core.certificate import _abs_cross, _clear_stars
+    from wrinkle_vis.core.certificate import _cross as cross
+
+    def clear(pts, tri):
+        c = pts[tri]
+        e1, e2 = c[:, 1] - c[:, 0], c[:, 2] - c[:, 0]
+        return _clear_stars(pts, tri, cross(e1, e2), _abs_cross(e1, e2))[0]
+
+    once = _fan(np.linspace(0, 2 * np.pi, 7)[:-1], 0.1 * np.sin(np.arange(6)))
+    assert clear(*once) and len(_assert_as_reference(*once)) == 0
+    # around twice, the heights going up and down: the two sheets cross (intermediate
+    # values), and every sector turns the same way, every edge is shared twice
+    twice = _fan(np.linspace(0, 4 * np.pi, 11)[:-1], 0.3 * np.cos(np.linspace(0, 2 * np.pi,
+                                                                       11)[:-1]))
+    assert not clear(*twice)
+    got = _assert_as_reference(*twice)
+    assert len(got) > 0 and {tuple(p) for p in got.tolist()} == brute_force(*twice)
+    # an open fan (a boundary vertex) over more than a turn, its last sector tilted
+    # through the plane of the first ones
+    # through the plane of the first ones; turned about z, so that the direction the
+    # winding is counted along falls both in and out of the overlap
+    for turn in np.linspace(0, 2 * np.pi, 8, endpoint=False):
+        spiral = _fan(turn + np.linspace(0, 2.4 * np.pi, 9), [0, 0, 0, 0, 0, 0, 0, 0.2, -0.2],
+                      closed=False, radius=np.linspace(1.0, 0.6, 9))
+        assert not clear(*spiral)
+        got = _assert_as_reference(*spiral)
+        assert len(got) > 0 and {tuple(p) for p in got.tolist()} == brute_force(*spiral)
+    # two cones touching at their apex (two cycles at one vertex): only the apex is shared
+    up, tu = _fan(np.linspace(0, 2 * np.pi, 6)[:-1], np.full(5, 1.0))
+    down, td = _fan(np.linspace(0, 2 * np.pi, 6)[:-1] + 0.3, np.full(5, -1.0))
+    pts = np.vstack([up, down[1:]])
+    tri = np.vstack([tu, np.where(td[:, ::-1] == 0, 0, td[:, ::-1] + 5)])
+    assert not clear(pts, tri)
+    assert len(_assert_as_reference(pts, tri)) == 0 and brute_force(pts, tri) == set()
+
+
+def test_certificate_equals_the_reference_on_touching_configurations():
+    tri = np.array([[0, 1, 2], [3, 4, 5]])
+    base = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
+    for other in ([[0.25, 0.25, 0], [1, 1, 1], [1, -1, 1]],  # a vertex on the other's face
+                  [[1, 0, 0.5], [2, 0, 0.5], [1.5, 1, 0.5]],  # apart, one plane above
+                  [[0.5, 0.5, 0], [1.5, 0.5, 0], [0.5, 1.5, 0]],  # coplanar, touching
+                  [[0.5, 0.5, 0], [0.5, -0.5, 0], [2, 0, 0]],  # coplanar, overlapping
+                  [[0.5, 0.5, -1], [0.5, 0.5, 1], [2, 2, 0]]):  # an edge through an edge
+        pts = np.vstack([base, other])
+        got = _assert_as_reference(pts, tri)
+        assert {tuple(p) for p in got.tolist()} == brute_force(pts, tri)
+
+
+@pytest.mark.parametrize("scene", ["valley", "lips", "spheres"])
+def test_certificate_equals_the_reference_on_the_stress_scenes(scene):
+    if scene == "spheres":
+        from meshes import sphere
+
+        ball = sphere(3)
+        pts = np.vstack([ball.points, 0.9 * ball.points + [0.5, 0, 0]])
+        tri = np.vstack([ball.triangles, ball.triangles + ball.n_points])
+        assert len(_assert_as_reference(pts, tri)) > 0
+        return
+    skin, W = valley() if scene == "valley" else lips()
+    raw = skin.points + W[:, None] * skin.vertex_normals()
+    assert len(_assert_as_reference(raw, skin.triangles)) > 0  # the unguarded folds
+    _assert_as_reference(skin.points, skin.triangles)
+
+
+@pytest.mark.slow
+def test_certificate_equals_the_reference_on_the_heads_frames(head):
+    _assert_as_reference(head.skin.points, head.skin.triangles)
+    for expr in ("smile", "pucker"):
+        s = head.evaluate(expr, fold_guard=False)
+        assert len(_assert_as_reference(s.points, s.triangles)) > 0
 
 
 # --- the fold guard on synthetic scenes -------------------------------------------------
@@ -571,3 +746,141 @@ def test_the_guard_on_needed_radii_gives_the_frame_of_the_true_radii(monkeypatch
     for key in ("points", "W", "deformed_points", "fold_guard"):
         np.testing.assert_array_equal(getattr(needed, key), getattr(true, key), key)
     assert not np.array_equal(frame("short").W, true.W)
+
+
+# --- the guard's cost: rest work once, per-frame checks where the frame acts (guard29) ----
+
+
+def _pulled_sheet():
+    """The pull guard's sheet (a pull dragging skin over its neighbour) and its pull."""
+    pts, tri = _sheet(41, 41, lambda x, y: 0.02 * x * x)
+    pull = np.zeros_like(pts)
+    pull[:, 0] = -6.0 * np.exp(-((pts[:, 0] - 2.0) / 1.5) ** 2)
+    return pts, tri, pull
+
+
+def test_an_idle_frame_builds_no_path_graph_and_searches_no_deformed_ball(procedural,
+                                                                         monkeypatch):
+    """Where no guard acts (every unrefined frame of the procedural face), the frame pays
+    for its checks only: no shortest-path graph (built when a triangle is within reach of
+    the pull guard's bound) and no shrinking-ball search on the deformed skin (a single
+    nearest-sample query finds no ball with a sample inside)."""
+    from wrinkle_vis.core import foldguard
+
+    names = [n for n in procedural.expressions if n != "neutral"]
+    before = {n: procedural.evaluate(n) for n in names}  # rest radii and terms: cached
+    searched = []
+    real = foldguard.medial_radii
+    monkeypatch.setattr(foldguard, "medial_radii",
+                        lambda *a, **k: searched.append(len(a[0])) or real(*a, **k))
+
+    def no_graph(*a, **k):
+        raise AssertionError("an idle frame built the pull guard's graph")
+
+    monkeypatch.setattr(foldguard, "_edge_graph", no_graph)
+    for name in names:
+        s = procedural.evaluate(name)
+        assert not np.any(s.fold_guard), name
+        np.testing.assert_array_equal(s.points, before[name].points)
+    assert searched == []
+
+
+def test_the_pull_guards_rest_structures_are_built_once_and_give_the_same_factors():
+    """The pulled triangles' rest terms (per moving set) and the search graph's structure
+    (per skin) are kept in the terms: a second frame reuses them, and its factors are bit
+    for bit those of fresh terms."""
+    pts, tri, pull = _pulled_sheet()
+    terms = pull_terms(pts, tri)
+    f = skin_scale(pts, pts + pull, tri, terms=terms)
+    assert f.min() < 0.5  # the guard acts
+    structure, subsets = terms["edge_structure"], dict(terms["subsets"])
+    g = skin_scale(pts, pts + 0.9 * pull, tri, terms=terms)  # the same vertices move
+    assert terms["edge_structure"] is structure
+    assert len(terms["subsets"]) == 1
+    assert all(terms["subsets"][k][1] is v[1] for k, v in subsets.items())
+    np.testing.assert_array_equal(g, skin_scale(pts, pts + 0.9 * pull, tri))
+    np.testing.assert_array_equal(f, skin_scale(pts, pts + pull, tri))
+
+
+def _limits_from_scratch(graph, s_star, corners, top):
+    """The shortest-path bound on a matrix built from scratch (the edges once, undirected,
+    a source joined to the bad triangles' corners): what ``_limits`` must give."""
+    import scipy.sparse as sp
+    from scipy.sparse import csgraph
+
+    n = len(graph["indptr"]) - 2
+    least = np.full(n, np.inf)
+    np.minimum.at(least, corners.ravel(), np.maximum(np.repeat(s_star, 3), 1e-12))
+    src = np.flatnonzero(np.isfinite(least))
+    live = np.flatnonzero(np.isfinite(graph["w"]))
+    rows = np.r_[graph["a"][live], np.full(len(src), n)]
+    cols = np.r_[graph["b"][live], src]
+    mat = sp.csr_matrix((np.r_[graph["w"][live], least[src]], (rows, cols)),
+                        shape=(n + 1, n + 1))
+    return csgraph.dijkstra(mat, directed=False, indices=n, limit=top)[:n]
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1))
+def test_the_search_graph_updated_in_place_matches_one_built_from_scratch(seed):
+    """After random factors change the pulls' lengths, the graph's weights updated in
+    place (``_reweigh``) equal those of a graph built afresh, and the bound found on it
+    equals the one a matrix built from scratch gives, bit for bit."""
+    from wrinkle_vis.core import foldguard
+
+    rng = np.random.default_rng(seed)
+    pts, tri = _sheet(9, 7, lambda x, y: 0.1 * x * y)
+    size = rng.uniform(0, 2, len(pts)) * (rng.random(len(pts)) < 0.6)
+    terms = pull_terms(pts, tri)
+    cap = foldguard._GRAPH_CACHE_EDGES
+    try:  # a skin's structure kept (every edge), or built for the frame (pulled edges only)
+        for foldguard._GRAPH_CACHE_EDGES in (cap, 0):
+            _reweigh_and_search(foldguard, rng, pts, tri, size, terms)
+    finally:
+        foldguard._GRAPH_CACHE_EDGES = cap
+
+
+def _reweigh_and_search(foldguard, rng, pts, tri, size, terms):
+    graph = foldguard._edge_graph(size, terms, 4.0)
+    f = np.ones(len(pts))
+    for _ in range(3):
+        changed = np.flatnonzero(rng.random(len(pts)) < 0.3)
+        f[changed] *= rng.uniform(0.2, 1.0, len(changed))
+        foldguard._reweigh(graph, changed, f * size)
+        fresh = foldguard._edge_graph(f * size, terms, 4.0)
+        np.testing.assert_array_equal(graph["w"], fresh["w"])
+        np.testing.assert_array_equal(graph["mat"].data[:-len(pts)],
+                                      fresh["mat"].data[:-len(pts)])
+        bad = rng.choice(len(tri), size=3, replace=False)
+        s_star = rng.uniform(0.1, 1.5, 3)
+        got = foldguard._limits(s_star, tri[bad], graph, 2.0)
+        np.testing.assert_array_equal(got, _limits_from_scratch(graph, s_star, tri[bad], 2.0))
+
+
+def test_the_first_root_is_the_masked_one_bit_for_bit():
+    """``_first_root`` (both branches evaluated, then picked) against the masked form on
+    linear, two-root, no-root and tangent quadratics."""
+    from wrinkle_vis.core.foldguard import _first_root
+
+    rng = np.random.default_rng(5)
+    k = 4000
+    a = rng.uniform(1e-12, 2, k)
+    b = rng.normal(0, 3, k)
+    c = rng.normal(0, 3, k) * (rng.random(k) < 0.8)  # a fifth linear
+    c[:50] = b[:50] ** 2 / (4 * a[:50])  # tangent
+    c[50:100] = 1e-13 * b[50:100]  # linear by the tolerance
+    out = np.full(k, np.inf)
+    lin = np.abs(c) <= 1e-12 * np.maximum(np.abs(b), 1e-300)
+    m = lin & (b < 0)
+    out[m] = -a[m] / b[m]
+    q = ~lin
+    disc = b[q] * b[q] - 4.0 * a[q] * c[q]
+    ok = disc >= 0
+    sq = np.sqrt(np.where(ok, disc, 0.0))
+    r1 = (-b[q] - sq) / (2.0 * c[q])
+    r2 = (-b[q] + sq) / (2.0 * c[q])
+    out[q] = np.where(ok, np.minimum(np.where(r1 > 0, r1, np.inf),
+                                     np.where(r2 > 0, r2, np.inf)), np.inf)
+    got = _first_root(a, b, c)
+    np.testing.assert_array_equal(got, out)
+    assert np.isfinite(got).sum() > k // 4 and np.isinf(got).sum() > k // 10

@@ -129,6 +129,40 @@ def test_vector_lengths_are_numpys_norm_to_the_bit(e):
     np.testing.assert_array_equal(vector_lengths(e), np.linalg.norm(e, axis=-1))
 
 
+def _crossings_of_every_pair(surface) -> set:
+    """``self_intersections``' edge test on every pair of triangles sharing at most one
+    vertex: no broad phase."""
+    from wrinkle_vis.core.mesh import _segment_crosses
+
+    pts, tri = np.asarray(surface.points, float), np.asarray(surface.triangles)
+    i, j = np.triu_indices(len(tri), 1)
+    shared = (tri[i][:, :, None] == tri[j][:, None, :]).sum(axis=(1, 2))
+    i, j = i[shared < 2], j[shared < 2]
+    hits = np.zeros(len(i), bool)
+    for ta, tb in ((tri[i], tri[j]), (tri[j], tri[i])):
+        for a, b in ((0, 1), (1, 2), (2, 0)):
+            touch = (ta[:, [a]] == tb).any(axis=1) | (ta[:, [b]] == tb).any(axis=1)
+            hits |= _segment_crosses(pts[ta[:, a]], pts[ta[:, b]], pts[tb]) & ~touch
+    return set(zip(i[hits].tolist(), j[hits].tolist(), strict=True))
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 10_000), st.floats(0.0, 0.6))
+def test_self_intersections_find_what_testing_every_pair_finds(seed, shake):
+    from wrinkle_vis.core.mesh import self_intersections
+
+    rng = np.random.default_rng(seed)
+    ball = sphere(2)
+    two = wv.TriangleSurface(np.vstack([ball.points, 0.8 * ball.points + rng.uniform(-1, 1, 3)]),
+                             np.vstack([ball.triangles, ball.triangles + ball.n_points]))
+    g = grid(9, 9, size=8.0, bump=2.0)
+    folded = g.with_points(g.points + shake * rng.standard_normal(g.points.shape) * 3.0)
+    for s in (two, folded):
+        got = self_intersections(s)
+        assert np.all(np.diff(got[:, 0]) >= 0)  # lexicographic order
+        assert {tuple(p) for p in got.tolist()} == _crossings_of_every_pair(s)
+
+
 @pytest.mark.parametrize("direction", [(0.0, 0.0, 1.0), (0.3, -0.5, 0.8), (1.0, 0.0, 0.0)])
 def test_occluded_agrees_with_vtk_ray_tracing(direction):
     """Which points have the surface in front of them along a direction: the grid of
@@ -151,3 +185,34 @@ def test_occluded_agrees_with_vtk_ray_tracing(direction):
     on = s.points[:50]
     far = occluded(s, on, d, 0.05)
     assert not far[on @ d > 0.2].any() and far[on @ d < -0.5].all()
+
+
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 2**16))
+def test_quadratic_points_are_exact_for_a_quadratic_field_on_a_flat_patch(seed):
+    """The local quadratic fit (core/mesh.py ``quadratic_points``) reproduces any field
+    quadratic in the position on a plane (rotated anyhow, jittered vertices, points up to
+    the border), where linear interpolation is off by the curvature's h²/8."""
+    from meshes import rotation
+
+    from wrinkle_vis.core.mesh import barycentric_points, quadratic_points
+
+    rng = np.random.default_rng(seed)
+    flat = grid(9, 7, 8.0)
+    jitter = rng.uniform(-0.2, 0.2, (flat.n_points, 3)) * [1.0, 1.0, 0.0]
+    points = (flat.points + jitter) @ rotation(seed).T + rng.normal(size=3)
+    surface = wv.TriangleSurface(points, flat.triangles)
+    a, b, c = rng.normal(size=(3, 3)), rng.normal(size=(3, 3)), rng.normal(size=(3, 3, 3))
+
+    def field(p):  # (k, 3) -> (k, 3): a + B p + p^T C p, per component
+        return a[0] + p @ b + np.einsum("ki,dij,kj->kd", p, c, p)
+
+    tri = rng.integers(0, surface.n_triangles, 40)
+    bary = rng.dirichlet(np.ones(3), 40)
+    at = barycentric_points(surface, tri, bary)
+    got = quadratic_points(surface, tri, bary, field(surface.points))
+    np.testing.assert_allclose(got, field(at), atol=1e-9 * np.abs(field(at)).max())
+    scalar = quadratic_points(surface, tri, bary, field(surface.points)[:, 0])
+    np.testing.assert_allclose(scalar, got[:, 0], atol=1e-12 * np.abs(got).max())
+    linear = barycentric_points(surface, tri, bary, field(surface.points))
+    assert np.abs(linear - field(at)).max() > 1e-3  # the linear scheme is not exact

@@ -4,7 +4,7 @@ region drawn in the ellipse's plane, a dragged centre that stays on the skin.
 
 import numpy as np
 import pytest
-from test_widgets import _display, _select, drag, views  # noqa: F401 (a fixture)
+from test_widgets import _display, _select, drag, showing, views  # noqa: F401 (a fixture)
 
 import wrinkle_vis as wv
 from wrinkle_vis.app.session import Session
@@ -47,7 +47,7 @@ def test_dragging_the_centre_moves_the_ellipse_on_the_skin(wv_face, views):  # n
         moves.append((handle, point, finished))
         session.set_face(session.face.with_muscle(wv.core.editing.with_point(
             session.face.muscle(name), handle.param, handle.index, point)))
-        views.draw(session, session.state())
+        views.draw(session.state(), showing(session), session.face)
 
     views.on_move = on_move
     widget = _select(views, session, name)

@@ -8,6 +8,8 @@ import dataclasses
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import wrinkle_vis as wv
 from wrinkle_vis.core.fields import FIELD_NAMES, FIELDS, FieldSpec, register_field
@@ -32,13 +34,15 @@ def _built(state) -> set[tuple[str, str]]:
 
 def _assert_same_as_full(state, vertices):
     at = state.values_at(vertices)
+    # every value read before any full field is built (a read after reads the full one)
+    read = {m: {key: at[m][key] for key in FIELD_NAMES} for m in at if m != "total"}
     assert not _built(state), "values_at built full-length fields"
     assert np.array_equal(at["total"]["W"], state.W[vertices])
     for m in state.face.muscle_names:
         for key in FIELD_NAMES:
             full = state.fields[m][key][vertices]
             if m in at:
-                assert np.array_equal(at[m][key], full, equal_nan=True), (m, key)
+                assert np.array_equal(read[m][key], full, equal_nan=True), (m, key)
             else:  # a muscle left out defines nothing there
                 assert np.isnan(full).all(), (m, key)
     return at
@@ -51,6 +55,35 @@ def test_values_at_are_the_full_fields_there_bit_for_bit(face, refine):
     if refine:
         assert state.n_points > face.skin.n_points
         assert (vertices >= face.skin.n_points).any(), "no new vertex sampled"
+    _assert_same_as_full(state, vertices)
+
+
+def test_values_at_the_unrefined_skins_vertices_of_a_refined_frame_bit_for_bit(face):
+    """At vertices the unrefined frame has (a probe's corners often are), the refined
+    frame's values are read from the unrefined frame's: the full fields' there."""
+    rng = np.random.default_rng(2)
+    for _ in range(6):
+        state = face.evaluate("fear", 0.9, refine=True)  # no full field built yet
+        _assert_same_as_full(state, rng.choice(face.skin.n_points, 3, replace=False))
+
+
+def test_the_muscles_levels_list_their_vertices_in_ascending_order(face):
+    """What the refined values at a few vertices search in: each muscle's levels on the
+    hierarchy, added to as it grows over several expressions, keep their ids ascending."""
+    for expression in ("fear", "surprise", "smile"):
+        state = face.evaluate(expression, 1.0, refine=True)
+    engine = state.fields._state.source._engine
+    for m in face.muscles:
+        ids = engine.levels(m).ids
+        assert np.all(np.diff(ids) > 0), m.name
+
+
+def test_values_at_on_a_refined_physical_frame_bit_for_bit(face):
+    """The physical skin's correction carried to the new vertices is read as the full
+    fields read it."""
+    state = face.evaluate("fear", 0.9, refine=True, skin="physical")
+    vertices = _sample(state, seed=1)
+    assert (vertices >= face.skin.n_points).any(), "no new vertex sampled"
     _assert_same_as_full(state, vertices)
 
 
@@ -93,3 +126,26 @@ def test_a_registered_field_is_computed_at_the_vertices_only_when_pointwise(face
         assert np.array_equal(at, full, equal_nan=True) and np.isfinite(at).any()
     finally:
         FIELDS.pop("HAt")
+
+
+@settings(max_examples=25, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 2**32 - 1), gradient=st.booleans(), k=st.integers(0, 6))
+def test_compression_at_a_few_rows_is_the_whole_aois_there_bit_for_bit(face, seed, gradient,
+                                                                        k):
+    """A muscle's compression at a few AOI rows (what a probe reads of a muscle at rest)
+    is its compression over the whole AOI at those rows, to the last bit, for random
+    deformations, both compression measures."""
+    rng = np.random.default_rng(seed)
+    muscle = face.muscles[int(rng.integers(len(face.muscles)))]
+    muscle = dataclasses.replace(muscle, compression="gradient" if gradient else "edges")
+    data = face.with_muscle(muscle).muscle_data(muscle)
+    skin = face.skin
+    rows = rng.integers(0, len(data.aoi), k)
+    for _ in range(2):  # the second through what the first kept of the rows
+        points = skin.points + 0.02 * np.ptp(skin.points) * rng.standard_normal(
+            skin.points.shape)
+        got = data.compression_at(skin, points, rows)
+        assert got.shape == (k,)
+        assert np.array_equal(got.view(np.int64),
+                              data.compression(skin, points)[rows].view(np.int64))

@@ -10,6 +10,7 @@ import pyvista as pv
 from meshes import grid
 
 import wrinkle_vis as wv
+from wrinkle_vis.app.models import DisplayOptions
 from wrinkle_vis.app.session import Session
 from wrinkle_vis.app.views import LinkedViews
 from wrinkle_vis.core.mesh import closest_points
@@ -26,6 +27,11 @@ from wrinkle_vis.widgets import (
     widget_factory,
 )
 from wrinkle_vis.widgets.placement import _WIDGETS
+
+
+def showing(session: Session) -> DisplayOptions:
+    """What the views show of ``session``: its field of its selected muscle."""
+    return DisplayOptions(field=session.field, muscle=session.muscle)
 
 
 # ---------------------------------------------------------------------- the registry
@@ -143,7 +149,7 @@ def drag(plotter, start, end, steps: int = 5):
 
 def _select(views, session, name, camera="front"):
     session.set_field("W", name)
-    views.draw(session, session.state())
+    views.draw(session.state(), showing(session), session.face)
     set_camera(views.skin_view, camera, session.face)
     views.render()
     return views.placement
@@ -162,7 +168,7 @@ def test_a_dragged_handle_stays_on_its_surface_and_moves_the_muscle(wv_face, vie
         moves.append((handle, point, finished))
         session.set_face(session.face.with_muscle(wv.core.editing.with_point(
             session.face.muscle(name), handle.param, handle.index, point)))
-        views.draw(session, session.state())
+        views.draw(session.state(), showing(session), session.face)
 
     views.on_move = on_move
     widget = _select(views, session, name, "forehead" if "frontalis" in name else "front")
@@ -206,7 +212,7 @@ def test_the_selected_muscles_aoi_and_region_are_drawn(wv_face, views):
     _select(views, session, "zygomaticus_major_L")
     assert "widget:aoi_rectangle" not in views.muscle_view.actors  # the sheet's is gone
     session.set_field("W", None)
-    views.draw(session, session.state())
+    views.draw(session.state(), showing(session), session.face)
     assert views.placement is None
     assert not any(n.startswith("widget:") for n in views.muscle_view.actors)
 
@@ -230,7 +236,7 @@ def test_the_outlines_are_found_once_per_muscle_and_moved_with_the_skin(wv_face,
     before = np.array(drawn["region"].points)
     for intensity in (0.5, 0.8):
         session.set_intensity(intensity)
-        views.draw(session, session.state())
+        views.draw(session.state(), showing(session), session.face)
         muscle = session.face.muscle("frontalis_major_L")
         for kind, mesh in drawn.items():
             for view in (views.skin_view, views.muscle_view):
@@ -243,7 +249,7 @@ def test_the_outlines_are_found_once_per_muscle_and_moved_with_the_skin(wv_face,
     # an edit: a narrower sheet has another AOI, region and box
     muscle = session.face.muscle("frontalis_major_L")
     session.set_face(session.with_parameter(muscle.name, "width", 0.6 * muscle.width_value))
-    views.draw(session, session.state())
+    views.draw(session.state(), showing(session), session.face)
     muscle = session.face.muscle("frontalis_major_L")
     for kind in ("aoi", "region"):
         mesh = views.skin_view.actors[f"widget:{kind}"].mapper.dataset

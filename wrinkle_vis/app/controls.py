@@ -19,7 +19,7 @@ from ..core.face import FIELD_NAMES
 from ..core.fields import FRAME_FIELDS
 from ..core.skin import SKIN_MODELS, SkinMaterial
 from ..plotting.fields import field_info
-from .binding import bind, show, weak
+from .binding import bind, show
 from .fieldbox import FieldBox
 from .parameters import error_label, field_label, parameter_box
 from .session import TIMELINE_STEPS, SurfacePoint
@@ -27,6 +27,10 @@ from .session import TIMELINE_STEPS, SurfacePoint
 __all__ = ["PLAIN", "PROBE_HINT", "TOTAL", "ControlPanel", "ProbePanel"]
 
 TOTAL = "total"
+#: The colour map box's entry for the field's own map, and the maps it offers beside.
+OWN_CMAP = "field's own"
+CMAPS = ("viridis", "cividis", "magma", "inferno", "RdBu_r", "PuOr_r", "twilight", "Reds",
+         "gray")
 PLAIN = "none"  # the field box's entry for plain skin (no field)
 #: What the probe panel says before a point is probed.
 PROBE_HINT = "Right-click the skin to probe a point"
@@ -163,50 +167,68 @@ class ControlPanel(QtWidgets.QWidget):
 
     # ------------------------------------------------------------------ colour range
     def _range_rows(self, form: QtWidgets.QFormLayout) -> None:
+        display = self.window.display
         row = QtWidgets.QHBoxLayout()
         self.range_box = QtWidgets.QComboBox()
         self.range_box.addItems(["automatic", "fixed"])
         self.range_box.setToolTip("Colour range of the field. automatic: each frame's own "
                                   "while paused, the whole ramp's while playing; fixed: "
                                   "min and max")
-        self.range_box.currentTextChanged.connect(weak(self._on_range_mode, keep=1))
+        self.bindings.append(bind(self.range_box, self.range_box.currentTextChanged,
+                                  self._on_range_mode,
+                                  lambda: "fixed" if display.options.clim else "automatic",
+                                  display.changed, ("clim",)))
+        row.addWidget(self.range_box)
         self.range_min = QtWidgets.QDoubleSpinBox()
         self.range_max = QtWidgets.QDoubleSpinBox()
-        for box, tip in ((self.range_min, "lowest value of the colour map"),
-                         (self.range_max, "highest value of the colour map")):
+        for i, (box, tip) in enumerate(((self.range_min, "lowest value of the colour map"),
+                                        (self.range_max, "highest value of the colour map"))):
             box.setRange(-1e9, 1e9)
             box.setDecimals(6)
             box.setKeyboardTracking(False)
-            box.setEnabled(False)
             box.setToolTip(tip)
-            box.valueChanged.connect(weak(self._on_range_value))
+            self.bindings.append(bind(box, box.valueChanged, self._on_range_value,
+                                      _range_end(display, box, i), display.changed,
+                                      ("clim",)))
             box.installEventFilter(self.window.undo_keys)
-        row.addWidget(self.range_box)
-        row.addWidget(self.range_min)
-        row.addWidget(self.range_max)
+            row.addWidget(box)
         form.addRow("Colour range", row)
         self.range_error = error_label()
         form.addRow(self.range_error)
+        self.cmap_box = QtWidgets.QComboBox()
+        self.cmap_box.addItems([OWN_CMAP, *CMAPS])
+        self.cmap_box.setToolTip("Colour map of the field (the field's own: diverging for a "
+                                 "signed field, sequential else)")
+        self.bindings.append(bind(self.cmap_box, self.cmap_box.currentTextChanged,
+                                  lambda text: display.set(cmap=None if text == OWN_CMAP
+                                                           else text),
+                                  lambda: display.options.cmap or OWN_CMAP, display.changed,
+                                  ("cmap",)))
+        form.addRow("Colour map", self.cmap_box)
+        display.changed.connect(self._show_range)
+        self._show_range("clim")
+
+    def _show_range(self, what: str) -> None:
+        """Min and max can be edited while the range is fixed."""
+        if what == "clim":
+            fixed = self.window.display.options.clim is not None
+            for box in (self.range_min, self.range_max):
+                box.setEnabled(fixed)
 
     def _on_range_mode(self, mode: str) -> None:
         """Colour range automatic, or fixed at min and max (which start at the range shown)."""
-        fixed = mode == "fixed"
-        for box in (self.range_min, self.range_max):
-            box.setEnabled(fixed)
-        if fixed:
-            w = self.window
-            lo, hi = w.views.scalar_range() or w.document.session.colour_range()
-            show(self.range_min, lo)
-            show(self.range_max, hi)
-            self._on_range_value()
-        else:
-            self.window.document.set_fixed_range(None)
-            self.range_error.setText("")
-
-    def _on_range_value(self) -> None:
+        w = self.window
+        self.range_error.setText("")
         try:
-            self.window.document.set_fixed_range((self.range_min.value(),
-                                                  self.range_max.value()))
+            w.display.set(clim=None if mode != "fixed" else
+                          w.views.scalar_range() or w.document.session.colour_range())
+        except ValueError as exc:  # nothing to span (a field that is 0 everywhere)
+            self.range_error.setText(str(exc))
+            show(self.range_box, "automatic")
+
+    def _on_range_value(self, _=None) -> None:
+        try:
+            self.window.display.set(clim=(self.range_min.value(), self.range_max.value()))
         except ValueError as exc:
             self.range_error.setText(str(exc))  # the range in use stays
             return
@@ -262,6 +284,11 @@ class ControlPanel(QtWidgets.QWidget):
             physical = self.window.document.session.face.skin_model == "physical"
             self.skin_group.setVisible(physical)
             self.reset_button.setEnabled(physical)
+
+
+def _range_end(display, box: QtWidgets.QDoubleSpinBox, end: int):
+    """What range box ``end`` (0: min, 1: max) shows: the fixed range's, else its own."""
+    return lambda: box.value() if display.options.clim is None else display.options.clim[end]
 
 
 class ProbePanel(QtWidgets.QGroupBox):

@@ -13,6 +13,7 @@ with everything it drew.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -21,6 +22,7 @@ from vtkmodules.vtkRenderingCore import vtkPropPicker
 
 from ..plotting import set_camera
 from .binding import weak
+from .models import DisplayOptions
 from .views import LinkedViews
 from .viewwidget import NativeView, View, make_view
 
@@ -124,8 +126,17 @@ class FrameController:
             self._syncing = False
 
     def set_camera(self, name: str) -> None:
-        """Move the shared camera to a named view."""
-        set_camera(self.skin_view, name, self.window.document.session.face)
+        """Move the shared camera to a named view (again, when it is the preset chosen
+        last: the user may have turned it since).
+        """
+        if self.window.display.options.camera == name:
+            self._show_camera()
+        else:
+            self.window.display.set(camera=name)
+
+    def _show_camera(self) -> None:
+        set_camera(self.skin_view, self.window.display.options.camera,
+                   self.window.document.session.face)
         self.sync_views()
 
     # ------------------------------------------------------------------ picking
@@ -171,16 +182,10 @@ class FrameController:
             self.request()
 
     def _on_display(self, what: str) -> None:
-        options = self.window.display.options
-        if what == "raking_light":
-            self.views.set_raking_light(options.raking_light)
-            self.views.render(only_changed=True)
-        elif what == "anti_aliasing":
-            for p in self.plotters:
-                if options.anti_aliasing:
-                    p.enable_anti_aliasing("msaa", multi_samples=8)
-                else:
-                    p.disable_anti_aliasing()
+        if what == "camera":
+            self._show_camera()
+        elif what in ("raking_light", "anti_aliasing"):  # the scenes as they are, at once
+            self.views.apply_switches(self.window.display.options)
             self.sync_views()
         else:
             self.request()
@@ -214,11 +219,10 @@ class FrameController:
             # the drawn meshes can be updated in place only on the same triangles
             if reset_camera:
                 self.views.invalidate()
-            self.views.draw(s, state, wireframe=options.wireframe, plain=options.plain,
-                            clim=self.colour_range(), unit=s.unit)
+            self.views.draw(state, self.options(), s.face)
             self.drawn_face = s.face
             if reset_camera:
-                set_camera(self.skin_view, "front", s.face)
+                set_camera(self.skin_view, options.camera, s.face)
         finally:
             self._syncing = False
         if w.probe.point is not None:
@@ -243,15 +247,26 @@ class FrameController:
             f"{'  |  ⚠ aliased wrinkles: refine' if note else ''}" + _skin_status(s))
         self.status_label.setToolTip(f"Warning: {note}" if note else "")
 
+    def options(self) -> DisplayOptions:
+        """What the views are given beside the frame: the display's options, with the
+        document's field and muscle (the selection) and the colour range in use
+        (:meth:`colour_range`).
+        """
+        s = self.window.document.session
+        return dataclasses.replace(self.window.display.options, field=s.field,
+                                   muscle=s.muscle, clim=self.colour_range())
+
     def colour_range(self) -> tuple[float, float] | None:
-        """The colour range the skin view uses now: the fixed one; while playing, the one
-        over the expression's whole ramp (so the ramp shows); else None, each frame's own.
+        """The colour range the skin view uses now: the fixed one (the display's); while
+        playing, the one over the expression's whole ramp (so the ramp shows); else None,
+        each frame's own.
         """
         w = self.window
         s = w.document.session
-        if s.fixed_range is not None:
-            return s.fixed_range
-        if not w.playback.playing or w.display.options.plain:
+        options = w.display.options
+        if options.clim is not None:
+            return options.clim
+        if not w.playback.playing or options.plain:
             return None
         key = (s.face, s.expression, s.intensity, s.field, s.muscle,
                tuple(sorted(s.overrides.items())))

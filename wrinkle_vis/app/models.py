@@ -6,7 +6,8 @@
   reaches it through :meth:`Document.set_dirty` only);
 - :class:`Playback`: whether Play runs, and where it started;
 - :class:`Display`: how the frame is drawn, an immutable :class:`DisplayOptions` snapshot
-  (plain skin, wireframe, raking light, anti-aliasing) handed to the views;
+  (plain skin, colour map and range, camera preset, wireframe, raking light,
+  anti-aliasing) handed to the views with the field shown;
 - :class:`Probe`: the probed point of the rest skin.
 
 Each has a :class:`Signal` ``changed`` that calls its listeners with the name of what
@@ -18,6 +19,7 @@ per event-loop turn. Nothing here imports Qt.
 from __future__ import annotations
 
 import dataclasses
+import math
 import weakref
 from collections.abc import Callable
 from typing import Any
@@ -101,12 +103,26 @@ class Playback(_Evented):
 
 @dataclasses.dataclass(frozen=True)
 class DisplayOptions:
-    """How the frame is drawn (an immutable snapshot for the views).
+    """How the frame is drawn: an immutable snapshot, all the views are given beside the
+    frame (:meth:`~wrinkle_vis.app.views.LinkedViews.draw`).
 
     Attributes
     ----------
+    field : str
+        The field the skin view shows (:data:`~wrinkle_vis.core.fields.FIELDS`).
+    muscle : str or None
+        Whose field (None: the total); the selected muscle, whose placement widget shows.
     plain : bool
         The skin view shows plain skin, no field.
+    cmap : str or None
+        The colour map (a Matplotlib name; None: the field's own,
+        :attr:`~wrinkle_vis.core.fields.FieldSpec.cmap`).
+    clim : (float, float) or None
+        The colour range, ``lo < hi`` (None: automatic, each frame's own; while playing,
+        the window hands the views the whole ramp's).
+    camera : str
+        The camera preset last chosen (:data:`~wrinkle_vis.plotting.scenes.CAMERAS`),
+        where a new face is shown from.
     wireframe : bool
         The skin's triangles are outlined.
     raking_light : bool
@@ -115,14 +131,28 @@ class DisplayOptions:
         8x multisampling in the three views.
     """
 
+    field: str = "W"
+    muscle: str | None = None
     plain: bool = False
+    cmap: str | None = None
+    clim: tuple[float, float] | None = None
+    camera: str = "front"
     wireframe: bool = False
     raking_light: bool = False
     anti_aliasing: bool = False
 
+    def __post_init__(self) -> None:
+        if self.clim is not None:
+            lo, hi = map(float, self.clim)
+            if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+                raise ValueError(f"colour range [{lo:g}, {hi:g}]: min must be below max")
+            object.__setattr__(self, "clim", (lo, hi))
+
 
 class Display(_Evented):
-    """The :class:`DisplayOptions` in use; :meth:`set` replaces them and emits
+    """The :class:`DisplayOptions` in use (their one owner, but for the field and the
+    muscle, which the :class:`Document` holds as the selection: the window adds them to
+    the snapshot it hands the views); :meth:`set` replaces them and emits
     ``changed(name)`` for each option that changed.
     """
 
@@ -130,8 +160,10 @@ class Display(_Evented):
         super().__init__()
         object.__setattr__(self, "options", options or DisplayOptions())
 
-    def set(self, **changes: bool) -> None:
-        """Replace some options (``display.set(plain=True)``)."""
+    def set(self, **changes: Any) -> None:
+        """Replace some options (``display.set(plain=True)``); ``ValueError`` for a bad
+        colour range (the options stay as they were).
+        """
         old = self.options
         object.__setattr__(self, "options", dataclasses.replace(old, **changes))
         for name in changes:
@@ -162,7 +194,7 @@ class Document:
     - ``"time"`` when the physical skin's simulation moved the time (the timeline
       follows), then ``"frame"``;
     - ``"frame"`` when what the frame shows changes otherwise (the expression, its
-      intensity and time, the field, the refinement, the colour range);
+      intensity and time, the field, the refinement);
     - ``"performance"`` when a recorded track is imported (a new entry of the
       expressions);
     - ``"dirty"`` when unsaved changes appear or go.
@@ -174,11 +206,10 @@ class Document:
 
     # ------------------------------------------------------------------ the session
     def replace(self, session: Session, modified: bool = False) -> None:
-        """Show ``session`` (keeping the view's refinement and colour range);
-        ``modified``: it holds changes not saved yet.
+        """Show ``session`` (keeping the view's refinement); ``modified``: it holds
+        changes not saved yet.
         """
         session.refine = self.session.refine
-        session.fixed_range = self.session.fixed_range
         self.session = session
         session.dirty = False
         self.changed.emit("session")
@@ -231,11 +262,6 @@ class Document:
     def set_refine(self, on: bool) -> None:
         """Refine the skin adaptively, or not."""
         self.session.set_refine(on)
-        self.changed.emit("frame")
-
-    def set_fixed_range(self, lo_hi: tuple[float, float] | None) -> None:
-        """Fix the colour range (None: automatic); ``ValueError`` for a bad range."""
-        self.session.set_fixed_range(lo_hi)
         self.changed.emit("frame")
 
     def set_field(self, field: str, muscle: str | None) -> None:

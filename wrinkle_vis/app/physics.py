@@ -10,13 +10,15 @@ one :class:`~wrinkle_vis.core.simulation.Simulation` and shows its state:
 * **Play** starts the simulation (from rest at :math:`t = 0`, re-simulated to the
   timeline's time as a scrub is) and each timer tick advances it by the wall-clock time
   elapsed since the last tick (:meth:`PhysicalPlayback.tick`): simulated time follows the
-  wall clock. The steps are the material's ``time_step`` :math:`h` (the matrix is
-  factorized once per step size, so a step is never shortened); what is left of the
-  elapsed time waits for the next tick. A tick takes at most :attr:`~PhysicalPlayback.
-  max_steps` steps and drops the rest of the lag, so a slow frame slows the simulation
-  down instead of making the next frame slower still. The command is the expression's
-  timeline at the simulated time; past the end of the timeline the simulation starts
-  again from rest at :math:`t = 0` (Play goes round and round, as on the geometric skin).
+  wall clock, from when the simulation is ready (:meth:`PhysicalPlayback.sync`: the time
+  the start took is not simulated). The steps are the material's ``time_step``
+  :math:`h` (the matrix is factorized once per step size, so a step is never shortened);
+  what is left of the elapsed time waits for the next tick. A tick takes at most
+  :attr:`~PhysicalPlayback.max_steps` steps and drops the rest of the lag, so a slow frame
+  slows the simulation down instead of making the next frame slower still. The command is
+  the expression's timeline at the simulated time; past the end of the timeline the
+  simulation starts again from rest at :math:`t = 0` (Play goes round and round, as on the
+  geometric skin).
 * **Pause** keeps the simulation's state (shown, and played on from, as it is).
 * **Reset** puts the skin back to rest at :math:`t = 0`.
 * **Scrubbing** the timeline while a simulation runs (playing or paused) re-simulates up
@@ -73,6 +75,15 @@ class PhysicalPlayback:
     ----------
     simulation : Simulation or None
         None: no simulation (still frames show the equilibrium).
+    played_s : float
+        The simulated seconds that ticks have advanced, in all: the steps taken times
+        :math:`h`, however often the timeline went round (what a measure of real time
+        divides by the wall-clock time; ``time`` restarts at the end of the timeline).
+    dropped_s : float
+        The wall-clock seconds that ticks left unsimulated (the lag over
+        :attr:`max_steps` steps), in all: while playing, ``played_s + dropped_s`` is the
+        wall-clock time since :meth:`play` (or :meth:`sync`) to within the lag, less than
+        a step.
     """
 
     def __init__(self, timeline: Callable[[float], dict], duration_s: Callable[[], float],
@@ -85,6 +96,7 @@ class PhysicalPlayback:
         self._face: FaceModel | None = None
         self._clock: float | None = None  # the wall clock at the last tick (None: paused)
         self._lag = 0.0  # wall seconds elapsed and not simulated yet (less than a step)
+        self.played_s = 0.0  # simulated seconds the ticks advanced, in all (steps times h)
         self.dropped_s = 0.0  # wall seconds left unsimulated by the cap, in all
         self.resimulated = False  # whether the last start simulated from rest at t = 0
 
@@ -120,6 +132,16 @@ class PhysicalPlayback:
         if self.simulation is None or self._face is not face:
             self._start(face, t)
         self._clock, self._lag = float(now), 0.0
+
+    def sync(self, now: float) -> None:
+        """Set the wall clock to ``now`` if playing, the lag so far forgotten: what
+        :meth:`play` itself took to start a simulation (building and factorizing the skin,
+        re-simulating to the time chosen) is not wall-clock time the skin should have moved
+        through, so the first frame is the state Play started from and the simulation
+        follows the clock from there.
+        """
+        if self._clock is not None:
+            self._clock, self._lag = float(now), 0.0
 
     def pause(self) -> None:
         """Stop following the wall clock; the state stays."""
@@ -178,6 +200,7 @@ class PhysicalPlayback:
             if duration > 0.0 and self.simulation.time + 0.5 * h > duration:
                 self.simulation.reset()  # round and round, as on the geometric skin
             self.simulation.advance(h)
+        self.played_s += n * h
         return n > 0
 
     # ------------------------------------------------------------------ helpers

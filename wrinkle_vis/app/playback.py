@@ -34,7 +34,7 @@ class PlaybackController:
         if w.playback.playing:
             w.playback.start = (w.controls.time_slider.value(), time.perf_counter())
             if s.face.skin_model == "physical":
-                s.play(self.clock())  # the simulation (app.physics)
+                self._play_physical()
                 w.document.simulation_changed()
             self.timer.start()
         else:
@@ -67,9 +67,18 @@ class PlaybackController:
         """
         s = self.window.document.session
         if not s.physics.playing:  # switched to the physical skin, or a layout opened
-            s.play(self.clock())
+            self._play_physical()
         if s.tick(self.clock()):
             self.window.document.simulation_changed()
+
+    def _play_physical(self) -> None:
+        """Play the physical skin's simulation (starting one if none runs) and follow the
+        wall clock from when it is ready (:meth:`PhysicalPlayback.sync`): the time the
+        start took is not simulated at the first tick.
+        """
+        s = self.window.document.session
+        s.play(self.clock())
+        s.physics.sync(self.clock())
 
     def reset_simulation(self) -> None:
         """Physical skin: back to rest at t = 0 (playing on if playing)."""

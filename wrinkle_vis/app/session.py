@@ -7,6 +7,7 @@ import hashlib
 import os
 import stat
 import time
+import weakref
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -15,7 +16,7 @@ import numpy as np
 from ..core.editing import mirror_name, mirrored, snapped, unique_name
 from ..core.expressions import Expression
 from ..core.face import FIELD_NAMES, FaceModel, FaceState
-from ..core.fields import FRAME_FIELDS, check_field
+from ..core.fields import FRAME_FIELDS, check_field, field_spec
 from ..core.layout import Layout, load_layout, save_layout
 from ..core.muscle import Muscle
 from ..core.params import Parameter
@@ -139,11 +140,14 @@ class Session:
         self.muscle: str | None = None  # None: the total
         self.refine = False  # adaptive refinement (paper Fig. 11)
         self.overrides: dict[str, float] = {}  # activations set by hand, over the expression
-        self.fixed_range: tuple[float, float] | None = None  # colour range (None: automatic)
         self.dirty = False
         self.frame_ms = 0.0  # how long the last evaluation took
         self.performance: Performance | None = None  # a recorded track, shown by its name
         self._state: FaceState | None = None
+        # the probed point's muscles and rest-skin fields (:meth:`_probe_rest`)
+        self._probe_memo: tuple | None = None
+        self._above_memo: tuple | None = None
+        self._located_memo: tuple | None = None  # a refined skin's triangle at the point
         # Play on the physical skin: the simulation (:mod:`wrinkle_vis.app.physics`)
         self.physics = PhysicalPlayback(self.activations_at,
                                         lambda: self.current_expression().duration_s)
@@ -344,21 +348,11 @@ class Session:
         active = [m for m in self.face.muscles if state.activations.get(m.name, 0.0) > 0.0]
         return undersampled_line(undersampled_muscles(self.face.skin, active))
 
-    def set_fixed_range(self, lo_hi: tuple[float, float] | None) -> None:
-        """Fix the colour range to ``(lo, hi)`` with ``lo < hi`` (None: automatic)."""
-        if lo_hi is not None:
-            lo, hi = map(float, lo_hi)
-            if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
-                raise ValueError(f"colour range [{lo:g}, {hi:g}]: min must be below max")
-            lo_hi = (lo, hi)
-        self.fixed_range = lo_hi
-
     def colour_range(self, state: FaceState | None = None) -> tuple[float, float]:
-        """The colour range of the field on display: the fixed one, else the frame's own
-        (:func:`~wrinkle_vis.plotting.field_range`).
+        """The frame's own colour range of the field on display
+        (:func:`~wrinkle_vis.plotting.field_range`; a fixed one is the display's,
+        :class:`~wrinkle_vis.app.models.DisplayOptions`).
         """
-        if self.fixed_range is not None:
-            return self.fixed_range
         return field_range(field_info(self.field), self.field_values(state))
 
     def ramp_range(self, samples: int = 9) -> tuple[float, float]:
@@ -366,8 +360,6 @@ class Session:
         the current intensity, without refinement): the union of ``samples`` frames of the
         onset and the peak. The release mirrors the onset.
         """
-        if self.fixed_range is not None:
-            return self.fixed_range
         info = field_info(self.field)
         if info.limits is not None:
             return info.limits
@@ -580,7 +572,7 @@ class Session:
         refined frame (whose vertices and numbering change with each evaluation) the
         closest point of its rest skin to ``where``'s rest position.
         """
-        from ..core.mesh import barycentric_points, closest_on_triangles, ray_on_triangles
+        from ..core.mesh import closest_on_triangles, ray_on_triangles
 
         state, base = self.state(), self.face.skin
         if not 0 <= where.triangle < base.n_triangles:
@@ -592,17 +584,37 @@ class Session:
         # a refined frame: its triangles over the base triangle, bent onto the smooth rest
         # surface; the point is the one straight above (or below) ``where`` along the base
         # triangle's normal, as :meth:`surface_point` projects it back down
-        rest = barycentric_points(base, [where.triangle], bary[None])[0]
-        corners = base.points[base.triangles[where.triangle]]
-        reach = 2.0 * np.linalg.norm(corners - corners.mean(axis=0), axis=1).max()
-        skin = state.face.skin
-        near = np.linalg.norm(skin.points - rest, axis=1) <= reach
-        candidates = np.flatnonzero(near[skin.triangles].any(axis=1))
-        normal = np.cross(corners[1] - corners[0], corners[2] - corners[0])
+        # found once for the refinement's skin: the frames of one split set share it (the
+        # probe's values and its position ask for it both)
+        memo, skin = self._located_memo, state.face.skin
+        if memo is not None and memo[0]() is skin and memo[1] == where:
+            return state, *memo[2]
+        rest, normal, reach = self._above(where)
+        candidates = _triangles_near(skin.points, skin.triangles, rest, reach)
         found = ray_on_triangles(skin, candidates, rest, normal)
         tri, weights = found if found is not None else closest_on_triangles(
             skin, candidates, rest)
+        self._located_memo = (weakref.ref(skin), where, (skin.triangles[tri], weights))
         return state, skin.triangles[tri], weights
+
+    def _above(self, where: SurfacePoint) -> tuple[np.ndarray, np.ndarray, float]:
+        """Where ``where`` is on the skin at rest ``(3,)``, its triangle's normal ``(3,)``
+        (not normalized) and how far a refined frame's triangles over it may reach (twice
+        its largest distance from a corner to the middle), kept for the face and point.
+        """
+        from ..core.mesh import barycentric_points
+
+        memo = self._above_memo
+        if memo is not None and memo[0] is self.face and memo[1] == where:
+            return memo[2]
+        base = self.face.skin
+        rest = barycentric_points(base, [where.triangle],
+                                  np.asarray(where.barycentric, float)[None])[0]
+        corners = base.points[base.triangles[where.triangle]]
+        reach = 2.0 * float(np.linalg.norm(corners - corners.mean(axis=0), axis=1).max())
+        normal = np.cross(corners[1] - corners[0], corners[2] - corners[0])
+        self._above_memo = (self.face, where, (rest, normal, reach))
+        return rest, normal, reach
 
     def probe(self, where: SurfacePoint | int) -> dict:
         r"""Every field's value in the frame shown at rest-skin point ``where`` (or at skin
@@ -620,15 +632,39 @@ class Session:
         if not isinstance(where, SurfacePoint):
             where = self.vertex_point(int(where))
         state, corners, weights = self._located(where)
-        at = state.values_at(corners)  # from the compact per-muscle data
-        out = {"total": {"W": _interpolated(at["total"]["W"], weights),
-                         **{k: _interpolated(np.asarray(state.field_values(k))[corners],
-                                             weights) for k in FRAME_FIELDS}}}
-        for name in (m for m in self.face.muscle_names if m in at):  # the others: nan
-            values = {f: _interpolated(at[name][f], weights) for f in FIELD_NAMES}
+        interpolated = _Interpolated(weights)
+        out = {"total": {"W": interpolated(state.W[corners]),
+                         **{k: interpolated(np.asarray(state.field_values(k))[corners])
+                            for k in FRAME_FIELDS}}}
+        for name, kept in self._probe_rest(state, corners, weights).items():
+            at = state.fields[name].at(corners)  # from the compact per-muscle data
+            values = {f: kept[f] if f in kept else interpolated(at[f]) for f in FIELD_NAMES}
             if any(np.isfinite(v) for v in values.values()):
                 out[name] = values
         return out
+
+    def _probe_rest(self, state: FaceState, corners: np.ndarray, weights: np.ndarray
+                    ) -> dict[str, dict[str, float]]:
+        """The muscles whose AOI holds one of the probed point's ``corners`` ``(3,)`` (the
+        others have no value there), each with its fields that depend on the rest skin
+        alone (:attr:`~wrinkle_vis.core.fields.FieldSpec.rest`) at the point: read from
+        the compact per-muscle data (:meth:`FaceState.values_at`) once, then kept while
+        the face, the corners' rest positions and the weights stay the same (Play moves
+        the frame, not the point; a refined frame renumbers its vertices, so the corners
+        are known by where they are at rest).
+        """
+        rest = state.face.skin.points[corners]
+        key = (rest.tobytes(), weights.tobytes(), tuple(FIELD_NAMES))
+        memo = self._probe_memo
+        if memo is not None and memo[0] is self.face and memo[1] == key:
+            return memo[2]
+        at = state.values_at(corners)
+        static = [f for f in FIELD_NAMES if field_spec(f).rest]
+        interpolated = _Interpolated(weights)
+        kept = {name: {f: interpolated(at[name][f]) for f in static}
+                for name in self.face.muscle_names if name in at}
+        self._probe_memo = (self.face, key, kept)
+        return kept
 
     def probe_position(self, where: SurfacePoint | int) -> tuple[np.ndarray, np.ndarray]:
         """``((3,), (3,))``: rest-skin point ``where`` at rest and in the frame shown (its
@@ -735,16 +771,40 @@ class SurfacePoint:
     barycentric: tuple[float, float, float]
 
 
-def _interpolated(v: np.ndarray, weights: np.ndarray) -> float:
+class _Interpolated:
     """Values ``v`` ``(3,)`` on a triangle's corners at the point with ``weights`` ``(3,)``
-    there: the weighted mean over the corners where it is finite; NaN where it is not at
-    the corner of the largest weight.
+    there (``interpolated(v)``): the weighted mean over the corners where it is finite;
+    NaN where it is not at the corner of the largest weight; at a vertex its value as it
+    is. What depends on the weights alone is found once for all the fields.
     """
-    ok = np.isfinite(v)
-    nearest = int(np.argmax(weights))
-    if not ok[nearest] or weights[nearest] == 1.0:
-        return float(v[nearest])  # undefined, or at a vertex: its value as it is
-    return float(weights[ok] @ v[ok] / weights[ok].sum())
+
+    def __init__(self, weights: np.ndarray):
+        self.weights = weights
+        self.nearest = int(np.argmax(weights))
+        self.at_vertex = bool(weights[self.nearest] == 1.0)
+        self.total = weights.sum()
+
+    def __call__(self, v: np.ndarray) -> float:
+        if self.at_vertex:
+            return float(v[self.nearest])
+        ok = np.isfinite(v)
+        if ok.all():  # the same sums as over ``ok`` below, with no copies
+            return float(self.weights @ v / self.total)
+        if not ok[self.nearest]:
+            return float(v[self.nearest])  # undefined
+        w = self.weights[ok]
+        return float(w @ v[ok] / w.sum())
+
+
+def _triangles_near(points: np.ndarray, triangles: np.ndarray, centre: np.ndarray,
+                    reach: float) -> np.ndarray:
+    r"""``(t,)``: the triangles ``(m, 3)`` with a corner of ``points`` ``(n, 3)`` within
+    ``reach`` of ``centre`` ``(3,)`` (:math:`|p - c|^2 \le r^2`).
+    """
+    x, y, z = (points[:, k] - centre[k] for k in range(3))  # no (n, 3) temporary
+    near = x * x + y * y + z * z <= reach * reach
+    hit = near.take(triangles.ravel()).reshape(-1, 3)
+    return np.flatnonzero(hit[:, 0] | hit[:, 1] | hit[:, 2])
 
 
 def playback_position(start: int, elapsed_s: float, duration_s: float,

@@ -1,4 +1,5 @@
-"""The three linked views' scenes, drawn from a session (no Qt: works on off-screen plotters).
+"""The three linked views' scenes, drawn from a frame and the display options (no Qt: works
+on off-screen plotters).
 
 :meth:`LinkedViews.draw` rebuilds a scene only when what it shows changes (the field, the
 selected muscle, the set of muscles); otherwise it writes the new frame into the drawn
@@ -21,7 +22,8 @@ import numpy as np
 import pyvista as pv
 from vtkmodules.vtkRenderingCore import vtkCamera
 
-from ..core.face import FaceState
+from ..core.face import FaceModel, FaceState
+from ..core.units import face_unit
 from ..plotting import (
     add_attachments,
     add_muscle,
@@ -42,6 +44,7 @@ from ..plotting.fields import field_info
 from ..plotting.polydata import field_array_name
 from ..plotting.writers import save_image
 from ..widgets import widget_factory
+from .models import DisplayOptions
 
 __all__ = ["VIEWS", "LinkedViews", "add_field_bar", "ghost_skin", "redraw_kind"]
 
@@ -74,6 +77,9 @@ class LinkedViews:
         self.on_move, self.on_start = on_move, on_start
         self.placement = None
         self.raking_light = False
+        # multisampling as the options last said (None: as the plotters' theme made it,
+        # which the first draw replaces: PyVista's theme may turn it on)
+        self.anti_aliasing: bool | None = None
         self._key = None
         self._topology = None  # (number of points, triangles) of the drawn skin
         self._ghost_topology = None  # the same of the muscles view's skin
@@ -118,30 +124,53 @@ class LinkedViews:
         self._key = None
 
     # ------------------------------------------------------------------ drawing
-    def draw(self, session, state: FaceState, *, wireframe: bool = False,
-             plain: bool = False, clim: tuple[float, float] | None = None,
-             unit: str = "mm") -> bool:
-        """Draw ``state`` of ``session`` (nothing is rendered); returns whether the scenes
-        were rebuilt. ``plain`` draws the skin view's skin without its field; ``clim`` is
-        its colour range (default: the frame's own, :func:`field_range`); ``unit`` the
-        unit of lengths on its scalar bar.
+    def draw(self, state: FaceState, options: DisplayOptions | None = None,
+             face: FaceModel | None = None) -> bool:
+        """Draw frame ``state`` as ``options`` say (default :class:`DisplayOptions`: W's
+        total; nothing is rendered); returns whether the scenes were rebuilt. ``face``:
+        the face the frame is of (default ``state.face``; a refined frame's face is the
+        refinement's, so the unrefined one is given: its skin, muscles and skull).
 
-        How, :func:`redraw_kind` decides (kept in :attr:`last_redraw`): the scenes anew,
-        new skin meshes under the same actors (other triangles: a refinement that split
-        other triangles), or the frame written into the drawn meshes in place.
+        The skin view shows ``options.field`` of ``options.muscle`` (plain skin with
+        ``options.plain``) in ``options.cmap`` over ``options.clim`` (default: the field's
+        own map; the frame's own range, :func:`field_range`), outlined with
+        ``options.wireframe``, lit by the raking light with ``options.raking_light``; the
+        three views multisample with ``options.anti_aliasing``; ``options.muscle``'s
+        placement widget shows. How, :func:`redraw_kind` decides (kept in
+        :attr:`last_redraw`): the scenes anew, new skin meshes under the same actors
+        (other triangles: a refinement that split other triangles), or the frame written
+        into the drawn meshes in place.
         """
-        face = session.face
-        key = (id(face.skin), face.muscle_names, session.field, session.muscle, wireframe,
-               plain, unit)
+        options = DisplayOptions() if options is None else options
+        face = state.face if face is None else face
+        self.apply_switches(options)
+        unit = face_unit(face)
+        key = (id(face.skin), face.muscle_names, options.field, options.muscle,
+               options.wireframe, options.plain, options.cmap, unit)
         topology = (state.n_points, state.triangles)
         self.last_redraw = redraw_kind(self._key, self._topology, key, topology)
         if self.last_redraw == "scene":
-            self._rebuild(session, state, wireframe, plain, clim, unit)
+            self._rebuild(face, state, options, unit)
             self._key = key
         else:
-            self._update(session, state, plain, clim, self.last_redraw == "mesh")
+            self._update(face, state, options, self.last_redraw == "mesh")
         self._topology = topology
         return self.last_redraw == "scene"
+
+    def apply_switches(self, options: DisplayOptions) -> None:
+        """The raking light and the multisampling as ``options`` say (changed only where
+        they differ from what is drawn; :meth:`draw` does it too). Renders nothing.
+        """
+        if options.raking_light != self.raking_light:
+            self.set_raking_light(options.raking_light)
+        if options.anti_aliasing != self.anti_aliasing:
+            self.anti_aliasing = options.anti_aliasing
+            for p in self.plotters:
+                if options.anti_aliasing:
+                    p.enable_anti_aliasing("msaa", multi_samples=8)
+                else:
+                    p.disable_anti_aliasing()
+            self._changed = {"skin", "muscles", "skull"}
 
     @property
     def skin_mesh(self) -> pv.PolyData | None:
@@ -193,27 +222,40 @@ class LinkedViews:
         else:
             remove_raking_light(self.skin_view)  # colour-mapped skin's material back too
 
-    def _rebuild(self, session, state: FaceState, wireframe: bool, plain: bool,
-                 clim=None, unit: str = "mm") -> None:
-        face = session.face
-        keep = self.placement is not None and session.muscle == self.placement.muscle.name \
-            and type(face.muscle(session.muscle)) is type(self.placement.muscle)
+    def _rebuild(self, face: FaceModel, state: FaceState, options: DisplayOptions,
+                 unit: str) -> None:
+        muscle = options.muscle
+        keep = self.placement is not None and muscle == self.placement.muscle.name \
+            and type(face.muscle(muscle)) is type(self.placement.muscle)
         if not keep:
             self.close_placement()
         clear_scene(self.skin_view)
         if self.raking_light:
             self._light_skin()
-        actor = add_skin(self.skin_view, state, None if plain else session.field,
-                         None if plain else session.muscle, show_edges=wireframe,
-                         scalar_bar=False, normals=state.normals)
-        if not plain:
-            if clim is not None:
-                actor.mapper.scalar_range = clim
-            info = field_info(session.field)
+        field = None if options.plain else options.field
+        info = field_info(options.field)
+        actor = add_skin(self.skin_view, state, field, None if options.plain else muscle,
+                         show_edges=options.wireframe, scalar_bar=False,
+                         normals=state.normals, cmap=options.cmap or info.cmap)
+        if field is not None:
+            if options.clim is not None:
+                actor.mapper.scalar_range = options.clim
             self._bar = add_field_bar(self.skin_view, actor.mapper,
-                                      info.title(session.muscle, units=unit),
-                                      info.display_title(session.muscle, unit))
+                                      info.title(muscle, units=unit),
+                                      info.display_title(muscle, unit))
         self._skin_mesh = actor.mapper.dataset
+        self._rebuild_muscles(face, state)
+        if keep:  # e.g. during a drag: the widget in use must not be destroyed
+            self.placement.muscle = face.muscle(muscle)
+            self.placement.rebind(state)
+        else:
+            self._make_placement(face, muscle, state)
+        self._changed = {"skin", "muscles", "skull"}
+
+    def _rebuild_muscles(self, face: FaceModel, state: FaceState) -> None:
+        """The muscles view (the skin's ghost, the muscles tinted by their activations) and
+        the skull view anew.
+        """
         clear_scene(self.muscle_view)
         points, triangles, normals = ghost_skin(state, face.skin)
         self._ghost_mesh = _skin_polydata(points, triangles, normals)
@@ -231,14 +273,9 @@ class LinkedViews:
         self._attachments = attachment_points(face)
         if face.skull is not None:
             add_skull(self.skull_view, face)
-        if keep:  # e.g. during a drag: the widget in use must not be destroyed
-            self.placement.muscle = face.muscle(session.muscle)
-            self.placement.rebind(state)
-        else:
-            self._make_placement(session, state)
-        self._changed = {"skin", "muscles", "skull"}
 
-    def _update(self, session, state: FaceState, plain: bool, clim, remesh: bool) -> None:
+    def _update(self, face: FaceModel, state: FaceState, options: DisplayOptions,
+                remesh: bool) -> None:
         """Draw a frame in the scenes as they are: write it into the drawn skin meshes
         (points, vertex normals, the field shown: the mappers draw these very meshes), or,
         with ``remesh`` (other triangles), give the skin view's actor a new mesh of it
@@ -246,17 +283,17 @@ class LinkedViews:
         view's skin (:func:`ghost_skin`); then the muscles, the attachments and the
         placement widget.
         """
-        array, values = _shown(session, state, plain)
+        array, values = _shown(options, state)
         if remesh:
             self._skin_mesh = _skin_polydata(state.points, state.triangles, state.normals,
                                              array, values)
             replace_mesh(self.skin_view, "skin", self._skin_mesh)
         else:
             _write(self._skin_mesh, state.points, array, values, state.normals)
-        if not plain:
-            self.skin_view.actors["skin"].mapper.scalar_range = clim or field_range(
-                field_info(session.field), values)
-        points, triangles, normals = ghost_skin(state, session.face.skin)
+        if not options.plain:
+            self.skin_view.actors["skin"].mapper.scalar_range = options.clim or field_range(
+                field_info(options.field), values)
+        points, triangles, normals = ghost_skin(state, face.skin)
         topology = (len(points), triangles)
         if redraw_kind(0, self._ghost_topology, 0, topology) == "points":
             _write(self._ghost_mesh, points, normals=normals)
@@ -264,13 +301,12 @@ class LinkedViews:
             self._ghost_mesh = _skin_polydata(points, triangles, normals)
             replace_mesh(self.muscle_view, "skin", self._ghost_mesh)
         self._ghost_topology = topology
-        self._update_muscles(session, state)
+        self._update_muscles(face, state)
 
-    def _update_muscles(self, session, state: FaceState) -> None:
+    def _update_muscles(self, face: FaceModel, state: FaceState) -> None:
         """Redraw the muscles that were edited, recolour those whose activation changed,
         move the attachments and the placement widget.
         """
-        face = session.face
         for m in face.muscles:
             a = state.activations[m.name]
             if self._drawn_muscles.get(m.name) is not m:  # edited: draw it again
@@ -373,15 +409,14 @@ class LinkedViews:
         self._changed.add("muscles")
 
     # ------------------------------------------------------------------ placement
-    def _make_placement(self, session, state: FaceState) -> None:
-        if session.muscle is None:
+    def _make_placement(self, face: FaceModel, muscle: str | None, state: FaceState) -> None:
+        if muscle is None:
             return
-        muscle = session.face.muscle(session.muscle)
+        m = face.muscle(muscle)
         views = {"skin": self.skin_view, "muscles": self.muscle_view,
-                 "skull": self.skull_view if session.face.skull is not None
-                 else self.skin_view}
-        self.placement = widget_factory(type(muscle))(
-            views, muscle, state, on_move=self.on_move, on_start=self.on_start)
+                 "skull": self.skull_view if face.skull is not None else self.skin_view}
+        self.placement = widget_factory(type(m))(
+            views, m, state, on_move=self.on_move, on_start=self.on_start)
 
     def close_placement(self) -> None:
         """Remove the placement widget, if any."""
@@ -417,13 +452,15 @@ def redraw_kind(drawn_key, drawn_topology, key, topology) -> str:
     return "points" if same else "mesh"
 
 
-def _shown(session, state: FaceState, plain: bool) -> tuple[str | None, np.ndarray | None]:
+def _shown(options: DisplayOptions, state: FaceState
+           ) -> tuple[str | None, np.ndarray | None]:
     """The point array the skin view colours by and its values in ``state`` (None, None
     for plain skin).
     """
-    if plain:
+    if options.plain:
         return None, None
-    return field_array_name(session.field, session.muscle), session.field_values(state)
+    return (field_array_name(options.field, options.muscle),
+            state.field_values(options.field, options.muscle))
 
 
 def _translucent_shell(plotter: pv.Plotter, actor) -> None:

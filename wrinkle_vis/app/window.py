@@ -96,9 +96,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._build_menus()
         self.document.changed.connect(self._on_document)
         self.display.changed.connect(self._remember_display)
-        self.frames.views.set_raking_light(self.display.options.raking_light)
-        self.frames._on_display("anti_aliasing")
-        self.frames.draw(reset_camera=True)
+        self.frames.draw(reset_camera=True)  # with the raking light and multisampling kept
 
     # ------------------------------------------------------------------ composing
     def _build_docks(self) -> None:
@@ -331,7 +329,7 @@ _DRAWN = {"plotters", "skin_view", "muscle_view", "skull_view", "views", "status
 _FORWARDS = {
     "controls": "expression_box intensity_slider play_button time_slider reset_button "
                 "field_box muscle_box refine_box wireframe_box range_box range_min range_max "
-                "range_error skin_box skin_group skin_widgets skin_error",
+                "range_error cmap_box skin_box skin_group skin_widgets skin_error",
     "frames": "plotters skin_view muscle_view skull_view views muscle_at set_camera "
               "status_label _on_pick sync_views:_sync_views colour_range",
     "edits": "undo_stack actions:edit_actions add_menu edit show_face add_muscle "

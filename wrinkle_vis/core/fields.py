@@ -88,6 +88,7 @@ class FieldSpec:
     cmap: str = ""
     compute: Callable[[Any], Any] | None = field(default=None, compare=False, repr=False)
     pointwise: bool = False
+    rest: bool = False
 
     def __post_init__(self):
         if not self.key or not self.key.isidentifier():
@@ -164,23 +165,29 @@ FIELDS: dict[str, FieldSpec] = {f.key: f for f in (
     FieldSpec("lambda", "λ", "length factor",
               "distance from the attachment along the central fibre, over R or L_s",
               "Eq. 2, 13", "1", "aoi", limits=(0.0, 1.0),
-              compute=_static("lambda", "lam", "aoi"), pointwise=True),
+              compute=_static("lambda", "lam", "aoi"), pointwise=True,
+              rest=True),
     FieldSpec("gamma", "γ", "angular/width factor",
               "angle from the central fibre over Φ (linear) or 2h over W_s (sheet)",
               "Eq. 2, 13", "1", "aoi", limits=(0.0, 1.0),
-              compute=_static("gamma", "gamma", "aoi"), pointwise=True),
+              compute=_static("gamma", "gamma", "aoi"), pointwise=True,
+              rest=True),
     FieldSpec("l", "l", "fibre distance", "distance from the attachment along the fibre",
               "Eq. 1", "length", "aoi", cmap="cividis",
-              compute=_static("l", "l", "aoi"), pointwise=True),
+              compute=_static("l", "l", "aoi"), pointwise=True,
+              rest=True),
     FieldSpec("w", "w", "periodic coordinate", "position within one wrinkle period",
               "Eq. 7", "length", "region", cmap="twilight",
-              compute=_static("w", "w", "region"), pointwise=True),
+              compute=_static("w", "w", "region"), pointwise=True,
+              rest=True),
     FieldSpec("H", "H", "shape function", "cross-sectional wrinkle shape: furrows and bulges",
               "Eq. 5", "length", "region", signed=True,
-              compute=_static("H", "h", "region"), pointwise=True),
+              compute=_static("H", "h", "region"), pointwise=True,
+              rest=True),
     FieldSpec("At", "At", "attenuation", "fade of the wrinkles away from the central fibre",
               "Eq. 12, 15", "1", "aoi", limits=(0.0, 1.0), cmap="magma",
-              compute=_static("At", "at", "aoi"), pointwise=True),
+              compute=_static("At", "at", "aoi"), pointwise=True,
+              rest=True),
     FieldSpec("eps", "ε", "compression rate",
               "edge shrinkage weighted by alignment with the contraction",
               "Eq. 9, 10", "1", "aoi", signed=True, cmap="PuOr_r",

@@ -260,23 +260,72 @@ def _lowest_sigma(b: np.ndarray, c: np.ndarray, top: float) -> np.ndarray:
                     low)
 
 
+_GRAPH_CACHE_EDGES = 1 << 20  # skins with more edges build their graph per frame, small
+
+
 def _edge_graph(size: np.ndarray, terms: dict, reach: float) -> dict:
-    r"""The skin's edges with a pulled end (pulls' lengths ``size`` ``(n,)``), in CSR order
-    (by first end, then second): their ends ``a``, ``b`` and rest ``length`` ``(l,)``, the
-    row pointers ``indptr`` ``(n + 1,)`` and the weights ``w`` ``(l,)`` of :func:`_limits`,
-    :math:`|x_v - x_w| / (\text{reach} \max(|p_v|, |p_w|))`, kept up to date by
-    :func:`_reweigh` as the factors change.
+    r"""The graph :func:`_limits` searches, for the pulls' lengths ``size`` ``(n,)``: edges
+    ``a``, ``b``, their rest ``length`` and weights ``w`` ``(e,)``,
+    :math:`|x_v - x_w| / (\text{reach} \max(|p_v|, |p_w|))` (``inf``, no path, where
+    neither end is pulled), kept up to date by :func:`_reweigh` as the factors change; and
+    ``mat``, a CSR matrix ``(n + 1, n + 1)`` of those weights, each edge both ways, with a
+    last row, the source, joined to every vertex (its weights, the last ``n`` entries, are
+    set by each search; ``inf``, no edge, where unused).
+
+    The edges are all the skin's, and the matrix's structure (:func:`_edge_structure`) is
+    built once per skin and kept in ``terms``, up to :data:`_GRAPH_CACHE_EDGES` edges; a
+    larger skin takes only its edges with a pulled end, structured for this frame (what is
+    kept would outweigh the frame). Either way a path runs only through pulled edges.
     """
     e, length = terms["edges"], terms["length"]  # sorted (pull_terms)
     live = np.flatnonzero(np.maximum(size[e[:, 0]], size[e[:, 1]]) > 0)
-    a, b = e[live, 0], e[live, 1]
-    index = np.int32 if len(size) < 2**31 - 1 else np.intp  # the sparse matrix's own
-    graph = {"a": a, "b": b, "length": length[live], "reach": reach, "index": index,
-             "cols": b.astype(index),
-             "indptr": np.concatenate([[0], np.cumsum(np.bincount(a, minlength=len(size)))]
-                                      ).astype(index)}
-    graph["w"] = _weights(graph, np.arange(len(a)), size)
+    if len(e) <= _GRAPH_CACHE_EDGES:
+        st = terms.get("edge_structure")
+        if st is None:
+            st = terms["edge_structure"] = _edge_structure(e, len(size))
+        graph = {"a": e[:, 0], "b": e[:, 1], "length": length, "w": np.full(len(e), np.inf)}
+    else:
+        st = _edge_structure(e[live], len(size))
+        graph = {"a": e[live, 0], "b": e[live, 1], "length": length[live]}
+        live = np.arange(len(live))
+        graph["w"] = np.empty(len(live))
+    graph.update(reach=reach, slot=st["slot"], slots=st["slots"], indptr=st["indptr"])
+    graph["w"][live] = _weights(graph, live, size)
+    data = np.full(len(st["indices"]), np.inf)
+    data[st["slots"][0, live]] = graph["w"][live]
+    data[st["slots"][1, live]] = graph["w"][live]
+    graph["mat"] = sp.csr_matrix((data, st["indices"], st["indptr"]),
+                                 shape=(len(size) + 1, len(size) + 1), copy=False)
     return graph
+
+
+def _edge_structure(edges: np.ndarray, n: int) -> dict:
+    """The structure of :func:`_edge_graph`'s matrix for the skin's ``edges`` ``(e, 2)`` on
+    ``n`` vertices (each edge sorted, the edges by first end then second, as
+    :func:`pull_terms` keeps them), once per skin: ``indices`` and ``indptr`` (each edge both
+    ways, by row then column, then the source's row to every vertex), ``slot`` ``(2 e,)``,
+    the edge of each stored entry, and ``slots`` ``(2, e)``, the two entries of each edge.
+    Row v holds the edges ending at v (columns below v, in the order of a stable sort of the
+    second ends) and then those starting there (columns above v, already in order): one
+    sort of ``e`` keys.
+    """
+    a, b = edges[:, 0], edges[:, 1]
+    m = len(a)
+    index = np.int32 if n < 2**31 - 2 and 2 * m + n < 2**31 - 1 else np.intp
+    into, out_ = np.bincount(b, minlength=n), np.bincount(a, minlength=n)
+    indptr = np.concatenate([[0], np.cumsum(into + out_), [2 * m + n]])
+    ids = np.arange(m)
+    by_b = np.argsort(b, kind="stable")  # ends at v: grouped by v, then by first end
+    first_in = np.cumsum(into) - into
+    rev = np.empty(m, dtype=np.intp)
+    rev[by_b] = indptr[b[by_b]] + ids - first_in[b[by_b]]
+    fwd = indptr[a] + into[a] + ids - (np.cumsum(out_) - out_)[a]
+    indices = np.empty(2 * m + n, dtype=index)
+    indices[rev], indices[fwd], indices[2 * m:] = a, b, np.arange(n)
+    slot = np.empty(2 * m, dtype=index)
+    slot[rev], slot[fwd] = ids, ids
+    return {"indices": indices, "indptr": indptr.astype(index), "slot": slot,
+            "slots": np.stack([fwd, rev]).astype(index)}
 
 
 def _weights(graph: dict, j: np.ndarray, lift_of: np.ndarray) -> np.ndarray:
@@ -290,12 +339,22 @@ def _weights(graph: dict, j: np.ndarray, lift_of: np.ndarray) -> np.ndarray:
 
 def _reweigh(graph: dict, changed: np.ndarray, lift_of: np.ndarray) -> None:
     """Update ``graph``'s weights in place on the edges with an end in ``changed`` ``(k,)``
-    (vertices whose pulls' lengths ``lift_of`` ``(n,)`` just changed).
+    (vertices whose pulls' lengths ``lift_of`` ``(n,)`` just changed), found through the
+    graph's rows (the work goes with the changed vertices, not with the skin).
     """
-    mark = np.zeros(len(lift_of), bool)
-    mark[changed] = True
-    j = np.flatnonzero(mark[graph["a"]] | mark[graph["b"]])
-    graph["w"][j] = _weights(graph, j, lift_of)
+    indptr = graph["indptr"]
+    lo, hi = indptr[changed].astype(np.intp), indptr[changed + 1].astype(np.intp)
+    count = hi - lo
+    ends = np.cumsum(count)
+    at = np.arange(int(ends[-1]) if len(ends) else 0) + np.repeat(lo - (ends - count), count)
+    mark = np.zeros(len(graph["w"]), bool)  # each edge once, ascending (a memset and a
+    mark[graph["slot"][at]] = True  # scan of bytes: cheaper than sorting the region's)
+    j = np.flatnonzero(mark)
+    w = _weights(graph, j, lift_of)
+    graph["w"][j] = w
+    data = graph["mat"].data
+    data[graph["slots"][0, j]] = w
+    data[graph["slots"][1, j]] = w
 
 
 def _limits(s_star: np.ndarray, corners: np.ndarray, graph: dict, top: float) -> np.ndarray:
@@ -306,15 +365,12 @@ def _limits(s_star: np.ndarray, corners: np.ndarray, graph: dict, top: float) ->
     :math:`|p|` (the edges and weights of :func:`_edge_graph` ``graph``); ``inf`` beyond
     ``top`` and wherever no pull connects :math:`v` to a bad triangle.
     """
-    n = len(graph["indptr"]) - 1
-    least = np.full(n, np.inf)  # a corner of several bad triangles: their least s*
+    mat = graph["mat"]
+    n = mat.shape[0] - 1
+    least = mat.data[-n:] if n else mat.data[:0]  # the source's edges: a corner of
+    least[:] = np.inf  # several bad triangles takes their least s*
     np.minimum.at(least, corners.ravel(), np.maximum(np.repeat(s_star, 3), 1e-12))
-    src = np.flatnonzero(np.isfinite(least))  # a source vertex n, joined to them
-    indptr = np.append(graph["indptr"], graph["indptr"][-1] + len(src))
-    mat = sp.csr_matrix((np.concatenate([graph["w"], least[src]]),
-                         np.concatenate([graph["cols"], src.astype(graph["index"])]), indptr),
-                        shape=(n + 1, n + 1))
-    dist = csgraph.dijkstra(mat, directed=False, indices=n, limit=top)
+    dist = csgraph.dijkstra(mat, directed=True, indices=n, limit=top)
     return dist[:n]
 
 
@@ -325,17 +381,48 @@ def _pulled_triangles(terms: dict, moving: np.ndarray, base: np.ndarray,
     and the terms :math:`\sigma_t(0)`, :math:`A_1`, :math:`A_2` of their signed areas
     (those of ``base`` when a ``start`` skin is given).
     """
-    c0, c1, c2 = terms["corners"]
-    rows = np.flatnonzero(moving[c0] | moving[c1] | moving[c2])
-    if len(rows) == c0.shape[0]:  # every triangle: the terms themselves, not copies
-        corners, Nt, A1, A2 = (terms[k] for k in ("corners", "N", "A1", "A2"))
-    else:
-        corners, Nt, A1, A2 = (terms[k][:, rows] for k in ("corners", "N", "A1", "A2"))
+    rows, corners, Nt, A1, A2 = _triangles_of(terms, moving)
     if start is None:
         a0 = np.ones(len(rows))
     else:
         a0, A1, A2 = _start_terms(Nt, base, corners)
     return rows, corners, Nt, a0, A1, A2
+
+
+_SUBSETS = 8  # the pulled regions a skin's terms remember (an expression's muscles, ...)
+_SUBSET_BYTES = 1 << 24  # and at most this many bytes of them together
+
+
+def _triangles_of(terms: dict, moving: np.ndarray) -> tuple:
+    r"""The triangles of :func:`pull_terms` ``terms`` with a corner where ``moving``
+    ``(n,)``: their ``rows`` ``(k,)`` and ``corners``, ``N``, ``A1``, ``A2`` ``(3, k)``.
+
+    These depend on the rest skin and on which vertices move only, so they are kept in
+    ``terms`` for the last few moving sets (a frame of the same muscles, at any
+    activation, finds them there: :data:`_SUBSETS` of them, :data:`_SUBSET_BYTES` in all,
+    the least recently used dropped first); every triangle: the terms themselves, not
+    copies.
+    """
+    key = np.flatnonzero(moving).tobytes()
+    memo = terms.setdefault("subsets", {})
+    hit = memo.pop(key, None)
+    if hit is not None:
+        memo[key] = hit  # the most recent last
+        return hit
+    c0, c1, c2 = terms["corners"]
+    rows = np.flatnonzero(moving[c0] | moving[c1] | moving[c2])
+    if len(rows) == c0.shape[0]:
+        hit = (rows, *(terms[k] for k in ("corners", "N", "A1", "A2")))
+    else:
+        hit = (rows, *(terms[k][:, rows] for k in ("corners", "N", "A1", "A2")))
+    memo[key] = hit
+
+    def size(entry: tuple) -> int:
+        return sum(a.nbytes for a in entry)
+
+    while len(memo) > _SUBSETS or (memo and sum(map(size, memo.values())) > _SUBSET_BYTES):
+        memo.pop(next(iter(memo)))  # (a subset larger than the budget is not kept at all)
+    return hit
 
 
 def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
@@ -380,11 +467,13 @@ def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
         return f
     b, c = _quadratic(pull_t, corners, Nt, A1, A2)
     low = a0 - 1.0 + _lowest_sigma(b, c, top)
-    graph = _edge_graph(size, terms, reach)
+    graph = None  # the edges' weights, built only when a triangle is bad
     for _ in range(iterations):
         bad = np.flatnonzero(low < min_area)
         if not len(bad):
             break
+        if graph is None:
+            graph = _edge_graph(size, terms, reach)
         s_star = _first_root(np.maximum(a0[bad] - min_area, 1e-12), b[bad], c[bad])
         limit = _limits(s_star, corners[:, bad].T, graph, top)
         near = np.flatnonzero(limit < top)
@@ -418,24 +507,26 @@ def _update(b: np.ndarray, c: np.ndarray, low: np.ndarray, pull_t: np.ndarray, f
 
 def _first_root(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     r"""``(t,)``: the smallest :math:`s > 0` with :math:`a + b s + c s^2 = 0` (``a`` > 0),
-    ``inf`` where there is none; ``a``, ``b``, ``c`` ``(t,)``.
+    ``inf`` where there is none; ``a``, ``b``, ``c`` ``(t,)``: :math:`-a / b` where
+    :math:`|c| \le 10^{-12} |b|` (linear), else the least positive of
+    :math:`(-b \mp \sqrt{b^2 - 4 a c}) / 2c`. Both branches are evaluated on every entry and
+    the right one is picked (fewer array calls than masking each: this runs once per
+    iteration of :func:`skin_scale`).
     """
     a = np.broadcast_to(np.asarray(a, dtype=float), b.shape)
-    out = np.full(len(b), np.inf)
     lin = np.abs(c) <= 1e-12 * np.maximum(np.abs(b), 1e-300)
-    m = lin & (b < 0)
-    out[m] = -a[m] / b[m]
-    q = ~lin
-    disc = b[q] * b[q] - 4.0 * a[q] * c[q]
-    ok = disc >= 0
-    sq = np.sqrt(np.where(ok, disc, 0.0))
-    cq = c[q]
-    r1 = (-b[q] - sq) / (2.0 * cq)
-    r2 = (-b[q] + sq) / (2.0 * cq)
-    r1 = np.where(r1 > 0, r1, np.inf)
-    r2 = np.where(r2 > 0, r2, np.inf)
-    out[q] = np.where(ok, np.minimum(r1, r2), np.inf)
-    return out
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        disc = b * b - 4.0 * a * c
+        ok = disc >= 0
+        sq = np.sqrt(np.where(ok, disc, 0.0))
+        c2 = 2.0 * c
+        r1 = (-b - sq) / c2
+        r2 = (-b + sq) / c2
+        r1 = np.where(r1 > 0, r1, np.inf)
+        r2 = np.where(r2 > 0, r2, np.inf)
+        quad = np.where(ok, np.minimum(r1, r2), np.inf)
+        linear = np.where(b < 0, -a / b, np.inf)
+    return np.where(lin, linear, quad)
 
 
 def guard_wrinkles(W: np.ndarray, radii: np.ndarray, guard: FoldGuard = FoldGuard()
@@ -444,8 +535,12 @@ def guard_wrinkles(W: np.ndarray, radii: np.ndarray, guard: FoldGuard = FoldGuar
     (``radii`` ``(n, 2)``: :math:`r_+, r_-`) by :func:`soft_clamp`.
     """
     W = np.asarray(W, dtype=float)
-    bound = guard.eta * np.where(W >= 0, radii[:, 0], radii[:, 1])
-    return soft_clamp(W, np.maximum(bound, 1e-300), guard.knee)
+    ids = np.flatnonzero(W)  # W = 0 is never clamped: the nonzero part decides
+    w = W[ids]
+    bound = guard.eta * np.where(w >= 0, radii[ids, 0], radii[ids, 1])
+    out = W.copy()
+    out[ids] = soft_clamp(w, np.maximum(bound, 1e-300), guard.knee)
+    return out
 
 
 @dataclass(frozen=True)
@@ -593,6 +688,11 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
     the clamp's knee would just reach :math:`|W|`, so it stops at once wherever the clamp
     would not act. ``step`` ``(n, 3)``: :math:`W n`, when the frame's normals are those of
     ``deformed`` (else they are computed).
+
+    Only the vertices whose ball did shrink are lowered (``radii`` itself, not a copy, when
+    none did): where the search kept its start :math:`R`, :math:`\eta_d R` sits just above
+    :math:`|W| / \kappa` and the clamp would not act on that bound, so whatever the rest
+    radii say decides there (the same clamped :math:`W`, bit for bit).
     """
     ratio = guard.eta_deformed / guard.eta
     ids = np.flatnonzero(W)
@@ -601,19 +701,44 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
     start = np.abs(W[ids]) / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6)
     x = deformed[ids]
     reach = 2.0 * float(start.max())  # a ball of radius R tangent at x lies within 2 R of x
-    box = np.all((deformed >= x.min(axis=0) - reach) & (deformed <= x.max(axis=0) + reach),
-                 axis=1)
     if step is None:
         n = _vertex_normals(deformed, tri, ids, terms)
     else:
         n = step[ids] / W[ids, None]
         n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
     side = np.where(W[ids, None] >= 0, [[1.0, 0.0]], [[0.0, 1.0]])  # the side W pushes to
-    r = medial_radii(x, n, samples=deformed[box], r_max=side * start[:, None])
-    r = np.where(side > 0, r, np.inf)
+    samples = deformed[_in_box(deformed, x.min(axis=0) - reach, x.max(axis=0) + reach)]
+    tree = cKDTree(samples, balanced_tree=False)
+    # the search's first step for every ball at once: only a ball with a sample inside
+    # shrinks (medial_radii's result at the others is their start, exactly)
+    c = x + np.where(W[ids] >= 0, 1.0, -1.0)[:, None] * start[:, None] * n
+    dist, _ = tree.query(c, distance_upper_bound=float(start.max()))
+    hit = np.flatnonzero(dist < start * (1.0 - 1e-9))
+    if not len(hit):
+        return radii
+    r = medial_radii(x[hit], n[hit], samples=samples, r_max=side[hit] * start[hit, None],
+                     tree=tree)
+    r = np.where(side[hit] > 0, r, np.inf)
+    low = np.flatnonzero(r.min(axis=1) < start[hit])  # the balls that shrank
+    if not len(low):
+        return radii
+    rows = ids[hit[low]]
     out = np.array(radii, dtype=float, copy=True)
-    out[ids] = np.minimum(out[ids], ratio * r)
+    out[rows] = np.minimum(out[rows], ratio * r[low])
     return out
+
+
+def _in_box(points: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """``(k,)``: the indices (ascending) of ``points`` ``(n, 3)`` in the closed box
+    ``lo``-``hi`` ``(3,)``, filtered one coordinate at a time (the first over every point,
+    the others over what is left).
+    """
+    x = points[:, 0]
+    idx = np.flatnonzero((x >= lo[0]) & (x <= hi[0]))
+    for k in (1, 2):
+        c = points[idx, k]
+        idx = idx[(c >= lo[k]) & (c <= hi[k])]
+    return idx
 
 
 def _vertex_normals(points: np.ndarray, tri: np.ndarray, ids: np.ndarray,
@@ -637,34 +762,40 @@ def _vertex_normals(points: np.ndarray, tri: np.ndarray, ids: np.ndarray,
 
 
 def _needed(W: np.ndarray, guard: FoldGuard) -> np.ndarray:
-    r"""``(n, 2)``: the radius up to which the clamp needs :math:`r_\pm` at each vertex of a
-    frame's ``W`` ``(n,)``: just above :math:`|W| / (\kappa \eta)` on the side ``W`` pushes to
-    (a radius beyond it leaves the clamp the identity), 0 elsewhere.
+    r"""``(k, 2)``: the radius up to which the clamp needs :math:`r_\pm` at each vertex of
+    ``W`` ``(k,)`` (a frame's, or its nonzero part): just above :math:`|W| / (\kappa \eta)`
+    on the side ``W`` pushes to (a radius beyond it leaves the clamp the identity), 0
+    elsewhere.
     """
     W = np.asarray(W, dtype=float)
     start = np.abs(W) / (guard.knee * guard.eta) * (1.0 + 1e-6)
     return np.where(W[:, None] >= 0, [[1.0, 0.0]], [[0.0, 1.0]]) * start[:, None]
 
 
-def _rest_radii(face, need: np.ndarray) -> np.ndarray:
+def _rest_radii(face, need: np.ndarray, ids: np.ndarray | None = None) -> np.ndarray:
     """``(n, 2)``: rest radii of ``face``'s own skin known at least up to ``need``
-    ``(n, 2)``: the true radius where it is below what was ever needed, else a value at or
-    above ``need`` (below which the true radius does not lie). What is found is kept with
-    the rest frame; a vertex is searched again only when a frame needs more of it.
+    (``(n, 2)``, or ``(k, 2)`` at the vertices ``ids`` ``(k,)``, 0 at the others): the true
+    radius where it is below what was ever needed, else a value at or above ``need`` (below
+    which the true radius does not lie). What is found is kept with the rest frame; a
+    vertex is searched again only when a frame needs more of it. Only the rows ``ids`` are
+    looked at (a frame's wrinkled vertices: the cost goes with them, not with the skin).
     """
     rest = face._rest
     known = getattr(rest, "fold_radii", None)
     if known is None:
         known = rest.fold_radii = np.zeros((face.skin.n_points, 2))
         rest.fold_radii_exact = np.zeros((face.skin.n_points, 2), bool)
-    todo = (need > known) & ~rest.fold_radii_exact
-    rows = np.flatnonzero(todo.any(axis=1))
-    if len(rows):
-        r_max = np.where(todo[rows], need[rows], 0.0)
+    if ids is None:
+        ids = np.arange(len(known))
+    todo = (need > known[ids]) & ~rest.fold_radii_exact[ids]
+    sub = np.flatnonzero(todo.any(axis=1))
+    if len(sub):
+        rows, todo, need = ids[sub], todo[sub], need[sub]
+        r_max = np.where(todo, need, 0.0)
         r = medial_radii(face.skin.points[rows], rest.normals[rows],
                          samples=face.skin.points, r_max=r_max, tree=face.skin.kdtree)
-        known[rows] = np.where(todo[rows], r, known[rows])
-        rest.fold_radii_exact[rows] |= todo[rows] & (r < r_max)
+        known[rows] = np.where(todo, r, known[rows])
+        rest.fold_radii_exact[rows] |= todo & (r < r_max)
     return known
 
 
@@ -688,11 +819,14 @@ def fold_radii(face, skin_face=None, W: np.ndarray | None = None,
     n = face.skin.n_points if own else skin_face.skin.n_points
     if W is None:
         size = np.linalg.norm(np.ptp(face.skin.points, axis=0))
+        ids = np.arange(n)
         need = np.full((n, 2), 2.0 * size)
-    else:
-        need = _needed(W, guard)
+    else:  # a vertex with no W needs nothing
+        W = np.asarray(W, dtype=float)
+        ids = np.flatnonzero(W)
+        need = _needed(W[ids], guard)
     if own:
-        view = _rest_radii(face, need).view()  # the cache, read-only: no copy a frame
+        view = _rest_radii(face, need, ids).view()  # the cache, read-only: no copy a frame
         view.setflags(write=False)
         return view
     fine = skin_face._rest
@@ -700,10 +834,14 @@ def fold_radii(face, skin_face=None, W: np.ndarray | None = None,
     if idx is None or len(idx) != n:
         _, idx = face.skin.kdtree.query(skin_face.skin.points, k=3)
         fine.fold_radii_nearest = idx
-    base = np.zeros((face.skin.n_points, 2))
+    base = np.zeros((2, face.skin.n_points))  # by side: numpy's fast 1-D ufunc.at
     for k in range(3):
-        np.maximum.at(base, idx[:, k], need)
-    return _rest_radii(face, base)[idx].min(axis=1)
+        col = idx[ids, k]
+        np.maximum.at(base[0], col, need[:, 0])
+        np.maximum.at(base[1], col, need[:, 1])
+    near = np.flatnonzero((base[0] > 0) | (base[1] > 0))  # what wrinkled fine vertices need
+    known = _rest_radii(face, base[:, near].T, near)
+    return np.minimum(np.minimum(known[idx[:, 0]], known[idx[:, 1]]), known[idx[:, 2]])
 
 
 def guarded(face, state, guard: FoldGuard = FoldGuard()):

@@ -416,7 +416,7 @@ class MuscleLevels(HoldsArrays):
     """
 
     muscle: Muscle
-    ids: np.ndarray  # (k,) vertex ids
+    ids: np.ndarray  # (k,) vertex ids, ascending (added in the order the hierarchy builds them)
     lam: np.ndarray
     gamma: np.ndarray
     l: np.ndarray

@@ -10,6 +10,8 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 from scipy.spatial import cKDTree
 
+from .certificate import _abs_cross, _apart_pairs, _clear_stars, _cross, _star_pairs
+
 __all__ = ["MeshError", "MeshReport", "TriangleSurface", "barycentric_points", "block_pcg",
            "closest_on_triangles", "closest_points", "cotangent_laplacian", "occluded",
            "phong_midpoints", "ray_on_triangles", "self_intersections", "shape_operators",
@@ -456,7 +458,8 @@ def ray_on_triangles(surface: TriangleSurface, candidates, origin,
     """
     ids = np.atleast_1d(np.asarray(candidates, dtype=np.intp))
     o, d = np.asarray(origin, float).reshape(3), np.asarray(direction, float).reshape(3)
-    det, u, v, s = _moller_trumbore(o, d, surface.points[surface.triangles[ids]])
+    det, u, v, s = _moller_trumbore(o, d, surface.points.take(
+        surface.triangles.take(ids, axis=0), axis=0))
     tol = 1e-9
     hit = (np.abs(det) > 0) & (u >= -tol) & (v >= -tol) & (u + v <= 1 + tol)
     if not hit.any():
@@ -558,6 +561,20 @@ def _ray_hits(origins: np.ndarray, d: np.ndarray, c: np.ndarray, min_distance: f
     return (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (dist > min_distance)
 
 
+def _cross_any(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    r"""``(..., 3)``: :math:`a \times b` of ``a`` and ``b`` ``(..., 3)`` (broadcast), the
+    same products and differences as ``np.cross`` (so its values, bit for bit) without its
+    general-axis handling: a ray test's few triangles pay for that overhead, not the work.
+    """
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out
+
+
 def _moller_trumbore(origins: np.ndarray, d: np.ndarray, c: np.ndarray
                      ) -> tuple[np.ndarray, ...]:
     r"""``(k,)`` four times: :math:`\det`, :math:`u`, :math:`v` and :math:`t` of the line
@@ -566,13 +583,13 @@ def _moller_trumbore(origins: np.ndarray, d: np.ndarray, c: np.ndarray
     (Möller-Trumbore; inf or nan where :math:`\det = 0`).
     """
     e1, e2 = c[:, 1] - c[:, 0], c[:, 2] - c[:, 0]
-    h = np.cross(d, e2)
+    h = _cross_any(d, e2)
     det = np.einsum("ij,ij->i", e1, h)
     with np.errstate(divide="ignore", invalid="ignore"):
         inv = 1.0 / det
         t = origins - c[:, 0]
         u = np.einsum("ij,ij->i", t, h) * inv
-        q = np.cross(t, e1)
+        q = _cross_any(t, e1)
         v = (q @ d) * inv
         dist = np.einsum("ij,ij->i", e2, q) * inv
     return det, u, v, dist
@@ -587,6 +604,59 @@ def barycentric_points(surface: TriangleSurface, triangles, barycentric,
     verts = surface.points if points is None else np.asarray(points, dtype=float)
     corners = verts[surface.triangles[np.asarray(triangles)]]
     return np.einsum("kj,kjd->kd", np.asarray(barycentric, dtype=float), corners)
+
+
+def quadratic_points(surface: TriangleSurface, triangles, barycentric, values) -> np.ndarray:
+    r"""``(k, d)``: ``values`` ``(n, d)`` given at the surface's vertices, interpolated at
+    ``barycentric`` ``(k, 3)`` in ``triangles`` ``(k,)`` by a local quadratic fit: a moving
+    least-squares quadratic in the triangle's plane over the vertices of the triangles that
+    touch it (its corners and their neighbours, about 12), exact for a field quadratic in
+    the position on a flat patch, where :func:`barycentric_points` is exact only for a
+    linear one.
+
+    With :math:`q` the point, :math:`(x_j, y_j)` the vertices' offsets from it in the
+    triangle's plane over the mean edge length :math:`h`, and
+    :math:`b = (1, x, y, x^2, xy, y^2)`, the value at :math:`q` is the constant term
+    :math:`c_0` of
+
+    .. math::
+
+        c = \arg\min_c \sum_j e^{-(x_j^2 + y_j^2)} \, \| b(x_j, y_j) \cdot c - v_j \|^2
+
+    (a pseudo-inverse, so a stencil too small for a quadratic, as on a border, still gets
+    the best fit it allows).
+    """
+    tri = np.asarray(triangles, dtype=np.intp)
+    v = np.asarray(values, dtype=float)
+    idx, mask = _touching_vertices(surface, tri)
+    corners = surface.points[surface.triangles[tri]]
+    u_axis, v_axis = tangent_bases(unit_rows(np.cross(corners[:, 1] - corners[:, 0],
+                                                      corners[:, 2] - corners[:, 0])))
+    d = surface.points[idx] - barycentric_points(surface, tri, barycentric)[:, None, :]
+    x, y = (np.einsum("kmd,kd->km", d, a) / surface.mean_edge_length for a in (u_axis, v_axis))
+    root = np.sqrt(mask * np.exp(-(x * x + y * y)))  # (k, m) square roots of the weights
+    basis = np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=2) * root[..., None]
+    first = np.linalg.pinv(basis, rcond=1e-10)[:, 0, :]  # (k, m): the row giving c_0
+    return np.einsum("km,km,kmd->kd", first, root, v.reshape(len(v), -1)[idx]).reshape(
+        (len(tri), *v.shape[1:]))
+
+
+def _touching_vertices(surface: TriangleSurface, tri: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """``(k, m)`` ids and ``(k, m)`` 0/1 mask: the vertices of the triangles touching each of
+    ``tri`` ``(k,)`` (corners and their neighbours), padded to the longest row.
+    """
+    n, k = surface.n_points, len(tri)
+    corners = sp.csr_matrix((np.ones(3 * k), surface.triangles[tri].ravel(),
+                             np.arange(0, 3 * k + 1, 3)), shape=(k, n))
+    ring = (corners @ (surface.adjacency + sp.identity(n, format="csr"))).tocsr()
+    count = np.diff(ring.indptr)
+    rows = np.repeat(np.arange(k), count)
+    cols = np.arange(len(ring.indices)) - ring.indptr[rows]
+    idx = np.zeros((k, max(int(count.max(initial=0)), 1)), dtype=np.intp)
+    mask = np.zeros(idx.shape)
+    idx[rows, cols], mask[rows, cols] = ring.indices, 1.0
+    return idx, mask
 
 
 def _barycentric(tri: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -1048,23 +1118,24 @@ def self_intersections(surface: TriangleSurface, chunk: int = 200_000) -> np.nda
     :math:`(a, b, c)` at barycentric :math:`(1 - u - v, u, v)` with :math:`0 < t < 1`,
     :math:`u, v > 0`, :math:`u + v < 1`, all strictly, by a margin of 1e-9). A shared corner
     is a touch, not a crossing: a pair sharing a vertex crosses only if an edge away from
-    that vertex passes through the other. Candidate pairs are those whose bounding spheres
-    (centroid, farthest corner) overlap. Coplanar overlaps are not reported.
+    that vertex passes through the other. Candidate pairs are those whose bounding boxes
+    overlap (the certificate's grid, :mod:`~wrinkle_vis.core.certificate`), less the pairs
+    sharing a vertex whose star the certificate proves cannot cross itself; the pairs come
+    in lexicographic order. Coplanar overlaps are not reported.
     """
     pts = np.asarray(surface.points, float)
     tri = np.asarray(surface.triangles)
     if len(tri) < 2:
         return np.zeros((0, 2), np.intp)
+    # pairs that share one vertex whose star may cross itself (every such pair has
+    # overlapping boxes), and those that share no vertex and whose boxes overlap
     corners = pts[tri]
-    centre = corners.mean(axis=1)
-    radius = np.linalg.norm(corners - centre[:, None], axis=2).max(axis=1)
-    pairs = cKDTree(centre).query_pairs(2.0 * float(radius.max()), output_type="ndarray")
-    if len(pairs) == 0:
-        return np.zeros((0, 2), np.intp)
-    gap = np.linalg.norm(centre[pairs[:, 0]] - centre[pairs[:, 1]], axis=1)
-    pairs = pairs[gap <= radius[pairs[:, 0]] + radius[pairs[:, 1]]]
+    e1, e2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    unclear = ~_clear_stars(pts, tri, _cross(e1, e2), _abs_cross(e1, e2))
+    pairs = np.concatenate([_star_pairs(tri, unclear), _apart_pairs(tri, pts)])
     shared = (tri[pairs[:, 0]][:, :, None] == tri[pairs[:, 1]][:, None, :]).sum(axis=(1, 2))
     pairs = pairs[shared < 2]
+    pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
     hits = np.zeros(len(pairs), bool)
     for start in range(0, len(pairs), chunk):
         part = pairs[start:start + chunk]

@@ -19,7 +19,7 @@ The skin's own vertices keep the unrefined frame's values exactly.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -33,6 +33,10 @@ from .hierarchy import (
     grown,
     refined_topology,
 )
+
+if TYPE_CHECKING:
+    from .face import FaceModel
+    from .muscle import Muscle
 
 __all__ = ["RefinedEngine", "bent", "slide_bend"]
 
@@ -82,7 +86,7 @@ def _unit(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
     return v
 
 
-class _Assembly(HoldsArrays):
+class _RefinedRows(HoldsArrays):
     r"""The active muscles' data on the hierarchy's new vertices, one row per vertex that a
     muscle moves and one column per muscle acting there (padded with an inactive one),
     built once per active set and extended as the hierarchy grows.
@@ -106,6 +110,25 @@ class _Assembly(HoldsArrays):
         wrinkling region holds it (``inf``: none); the skin's vertices once
         :meth:`set_root_periods` ran.
     """
+
+    # the rows (:data:`_ROW_FIELDS`, from :func:`_stacked_rows`)
+    moved: np.ndarray  # (r,) int
+    muscle: np.ndarray  # (r, c) int
+    unit: np.ndarray  # (r, c, 3)
+    weights: np.ndarray  # (r, c, 6)
+    hat: np.ndarray  # (r, c)
+    coef: np.ndarray  # (r, c, 6, 2): only with has_grad
+    area: np.ndarray  # (r, c, 6): only with has_grad
+    # the vertices
+    slot: np.ndarray  # (v,) int: each vertex's row, -1: none
+    influenced: np.ndarray  # (v,) bool: slot >= 0
+    half_period: np.ndarray  # (v,)
+    unfinished: np.ndarray  # (u,) int
+    # the active set and the hierarchy the rows were made for
+    muscles: list[Muscle]
+    has_grad: bool  # whether a muscle has the "gradient" option (coef and area are there)
+    root_periods: bool  # whether half_period is set on the skin's vertices
+    version: tuple[int, int]  # the hierarchy's version and number of vertices
 
     def __init__(self, hier: Hierarchy, levels: list[MuscleLevels]):
         self.muscles = [m.muscle for m in levels]
@@ -201,14 +224,14 @@ class _Assembly(HoldsArrays):
         return out
 
 
-#: The per-row arrays of an :class:`_Assembly` (``coef`` and ``area`` only with the
+#: The per-row arrays of a :class:`_RefinedRows` (``coef`` and ``area`` only with the
 #: ``"gradient"`` option).
 _ROW_FIELDS = ("moved", "muscle", "unit", "weights", "coef", "area", "hat")
 
 
 def _stacked_rows(levels: list[MuscleLevels], start: int) -> dict:
     """The muscles' rows of the vertices ``start`` and above, stacked: one row a vertex,
-    one column a muscle acting there (padded), as :class:`_Assembly` holds them, and
+    one column a muscle acting there (padded), as :class:`_RefinedRows` holds them, and
     ``u`` ``(r, c)``: the half periods where a muscle wrinkles (``inf`` elsewhere).
     """
     first_row = [int(np.searchsorted(m.ids, start)) for m in levels]  # ids increase
@@ -267,7 +290,7 @@ class _Dynamic:
     is reset) or fresh arrays.
     """
 
-    def __init__(self, hier: Hierarchy, asm: _Assembly, root, a: np.ndarray, buffers=None,
+    def __init__(self, hier: Hierarchy, asm: _RefinedRows, root, a: np.ndarray, buffers=None,
                  root_influenced: np.ndarray | None = None):
         self.hier, self.asm, self.a, self.face = hier, asm, a, root.face
         asm.set_root_periods(root.face)
@@ -298,7 +321,7 @@ class _Dynamic:
         self._carry = _skin_correction(root)
         self._carried: np.ndarray | None = None
 
-    def grow(self, asm: _Assembly) -> None:
+    def grow(self, asm: _RefinedRows) -> None:
         """Take in the vertices the hierarchy built since (``asm``: the assembly brought up
         to date): they start at rest, not evaluated; what was evaluated keeps its values
         (a vertex's values depend on its own data alone).
@@ -340,6 +363,12 @@ class _Dynamic:
         """
         if not len(v):
             return
+        self.deformed[:, v] = self._pulled(v).T
+        self.computed[v] = True
+        self._moved.append(v)
+
+    def _pulled(self, v: np.ndarray) -> np.ndarray:
+        """``(k, 3)``: the deformed points of new vertices ``v`` ``(k,)`` (:meth:`_deform`)."""
         asm, hier = self.asm, self.hier
         p = asm.slot[v]
         has = np.flatnonzero(p >= 0)
@@ -351,9 +380,7 @@ class _Dynamic:
         moved = hier.rest.take(v, axis=0) + pull - bend[:, None] * hier.slide.take(v, axis=0)
         if self._carry is not None:
             moved += self.carried().take(v, axis=0)
-        self.deformed[:, v] = moved.T
-        self.computed[v] = True
-        self._moved.append(v)
+        return moved
 
     def carried(self) -> np.ndarray:
         r"""``(v, 3)``: what another skin model (the physical skin) adds to the muscles'
@@ -424,6 +451,46 @@ class _Dynamic:
             return _stretch_mean(levels.coef[rows], levels.area[rows], dx, dy, dz)
         tau = 1.0 - np.sqrt(dx * dx + dy * dy + dz * dz) / self.hier.ring_len[v]
         return (levels.weights[rows] * tau).sum(axis=1)
+
+
+class _DynamicAt(_Dynamic):
+    """A frame's values at a few of the hierarchy's vertices (:meth:`compression` where a
+    probe reads them): the deformed points of those and their rings alone, computed as
+    :class:`_Dynamic` computes them (bit for bit), with no array as long as the hierarchy.
+    """
+
+    def __init__(self, hier: Hierarchy, asm: _RefinedRows, root, a: np.ndarray):
+        self.hier, self.asm, self.a, self.face, self._root = hier, asm, a, root.face, root
+        self.a_padded = np.append(a, 0.0)  # the padding muscle does not act
+        self._carry = _skin_correction(root)
+        self._carried = None
+        self._deltas: dict[bytes, np.ndarray] = {}
+
+    def ring_deltas(self, v: np.ndarray) -> np.ndarray:
+        """``(3, 6, k)``: :meth:`_Dynamic.ring_deltas`, from the deformed points of ``v``
+        ``(k,)`` and their rings only (kept for ``v``: the probe's muscles share them).
+        """
+        key = v.tobytes()
+        if key not in self._deltas:
+            self._deltas[key] = self._ring_deltas(v)
+        return self._deltas[key]
+
+    def _ring_deltas(self, v: np.ndarray) -> np.ndarray:
+        k = len(v)
+        need = np.concatenate([v, self.hier.safe_ring(v).ravel()])  # rows: v, then rings
+        old = need < self.hier.n_root
+        if old.all():
+            points = self._root.deformed_points.take(need, axis=0)
+        else:
+            points = np.empty((len(need), 3))
+            points[old] = self._root.deformed_points.take(need[old], axis=0)
+            points[~old] = self._pulled(need[~old])
+        ring = np.arange(k, 7 * k).reshape(k, 6).T.copy()  # (6, k): the rings' rows
+        at = np.arange(k)
+        out = np.empty((3, *ring.shape))
+        for c, dc in enumerate(np.ascontiguousarray(points.T)):
+            np.subtract(dc.take(ring), dc.take(at), out=out[c])
+        return out
 
 
 class _Zone(NamedTuple):
@@ -546,9 +613,10 @@ class RefinedEngine:
         self.hier = hier
         self.cache = ByteBudgetCache(budget)
         self._tangential = tangential
-        self.last = None  # (key, face, order) of the latest split set
-        self.buffers = None  # the frame arrays, reused
-        self._current: dict = {}  # the latest active set's data, whatever the budget
+        # (key, face, order) of the latest split set (FaceModel._refined_face)
+        self.last: tuple[tuple[Any, ...], FaceModel, np.ndarray] | None = None
+        self.buffers: dict[str, np.ndarray] | None = None  # the frame arrays, reused
+        self._current: dict[tuple[Any, ...], Any] = {}  # the latest active set's data
         self._zone: _Zone | None = None  # the latest frame's
 
     def levels(self, muscle) -> MuscleLevels:
@@ -559,7 +627,7 @@ class RefinedEngine:
             self.cache.reweigh(key)
         return lv
 
-    def assembly(self, muscles) -> _Assembly:
+    def assembly(self, muscles) -> _RefinedRows:
         """The stacked rows of the active ``muscles``, for the hierarchy as it is now.
 
         The latest active set's data is also held outside the cache, so a working set
@@ -570,11 +638,11 @@ class RefinedEngine:
         if asm is not None and asm.version == (self.hier.version, self.hier.n_points):
             return asm  # its muscles' data were brought up to date with it
         levels = [self.levels(m) for m in muscles]
-        asm = self.cache.get(key, lambda: self._current.get(key) or _Assembly(self.hier,
-                                                                              levels))
+        asm = self.cache.get(key, lambda: self._current.get(key)
+                             or _RefinedRows(self.hier, levels))
         if asm.version != (self.hier.version, self.hier.n_points):
             if not asm.extend(self.hier, levels):
-                asm = _Assembly(self.hier, levels)
+                asm = _RefinedRows(self.hier, levels)
             self.cache.put(key, asm)
         self._current = {key: asm, **{("muscle", m): lv for m, lv in zip(muscles, levels,
                                                                          strict=True)}}
@@ -678,3 +746,7 @@ class RefinedEngine:
         fields, which must not change when the engine moves on to the next frame).
         """
         return _Dynamic(self.hier, self.assembly(muscles), root, a)
+
+    def dynamic_at(self, root, muscles, a: np.ndarray) -> _DynamicAt:
+        """:meth:`dynamic` for values at a few vertices (a probe's): no full-length array."""
+        return _DynamicAt(self.hier, self.assembly(muscles), root, a)
