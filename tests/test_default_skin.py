@@ -11,9 +11,9 @@ import wrinkle_vis as wv
 from wrinkle_vis.core.skin import DEFAULT_SKIN_MODEL, SKIN_MODELS
 
 
-def test_the_default_is_one_of_the_skin_models_and_the_physical_one():
+def test_the_default_is_one_of_the_skin_models_and_the_geometric_one():
     assert DEFAULT_SKIN_MODEL in SKIN_MODELS
-    assert DEFAULT_SKIN_MODEL == "physical"  # chosen by measurement (README, "Which skin")
+    assert DEFAULT_SKIN_MODEL == "geometric"  # chosen by measurement (README, "Which skin")
 
 
 def test_a_face_built_without_a_skin_model_and_the_built_in_faces_use_the_default():
