@@ -181,9 +181,11 @@ def test_the_grid_sweep_keeps_every_apart_overlapping_pair_once(seed):
 
     rng = np.random.default_rng(seed)
     centres = np.repeat(rng.uniform(0, 1, (6, 3)), 12, axis=0)  # 6 clusters of 12 points
-    pts = np.concatenate([centres + rng.normal(0, 0.02, (72, 3)), rng.uniform(0, 1, (6, 3))])
+    far = np.array([[0, 0, 0], [1, 1, 1], [1, 0, 0], [0, 1, 1], [0, 1, 0], [1, 0, 1]])
+    pts = np.concatenate([centres + rng.normal(0, 0.02, (72, 3)),
+                          far + rng.normal(0, 0.01, (6, 3))])  # the cube's far corners
     small = [12 * rng.integers(6) + rng.choice(12, 3, replace=False) for _ in range(60)]
-    large = [rng.choice(len(pts), 3, replace=False) for _ in range(4)]
+    large = [72 + rng.choice(6, 3, replace=False) for _ in range(4)]  # across the cube
     tris = np.array(small + large)
     corners = pts[tris]
     lo, hi = corners.min(axis=1), corners.max(axis=1)

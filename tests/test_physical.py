@@ -358,6 +358,43 @@ def test_a_step_to_surprise_forms_its_wrinkles_in_50_to_300_ms_without_overshoot
         assert w.max() <= 1.1 * final
 
 
+def _winding(surface, x):
+    """``(k,)``: the winding number of closed ``surface`` about points ``x`` ``(k, 3)``
+    (Van Oosterom and Strackee's solid angles over 4 pi): 1 inside, 0 outside, exactly."""
+    a, b, c = (surface.points[surface.triangles[:, i]][None] - x[:, None] for i in range(3))
+    la, lb, lc = (np.linalg.norm(v, axis=2) for v in (a, b, c))
+    det = np.einsum("kmi,kmi->km", a, np.cross(b, c))
+    div = (la * lb * lc + np.einsum("kmi,kmi->km", a, b) * lc
+           + np.einsum("kmi,kmi->km", b, c) * la + np.einsum("kmi,kmi->km", c, a) * lb)
+    return (2.0 * np.arctan2(det, div)).sum(axis=1) / (4.0 * np.pi)
+
+
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 2**16))
+@example(seed=1)
+def test_the_skulls_side_of_a_point_is_its_winding_number(seed):
+    """The skull contact's sign (``_Skull.distance``) says inside exactly where the winding
+    number does, on a bumpy closed surface with concave creases, for points within about a
+    twentieth of an edge of it: the vertex normals interpolated across a triangle called a
+    point in front of it inside (3 of the scanned head's skin vertices at rest; seed 1 and
+    11 of the first 20 seeds failed so)."""
+    from meshes import sphere
+
+    from wrinkle_vis.core.skin import _Skull
+
+    rng = np.random.default_rng(seed)
+    ball = sphere(2, 10.0)
+    bumps = ball.points * (1.0 + 0.6 * rng.uniform(-1, 1, (ball.n_points, 1)))
+    skull = wv.TriangleSurface(bumps, ball.triangles)
+    tri = rng.integers(skull.n_triangles, size=300)
+    bary = rng.dirichlet(np.ones(3), size=300)
+    on = np.einsum("kj,kjd->kd", bary, skull.points[skull.triangles[tri]])
+    x = on + rng.normal(0.0, 0.05 * skull.mean_edge_length, (300, 3))
+    inside = _winding(skull, x) > 0.5
+    s = _Skull(skull, x).distance(x)[0]
+    assert np.array_equal(s < 0.0, inside)
+
+
 def test_a_pull_into_the_skull_stops_on_it():
     skin, skull = _plate(9)
     springs = SpringSkin(skin, np.ones(skin.n_points), SkinMaterial(), 1e-3, skull)
@@ -664,6 +701,7 @@ def head():
                                                                 HealthCheck.function_scoped_fixture])
 @given(seed=st.integers(0, 2**16), strength=st.floats(1.0, 3.0))
 @example(seed=5, strength=3.0)
+@example(seed=860, strength=2.0)  # the skull contact called a vertex in front of it inside
 def test_random_activations_up_to_three_times_the_strength_on_the_scanned_head(
         head, seed, strength):
     """The property test above on the scanned head: random activations in [0, 1] with every

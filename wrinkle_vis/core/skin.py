@@ -235,13 +235,51 @@ def inverted_triangles(rest: np.ndarray, points: np.ndarray, triangles: np.ndarr
     return int(np.count_nonzero(np.einsum("ij,ij->i", normals(rest), normals(points)) <= 0))
 
 
+def _pseudo_normals(surface: TriangleSurface):
+    r"""The angle-weighted pseudo-normals of a closed ``surface`` (Bærentzen and Aanæs
+    2005), as a function ``(tri, bary) -> (k, 3)``: at a closest point with barycentric
+    coordinates ``bary`` ``(k, 3)`` in triangles ``tri`` ``(k,)``, the triangle's normal
+    inside it, the sum of the two triangles' unit normals on an edge, and
+    :math:`\sum_t \theta_t \hat n_t` (the corner angles) at a vertex. The sign of
+    :math:`(x - c) \cdot n` is then the side of ``x``, exactly: the vertex normals
+    interpolated across a triangle can point the other way from its own normal, and call
+    a point in front of the triangle inside.
+    """
+    t = surface.triangles
+    p = surface.points[t]  # (m, 3, 3)
+    face = unit_rows(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]))
+    edge = np.zeros((len(surface.edges), 3))
+    np.add.at(edge, surface.triangle_edges.ravel(), np.repeat(face, 3, axis=0))
+    vertex = np.zeros((surface.n_points, 3))
+    for k in range(3):
+        a, b = p[:, (k + 1) % 3] - p[:, k], p[:, (k + 2) % 3] - p[:, k]
+        cos = np.einsum("ij,ij->i", unit_rows(a), unit_rows(b))
+        np.add.at(vertex, t[:, k], np.arccos(np.clip(cos, -1.0, 1.0))[:, None] * face)
+    eps = 1e-9
+
+    def at(tri: np.ndarray, bary: np.ndarray) -> np.ndarray:
+        zero = bary <= eps
+        count = zero.sum(axis=1)
+        out = face[tri].copy()
+        on_edge = np.flatnonzero(count == 1)  # the edge opposite the zero corner j: (j+1) % 3
+        j = np.argmax(zero[on_edge], axis=1)
+        out[on_edge] = edge[surface.triangle_edges[tri[on_edge], (j + 1) % 3]]
+        on_vertex = np.flatnonzero(count >= 2)
+        k = np.argmax(~zero[on_vertex], axis=1)
+        out[on_vertex] = vertex[t[tri[on_vertex], k]]
+        return out
+
+    return at
+
+
 class _Skull:
     r"""The skull as a constraint.
 
     The signed distance of a point :math:`x` is :math:`s(x) = |x - c|\,\operatorname{sign}
     ((x - c) \cdot n_c)`, :math:`c` the closest point of the skull (among the triangles
     around the nearest skull vertices, :func:`~wrinkle_vis.core.mesh.surface_coordinates`)
-    and :math:`n_c` the skull's vertex normals interpolated there. A vertex outside the
+    and :math:`n_c` the skull's pseudo-normal there (:func:`_pseudo_normals`: the
+    triangle's own normal inside it, the edge's or the vertex's on them). A vertex outside the
     skull at rest is kept at :math:`s \ge 0`; one inside it at rest (where a scan's skull
     reaches through its skin) is left free.
     """
@@ -254,6 +292,7 @@ class _Skull:
         self.surface = skull
         self.rest = rest
         self.normals = skull.vertex_normals()
+        self.pseudo = _pseudo_normals(skull)
         self.tree = cKDTree(skull.points)
         self.margin = self.NEAR * float(np.mean(skull.rest_edge_lengths))
         #: the estimate at rest (which vertices to look at) and, filled in the first time a
@@ -288,7 +327,8 @@ class _Skull:
         c = barycentric_points(self.surface, tri, bary)
         n = unit_rows(np.einsum("kj,kjd->kd", bary, self.normals[self.surface.triangles[tri]]))
         d = x - c
-        return np.sqrt(np.einsum("ij,ij->i", d, d)) * np.sign(np.einsum("ij,ij->i", d, n)), c, n
+        side = np.einsum("ij,ij->i", d, self.pseudo(tri, bary))
+        return np.sqrt(np.einsum("ij,ij->i", d, d)) * np.sign(side), c, n
 
     def project(self, x: np.ndarray) -> np.ndarray:
         """Put the vertices of ``x`` ``(n, 3)`` that entered the skull back on it (at the
