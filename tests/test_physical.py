@@ -318,6 +318,14 @@ def test_built_in_expressions_never_enter_the_skull_nor_fold(skull_distance):
 def test_random_activations_up_to_three_times_the_strength_never_enter_nor_fold(
         skull_distance, seed, strength):
     face, distance, rest = skull_distance
+    strong, acts = _stronger(face, strength, seed)
+    for state in strong.simulate(acts, 0.15, 0.05):
+        _check_frame(state, distance, rest)
+
+
+def _stronger(face, strength: float, seed: int):
+    """``(face, activations)``: ``face`` with every muscle ``strength`` times as strong (or
+    the strongest its type allows) and random activations in [0, 1] from ``seed``."""
     muscles = []
     for m in face.muscles:
         try:
@@ -329,8 +337,7 @@ def test_random_activations_up_to_three_times_the_strength_never_enter_nor_fold(
                           unit=face.unit)
     acts = dict(zip(strong.muscle_names,
                     np.random.default_rng(seed).uniform(0, 1, len(muscles)), strict=True))
-    for state in strong.simulate(acts, 0.15, 0.05):
-        _check_frame(state, distance, rest)
+    return strong, acts
 
 
 def _max_factor(m) -> float:
@@ -708,17 +715,7 @@ def test_random_activations_up_to_three_times_the_strength_on_the_scanned_head(
     muscle up to 3x its strength (or the strongest its type allows) never push a vertex
     outside the skull at rest into it nor turn a triangle over, at any frame."""
     face, check, _ = head
-    muscles = []
-    for m in face.muscles:
-        try:
-            muscles.append(dataclasses.replace(m, strength=strength * m.strength_value))
-        except ValueError:
-            muscles.append(dataclasses.replace(m, strength=0.99 * m.strength_value
-                                               * _max_factor(m)))
-    strong = wv.FaceModel(face.skin, face.skull, muscles, face.expressions, name="strong",
-                          unit=face.unit)
-    acts = dict(zip(strong.muscle_names,
-                    np.random.default_rng(seed).uniform(0, 1, len(muscles)), strict=True))
+    strong, acts = _stronger(face, strength, seed)
     for state in strong.simulate(acts, 0.15, 0.05):
         check(state, (seed, strength, state.time))
 
