@@ -496,8 +496,10 @@ class FaceModel:
         on = self.fold_guard if fold_guard is None else fold_guard
         if not on:
             return state
+        solved = state.deformed_points  # on the physical skin: out of the skull already
         state = guarded(self, state)
-        if state.skin_model == "physical" and state.face is self and self.skull is not None:
+        if (state.deformed_points is not solved and state.skin_model == "physical"
+                and state.face is self and self.skull is not None):
             _keep_out_of_skull(self._skull_contact(), state)
         return state
 
