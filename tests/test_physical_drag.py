@@ -130,16 +130,27 @@ def test_a_time_step_on_a_dragged_layout_equals_a_fresh_faces(paper_face):
 def test_a_dragged_layout_starts_from_the_previous_frame(paper_face, monkeypatch):
     face = paper_face.with_muscle(paper_face.muscle(MUSCLE))
     face.evaluate("surprise")
-    counted = []
-    targets = SpringSkin.spring_targets
-    monkeypatch.setattr(SpringSkin, "spring_targets",
-                        lambda self, x: counted.append(1) or targets(self, x))
+    solves = []  # per solve: the first step's size and the number of iterations
+    anderson = skin_module._anderson
+
+    def recorded(g, x, *args):
+        steps = []
+
+        def step(y):
+            out = g(y)
+            steps.append(np.abs(out - y).max())
+            return out
+        out = anderson(step, x, *args)
+        solves.append((steps[0], len(steps)))
+        return out
+
+    monkeypatch.setattr(skin_module, "_anderson", recorded)
     dragged = _moved(face, np.array([0.5, 0.0, 0.0]))  # a mouse move
     dragged.evaluate("surprise")
-    warm = len(counted)
-    counted.clear()
-    _fresh(dragged).evaluate("surprise")
-    assert warm <= len(counted) // 2, (warm, len(counted))  # cold: from the rest skin
+    _fresh(dragged).evaluate("surprise")  # cold: from the rest skin
+    (warm_step, warm_iterations), (cold_step, cold_iterations) = solves
+    assert warm_step < 0.1 * cold_step
+    assert warm_iterations < 0.7 * cold_iterations
 
 
 def test_a_still_frame_does_not_depend_on_its_start(paper_face):

@@ -59,10 +59,44 @@ al. 2013, "Fast simulation of mass-spring systems"; projective dynamics, Bouaziz
 Each spring's term is :math:`\tfrac12 k |(x_i - x_j) - d|^2` minimised over directions
 :math:`d` of the wanted length, so a *local* step projects every spring (its direction at
 the current iterate, its wanted length), and a *global* step solves one linear system whose
-matrix, :math:`(1/h^2 + c/h) M + \sum k\, G^T G + \operatorname{diag}(\kappa a + \kappa_z
-\omega a)`, does not change: it is factorized once (scipy's ``splu``) per skin, muscle
-layout and step, and each step runs a fixed number of local/global iterations. A still frame
-is the same minimisation without the inertial terms, iterated to equilibrium.
+matrix, :math:`A = (1/h^2 + c/h) M + \sum k\, G^T G + \operatorname{diag}(\kappa a +
+\kappa_z \omega a)`, does not change while the activations do, and each step runs a fixed
+number of local/global iterations. A still frame is the same minimisation without the
+inertial terms, iterated to equilibrium.
+
+Muscle layouts
+--------------
+Only the zone springs' diagonal :math:`\kappa_z \omega a` depends on the muscle layout
+(:math:`\omega`); the springs, masses, attachments, Laplacian :math:`L = \sum k G^T G` and
+skull contact depend on the rest skin and material alone and are built once, shared by every
+layout of a face (:class:`SpringRest`). For each step :math:`h` (and the still frame) one
+layout's matrix :math:`A_b` is factorized (scipy's ``splu``); another layout's matrix
+differs from it on the diagonal only, on the :math:`k` vertices :math:`E` whose grip differs
+(a muscle drag changes a few: at paper size 0-13 for one forehead muscle moved 6 mm), so
+
+.. math::
+
+    A = A_b + E\, C\, E^T, \quad C = \operatorname{diag}\big(\kappa_z (\omega_E -
+    \omega_{b,E})\, a_E\big), \qquad
+    A^{-1} b = A_b^{-1} b - W (I + C S)^{-1} C\, E^T A_b^{-1} b,
+
+with :math:`W = A_b^{-1} E` (:math:`k` solves, once per layout) and :math:`S = E^T W`
+(Sherman-Morrison-Woodbury, :class:`_GlobalSolve`): exact, one solve with the old factor per
+global step, no factorization. When :math:`k` solves would cost more than a factorization
+(by the factor's counts), the layout is factorized and becomes :math:`A_b`. A lagged
+splitting (:math:`A_b x_{k+1} = b + (A_b - A) x_k`) was not taken: the zone springs are
+stiff, :math:`\kappa_z a_i / (L_{ii} + \kappa a_i)` is 13-21 (5th-95th percentile at paper
+size), so the splitting diverges at a vertex that enters a zone and contracts by only about
+0.94 per iteration at one that leaves it.
+
+A still frame of a face starts, when it can, from the latest still frame of the same
+activations on any layout of that face (:meth:`SpringSkin.equilibrium`'s ``warm``): after a
+muscle drag's small move it is a few iterations away. The answer is the equilibrium to the
+solver's tolerance from any start (the tolerance, :math:`10^{-7}` of the skin's size on the
+iteration's step, leaves about :math:`1.5 \cdot 10^{-5}` of the size from the exact
+minimum from the rest skin and from a warm start alike), so frames of one layout reached
+from different starts agree to that accuracy, not bit for bit; one face evaluated again
+returns its frame bit for bit.
 
 The muscles' activations follow the commands through first-order activation dynamics
 (Zajac 1989), :math:`\dot a = (u - a)/\tau_a`, integrated exactly over each step; with
