@@ -108,6 +108,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import threading
 from collections import OrderedDict
 from dataclasses import dataclass
 
@@ -496,6 +497,7 @@ class SpringRest:
         self.factorizations = 0
         self._bases: dict[float | None, tuple[np.ndarray, object, float, float]] = {}
         self._warm: OrderedDict = OrderedDict()
+        self._lock = threading.Lock()  # faces of one family may be evaluated on two threads
 
     def diagonal(self, anchor: np.ndarray, h: float | None) -> np.ndarray:
         r"""``(n,)``: the global matrix's diagonal term for the springs' ``anchor``
@@ -518,19 +520,20 @@ class SpringRest:
         :math:`\sum_j c_j^2`, :math:`c_j` the entries of the factor's column :math:`j`).
         """
         diag = self.diagonal(anchor, h)
-        base = self._bases.get(h)
-        if base is not None:
-            base_diag, lu, solve_cost, factor_cost = base
-            ids = np.flatnonzero(diag != base_diag)
-            if len(ids) * solve_cost <= factor_cost:
-                return _GlobalSolve(lu, ids, diag[ids] - base_diag[ids])
-        lu = self._factorize(diag)
-        low = lu.L.tocsc()
-        counts = np.diff(low.indptr).astype(float)
-        if len(self._bases) > 4:
-            self._bases.clear()
-        self._bases[h] = (diag.copy(), lu, float(low.nnz + lu.U.nnz),
-                          float(np.dot(counts, counts)))
+        with self._lock:
+            base = self._bases.get(h)
+            if base is not None:
+                base_diag, lu, solve_cost, factor_cost = base
+                ids = np.flatnonzero(diag != base_diag)
+                if len(ids) * solve_cost <= factor_cost:
+                    return _GlobalSolve(lu, ids, diag[ids] - base_diag[ids])
+            lu = self._factorize(diag)
+            low = lu.L.tocsc()
+            counts = np.diff(low.indptr).astype(float)
+            if len(self._bases) > 4:
+                self._bases.clear()
+            self._bases[h] = (diag.copy(), lu, float(low.nnz + lu.U.nnz),
+                              float(np.dot(counts, counts)))
         return _GlobalSolve(lu)
 
     def _factorize(self, diag: np.ndarray):
@@ -544,17 +547,19 @@ class SpringRest:
 
     def warm_start(self, key) -> np.ndarray | None:
         """The latest still frame stored under ``key`` by any layout, or None."""
-        x = self._warm.get(key)
-        if x is not None:
-            self._warm.move_to_end(key)
-        return x
+        with self._lock:
+            x = self._warm.get(key)
+            if x is not None:
+                self._warm.move_to_end(key)
+            return x
 
     def keep_warm(self, key, x: np.ndarray) -> None:
         """Store the still frame ``x`` ``(n, 3)`` under ``key`` for later warm starts."""
-        self._warm[key] = x
-        self._warm.move_to_end(key)
-        while len(self._warm) > self.WARM_STARTS:
-            self._warm.popitem(last=False)
+        with self._lock:
+            self._warm[key] = x
+            self._warm.move_to_end(key)
+            while len(self._warm) > self.WARM_STARTS:
+                self._warm.popitem(last=False)
 
 
 class SpringSkin:
