@@ -198,3 +198,36 @@ def test_a_spring_skin_checks_its_shared_data_is_of_its_material(paper_face):
     with pytest.raises(ValueError, match="another material"):
         SpringSkin(paper_face.skin, springs.grip, SkinMaterial(damping=3.0),
                    shared=springs.shared)
+
+
+def _grid_face():
+    """A 11 x 11 plate, a skull 5 mm under it, one linear muscle."""
+    from meshes import grid
+
+    skin = grid(11, 11, 60.0)
+    skull = wv.TriangleSurface(skin.points - [0.0, 0.0, 5.0], skin.triangles)
+    m = wv.LinearMuscle("lin", (-25.0, 0.0, -3.0), (5.0, 0.0, 0.0), radius=40.0,
+                        max_angle_deg=40.0, lambda_w=0.3, n_wrinkles=3, k0=1.0, alpha=0.5)
+    return wv.FaceModel(skin, skull, [m], expressions={}, skin_model="physical")
+
+
+def test_a_dragged_layouts_time_steps_keep_the_rest_and_settle_as_its_own():
+    face = _grid_face()
+    face.simulator(None).advance()  # the base layout's step factorized
+    m = face.muscle("lin")
+    dragged = face.with_muscle(m.replace(insertion=(5.0, 2.0, 0.0)))  # 6 vertices
+    sim = dragged.simulator(None)
+    sim.advance()
+    assert len(dragged.physical_skin()._factor(1.0 / 30.0).ids) > 0  # the low-rank path
+    for _ in range(999):
+        sim.advance()
+    size = np.linalg.norm(np.ptp(face.skin.points, axis=0))
+    assert np.abs(sim.x - face.skin.points).max() <= 1e-9 * size
+    assert np.abs(sim.v).max() <= 1e-9 * size
+    # a step to full activation settles on the still frame, as on a face of its own
+    runs = [f.simulator({"lin": 1.0}) for f in (dragged, _fresh(dragged))]
+    for s in runs:
+        s.advance_to(1.5)
+    assert np.abs(runs[0].x - runs[1].x).max() <= 1e-9 * size
+    still = dragged.evaluate({"lin": 1.0}, fold_guard=False).deformed_points
+    assert np.abs(runs[0].x - still).max() <= 1e-4 * size
