@@ -471,10 +471,11 @@ class SpringRest:
         self.material = mat = material
         self.rest = np.ascontiguousarray(skin.points, dtype=float)
         n = self.n = skin.n_points
-        s2 = float(metres_per_unit) ** 2
-        self.area = vertex_areas(skin) * s2  # m^2
-        self.mass = mat.density * mat.thickness * self.area
-        self.k_att = mat.attachment_stiffness * self.area
+        # (n,) vertex areas in face units^2 and the unit's square: every per-area term is
+        # (parameter * area) * s2, in that order, as before the layouts shared this object
+        self.area, self.s2 = vertex_areas(skin), float(metres_per_unit) ** 2
+        self.mass = mat.density * mat.thickness * self.area * self.s2
+        self.k_att = mat.attachment_stiffness * self.area * self.s2
         self.i, self.j, self.L, self.k, self.n_edges = _spring_network(skin, mat)
         self.kb = mat.biphasic_ratio * self.k[: self.n_edges]
         self.kL = self.k * self.L
@@ -605,7 +606,7 @@ class SpringSkin:
         self.kb, self.kL, self.k_total = rest.kb, rest.kL, rest.k_total
         self._clamp_lo, self._clamp_hi = rest._clamp_lo, rest._clamp_hi
         self.J, self.laplacian, self.skull = rest.J, rest.laplacian, rest.skull
-        self.k_zone = material.muscle_stiffness * self.grip * rest.area
+        self.k_zone = material.muscle_stiffness * self.grip * rest.area * rest.s2
         self.anchor = self.k_att + self.k_zone
         # the attachments' pull towards the rest skin, read by every solve
         self._anchor_rest = self.anchor[:, None] * self.rest
