@@ -34,7 +34,7 @@ from .refinedfields import _RefinedSource
 from .restgeometry import REFINE_CACHE_BYTES as REFINE_CACHE_BYTES
 from .restgeometry import SLIDE_SCALE as SLIDE_SCALE
 from .restgeometry import _RestGeometry
-from .skin import DEFAULT_SKIN_MODEL, SkinMaterial, SpringSkin, _Skull, check_skin_model
+from .skin import DEFAULT_SKIN_MODEL, SkinMaterial, SpringRest, SpringSkin, _Skull, check_skin_model
 from .stacked import _StackedMuscles
 from .state import FaceState, _readonly
 from .tracks import Track, TrackMapping, default_mapping, iter_activations
@@ -61,6 +61,9 @@ class _SharedCaches(NamedTuple):
     muscle_data: dict[Muscle, _MuscleData]  # each muscle's rest data, by muscle
     stacked: OrderedDict | None  # the stacked operators of the latest active sets (None: new)
     rest: _RestGeometry  # the rest skin's normals, shape operators, refinement engines
+    #: the physical skin's layout-free data: "contact" the skull contact, (material, metres
+    #: per unit) its SpringRest (springs, factors, warm starts); None: new
+    physical: dict | None = None
 
 
 class FaceModel:
@@ -148,7 +151,7 @@ class FaceModel:
                                          else _caches.stacked)
         self._rest: _RestGeometry = _caches.rest
         self._springs: dict[SkinMaterial, SpringSkin] = {}  # the physical skin, per material
-        self._contact: _Skull | None = None  # the skull contact without a physical skin
+        self._physical: dict = {} if _caches.physical is None else _caches.physical
 
     # ------------------------------------------------------------------ access
     @property
@@ -219,7 +222,8 @@ class FaceModel:
                          self.expressions if expressions is None else expressions,
                          name=self.name, landmarks=self.landmarks, unit=self.unit,
                          mapping=self.mapping, skin_model=self.skin_model,
-                         material=self.material, _caches=_SharedCaches(cache, None, self._rest))
+                         material=self.material,
+                         _caches=_SharedCaches(cache, None, self._rest, self._physical))
 
     def with_skin_model(self, skin_model: str, material: SkinMaterial | None = None
                         ) -> FaceModel:
@@ -272,8 +276,11 @@ class FaceModel:
     def physical_skin(self, material: SkinMaterial | None = None) -> SpringSkin:
         """The physically based skin of this face (:class:`~wrinkle_vis.core.skin.SpringSkin`)
         for ``material`` (default :class:`SkinMaterial()`), built once per face and
-        material: its matrices are factorized again only for a new muscle layout (a new
-        face) or material.
+        material. What does not depend on the muscle layout (springs, masses, skull
+        contact, factorized matrices, warm starts: :class:`~wrinkle_vis.core.skin.SpringRest`)
+        is shared with every face derived from this one, so a new layout (a muscle drag,
+        :meth:`with_muscle`) builds only its zone springs, and factorizes nothing when its
+        grip differs from the factorized layout's on few vertices.
         """
         material = material or self.material
         cache = self._springs
@@ -281,10 +288,23 @@ class FaceModel:
         if skin is None:
             if len(cache) > 2:
                 cache.clear()
-            skin = cache[material] = SpringSkin(
-                self.skin, self.muscle_grip(), material, LENGTH_UNITS[face_unit(self)],
-                self.skull)
+            skin = cache[material] = SpringSkin(self.skin, self.muscle_grip(), material,
+                                                shared=self._spring_rest(material))
         return skin
+
+    def _spring_rest(self, material: SkinMaterial) -> SpringRest:
+        """The layout-free part of the physical skin for ``material``, shared by this face
+        and every face derived from it (built on first use).
+        """
+        shared = self._physical
+        key = (material, LENGTH_UNITS[face_unit(self)])
+        rest = shared.get(key)
+        if rest is None:
+            for old in [k for k in shared if k != "contact"][:-2]:  # a few materials at most
+                del shared[old]
+            contact = None if self.skull is None else self._skull_contact()
+            rest = shared[key] = SpringRest(self.skin, material, key[1], self.skull, contact)
+        return rest
 
     def muscle_displacement(self, activations: Mapping[str, float]) -> np.ndarray:
         """``(n, 3)``: the muscles' summed displacement at resolved ``activations``, slid
@@ -473,7 +493,7 @@ class FaceModel:
         if check_skin_model(skin or self.skin_model) == "physical":
             springs = self.physical_skin(material)
             pull = self.muscle_displacement(acts)
-            x = springs.equilibrium(pull)
+            x = springs.equilibrium(pull, warm=tuple(acts.items()))
             state = self.physical_state(acts, x, velocities=np.zeros_like(x), muscle_pull=pull)
             if refine:
                 state = self._refined_physical(state, refine_angle_deg, refine_levels)
@@ -504,17 +524,14 @@ class FaceModel:
         return state
 
     def _skull_contact(self) -> _Skull:
-        """The skull contact of the physical skin (:class:`~wrinkle_vis.core.skin._Skull`):
-        a built physical skin's, else one of its own, kept (it depends on the rest skin and
-        the skull only).
+        """The skull contact of the physical skin (:class:`~wrinkle_vis.core.skin._Skull`),
+        built once and shared with every face derived from this one (it depends on the
+        rest skin and the skull only).
         """
-        for springs in self._springs.values():
-            if springs.skull is not None:
-                return springs.skull
-        contact = self._contact
+        contact = self._physical.get("contact")
         if contact is None:
             assert self.skull is not None
-            contact = self._contact = _Skull(self.skull, self.skin.points)
+            contact = self._physical["contact"] = _Skull(self.skull, self.skin.points)
         return contact
 
     def play(self, track: Track, fps: float | None = None, *, smooth_s: float = 0.0,
