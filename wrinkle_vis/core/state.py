@@ -86,6 +86,10 @@ class FaceState:
         """``(n, 3)``: unit vertex normals of the final skin (computed on first access)."""
         return self.face.skin.vertex_normals(self.points)
 
+    def shading_normals(self, points=None) -> np.ndarray:
+        """``(n, 3)``: unit normals to shade ``points`` (default :attr:`points`) with."""
+        return self.face.skin.vertex_normals(self.points if points is None else points)
+
     def surface(self) -> TriangleSurface:
         """The final skin as a :class:`TriangleSurface`."""
         return TriangleSurface(self.points, self.triangles)
