@@ -164,6 +164,13 @@ class FaceModel:
         """
         return self._rest.normals
 
+    @property
+    def refined(self) -> bool:
+        """Whether this is the refined skin of a frame (:meth:`evaluate` with ``refine``),
+        whose :attr:`rest_normals` interpolate the coarse skin's.
+        """
+        return self._rest.interpolated
+
     def muscle(self, name: str) -> Muscle:
         """The muscle called ``name``; ``KeyError`` lists the face's muscles."""
         for m in self.muscles:
