@@ -26,12 +26,11 @@ import json
 import os
 
 import numpy as np
+from _timing import median_seconds
 
 import wrinkle_vis as wv
 from wrinkle_vis.core.analysis import dihedral_change, plateau_edge
 from wrinkle_vis.core.state import FaceState
-
-from _timing import median_seconds
 
 EXPRESSIONS = ("surprise", "fear", "frown")
 

@@ -133,6 +133,21 @@ def test_the_head_forehead_shows_no_plateau_edge(head, skin):
         check_no_plateau(head.evaluate(name, skin=skin, refine=True), name)
 
 
+def test_shading_normals_carry_the_rest_shading(wv_face, refined):
+    """Unrefined: the vertex normals, bit for bit. Refined: the Phong normals at rest, and
+    the frame's own vertex normals wherever the rest shading is the facets' own."""
+    state = wv_face.evaluate("surprise")
+    np.testing.assert_array_equal(state.normals, wv_face.skin.vertex_normals(state.points))
+    frame = refined["surprise"]
+    np.testing.assert_allclose(frame.shading_normals(frame.rest_points),
+                               frame.face.rest_normals, atol=1e-12)
+    own = frame.face.skin.vertex_normals(frame.points)
+    same = np.abs(frame.face.rest_normals
+                  - frame.face.skin.vertex_normals(frame.rest_points)).max(axis=1) < 1e-15
+    assert same.sum() > 100
+    np.testing.assert_allclose(frame.normals[same], own[same], atol=1e-12)
+
+
 def test_no_refined_expression_shows_a_plateau_edge(refined):
     for name in ("surprise", "frown", "fear"):
         check_no_plateau(refined[name], name)

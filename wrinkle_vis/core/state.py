@@ -192,12 +192,16 @@ def _turned(x: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     ``a`` to those of ``b`` (:meth:`FaceState.shading_normals`); ``b`` where ``a`` and
     ``b`` point apart (within 1e-9) or either is zero.
     """
-    v = np.cross(a, b)
-    c = np.einsum("ij,ij->i", a, b)
-    ok = ((1.0 + c > 1e-9) & (np.einsum("ij,ij->i", a, a) > 0.0)
-          & (np.einsum("ij,ij->i", b, b) > 0.0))
-    scale = np.where(ok, np.einsum("ij,ij->i", v, x) / np.where(ok, 1.0 + c, 1.0), 0.0)
-    out = c[:, None] * x + np.cross(v, x) + scale[:, None] * v
+    (x0, x1, x2), (a0, a1, a2), (b0, b1, b2) = x.T, a.T, b.T
+    v0, v1, v2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+    c = a0 * b0 + a1 * b1 + a2 * b2
+    ok = ((1.0 + c > 1e-9) & (a0 * a0 + a1 * a1 + a2 * a2 > 0.0)
+          & (b0 * b0 + b1 * b1 + b2 * b2 > 0.0))
+    k = np.where(ok, (v0 * x0 + v1 * x1 + v2 * x2) / np.where(ok, 1.0 + c, 1.0), 0.0)
+    out = np.empty_like(x)
+    out[:, 0] = c * x0 + v1 * x2 - v2 * x1 + k * v0
+    out[:, 1] = c * x1 + v2 * x0 - v0 * x2 + k * v1
+    out[:, 2] = c * x2 + v0 * x1 - v1 * x0 + k * v2
     return np.where(ok[:, None], out, b)
 
 
