@@ -13,6 +13,7 @@ from wrinkle_vis.core.analysis import (
     furrows,
     normal_change_anisotropy,
     section,
+    shading_crease,
     signed_dihedral,
     turned_over,
 )
@@ -300,6 +301,44 @@ def test_dihedral_change_counts_convex_to_concave_fully():
     p = g.points
     d = dihedral_change(g, fold(p, 20.0), fold(p, -20.0))
     assert np.nanmax(d) == pytest.approx(40.0)
+
+
+def turned_normals(points, angle_deg):
+    """``(n, 3)``: the normal (0, 0, 1), turned by ``angle_deg`` about the y axis on x > 0."""
+    a = np.radians(angle_deg)
+    n = np.tile([0.0, 0.0, 1.0], (len(points), 1))
+    n[points[:, 0] > 0] = (-np.sin(a), 0.0, np.cos(a))
+    return n
+
+
+@pytest.mark.parametrize("angle", [8.0, -30.0, 120.0])
+def test_shading_crease_is_the_new_turn_across_the_line(angle):
+    g = grid(h=1.0, jitter=0.2)
+    p = g.points
+    d = shading_crease(g, turned_normals(p, 0.0), turned_normals(p, angle))
+    across = (p[g.edges, 0] > 0).sum(axis=1) == 1
+    np.testing.assert_allclose(d[across], abs(angle), atol=1e-9)
+    np.testing.assert_allclose(d[~across], 0.0, atol=1e-9)
+
+
+def test_shading_crease_counts_convex_to_concave_twice():
+    p = grid(h=1.0).points
+    d = shading_crease(grid(h=1.0), turned_normals(p, 20.0), turned_normals(p, -20.0))
+    assert d.max() == pytest.approx(40.0)
+
+
+def test_shading_crease_of_a_rigid_turn_is_at_most_the_turn_times_the_rest_turn():
+    g = grid(h=1.0, jitter=0.2)
+    p = g.points
+    rest = g.vertex_normals(with_heights(g, 3 * np.cos(p[:, 0] / 3) * np.sin(p[:, 1] / 4)))
+    for seed in range(3):
+        r = rotation(seed)
+        turn = np.arccos(np.clip((np.trace(r) - 1) / 2, -1, 1))
+        d = shading_crease(g, rest, rest @ r.T)
+        rest_turn = np.linalg.norm(rest[g.edges[:, 1]] - rest[g.edges[:, 0]], axis=1)
+        assert (np.radians(d) <= turn * rest_turn * (1 + 1e-6) + 1e-12).all()
+        assert d.max() > 0.0
+    assert shading_crease(g, rest, rest).max() == 0.0
 
 
 def test_turned_over_flags_exactly_a_reflected_patch():

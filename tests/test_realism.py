@@ -16,6 +16,7 @@ from wrinkle_vis.core.analysis import (
     dihedral_change,
     furrow_runs,
     normal_change_anisotropy,
+    plateau_edge,
     region_union,
     section_extrema,
     turned_over,
@@ -101,6 +102,55 @@ def test_the_displacement_adds_no_crease_to_any_expression(refined):
         assert len(change) > 100, name
         assert np.percentile(change, 99) <= 8.0, name
         assert change.max() <= 30.0, name
+
+
+# ---------------------------------------------------------------- plateau edge
+#: The most shading crease (degrees, 99th percentile) that the skin deformation alone may
+#: add to a refined frame as it is shown (:func:`plateau_edge`). Chosen from the renders of
+#: the head's forehead under the raking light (docs/benchmarks.md, stop 37): the refined
+#: frames that showed the raised plateau with sharp sides and a dark band across it measured
+#: 7.0 to 9.4; the same frames shaded clean measure 1.5 to 3.0, and the procedural face's
+#: refined surprise, whose brows rise and show no plateau, 4.9.
+PLATEAU_P99 = 5.5
+
+
+@pytest.fixture(scope="module")
+def head():
+    return wv.datasets.load_face("lee_perry_smith")
+
+
+def check_no_plateau(state, name) -> None:
+    change = plateau_edge(state)
+    assert len(change) > 1000, name
+    assert np.percentile(change, 99) <= PLATEAU_P99, (name, np.percentile(change, 99))
+
+
+@pytest.mark.parametrize("skin", ["geometric", "physical"])
+def test_the_head_forehead_shows_no_plateau_edge(head, skin):
+    """Issue 27: surprise and fear on the scanned head, refined as the README's Fig. 9 is,
+    show no raised plateau without their wrinkles, on either skin."""
+    for name in ("surprise", "fear"):
+        check_no_plateau(head.evaluate(name, skin=skin, refine=True), name)
+
+
+def test_shading_normals_carry_the_rest_shading(wv_face, refined):
+    """Unrefined: the vertex normals, bit for bit. Refined: the Phong normals at rest, and
+    the frame's own vertex normals wherever the rest shading is the facets' own."""
+    state = wv_face.evaluate("surprise")
+    np.testing.assert_array_equal(state.normals, wv_face.skin.vertex_normals(state.points))
+    frame = refined["surprise"]
+    np.testing.assert_allclose(frame.shading_normals(frame.rest_points),
+                               frame.face.rest_normals, atol=1e-12)
+    own = frame.face.skin.vertex_normals(frame.points)
+    same = np.abs(frame.face.rest_normals
+                  - frame.face.skin.vertex_normals(frame.rest_points)).max(axis=1) < 1e-15
+    assert same.sum() > 100
+    np.testing.assert_allclose(frame.normals[same], own[same], atol=1e-12)
+
+
+def test_no_refined_expression_shows_a_plateau_edge(refined):
+    for name in ("surprise", "frown", "fear"):
+        check_no_plateau(refined[name], name)
 
 
 @given(intensity=st.floats(0.0, 1.0), which=st.integers(0, 3))

@@ -38,7 +38,9 @@ __all__ = [
     "furrow_runs",
     "furrows",
     "normal_change_anisotropy",
+    "plateau_edge",
     "section",
+    "shading_crease",
     "signed_dihedral",
     "turned_over",
 ]
@@ -605,6 +607,69 @@ def dihedral_change(surface: TriangleSurface, rest_points, points) -> np.ndarray
     """
     d = signed_dihedral(surface, points) - signed_dihedral(surface, rest_points)
     return np.abs((d + 180.0) % 360.0 - 180.0)
+
+
+def shading_crease(surface: TriangleSurface, rest_normals, normals) -> np.ndarray:
+    r"""``(e,)``: how much the turn of the shading normals across each edge changes, in
+    degrees.
+
+    Parameters
+    ----------
+    surface : TriangleSurface
+        The connectivity (``surface.edges``).
+    rest_normals, normals : (n, 3) array_like of float
+        The unit vertex normals the skin is shaded with at rest and in the frame.
+
+    Returns
+    -------
+    (e,) float ndarray
+        With :math:`\Delta = n_j - n_i` and :math:`\Delta^0 = r_j - r_i` across the edge
+        :math:`(i, j)`,
+
+        .. math:: c = 2 \arcsin\left(\min\left(1, \tfrac12
+                      \|\Delta - \Delta^0\|\right)\right),
+
+        the angle of the chord :math:`\|\Delta - \Delta^0\|` on the unit sphere: 0 where
+        the frame turns the normals across the edge as the rest does (a rigid turn of a
+        region by :math:`\phi` changes it by at most :math:`\phi` times the rest's turn),
+        the full turn of a new fold, and twice a fold that flips from convex to concave.
+
+    Notes
+    -----
+    Smooth shading interpolates the vertex normals, so what a raking light shows as an edge
+    is a jump of the normal between neighbouring vertices. :func:`dihedral_change` compares
+    the facets; this compares the normals a renderer is given, which is what differs when a
+    refined skin is shaded with its facets' own normals beside a coarse one shaded with
+    interpolated normals (:func:`plateau_edge`).
+    """
+    e = surface.edges
+    n = np.asarray(normals, dtype=float)
+    r = np.asarray(rest_normals, dtype=float)
+    d = (n[e[:, 1]] - n[e[:, 0]]) - (r[e[:, 1]] - r[e[:, 0]])
+    half = np.minimum(1.0, 0.5 * np.sqrt(np.einsum("ij,ij->i", d, d)))
+    return np.degrees(2.0 * np.arcsin(half))
+
+
+def plateau_edge(state, floor: float = 1e-3) -> np.ndarray:
+    r"""``(k,)``: the shading crease (:func:`shading_crease`, degrees) that the skin
+    deformation alone adds to a frame as it is shown, on the edges of ``state.face.skin``
+    with an end moved by more than ``floor`` times the skin's mean edge length.
+
+    The frame without wrinkles (``state.deformed_points``) shaded with
+    :meth:`~wrinkle_vis.core.state.FaceState.shading_normals`, against the rest skin shaded
+    with the rest normals a renderer gives it (``state.face.rest_normals``: the vertex
+    normals of the rest skin, and on a refined skin the Phong normals that carry them to
+    the new vertices). A raised plateau whose sides show as edges under a raking light, or
+    seams inside it, is a line of large values; the old measure
+    (:func:`dihedral_change` of the refined frame against the refined rest) cannot see a
+    seam that the refined rest skin itself has.
+    """
+    surface = state.face.skin
+    rest, moved = state.rest_points, state.deformed_points
+    shown = state.shading_normals(moved)
+    change = shading_crease(surface, state.face.rest_normals, shown)
+    far = np.linalg.norm(moved - rest, axis=1) > floor * surface.mean_edge_length
+    return change[far[surface.edges].any(axis=1)]
 
 
 def turned_over(surface: TriangleSurface, rest_points, points) -> np.ndarray:

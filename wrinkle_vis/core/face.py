@@ -159,6 +159,21 @@ class FaceModel:
         """Names of the muscles, in order."""
         return tuple(m.name for m in self.muscles)
 
+    @property
+    def rest_normals(self) -> np.ndarray:
+        """``(n, 3)``: the unit normals the rest skin is shaded with: its vertex normals,
+        and on a refined skin the Phong normals that carry the coarse skin's to the new
+        vertices (:func:`~wrinkle_vis.core.mesh.phong_midpoints`).
+        """
+        return self._rest.normals
+
+    @property
+    def refined(self) -> bool:
+        """Whether this is the refined skin of a frame (:meth:`evaluate` with ``refine``),
+        whose :attr:`rest_normals` interpolate the coarse skin's.
+        """
+        return self._rest.interpolated
+
     def muscle(self, name: str) -> Muscle:
         """The muscle called ``name``; ``KeyError`` lists the face's muscles."""
         for m in self.muscles:

@@ -38,6 +38,9 @@ class _RestGeometry:
 
     def __init__(self, skin: TriangleSurface, normals=None, radius: float | None = None):
         self._skin = skin
+        #: Whether :attr:`normals` were given (a refined skin's Phong normals) rather than
+        #: the skin's own vertex normals.
+        self.interpolated = normals is not None
         if normals is not None:
             self.normals = np.asarray(normals, dtype=float)
         if radius is None:  # invariant under rigid motions
@@ -60,6 +63,13 @@ class _RestGeometry:
     def normals(self) -> np.ndarray:
         """``(n, 3)``: unit outward normals of the rest skin."""
         return self._skin.vertex_normals()
+
+    @cached_property
+    def vertex_normals(self) -> np.ndarray:
+        """``(n, 3)``: the rest skin's own unit vertex normals (:attr:`normals` itself unless
+        those were given).
+        """
+        return self._skin.vertex_normals() if self.interpolated else self.normals
 
     @cached_property
     def slide_normals(self) -> np.ndarray:

@@ -12,7 +12,7 @@ import numpy as np
 
 from .fields import check_field
 from .fieldviews import _StateData, _StateFields
-from .mesh import TriangleSurface
+from .mesh import TriangleSurface, unit_rows
 from .units import face_unit
 
 if TYPE_CHECKING:
@@ -83,8 +83,42 @@ class FaceState:
 
     @cached_property
     def normals(self) -> np.ndarray:
-        """``(n, 3)``: unit vertex normals of the final skin (computed on first access)."""
-        return self.face.skin.vertex_normals(self.points)
+        """``(n, 3)``: unit normals to shade the final skin with (:meth:`shading_normals`
+        of :attr:`points`, computed on first access).
+        """
+        return self.shading_normals()
+
+    def shading_normals(self, points=None) -> np.ndarray:
+        r"""``(n, 3)``: unit normals to shade ``points`` ``(n, 3)`` (default :attr:`points`;
+        e.g. :attr:`deformed_points`) with: the rest skin's shading normals turned as the
+        frame turns the surface.
+
+        With :math:`g^0_i` and :math:`g_i` the vertex normals of the rest skin and of
+        ``points``, and :math:`r_i` the normals the rest skin is shaded with
+        (:attr:`FaceModel.rest_normals <wrinkle_vis.core.face.FaceModel.rest_normals>`),
+
+        .. math::
+
+            n_i = R(g^0_i \to g_i)\, r_i, \qquad
+            R(a \to b)\, x = (a \cdot b)\, x + v \times x
+                + \frac{(v \cdot x)\, v}{1 + a \cdot b}, \quad v = a \times b,
+
+        the smallest rotation taking :math:`g^0_i` to :math:`g_i` (where a normal turned
+        over, :math:`g_i`). On an unrefined skin :math:`r = g^0` and :math:`n = g`, the
+        vertex normals. On a refined one :math:`r` are the Phong normals that interpolate
+        the coarse skin's vertex normals, as a renderer shades the coarse skin around it:
+        the refined rest skin is Phong tessellation, only continuous across the coarse
+        edges, and shaded with its own facets it shows the coarse skin's facets and
+        seams inside the refined region, a raised plateau with sharp sides beside the
+        smoothly shaded skin around it (issue 27). The frame's own change (the muscles'
+        pull, the wrinkles) is kept whole.
+        """
+        p = self.points if points is None else points
+        g = self.face.skin.vertex_normals(p)
+        rest = self.face._rest
+        if not rest.interpolated:
+            return g
+        return unit_rows(_turned(rest.normals, rest.vertex_normals, g))
 
     def surface(self) -> TriangleSurface:
         """The final skin as a :class:`TriangleSurface`."""
@@ -151,6 +185,24 @@ def _sig(value: float) -> str:
     metres has wrinkles of 1e-4): ``+0.0123``, ``-2.5e-05``, ``+0``.
     """
     return f"{float(value):+.4g}"
+
+
+def _turned(x: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(n, 3)``: rows of ``x`` turned by the smallest rotation taking the unit rows of
+    ``a`` to those of ``b`` (:meth:`FaceState.shading_normals`); ``b`` where ``a`` and
+    ``b`` point apart (within 1e-9) or either is zero.
+    """
+    (x0, x1, x2), (a0, a1, a2), (b0, b1, b2) = x.T, a.T, b.T
+    v0, v1, v2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+    c = a0 * b0 + a1 * b1 + a2 * b2
+    ok = ((1.0 + c > 1e-9) & (a0 * a0 + a1 * a1 + a2 * a2 > 0.0)
+          & (b0 * b0 + b1 * b1 + b2 * b2 > 0.0))
+    k = np.where(ok, (v0 * x0 + v1 * x1 + v2 * x2) / np.where(ok, 1.0 + c, 1.0), 0.0)
+    out = np.empty_like(x)
+    out[:, 0] = c * x0 + v1 * x2 - v2 * x1 + k * v0
+    out[:, 1] = c * x1 + v2 * x0 - v0 * x2 + k * v1
+    out[:, 2] = c * x2 + v0 * x1 - v1 * x0 + k * v2
+    return np.where(ok[:, None], out, b)
 
 
 @lru_cache(maxsize=8)

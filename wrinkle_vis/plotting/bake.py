@@ -551,7 +551,7 @@ def _bake_normal(r, state: FaceState, corner_uvs: np.ndarray, common: dict,
     skin = state.face.skin
     deformed = np.asarray(state.deformed_points, float)
     ts = tangent_space_normals(r, deformed, skin.triangles, corner_uvs,
-                               skin.vertex_normals(deformed), np.asarray(state.normals))
+                               state.shading_normals(deformed), np.asarray(state.normals))
     rgb = np.clip(np.round((ts + 1.0) * 32767.5), 0, 65535).astype(np.uint16)
     out.images["normal.png"] = r.image(rgb, np.array([32768, 32768, 65535], np.uint16))
     out.sidecars["normal.json"] = {

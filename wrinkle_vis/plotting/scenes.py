@@ -216,10 +216,16 @@ def add_skin(plotter: pv.Plotter, state: FaceState, field: str | None = "W",
     (``(n, 3)``, e.g. ``state.normals``) shades the skin smoothly with these vertex normals
     (point array ``Normals``) and draws the mesh itself, with no normals filter between it
     and the mapper, so that a caller can write a new frame into it in place (the app's
-    views); by default PyVista's smooth shading computes them. ``mesh_kwargs`` go to
-    ``add_mesh`` and override the choices here (``cmap="magma"``). Returns the actor.
+    views); by default a refined frame is shaded with its
+    :meth:`~wrinkle_vis.core.state.FaceState.shading_normals` (the coarse skin's shading
+    carried to the new vertices) and PyVista's smooth shading computes the others.
+    ``mesh_kwargs`` go to ``add_mesh`` and override the choices here (``cmap="magma"``).
+    Returns the actor.
     """
-    mesh = to_surface_polydata(state.face.skin, state.points if points is None else points)
+    drawn = state.points if points is None else points
+    mesh = to_surface_polydata(state.face.skin, drawn)
+    if normals is None and state.face.refined:  # the coarse skin's shading, carried over
+        normals = state.shading_normals(drawn)
     if normals is not None:
         mesh.point_data["Normals"] = np.asarray(normals, dtype=float)
         mesh.GetPointData().SetActiveNormals("Normals")
