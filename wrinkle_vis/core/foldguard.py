@@ -30,9 +30,9 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 from scipy.spatial import cKDTree
 
-__all__ = ["FoldGuard", "GuardResult", "fold_radii", "guard_amount", "guard_frame",
-           "guard_wrinkles", "guarded", "medial_radii", "pull_terms", "skin_scale",
-           "soft_clamp"]
+__all__ = ["Certified", "FoldGuard", "GuardResult", "certify", "fold_radii", "guard_amount",
+           "guard_frame", "guard_wrinkles", "guarded", "medial_radii", "pull_terms",
+           "skin_scale", "soft_clamp"]
 
 
 @dataclass(frozen=True)
@@ -609,8 +609,8 @@ def _held_wrinkles(rest: np.ndarray, d2: np.ndarray, p2: np.ndarray, W2: np.ndar
 
 def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
                 triangles: np.ndarray, radii: np.ndarray, guard: FoldGuard = FoldGuard(),
-                pulls: bool = True, terms: dict | None = None, deformed_radii: bool = False
-                ) -> GuardResult:
+                pulls: bool = True, terms: dict | None = None, deformed_radii: bool = False,
+                certified: Certified | None = None) -> GuardResult:
     r"""The guards on one frame: ``rest``, ``deformed`` (before :math:`W`) and final
     ``points`` ``(n, 3)``, ``W`` ``(n,)``, ``triangles`` ``(m, 3)``, rest ``radii``
     ``(n, 2)`` (:func:`medial_radii`); ``terms``: :func:`pull_terms` of ``rest``, when cached.
@@ -626,6 +626,10 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
        :func:`skin_scale` of that step (a steep furrow on small triangles would otherwise
        turn them over).
 
+    ``certified`` (:func:`certify`): the checks it certifies are skipped (each would have
+    returned what skipping gives; ``radii`` may then be None); a pull the exact check does
+    scale voids the others.
+
     Where no guard acts, the frame's points are returned as they are (bit for bit).
     Elsewhere the final point is :math:`x' + W' n'`, with :math:`x'` the scaled pull and
     :math:`n'` the area-weighted unit normal of the guarded deformed skin; a vertex whose
@@ -635,20 +639,27 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
     rest = np.asarray(rest, dtype=float)
     if terms is None:
         terms = pull_terms(rest, tri)
-    f = (skin_scale(rest, deformed, tri, guard.min_area, guard.knee, terms=terms) if pulls
-         else np.ones(len(rest)))
+    cert = certified if certified is not None else Certified(False, False, False, False)
+    f = (skin_scale(rest, deformed, tri, guard.min_area, guard.knee, terms=terms)
+         if pulls and not cert.pulls else np.ones(len(rest)))
     W = np.asarray(W, dtype=float)
     moved = f < 1.0
     d2, p2 = np.asarray(deformed, dtype=float), np.asarray(points, dtype=float)
     if moved.any():
         d2 = d2.copy()
         d2[moved] = rest[moved] + f[moved, None] * (d2[moved] - rest[moved])
-    if deformed_radii:  # unmoved: the frame's own normals, (x_f - x_d) / W, for free
+        cert = Certified(False, False, False, False)  # certified for the unscaled pull only
+    rest_radii = radii
+    if deformed_radii and not cert.balls:  # unmoved: the frame's normals, (x_f - x_d) / W
         radii = _deformed_radii(d2, tri, W, radii, terms, guard,
                                 None if moved.any() else p2 - d2)
-    W2 = guard_wrinkles(W, radii, guard)
+    if cert.clamp and radii is rest_radii:  # the rest radii leave the clamp the identity
+        W2 = W
+    else:
+        W2 = guard_wrinkles(W, radii, guard)
     p2 = _rewrinkled(p2, d2, W, W2, moved, tri, terms)
-    p2, W2 = _held_wrinkles(rest, d2, p2, W2, tri, guard, terms)
+    if not cert.step:
+        p2, W2 = _held_wrinkles(rest, d2, p2, W2, tri, guard, terms)
     acted = moved | (W2 != W)
     if p2 is not points:
         acted |= np.any(p2 != points, axis=1)
@@ -863,7 +874,11 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
     """
     if not np.any(state.W) and state.deformed_points is state.rest_points:
         return state
-    radii = fold_radii(face, state.face, state.W, guard)
+    cert = certify(face, state, guard)
+    if cert is not None and cert.all:  # no check can act: the frame as it is
+        return state
+    radii = (None if cert is not None and cert.clamp and cert.balls
+             else fold_radii(face, state.face, state.W, guard))
     skin = state.face  # the face's own skin, or the refined one of this frame
     terms = getattr(skin._rest, "pull_terms", None)
     if terms is None:
@@ -871,7 +886,7 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
                                                    skin.skin.edges)
     g = guard_frame(state.rest_points, state.deformed_points, state.points, state.W,
                     state.triangles, radii, guard, terms=terms,
-                    deformed_radii=True)
+                    deformed_radii=True, certified=cert)
     if not g.acted.any():
         return state
     if state.face is face and np.any(g.scale < 1.0):  # the fields see the guarded pull
@@ -893,3 +908,226 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
         value.setflags(write=False)
         setattr(state, name, value)
     return state
+
+
+# ---------------------------------------------------------------- certified skips
+#
+# Conservative certificates that an unrefined frame of the geometric skin cannot make a
+# guard act (``docs/model.md``, "Certified skips"): each is a handful of operations on
+# numbers kept per skin and per set of active muscles, and where it holds the exact check it
+# stands for is skipped; where it does not, the exact check runs as before. A skipped check
+# would have returned exactly what skipping gives (the frame's own arrays), so the frames are
+# bit for bit those of the exact checks.
+
+_CERT_MAX_POINTS = 60_000  # larger skins keep no pairs and radii for the certificates
+_CERT_REACH = 6.0  # the pairs' reach D, in median edge lengths
+_CERT_ASSEMBLIES = 32  # the active sets whose bounds a skin keeps
+
+
+@dataclass(frozen=True)
+class Certified:
+    """Which checks of :func:`guard_frame` a frame's certificate lets it skip.
+
+    Attributes
+    ----------
+    pulls : bool
+        No triangle can fall below ``min_area`` under the pull (:func:`skin_scale` gives 1).
+    step : bool
+        No triangle can fall below ``min_area_wrinkles`` under the wrinkles' step.
+    balls : bool
+        No deformed vertex lies in any ball :func:`_deformed_radii` tests.
+    clamp : bool
+        :math:`|W| \\le \\kappa\\eta r` at every vertex with the rest radii: the clamp is
+        the identity where the deformed skin's radii are not lower.
+
+    Each of ``step``, ``balls`` and ``clamp`` holds for the frame's own pull: where the
+    pulls' check scales it, they say nothing (:func:`guard_frame` then runs every check).
+    """
+
+    pulls: bool
+    step: bool
+    balls: bool
+    clamp: bool
+
+    @property
+    def all(self) -> bool:
+        """Every check certified: the guard cannot act on the frame."""
+        return self.pulls and self.step and self.balls and self.clamp
+
+
+def _skin_bounds(face) -> dict | None:
+    r"""What the certificates need of ``face``'s rest skin, computed once and kept with its
+    rest frame (None for a skin of more than :data:`_CERT_MAX_POINTS` vertices):
+
+    * ``radii`` ``(n, 2)``: every rest radius in full (:func:`fold_radii`, which keeps them
+      for the exact checks as well);
+    * ``sep`` ``(n,)``: each vertex's distance to the nearest other vertex, :math:`s_x`;
+    * ``K`` ``(m,)``: :math:`\|E_t^+\|_2 = 1/\sigma_{\min}(E_t)` of each triangle's rest
+      edges :math:`E_t = [e_1\ e_2]`, and ``Einv`` ``(m, 2, 3)``: :math:`E_t^+`;
+    * ``pairs`` ``(p, 2)`` and ``dist`` ``(p,)``: every pair of vertices at most
+      :math:`D` = ``reach`` apart (:data:`_CERT_REACH` median edges).
+    """
+    rest = face._rest
+    got = getattr(rest, "fold_bounds", None)
+    if got is not None:
+        return got or None
+    skin = face.skin
+    if skin.n_points > _CERT_MAX_POINTS or skin.n_points < 2:
+        rest.fold_bounds = {}
+        return None
+    pts = np.asarray(skin.points, dtype=float)
+    tri = np.asarray(skin.triangles, dtype=np.intp)
+    radii = np.array(fold_radii(face))  # every radius in full, kept for the exact checks
+    d, _ = skin.kdtree.query(pts, k=2)
+    E = np.stack([pts[tri[:, 1]] - pts[tri[:, 0]], pts[tri[:, 2]] - pts[tri[:, 0]]], axis=2)
+    Einv = np.linalg.pinv(E)  # (m, 2, 3); 0 rows for a triangle with no area
+    sv = np.linalg.svd(E, compute_uv=False)
+    with np.errstate(divide="ignore"):
+        K = np.where(sv[:, 1] > 0, 1.0 / sv[:, 1], np.inf)
+    reach = _CERT_REACH * float(np.median(skin.rest_edge_lengths))
+    pairs = skin.kdtree.query_pairs(reach, output_type="ndarray")
+    dist = np.linalg.norm(pts[pairs[:, 0]] - pts[pairs[:, 1]], axis=1)
+    rest.fold_bounds = got = {"radii": radii, "sep": d[:, 1], "K": K, "Einv": Einv,
+                              "pairs": pairs, "dist": dist, "reach": reach,
+                              "size": float(np.abs(pts).max()), "clamp": {}}
+    return got
+
+
+def _assembly_bounds(face, asm, skin: dict) -> dict:
+    r"""What the certificates need of the active set ``asm`` (a ``_StackedMuscles``), per
+    muscle :math:`m` in its order, from its unit displacement :math:`U_m` (the tangent pull
+    at activation 1, 0 outside its AOI):
+
+    * ``G`` ``(M,)``: :math:`\hat G_m = \max_t \|J_{m,t}\|_2`, :math:`J_{m,t} = [U_1 - U_0\
+      \ U_2 - U_0]\,E_t^+` the gradient of :math:`U_m` on triangle :math:`t`;
+    * ``U`` ``(M,)``: :math:`\hat U_m = \max_v |U_m(v)|`;
+    * ``Lip`` ``(M,)``: :math:`\max |U_m(v) - U_m(w)| / |x_v - x_w|` over the pairs at most
+      :math:`D` apart;
+
+    and of the set: ``Kp``, ``Kw``, the largest :math:`K_t` of the triangles with a moved
+    corner and with a wrinkled one; ``S``, the largest Frobenius norm of the slide's shape
+    operators; ``sep``, the least :math:`s_x` of the wrinkled vertices.
+    """
+    memo = skin.setdefault("assemblies", {})
+    got = memo.pop(asm.names, None)
+    if got is None:
+        got = _build_assembly_bounds(face, asm, skin)
+    memo[asm.names] = got
+    while len(memo) > _CERT_ASSEMBLIES:
+        memo.pop(next(iter(memo)))
+    return got
+
+
+def _build_assembly_bounds(face, asm, skin: dict) -> dict:
+    """:func:`_assembly_bounds`, computed."""
+    tri = np.asarray(face.skin.triangles, dtype=np.intp)
+    n = face.skin.n_points
+    pairs, dist = skin["pairs"], skin["dist"]
+    G, U, Lip = [], [], []
+    for name in asm.names:
+        data = face.muscle_data(face.muscle(name))
+        u = np.zeros((n, 3))
+        u[data.aoi] = data.unit_disp
+        inside = np.zeros(n, bool)
+        inside[data.aoi] = True
+        rows = np.flatnonzero(inside[tri].any(axis=1))
+        c = tri[rows]
+        D = np.stack([u[c[:, 1]] - u[c[:, 0]], u[c[:, 2]] - u[c[:, 0]]], axis=2)
+        J = D @ skin["Einv"][rows]
+        G.append(float(np.linalg.norm(J, ord=2, axis=(1, 2)).max()) if len(rows) else 0.0)
+        U.append(float(np.linalg.norm(u, axis=1).max()))
+        near = np.flatnonzero(inside[pairs[:, 0]] | inside[pairs[:, 1]])
+        p = pairs[near]
+        diff = np.linalg.norm(u[p[:, 0]] - u[p[:, 1]], axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(diff > 0, diff / dist[near], 0.0)
+        Lip.append(float(ratio.max()) if len(ratio) else 0.0)
+    moved = np.zeros(n, bool)
+    moved[asm.moved] = True
+    wrinkled = np.zeros(n, bool)
+    wrinkled[asm.wrinkled] = True
+    K = skin["K"]
+    s = asm.slide_s
+    frob = np.sqrt(s[0] ** 2 + s[1] ** 2 + s[2] ** 2 + 2.0 * (s[3] ** 2 + s[4] ** 2 + s[5] ** 2))
+
+    def most(values: np.ndarray) -> float:
+        return float(values.max()) if len(values) else 0.0
+
+    return {"G": np.array(G), "U": np.array(U), "Lip": np.array(Lip),
+            "Kp": most(K[moved[tri].any(axis=1)]), "Kw": most(K[wrinkled[tri].any(axis=1)]),
+            "S": most(frob),
+            "sep": float(skin["sep"][asm.wrinkled].min()) if len(asm.wrinkled) else np.inf}
+
+
+def _clamp_limit(skin: dict, guard: FoldGuard) -> np.ndarray:
+    r"""``(n,)``: :math:`(1 - 10^{-5})\,\kappa\,\eta \min(r_+, r_-)` on the rest radii in
+    full (kept per guard): :math:`|W|` at or below it leaves the clamp the identity and
+    asks :func:`fold_radii` for no search.
+    """
+    key = (guard.eta, guard.knee)
+    got = skin["clamp"].get(key)
+    if got is None:
+        got = skin["clamp"][key] = (1.0 - 1e-5) * guard.knee * guard.eta * skin["radii"].min(
+            axis=1)
+    return got
+
+
+def certify(face, state, guard: FoldGuard = FoldGuard()) -> Certified | None:
+    r"""The certificates of an unrefined frame ``state`` of ``face``'s geometric skin (None
+    for any other frame: refined, physical, or a skin too large to keep their data).
+
+    With :math:`a_m` the activations, :math:`D = \sum_m a_m U_m` the summed tangent pull and
+    :math:`b_v n_v` the slide (:func:`~wrinkle_vis.core.refined.slide_bend`), so the pull is
+    :math:`p = D - b\,n`:
+
+    * :math:`D_{\max} = \sum_m a_m \hat U_m`, :math:`b_{\max} = \min(\tfrac12 S D_{\max}^2,
+      0.3 D_{\max})`, :math:`P = D_{\max} + b_{\max}` bound :math:`|D|`, :math:`|b|`, :math:`|p|`;
+    * :math:`g = \sum_m a_m \hat G_m + 2\sqrt2\,K_p b_{\max}` bounds the pull's gradient on
+      every triangle, :math:`\|J_t\|_2`;
+    * pulls: :math:`(1 - g/\kappa)^2 \ge \sigma_{\min}` (then
+      :math:`\sigma_t(s) = \det(I + s P_t J_t) \ge (1 - s g)^2` on :math:`[0, 1/\kappa]`);
+    * step: :math:`g_w = 2\sqrt2\,K_w \max|W|`, :math:`(1 - g - g_w/\kappa_w)^2 \ge
+      \sigma_{\min,w}`;
+    * balls: :math:`\Lambda = \sum_m a_m \mathrm{Lip}_m < 1` and
+      :math:`2\rho(1 + 10^{-6}) + \tau \le \min(s(1 - \Lambda) - 2b_{\max}, D - 2P)`,
+      :math:`\rho = \max|W| / (\kappa \eta_d)\,(1 + 10^{-6})` (no deformed vertex but
+      :math:`x` within :math:`2\rho` of :math:`x`), every wrinkled vertex displaced;
+    * clamp: :math:`|W| \le` :func:`_clamp_limit` everywhere.
+
+    ``docs/model.md`` ("Certified skips") has the proofs.
+    """
+    if state.face is not face or state.skin_model != "geometric":
+        return None
+    acts = state.activations
+    active = tuple(n for n, a in acts.items() if a > 0.0)
+    if not active:
+        return None
+    skin = _skin_bounds(face)
+    if skin is None:
+        return None
+    asm = face._assembly(active)
+    bounds = _assembly_bounds(face, asm, skin)
+    a = np.array([acts[m] for m in active])
+    d_max = float(a @ bounds["U"])
+    b_max = min(0.5 * bounds["S"] * d_max * d_max, 0.3 * d_max)
+    g = float(a @ bounds["G"]) + 2.0 * np.sqrt(2.0) * bounds["Kp"] * b_max
+    g *= 1.0 + 1e-9
+    W = state.W
+    w_abs = np.abs(W)
+    w_max = float(w_abs.max())
+    top = 1.0 / guard.knee
+    pulls = top * g < 1.0 and (1.0 - top * g) ** 2 >= guard.min_area * (1.0 + 1e-9) + 1e-12
+    g_w = 2.0 * np.sqrt(2.0) * bounds["Kw"] * w_max * (1.0 + 1e-9) + 1e-12
+    x = g + g_w / guard.knee_wrinkles
+    step = x < 1.0 and (1.0 - x) ** 2 >= guard.min_area_wrinkles * (1.0 + 1e-9) + 1e-12
+    lam = float(a @ bounds["Lip"]) * (1.0 + 1e-9)
+    rho = w_max / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6)
+    tol = 1e-12 * (1.0 + skin["size"])
+    room = min(bounds["sep"] * (1.0 - lam) - 2.0 * b_max, skin["reach"] - 2.0 * (d_max + b_max))
+    balls = lam < 1.0 and 2.0 * rho * (1.0 + 1e-6) + tol <= room
+    if balls and w_max > 0.0:  # every wrinkled vertex moved by W: its normal is defined
+        wr = asm.wrinkled
+        balls = bool(np.all((W[wr] == 0.0) | np.any(state.points[wr] != state.deformed_points[wr],
+                                                    axis=1)))
+    clamp = bool(np.all(w_abs <= _clamp_limit(skin, guard)))
+    return Certified(pulls, step, balls, clamp)
