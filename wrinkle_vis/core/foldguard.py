@@ -926,7 +926,7 @@ _CERT_ASSEMBLIES = 32  # the active sets whose bounds a skin keeps
 
 @dataclass(frozen=True)
 class Certified:
-    """Which checks of :func:`guard_frame` a frame's certificate lets it skip.
+    r"""Which checks of :func:`guard_frame` a frame's certificate lets it skip.
 
     Attributes
     ----------
@@ -937,7 +937,7 @@ class Certified:
     balls : bool
         No deformed vertex lies in any ball :func:`_deformed_radii` tests.
     clamp : bool
-        :math:`|W| \\le \\kappa\\eta r` at every vertex with the rest radii: the clamp is
+        :math:`|W| \le \kappa\eta r` at every vertex with the rest radii: the clamp is
         the identity where the deformed skin's radii are not lower.
 
     Each of ``step``, ``balls`` and ``clamp`` holds for the frame's own pull: where the
@@ -1003,6 +1003,8 @@ def _assembly_bounds(face, asm, skin: dict) -> dict:
     * ``U`` ``(M,)``: :math:`\hat U_m = \max_v |U_m(v)|`;
     * ``Lip`` ``(M,)``: :math:`\max |U_m(v) - U_m(w)| / |x_v - x_w|` over the pairs at most
       :math:`D` apart;
+    * ``Gt`` ``(T, M)``: :math:`\|J_{m,t}\|_2` on each triangle with a moved corner, and
+      ``Um`` ``(u, 3, M)``: :math:`U_m` at the moved vertices (``asm.moved``);
 
     and of the set: ``Kp``, ``Kw``, the largest :math:`K_t` of the triangles with a moved
     corner and with a wrinkled one; ``S``, the largest Frobenius norm of the slide's shape
@@ -1023,8 +1025,13 @@ def _build_assembly_bounds(face, asm, skin: dict) -> dict:
     tri = np.asarray(face.skin.triangles, dtype=np.intp)
     n = face.skin.n_points
     pairs, dist = skin["pairs"], skin["dist"]
+    moved = np.zeros(n, bool)
+    moved[asm.moved] = True
+    pulled = np.flatnonzero(moved[tri].any(axis=1))
     G, U, Lip = [], [], []
-    for name in asm.names:
+    Gt = np.zeros((len(pulled), len(asm.names)))
+    Um = np.zeros((len(asm.moved), 3, len(asm.names)))
+    for k, name in enumerate(asm.names):
         data = face.muscle_data(face.muscle(name))
         u = np.zeros((n, 3))
         u[data.aoi] = data.unit_disp
@@ -1034,7 +1041,10 @@ def _build_assembly_bounds(face, asm, skin: dict) -> dict:
         c = tri[rows]
         D = np.stack([u[c[:, 1]] - u[c[:, 0]], u[c[:, 2]] - u[c[:, 0]]], axis=2)
         J = D @ skin["Einv"][rows]
-        G.append(float(np.linalg.norm(J, ord=2, axis=(1, 2)).max()) if len(rows) else 0.0)
+        norms = np.linalg.norm(J, ord=2, axis=(1, 2))
+        G.append(float(norms.max()) if len(rows) else 0.0)
+        Gt[np.searchsorted(pulled, rows), k] = norms  # (its triangles are pulled ones)
+        Um[:, :, k] = u[asm.moved]
         U.append(float(np.linalg.norm(u, axis=1).max()))
         near = np.flatnonzero(inside[pairs[:, 0]] | inside[pairs[:, 1]])
         p = pairs[near]
@@ -1042,8 +1052,6 @@ def _build_assembly_bounds(face, asm, skin: dict) -> dict:
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(diff > 0, diff / dist[near], 0.0)
         Lip.append(float(ratio.max()) if len(ratio) else 0.0)
-    moved = np.zeros(n, bool)
-    moved[asm.moved] = True
     wrinkled = np.zeros(n, bool)
     wrinkled[asm.wrinkled] = True
     K = skin["K"]
@@ -1053,7 +1061,7 @@ def _build_assembly_bounds(face, asm, skin: dict) -> dict:
     def most(values: np.ndarray) -> float:
         return float(values.max()) if len(values) else 0.0
 
-    return {"G": np.array(G), "U": np.array(U), "Lip": np.array(Lip),
+    return {"G": np.array(G), "U": np.array(U), "Lip": np.array(Lip), "Gt": Gt, "Um": Um,
             "Kp": most(K[moved[tri].any(axis=1)]), "Kw": most(K[wrinkled[tri].any(axis=1)]),
             "S": most(frob),
             "sep": float(skin["sep"][asm.wrinkled].min()) if len(asm.wrinkled) else np.inf}
@@ -1110,24 +1118,46 @@ def certify(face, state, guard: FoldGuard = FoldGuard()) -> Certified | None:
     a = np.array([acts[m] for m in active])
     d_max = float(a @ bounds["U"])
     b_max = min(0.5 * bounds["S"] * d_max * d_max, 0.3 * d_max)
-    g = float(a @ bounds["G"]) + 2.0 * np.sqrt(2.0) * bounds["Kp"] * b_max
-    g *= 1.0 + 1e-9
+    g = float(a @ bounds["G"])
     W = state.W
     w_abs = np.abs(W)
     w_max = float(w_abs.max())
+    tol = 1e-12 * (1.0 + skin["size"])
+    lam = float(a @ bounds["Lip"]) * (1.0 + 1e-9)
+    pulls, step, balls = _certificates(g, d_max, b_max, lam, w_max, bounds, skin, guard)
+    if not (pulls and step and balls):  # the frame's own pull: tighter, a few calls more
+        moved = asm.moved
+        pull = state.deformed_points[moved] - state.rest_points[moved]
+        D = bounds["Um"] @ a  # (u, 3): the summed tangent pull, exactly
+        slide = pull - D
+        b_max = float(np.sqrt(np.einsum("ij,ij->i", slide, slide).max())) + tol
+        p_max = float(np.sqrt(np.einsum("ij,ij->i", pull, pull).max())) + tol
+        g = float((bounds["Gt"] @ a).max())
+        tight = _certificates(g, p_max - b_max, b_max, lam, w_max, bounds, skin, guard)
+        pulls, step, balls = pulls or tight[0], step or tight[1], balls or tight[2]
+    if balls and w_max > 0.0:  # every wrinkled vertex moved by W: its normal is defined
+        wr = asm.wrinkled
+        shifted = np.any(state.points[wr] != state.deformed_points[wr], axis=1)
+        balls = bool(np.all((W[wr] == 0.0) | shifted))
+    clamp = bool(np.all(w_abs <= _clamp_limit(skin, guard)))
+    return Certified(pulls, step, balls, clamp)
+
+
+def _certificates(g: float, d_max: float, b_max: float, lam: float, w_max: float,
+                  bounds: dict, skin: dict, guard: FoldGuard) -> tuple[bool, bool, bool]:
+    r"""The pulls', the wrinkle step's and the balls' certificates of :func:`certify` from
+    the bounds :math:`\sum_m a_m \|J_{m,t}\|` (``g``, before the slide's part),
+    :math:`|D| \le` ``d_max``, :math:`|b| \le` ``b_max``, :math:`\Lambda` (``lam``) and
+    :math:`\max|W|` (``w_max``).
+    """
+    g = (g + 2.0 * np.sqrt(2.0) * bounds["Kp"] * b_max) * (1.0 + 1e-9) + 1e-12
     top = 1.0 / guard.knee
     pulls = top * g < 1.0 and (1.0 - top * g) ** 2 >= guard.min_area * (1.0 + 1e-9) + 1e-12
     g_w = 2.0 * np.sqrt(2.0) * bounds["Kw"] * w_max * (1.0 + 1e-9) + 1e-12
     x = g + g_w / guard.knee_wrinkles
     step = x < 1.0 and (1.0 - x) ** 2 >= guard.min_area_wrinkles * (1.0 + 1e-9) + 1e-12
-    lam = float(a @ bounds["Lip"]) * (1.0 + 1e-9)
     rho = w_max / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6)
     tol = 1e-12 * (1.0 + skin["size"])
     room = min(bounds["sep"] * (1.0 - lam) - 2.0 * b_max, skin["reach"] - 2.0 * (d_max + b_max))
     balls = lam < 1.0 and 2.0 * rho * (1.0 + 1e-6) + tol <= room
-    if balls and w_max > 0.0:  # every wrinkled vertex moved by W: its normal is defined
-        wr = asm.wrinkled
-        balls = bool(np.all((W[wr] == 0.0) | np.any(state.points[wr] != state.deformed_points[wr],
-                                                    axis=1)))
-    clamp = bool(np.all(w_abs <= _clamp_limit(skin, guard)))
-    return Certified(pulls, step, balls, clamp)
+    return pulls, step, balls
