@@ -989,7 +989,7 @@ def _skin_bounds(face) -> dict | None:
     dist = np.linalg.norm(pts[pairs[:, 0]] - pts[pairs[:, 1]], axis=1)
     rest.fold_bounds = got = {"radii": radii, "sep": d[:, 1], "K": K, "Einv": Einv,
                               "pairs": pairs, "dist": dist, "reach": reach,
-                              "size": float(np.abs(pts).max()), "clamp": {}}
+                              "size": float(np.abs(pts).max()), "assemblies": {}}
     return got
 
 
@@ -1004,13 +1004,14 @@ def _assembly_bounds(face, asm, skin: dict) -> dict:
     * ``Lip`` ``(M,)``: :math:`\max |U_m(v) - U_m(w)| / |x_v - x_w|` over the pairs at most
       :math:`D` apart;
     * ``Gt`` ``(T, M)``: :math:`\|J_{m,t}\|_2` on each triangle with a moved corner, and
-      ``Um`` ``(u, 3, M)``: :math:`U_m` at the moved vertices (``asm.moved``);
+      ``Um`` ``(3 u, M)``: :math:`U_m` at the moved vertices (``asm.moved``, their x, y
+      and z in turn);
 
     and of the set: ``Kp``, ``Kw``, the largest :math:`K_t` of the triangles with a moved
     corner and with a wrinkled one; ``S``, the largest Frobenius norm of the slide's shape
     operators; ``sep``, the least :math:`s_x` of the wrinkled vertices.
     """
-    memo = skin.setdefault("assemblies", {})
+    memo = skin["assemblies"]
     got = memo.pop(asm.names, None)
     if got is None:
         got = _build_assembly_bounds(face, asm, skin)
@@ -1044,7 +1045,7 @@ def _build_assembly_bounds(face, asm, skin: dict) -> dict:
         norms = np.linalg.norm(J, ord=2, axis=(1, 2))
         G.append(float(norms.max()) if len(rows) else 0.0)
         Gt[np.searchsorted(pulled, rows), k] = norms  # (its triangles are pulled ones)
-        Um[:, :, k] = u[asm.moved]
+        Um[:, :, k] = u[asm.moved]  # (as rows x, y, z of each moved vertex)
         U.append(float(np.linalg.norm(u, axis=1).max()))
         near = np.flatnonzero(inside[pairs[:, 0]] | inside[pairs[:, 1]])
         p = pairs[near]
@@ -1061,22 +1062,25 @@ def _build_assembly_bounds(face, asm, skin: dict) -> dict:
     def most(values: np.ndarray) -> float:
         return float(values.max()) if len(values) else 0.0
 
-    return {"G": np.array(G), "U": np.array(U), "Lip": np.array(Lip), "Gt": Gt, "Um": Um,
+    return {"G": np.array(G), "U": np.array(U), "Lip": np.array(Lip), "Gt": Gt,
+            "Um": np.ascontiguousarray(Um.reshape(-1, len(asm.names))),
+            "moved": asm.moved, "wrinkled": asm.wrinkled, "clamp": {},
             "Kp": most(K[moved[tri].any(axis=1)]), "Kw": most(K[wrinkled[tri].any(axis=1)]),
             "S": most(frob),
             "sep": float(skin["sep"][asm.wrinkled].min()) if len(asm.wrinkled) else np.inf}
 
 
-def _clamp_limit(skin: dict, guard: FoldGuard) -> np.ndarray:
-    r"""``(n,)``: :math:`(1 - 10^{-5})\,\kappa\,\eta \min(r_+, r_-)` on the rest radii in
-    full (kept per guard): :math:`|W|` at or below it leaves the clamp the identity and
-    asks :func:`fold_radii` for no search.
+def _clamp_limit(skin: dict, bounds: dict, guard: FoldGuard) -> np.ndarray:
+    r"""``(v,)``: :math:`(1 - 10^{-5})\,\kappa\,\eta \min(r_+, r_-)` on the rest radii in
+    full at the wrinkled vertices of an active set (its ``bounds``), kept per guard:
+    :math:`|W|` at or below it leaves the clamp the identity and asks :func:`fold_radii`
+    for no search.
     """
     key = (guard.eta, guard.knee)
-    got = skin["clamp"].get(key)
+    got = bounds["clamp"].get(key)
     if got is None:
-        got = skin["clamp"][key] = (1.0 - 1e-5) * guard.knee * guard.eta * skin["radii"].min(
-            axis=1)
+        r = skin["radii"][bounds["wrinkled"]].min(axis=1)
+        got = bounds["clamp"][key] = (1.0 - 1e-5) * guard.knee * guard.eta * r
     return got
 
 
@@ -1099,7 +1103,7 @@ def certify(face, state, guard: FoldGuard = FoldGuard()) -> Certified | None:
     * balls: :math:`\Lambda = \sum_m a_m \mathrm{Lip}_m < 1` and
       :math:`2\rho(1 + 10^{-6}) + \tau \le \min(s(1 - \Lambda) - 2b_{\max}, D - 2P)`,
       :math:`\rho = \max|W| / (\kappa \eta_d)\,(1 + 10^{-6})` (no deformed vertex but
-      :math:`x` within :math:`2\rho` of :math:`x`), every wrinkled vertex displaced;
+      :math:`x` within :math:`2\rho` of :math:`x`);
     * clamp: :math:`|W| \le` :func:`_clamp_limit` everywhere.
 
     ``docs/model.md`` ("Certified skips") has the proofs.
@@ -1110,37 +1114,36 @@ def certify(face, state, guard: FoldGuard = FoldGuard()) -> Certified | None:
     active = tuple(n for n, a in acts.items() if a > 0.0)
     if not active:
         return None
-    skin = _skin_bounds(face)
+    skin = getattr(face._rest, "fold_bounds", None)
     if skin is None:
+        skin = _skin_bounds(face)
+    if not skin:
         return None
-    asm = face._assembly(active)
-    bounds = _assembly_bounds(face, asm, skin)
+    bounds = skin["assemblies"].get(active)
+    if bounds is None:
+        bounds = _assembly_bounds(face, face._assembly(active), skin)
     a = np.array([acts[m] for m in active])
+    w = np.abs(np.take(state.W, bounds["wrinkled"]))  # W is 0 off the wrinkled vertices
+    w_max = float(w.max()) if len(w) else 0.0
+    clamp = bool((w <= _clamp_limit(skin, bounds, guard)).all())
     d_max = float(a @ bounds["U"])
     b_max = min(0.5 * bounds["S"] * d_max * d_max, 0.3 * d_max)
-    g = float(a @ bounds["G"])
-    W = state.W
-    w_abs = np.abs(W)
-    w_max = float(w_abs.max())
-    tol = 1e-12 * (1.0 + skin["size"])
     lam = float(a @ bounds["Lip"]) * (1.0 + 1e-9)
-    pulls, step, balls = _certificates(g, d_max, b_max, lam, w_max, bounds, skin, guard)
+    pulls, step, balls = _certificates(float(a @ bounds["G"]), d_max, b_max, lam, w_max,
+                                       bounds, skin, guard)
     if not (pulls and step and balls):  # the frame's own pull: tighter, a few calls more
-        moved = asm.moved
-        pull = state.deformed_points[moved] - state.rest_points[moved]
-        D = bounds["Um"] @ a  # (u, 3): the summed tangent pull, exactly
-        slide = pull - D
-        b_max = float(np.sqrt(np.einsum("ij,ij->i", slide, slide).max())) + tol
-        p_max = float(np.sqrt(np.einsum("ij,ij->i", pull, pull).max())) + tol
-        g = float((bounds["Gt"] @ a).max())
-        tight = _certificates(g, p_max - b_max, b_max, lam, w_max, bounds, skin, guard)
+        moved = bounds["moved"]
+        slide = np.take(state.deformed_points, moved, axis=0)
+        slide -= np.take(state.rest_points, moved, axis=0)
+        D = (bounds["Um"] @ a).reshape(-1, 3)  # the summed tangent pull
+        slide -= D
+        tol = 1e-12 * (1.0 + skin["size"])
+        d_max = min(d_max, float(np.sqrt(np.einsum("ij,ij->i", D, D).max())) + tol)
+        b_max = min(b_max, float(np.sqrt(np.einsum("ij,ij->i", slide, slide).max())) + tol)
+        tight = _certificates(float((bounds["Gt"] @ a).max()), d_max, b_max, lam, w_max,
+                              bounds, skin, guard)
         pulls, step, balls = pulls or tight[0], step or tight[1], balls or tight[2]
-    if balls and w_max > 0.0:  # every wrinkled vertex moved by W: its normal is defined
-        wr = asm.wrinkled
-        shifted = np.any(state.points[wr] != state.deformed_points[wr], axis=1)
-        balls = bool(np.all((W[wr] == 0.0) | shifted))
-    clamp = bool(np.all(w_abs <= _clamp_limit(skin, guard)))
-    return Certified(pulls, step, balls, clamp)
+    return Certified(bool(pulls), bool(step), bool(balls), clamp)
 
 
 def _certificates(g: float, d_max: float, b_max: float, lam: float, w_max: float,
