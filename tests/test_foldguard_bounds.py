@@ -248,3 +248,46 @@ def test_the_guard_is_found_where_the_face_looks_for_it():
     """The face module calls foldguard.guarded, which asks ``certify`` through the module
     (so that ``_exact`` above does turn the certificates off)."""
     assert face_module.guarded is foldguard.guarded
+
+
+@pytest.mark.parametrize("over", [1e-4, -2e-5])
+def test_the_clamp_is_certified_up_to_its_knee_and_no_further(faces, over):
+    """W set just past the clamp's knee at one wrinkled vertex (on the side whose rest
+    radius is smaller): the clamp acts and the certificate refuses; just inside, neither."""
+    from types import SimpleNamespace
+
+    face = faces["procedural"][0]
+    state = face._frame(face.activations_for("frown", 0.1))
+    guard = FoldGuard()
+    radii = np.array(fold_radii(face))
+    v = int(np.flatnonzero(state.W)[0])
+    side = int(np.argmin(radii[v]))
+    W = np.array(state.W)
+    W[v] = (1.0 if side == 0 else -1.0) * guard.knee * guard.eta * radii[v, side] * (1 + over)
+    fake = SimpleNamespace(face=face, skin_model="geometric", activations=state.activations,
+                           W=W, rest_points=state.rest_points, points=state.points,
+                           deformed_points=state.deformed_points)
+    acts = not np.array_equal(guard_wrinkles(W, radii, guard), W)
+    assert acts == (over > 0)
+    assert certify(face, fake).clamp == (not acts)
+
+
+@pytest.mark.parametrize("x", [0.7, 1.2])
+def test_the_wrinkle_steps_bound_is_met_by_an_in_plane_step(x):
+    """The step's gradient bound 2 sqrt(2) K max|W| is reached: W = -w, w, w on a right
+    triangle (K = 1), all along one in-plane direction n (a skin turned a right angle
+    from rest). At 2 sqrt(2) w / knee = x = 1.2 the exact check acts and the certificate
+    refuses; at x = 0.7 neither (a bound any smaller would certify the first)."""
+    guard = FoldGuard()
+    rest = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    tri = np.array([[0, 1, 2]])
+    w = x * guard.knee_wrinkles / (2.0 * np.sqrt(2.0))
+    n = np.array([-1.0, -1.0, 0.0]) / np.sqrt(2.0)
+    points = rest + np.array([-w, w, w])[:, None] * n
+    h = skin_scale(rest, points, tri, guard.min_area_wrinkles, guard.knee_wrinkles,
+                   start=rest)
+    bounds = {"Kp": 0.0, "Kw": 1.0, "sep": np.inf}
+    step = _certificates(0.0, 0.0, 0.0, 0.0, w, bounds, {"reach": np.inf, "size": 1.0},
+                         guard)[1]
+    assert np.all(h == 1.0) == (x < 1.0)
+    assert step == (x < 1.0)
