@@ -959,8 +959,8 @@ def _skin_bounds(face) -> dict | None:
     r"""What the certificates need of ``face``'s rest skin, computed once and kept with its
     rest frame (None for a skin of more than :data:`_CERT_MAX_POINTS` vertices):
 
-    * ``radii`` ``(n, 2)``: every rest radius in full (:func:`fold_radii`, which keeps them
-      for the exact checks as well);
+    * ``radii`` ``(n, 2)``: every rest radius in full, as lower bounds
+      (:func:`_verified_radii`; the exact checks keep their own, searched as a frame needs);
     * ``sep`` ``(n,)``: each vertex's distance to the nearest other vertex, :math:`s_x`;
     * ``K`` ``(m,)``: :math:`\|E_t^+\|_2 = 1/\sigma_{\min}(E_t)` of each triangle's rest
       edges :math:`E_t = [e_1\ e_2]`, and ``Einv`` ``(m, 2, 3)``: :math:`E_t^+`;
@@ -977,8 +977,8 @@ def _skin_bounds(face) -> dict | None:
         return None
     pts = np.asarray(skin.points, dtype=float)
     tri = np.asarray(skin.triangles, dtype=np.intp)
-    radii = np.array(fold_radii(face))  # every radius in full, kept for the exact checks
     d, _ = skin.kdtree.query(pts, k=2)
+    radii = _verified_radii(pts, rest.normals, skin.kdtree, d[:, 1])
     E = np.stack([pts[tri[:, 1]] - pts[tri[:, 0]], pts[tri[:, 2]] - pts[tri[:, 0]]], axis=2)
     Einv = np.linalg.pinv(E)  # (m, 2, 3); 0 rows for a triangle with no area
     sv = np.linalg.svd(E, compute_uv=False)
@@ -991,6 +991,27 @@ def _skin_bounds(face) -> dict | None:
                               "pairs": pairs, "dist": dist, "reach": reach,
                               "size": float(np.abs(pts).max()), "assemblies": {}}
     return got
+
+
+def _verified_radii(pts: np.ndarray, normals: np.ndarray, tree: cKDTree, sep: np.ndarray
+                    ) -> np.ndarray:
+    r"""``(n, 2)``: lower bounds of the rest radii that any search of :func:`fold_radii`
+    cannot go below: the search in full (from twice the diagonal), each ball checked empty
+    (0 where the search stopped before it was: its iteration cap), times
+    :math:`1 - 4 \cdot 10^{-9} (r / s)^2` (``sep`` ``(n,)``: :math:`s`, the distance to the
+    nearest other vertex). A search stops at a ball with no vertex deeper than
+    :math:`10^{-9} r` inside; a vertex that deep in a ball of radius :math:`r` and at
+    least :math:`s` from :math:`x` bounds a ball of radius at least
+    :math:`r (1 - 2 \cdot 10^{-9} (r / s)^2)` (``docs/model.md``).
+    """
+    r_max = 2.0 * float(np.linalg.norm(np.ptp(pts, axis=0)))
+    r = medial_radii(pts, normals, r_max=r_max, tree=tree)
+    for col, side in enumerate((1.0, -1.0)):
+        dist, _ = tree.query(pts + side * r[:, col, None] * normals)
+        r[dist < r[:, col] * (1.0 - 1e-9), col] = 0.0  # not converged: no bound
+    with np.errstate(divide="ignore", invalid="ignore"):
+        loss = 4e-9 * (r / np.where(sep > 0, sep, 0.0)[:, None]) ** 2
+    return np.where(loss < 1.0, r * (1.0 - loss), 0.0)
 
 
 def _assembly_bounds(face, asm, skin: dict) -> dict:
