@@ -588,6 +588,27 @@ def _rewrinkled(points: np.ndarray, d2: np.ndarray, W: np.ndarray, W2: np.ndarra
     return p2
 
 
+def _clamped(W: np.ndarray, radii, certified: bool, d2: np.ndarray, tri: np.ndarray,
+             terms: dict, guard: FoldGuard, deformed: bool, step: np.ndarray | None
+             ) -> np.ndarray:
+    r"""``(n,)``: :math:`W` ``(n,)`` clamped by :func:`guard_wrinkles` on the rest ``radii``
+    ``(n, 2)`` (or a function giving them, called only when they are needed), lowered by
+    the deformed skin ``d2``'s (:func:`_deformed_radii`) when ``deformed``; ``W`` itself
+    where the clamp is ``certified`` (the identity on the rest radii) and no deformed ball
+    shrank. ``step``: the frame's :math:`W n` when ``d2`` is its deformed skin.
+    """
+    low = _deformed_lows(d2, tri, W, terms, guard, step) if deformed else None
+    if certified and low is None:
+        return W
+    if callable(radii):
+        radii = radii()
+    if low is not None:
+        rows, values = low
+        radii = np.array(radii, dtype=float, copy=True)
+        radii[rows] = np.minimum(radii[rows], values)
+    return guard_wrinkles(W, radii, guard)
+
+
 def _held_wrinkles(rest: np.ndarray, d2: np.ndarray, p2: np.ndarray, W2: np.ndarray,
                    tri: np.ndarray, guard: FoldGuard, terms: dict
                    ) -> tuple[np.ndarray, np.ndarray]:
@@ -627,8 +648,8 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
        turn them over).
 
     ``certified`` (:func:`certify`): the checks it certifies are skipped (each would have
-    returned what skipping gives; ``radii`` may then be None); a pull the exact check does
-    scale voids the others.
+    returned what skipping gives); a pull the exact check does scale voids the others.
+    ``radii`` may be a function giving them, called only where they are needed.
 
     Where no guard acts, the frame's points are returned as they are (bit for bit).
     Elsewhere the final point is :math:`x' + W' n'`, with :math:`x'` the scaled pull and
@@ -649,14 +670,8 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
         d2 = d2.copy()
         d2[moved] = rest[moved] + f[moved, None] * (d2[moved] - rest[moved])
         cert = Certified(False, False, False, False)  # certified for the unscaled pull only
-    rest_radii = radii
-    if deformed_radii and not cert.balls:  # unmoved: the frame's normals, (x_f - x_d) / W
-        radii = _deformed_radii(d2, tri, W, radii, terms, guard,
-                                None if moved.any() else p2 - d2)
-    if cert.clamp and radii is rest_radii:  # the rest radii leave the clamp the identity
-        W2 = W
-    else:
-        W2 = guard_wrinkles(W, radii, guard)
+    W2 = _clamped(W, radii, cert.clamp, d2, tri, terms, guard,
+                  deformed_radii and not cert.balls, None if moved.any() else p2 - d2)
     p2 = _rewrinkled(p2, d2, W, W2, moved, tri, terms)
     if not cert.step:
         p2, W2 = _held_wrinkles(rest, d2, p2, W2, tri, guard, terms)
@@ -705,10 +720,26 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
     :math:`|W| / \kappa` and the clamp would not act on that bound, so whatever the rest
     radii say decides there (the same clamped :math:`W`, bit for bit).
     """
+    low = _deformed_lows(deformed, tri, W, terms, guard, step)
+    if low is None:
+        return radii
+    rows, values = low
+    out = np.array(radii, dtype=float, copy=True)
+    out[rows] = np.minimum(out[rows], values)
+    return out
+
+
+def _deformed_lows(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, terms: dict,
+                   guard: FoldGuard, step: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray] | None:
+    r"""The search of :func:`_deformed_radii`: the vertices whose ball shrank ``(k,)`` and
+    :math:`\eta_d / \eta` times their deformed radii ``(k, 2)`` (``inf`` on the side
+    :math:`W` does not push to), or None where no ball shrank.
+    """
     ratio = guard.eta_deformed / guard.eta
     ids = np.flatnonzero(W)
     if not len(ids):
-        return radii
+        return None
     start = np.abs(W[ids]) / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6)
     x = deformed[ids]
     reach = 2.0 * float(start.max())  # a ball of radius R tangent at x lies within 2 R of x
@@ -726,17 +757,14 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
     dist, _ = tree.query(c, distance_upper_bound=float(start.max()))
     hit = np.flatnonzero(dist < start * (1.0 - 1e-9))
     if not len(hit):
-        return radii
+        return None
     r = medial_radii(x[hit], n[hit], samples=samples, r_max=side[hit] * start[hit, None],
                      tree=tree)
     r = np.where(side[hit] > 0, r, np.inf)
     low = np.flatnonzero(r.min(axis=1) < start[hit])  # the balls that shrank
     if not len(low):
-        return radii
-    rows = ids[hit[low]]
-    out = np.array(radii, dtype=float, copy=True)
-    out[rows] = np.minimum(out[rows], ratio * r[low])
-    return out
+        return None
+    return ids[hit[low]], ratio * r[low]
 
 
 def _in_box(points: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -877,8 +905,8 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
     cert = certify(face, state, guard)
     if cert is not None and cert.all:  # no check can act: the frame as it is
         return state
-    radii = (None if cert is not None and cert.clamp and cert.balls
-             else fold_radii(face, state.face, state.W, guard))
+    radii = fold_radii(face, state.face, state.W, guard) if cert is None or not cert.clamp \
+        else lambda: fold_radii(face, state.face, state.W, guard)  # asked for if needed
     skin = state.face  # the face's own skin, or the refined one of this frame
     terms = getattr(skin._rest, "pull_terms", None)
     if terms is None:
