@@ -3,10 +3,13 @@ changed region against every pair, and what the fold guard adds to a frame (unre
 refined; the rest skin's radii and terms computed once, before timing).
 
 Run:  .venv/bin/python benchmarks/bench_folds.py [--rounds 3] [--json out.json]
-      [--baseline main] [--guard-only]
+      [--baseline main] [--guard-only] [--intensities 0.25,0.5,1] [--faces paper,head]
 
 ``--baseline REV``: that revision's ``core/foldguard.py`` guards the same frames, taking turns
 call by call with this tree's and with no guard (wall and CPU time; the frames compared).
+``--intensities``: the guard's frames at each of these intensities (the certified skips of
+``foldguard.certify`` hold at the lower ones); ``--faces``: the procedural face, the head or
+both.
 
 Every figure is the median over ``--rounds`` rounds of the median of several calls.
 """

@@ -1182,20 +1182,33 @@ def certify(face, state, guard: FoldGuard = FoldGuard()) -> Certified | None:
     lam *= 1.0 + 1e-9
     pulls, step, balls = _certificates(g, d_max, b_max, lam, w_max, bounds, skin, guard)
     if not (pulls and step and balls):  # the frame's own pull: tighter, a few calls more
-        moved = bounds["moved"]
-        slide = np.take(state.deformed_points, moved, axis=0)
-        slide -= np.take(state.rest_points, moved, axis=0)
-        D = (bounds["Um"] @ a).reshape(-1, 3)  # the summed tangent pull
-        slide -= D
-        tol = 1e-12 * (1.0 + skin["size"])
-        b_max = min(b_max, math.sqrt(float(np.einsum("ij,ij->i", slide, slide).max())) + tol)
-        g = float((bounds["Gt"] @ a).max())
-        tight = _certificates(g, d_max, b_max, lam, w_max, bounds, skin, guard)
-        if not tight[2]:  # the balls' far term may ask for the measured |D|
-            d_max = min(d_max, math.sqrt(float(np.einsum("ij,ij->i", D, D).max())) + tol)
-            tight = _certificates(g, d_max, b_max, lam, w_max, bounds, skin, guard)
+        tight = _measured(state, a, (d_max, b_max, lam, w_max), bounds, skin, guard)
         pulls, step, balls = pulls or tight[0], step or tight[1], balls or tight[2]
     return Certified(bool(pulls), bool(step), bool(balls), clamp)
+
+
+def _measured(state, a: np.ndarray, loose: tuple[float, ...], bounds: dict, skin: dict,
+              guard: FoldGuard) -> tuple[bool, bool, bool]:
+    r""":func:`_certificates` with the frame's own pull measured: the slide
+    :math:`|p - D|` (``D`` from the kept :math:`U_m` and the activations ``a`` ``(M,)``), the
+    gradient bound :math:`\max_t \sum_m a_m \|J_{m,t}\|` and, where the balls' far term
+    asks for it, :math:`|D|`; ``loose``: the bounds ``d_max``, ``b_max``, ``lam``,
+    ``w_max`` from the per-muscle maxima.
+    """
+    d_max, b_max, lam, w_max = loose
+    moved = bounds["moved"]
+    slide = np.take(state.deformed_points, moved, axis=0)
+    slide -= np.take(state.rest_points, moved, axis=0)
+    D = (bounds["Um"] @ a).reshape(-1, 3)  # the summed tangent pull
+    slide -= D
+    tol = 1e-12 * (1.0 + skin["size"])
+    b_max = min(b_max, math.sqrt(float(np.einsum("ij,ij->i", slide, slide).max())) + tol)
+    g = float((bounds["Gt"] @ a).max())
+    tight = _certificates(g, d_max, b_max, lam, w_max, bounds, skin, guard)
+    if not tight[2]:  # the balls' far term may ask for the measured |D|
+        d_max = min(d_max, math.sqrt(float(np.einsum("ij,ij->i", D, D).max())) + tol)
+        tight = _certificates(g, d_max, b_max, lam, w_max, bounds, skin, guard)
+    return tight
 
 
 def _certificates(g: float, d_max: float, b_max: float, lam: float, w_max: float,
