@@ -77,6 +77,23 @@ def test_refined_frames_are_the_exact_guards_bit_for_bit(faces, name, expression
                          f"refined {expression} {intensity}")
 
 
+@pytest.mark.slow
+def test_physical_frames_are_the_exact_guards_bit_for_bit(faces):
+    """The physical skin's frames: only the clamp's certificate applies to them."""
+    fast, exact = faces["procedural"]
+    for expression in ("frown", "smile"):
+        s = fast.evaluate(expression, 0.5, skin="physical", fold_guard=True)
+        own = foldguard.certify
+        foldguard.certify = lambda *args, **kwargs: None
+        try:
+            e = exact.evaluate(expression, 0.5, skin="physical", fold_guard=True)
+        finally:
+            foldguard.certify = own
+        _assert_same(s, e, f"physical {expression}")
+        c = certify(fast, fast.evaluate(expression, 0.5, skin="physical", fold_guard=False))
+        assert c is not None and not (c.pulls or c.step or c.balls)
+
+
 def _frame_bounds(face, state):
     """The certificate's bounds for ``state`` recomputed from its definitions: g (the pull's
     gradient), Λ, |D|, |b| and the least separation of the wrinkled vertices."""
@@ -236,10 +253,12 @@ def test_the_balls_room_is_twice_the_radius():
     assert not balls
 
 
-def test_only_unrefined_geometric_frames_are_certified(faces):
+def test_only_unrefined_geometric_frames_are_certified_beyond_the_clamp(faces):
     face = faces["procedural"][0]
     refined = face.evaluate("frown", 0.1, refine=True, fold_guard=False)
-    assert certify(face, refined) is None
+    assert refined.face is not face
+    c = certify(face, refined)
+    assert c.clamp and not (c.pulls or c.step or c.balls)
     assert certify(face, face._frame(face.activations_for("neutral"))) is None
     assert certify(face, face._frame(face.activations_for("frown", 0.1))).all
 
@@ -291,3 +310,27 @@ def test_the_wrinkle_steps_bound_is_met_by_an_in_plane_step(x):
                          guard)[1]
     assert np.all(h == 1.0) == (x < 1.0)
     assert step == (x < 1.0)
+
+
+@pytest.mark.parametrize("over", [1e-4, -2e-5])
+def test_a_refined_vertexs_clamp_is_certified_up_to_its_knee(faces, over):
+    """The same on a refined frame: a refined vertex's radius is the least of its three
+    nearest skin vertices' (the certificate must take the least, not any of them)."""
+    from types import SimpleNamespace
+
+    face = faces["procedural"][0]
+    state = face.evaluate("frown", 0.5, refine=True, fold_guard=False)
+    assert state.face is not face
+    guard = FoldGuard()
+    radii = np.array(fold_radii(face, state.face))
+    new = np.arange(face.skin.n_points, state.n_points)  # refined vertices come last
+    near = state.face._rest.fold_radii_nearest[new]
+    spread = np.ptp(foldguard._skin_bounds(face)["radii"].min(axis=1)[near], axis=1)
+    v = int(new[np.argmax(spread)])  # its three nearest radii differ the most
+    side = int(np.argmin(radii[v]))
+    W = np.array(state.W)
+    W[v] = (1.0 if side == 0 else -1.0) * guard.knee * guard.eta * radii[v, side] * (1 + over)
+    fake = SimpleNamespace(face=state.face, skin_model="geometric", W=W)
+    acts = not np.array_equal(guard_wrinkles(W, radii, guard), W)
+    assert acts == (over > 0)
+    assert certify(face, fake).clamp == (not acts)

@@ -1136,8 +1136,9 @@ def _clamp_limit(skin: dict, bounds: dict, guard: FoldGuard) -> np.ndarray:
 
 
 def certify(face, state, guard: FoldGuard = FoldGuard()) -> Certified | None:
-    r"""The certificates of an unrefined frame ``state`` of ``face``'s geometric skin (None
-    for any other frame: refined, physical, or a skin too large to keep their data).
+    r"""The certificates of an unrefined frame ``state`` of ``face``'s geometric skin; of
+    any other frame (refined, physical) the clamp's alone (:func:`_clamp_only`); None for a
+    skin too large to keep their data.
 
     With :math:`a_m` the activations, :math:`D = \sum_m a_m U_m` the summed tangent pull and
     :math:`b_v n_v` the slide (:func:`~wrinkle_vis.core.refined.slide_bend`), so the pull is
@@ -1160,7 +1161,7 @@ def certify(face, state, guard: FoldGuard = FoldGuard()) -> Certified | None:
     ``docs/model.md`` ("Certified skips") has the proofs.
     """
     if state.face is not face or state.skin_model != "geometric":
-        return None
+        return _clamp_only(face, state, guard)
     acts = state.activations
     active = tuple(n for n, a in acts.items() if a > 0.0)
     if not active:
@@ -1185,6 +1186,35 @@ def certify(face, state, guard: FoldGuard = FoldGuard()) -> Certified | None:
         tight = _measured(state, a, (d_max, b_max, lam, w_max), bounds, skin, guard)
         pulls, step, balls = pulls or tight[0], step or tight[1], balls or tight[2]
     return Certified(bool(pulls), bool(step), bool(balls), clamp)
+
+
+def _clamp_only(face, state, guard: FoldGuard) -> Certified | None:
+    r"""The clamp's certificate alone, for a frame whose pull is not known in closed form
+    (refined, or the physical skin's): :math:`|W| \le` :func:`_clamp_limit` at every vertex,
+    a refined vertex's limit the least of those of the three nearest vertices of ``face``'s
+    skin (whose radii :func:`fold_radii` gives it). None where the skin keeps no bounds.
+    """
+    skin = getattr(face._rest, "fold_bounds", None)
+    if skin is None:
+        skin = _skin_bounds(face)
+    if not skin:
+        return None
+    fine = state.face._rest
+    limit = getattr(fine, "fold_clamp_limit", None)
+    key = (guard.eta, guard.knee)
+    if limit is None or limit[0] != key:
+        base = (1.0 - 1e-5) * guard.knee * guard.eta * skin["radii"].min(axis=1)
+        if state.face is face or state.face.skin is face.skin:
+            limit = (key, base)
+        else:
+            idx = getattr(fine, "fold_radii_nearest", None)
+            if idx is None or len(idx) != state.face.skin.n_points:
+                _, idx = face.skin.kdtree.query(state.face.skin.points, k=3)
+                fine.fold_radii_nearest = idx  # as fold_radii keeps them
+            limit = (key, base[idx].min(axis=1))
+        fine.fold_clamp_limit = limit
+    clamp = bool((np.abs(state.W) <= limit[1]).all())
+    return Certified(False, False, False, clamp)
 
 
 def _measured(state, a: np.ndarray, loose: tuple[float, ...], bounds: dict, skin: dict,
