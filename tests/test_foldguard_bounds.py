@@ -334,3 +334,23 @@ def test_a_refined_vertexs_clamp_is_certified_up_to_its_knee(faces, over):
     acts = not np.array_equal(guard_wrinkles(W, radii, guard), W)
     assert acts == (over > 0)
     assert certify(face, fake).clamp == (not acts)
+
+
+def test_a_face_derived_by_an_edit_has_its_own_muscles_bounds(faces):
+    """A face derived by editing a muscle shares the rest skin (and its kept bounds) with the
+    face it came from, but not the muscle: its certificate bounds its own pulls."""
+    from dataclasses import replace
+
+    face = wv.datasets.load_face()
+    certify(face, face._frame(face.activations_for("frown", 0.3)))  # bounds kept for frown
+    m = face.muscle("corrugator_L")
+    edited = face.with_muscle(replace(m, strength=2.5 * m.strength_value))
+    assert edited._rest is face._rest
+    state = edited._frame(edited.activations_for("frown", 0.3))
+    certify(edited, state)
+    skin, b, a, D, pull, g, b_max = _frame_bounds(edited, state)
+    active = [n for n, x in state.activations.items() if x > 0.0]
+    assert np.array_equal(b["U"], np.array([
+        np.linalg.norm(edited.muscle_data(edited.muscle(n)).unit_disp, axis=1).max()
+        for n in active]))
+    assert _gradient_norms(state.rest_points, pull, edited.skin.triangles).max() <= g + 1e-12

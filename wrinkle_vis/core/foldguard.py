@@ -1014,7 +1014,7 @@ def _skin_bounds(face) -> dict | None:
     with np.errstate(divide="ignore"):
         K = np.where(sv[:, 1] > 0, 1.0 / sv[:, 1], np.inf)
     reach = _CERT_REACH * float(np.median(skin.rest_edge_lengths))
-    pairs = skin.kdtree.query_pairs(reach, output_type="ndarray")
+    pairs = skin.kdtree.query_pairs(reach, output_type="ndarray").astype(np.int32)
     dist = np.linalg.norm(pts[pairs[:, 0]] - pts[pairs[:, 1]], axis=1)
     rest.fold_bounds = got = {"radii": radii, "sep": d[:, 1], "K": K, "Einv": Einv,
                               "pairs": pairs, "dist": dist, "reach": reach,
@@ -1061,14 +1061,14 @@ def _assembly_bounds(face, asm, skin: dict) -> dict:
     corner and with a wrinkled one; ``S``, the largest Frobenius norm of the slide's shape
     operators; ``sep``, the least :math:`s_x` of the wrinkled vertices.
     """
-    memo = skin["assemblies"]
-    got = memo.pop(asm.names, None)
-    if got is None:
-        got = _build_assembly_bounds(face, asm, skin)
-    memo[asm.names] = got
+    memo = skin["assemblies"]  # by the assembly itself: the same names may be other muscles
+    got = memo.pop(id(asm), None)
+    if got is None or got[0] is not asm:
+        got = (asm, _build_assembly_bounds(face, asm, skin))
+    memo[id(asm)] = got  # (holding the assembly: its id is not reused while kept)
     while len(memo) > _CERT_ASSEMBLIES:
         memo.pop(next(iter(memo)))
-    return got
+    return got[1]
 
 
 def _build_assembly_bounds(face, asm, skin: dict) -> dict:
@@ -1171,9 +1171,9 @@ def certify(face, state, guard: FoldGuard = FoldGuard()) -> Certified | None:
         skin = _skin_bounds(face)
     if not skin:
         return None
-    bounds = skin["assemblies"].get(active)
-    if bounds is None:
-        bounds = _assembly_bounds(face, face._assembly(active), skin)
+    asm = face._assembly(active)  # the face's own (faces derived by edits share the skin)
+    got = skin["assemblies"].get(id(asm))
+    bounds = got[1] if got is not None and got[0] is asm else _assembly_bounds(face, asm, skin)
     a = np.array([acts[m] for m in active])
     w = np.abs(np.take(state.W, bounds["wrinkled"]))  # W is 0 off the wrinkled vertices
     w_max = float(w.max()) if len(w) else 0.0
