@@ -948,7 +948,7 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
 # would have returned exactly what skipping gives (the frame's own arrays), so the frames are
 # bit for bit those of the exact checks.
 
-_CERT_MAX_POINTS = 60_000  # larger skins keep no pairs and radii for the certificates
+_CERT_MAX_POINTS = 20_000  # larger skins keep no pairs and radii for the certificates
 _CERT_REACH = 6.0  # the pairs' reach D, in median edge lengths
 _CERT_ASSEMBLIES = 32  # the active sets whose bounds a skin keeps
 
