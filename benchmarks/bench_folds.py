@@ -3,10 +3,13 @@ changed region against every pair, and what the fold guard adds to a frame (unre
 refined; the rest skin's radii and terms computed once, before timing).
 
 Run:  .venv/bin/python benchmarks/bench_folds.py [--rounds 3] [--json out.json]
-      [--baseline main] [--guard-only]
+      [--baseline main] [--guard-only] [--intensities 0.25,0.5,1] [--faces paper,head]
 
 ``--baseline REV``: that revision's ``core/foldguard.py`` guards the same frames, taking turns
 call by call with this tree's and with no guard (wall and CPU time; the frames compared).
+``--intensities``: the guard's frames at each of these intensities (the certified skips of
+``foldguard.certify`` hold at the lower ones); ``--faces``: the procedural face, the head or
+both.
 
 Every figure is the median over ``--rounds`` rounds of the median of several calls.
 """
@@ -127,7 +130,8 @@ def _interleaved(runs: dict, calls: int, rounds: int) -> dict:
     return {k: (statistics.median(w), statistics.median(c)) for k, (w, c) in out.items()}
 
 
-def guard(rounds: int, baseline: str | None = None) -> dict:
+def guard(rounds: int, baseline: str | None = None, intensities: tuple[float, ...] = (1.0,),
+          faces: tuple[str, ...] = ("paper", "head")) -> dict:
     """The guarded frame against the unguarded one (``evaluate``; the rest skin's radii and
     terms cached by a first call), and, with ``baseline`` (a git revision), against that
     revision's guard on the same frames, the three taking turns call by call. Wall and
@@ -138,19 +142,21 @@ def guard(rounds: int, baseline: str | None = None) -> dict:
     old = _baseline_guard(baseline) if baseline else None
     out = {}
     for face_name, refine, exprs in GUARD_CASES:
+        if ("paper" if face_name is None else "head") not in faces:
+            continue
         face = wv.datasets.load_face() if face_name is None else wv.datasets.load_face(
             face_name)
         host = sys.modules[type(face).guarded.__module__]  # where FaceModel finds `guarded`
-        for expr in exprs:
-            def on(module, e=expr, r=refine, f=face, h=host, own=host.guarded):
+        for expr, level in ((e, i) for e in exprs for i in intensities):
+            def on(module, e=expr, i=level, r=refine, f=face, h=host, own=host.guarded):
                 h.guarded = module.guarded
                 try:
-                    return f.evaluate(e, refine=r, fold_guard=True)
+                    return f.evaluate(e, i, refine=r, fold_guard=True)
                 finally:
                     h.guarded = own
 
-            runs = {"off": lambda e=expr, r=refine, f=face: f.evaluate(e, refine=r,
-                                                                        fold_guard=False),
+            runs = {"off": lambda e=expr, i=level, r=refine, f=face: f.evaluate(
+                        e, i, refine=r, fold_guard=False),
                     "on": lambda: on(foldguard)}
             if old is not None:
                 runs["baseline"] = lambda: on(old)
@@ -162,6 +168,8 @@ def guard(rounds: int, baseline: str | None = None) -> dict:
                            for k in ("points", "W", "deformed_points", "fold_guard"))
             t = _interleaved(runs, 3 if refine else 15, rounds)
             key = f"{face.name.split(' (')[0]} {'refined' if refine else 'unrefined'} {expr}"
+            if len(intensities) > 1 or level != 1.0:
+                key += f" at {level:g}"
             out[key] = {"vertices": int(s.n_points), "acted": int(np.count_nonzero(s.fold_guard)),
                         "same_as_baseline": same,
                         **{f"{k}_s": v[0] for k, v in t.items()},
@@ -187,13 +195,19 @@ def main() -> None:
     ap.add_argument("--json", type=Path)
     ap.add_argument("--baseline", help="a git revision whose fold guard runs side by side")
     ap.add_argument("--guard-only", action="store_true", help="only the fold guard's cost")
+    ap.add_argument("--intensities", default="1",
+                    help="comma-separated intensities of the guard's frames (default 1)")
+    ap.add_argument("--faces", default="paper,head",
+                    help="the guard's faces: paper, head or both (default both)")
     args = ap.parse_args()
+    levels = tuple(float(v) for v in args.intensities.split(","))
+    faces = tuple(args.faces.split(","))
     if args.guard_only:
         res = {"certificate": {}, "frame_report": {},
-               "guard": guard(args.rounds, args.baseline)}
+               "guard": guard(args.rounds, args.baseline, levels, faces)}
     else:
         res = {"certificate": certificate(args.rounds), "frame_report": frame_report(args.rounds),
-               "guard": guard(args.rounds, args.baseline)}
+               "guard": guard(args.rounds, args.baseline, levels, faces)}
     for k, v in res["certificate"].items():
         print(f"certificate {k:10s} {v['triangles']:6d} triangles: ours "
               f"{v['certificate_s'] * 1e3:8.1f} ms, self_intersections "

@@ -23,6 +23,7 @@ wrinkle amplitude :math:`W` and the triangles, so any skin model can use them:
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,9 +31,9 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 from scipy.spatial import cKDTree
 
-__all__ = ["FoldGuard", "GuardResult", "fold_radii", "guard_amount", "guard_frame",
-           "guard_wrinkles", "guarded", "medial_radii", "pull_terms", "skin_scale",
-           "soft_clamp"]
+__all__ = ["Certified", "FoldGuard", "GuardResult", "certify", "fold_radii", "guard_amount",
+           "guard_frame", "guard_wrinkles", "guarded", "medial_radii", "pull_terms",
+           "skin_scale", "soft_clamp"]
 
 
 @dataclass(frozen=True)
@@ -588,6 +589,27 @@ def _rewrinkled(points: np.ndarray, d2: np.ndarray, W: np.ndarray, W2: np.ndarra
     return p2
 
 
+def _clamped(W: np.ndarray, radii, certified: bool, d2: np.ndarray, tri: np.ndarray,
+             terms: dict, guard: FoldGuard, deformed: bool, step: np.ndarray | None
+             ) -> np.ndarray:
+    r"""``(n,)``: :math:`W` ``(n,)`` clamped by :func:`guard_wrinkles` on the rest ``radii``
+    ``(n, 2)`` (or a function giving them, called only when they are needed), lowered by
+    the deformed skin ``d2``'s (:func:`_deformed_radii`) when ``deformed``; ``W`` itself
+    where the clamp is ``certified`` (the identity on the rest radii) and no deformed ball
+    shrank. ``step``: the frame's :math:`W n` when ``d2`` is its deformed skin.
+    """
+    low = _deformed_lows(d2, tri, W, terms, guard, step) if deformed else None
+    if certified and low is None:
+        return W
+    if callable(radii):
+        radii = radii()
+    if low is not None:
+        rows, values = low
+        radii = np.array(radii, dtype=float, copy=True)
+        radii[rows] = np.minimum(radii[rows], values)
+    return guard_wrinkles(W, radii, guard)
+
+
 def _held_wrinkles(rest: np.ndarray, d2: np.ndarray, p2: np.ndarray, W2: np.ndarray,
                    tri: np.ndarray, guard: FoldGuard, terms: dict
                    ) -> tuple[np.ndarray, np.ndarray]:
@@ -609,8 +631,8 @@ def _held_wrinkles(rest: np.ndarray, d2: np.ndarray, p2: np.ndarray, W2: np.ndar
 
 def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
                 triangles: np.ndarray, radii: np.ndarray, guard: FoldGuard = FoldGuard(),
-                pulls: bool = True, terms: dict | None = None, deformed_radii: bool = False
-                ) -> GuardResult:
+                pulls: bool = True, terms: dict | None = None, deformed_radii: bool = False,
+                certified: Certified | None = None) -> GuardResult:
     r"""The guards on one frame: ``rest``, ``deformed`` (before :math:`W`) and final
     ``points`` ``(n, 3)``, ``W`` ``(n,)``, ``triangles`` ``(m, 3)``, rest ``radii``
     ``(n, 2)`` (:func:`medial_radii`); ``terms``: :func:`pull_terms` of ``rest``, when cached.
@@ -626,6 +648,10 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
        :func:`skin_scale` of that step (a steep furrow on small triangles would otherwise
        turn them over).
 
+    ``certified`` (:func:`certify`): the checks it certifies are skipped (each would have
+    returned what skipping gives); a pull the exact check does scale voids the others.
+    ``radii`` may be a function giving them, called only where they are needed.
+
     Where no guard acts, the frame's points are returned as they are (bit for bit).
     Elsewhere the final point is :math:`x' + W' n'`, with :math:`x'` the scaled pull and
     :math:`n'` the area-weighted unit normal of the guarded deformed skin; a vertex whose
@@ -635,20 +661,21 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
     rest = np.asarray(rest, dtype=float)
     if terms is None:
         terms = pull_terms(rest, tri)
-    f = (skin_scale(rest, deformed, tri, guard.min_area, guard.knee, terms=terms) if pulls
-         else np.ones(len(rest)))
+    cert = certified if certified is not None else Certified(False, False, False, False)
+    f = (skin_scale(rest, deformed, tri, guard.min_area, guard.knee, terms=terms)
+         if pulls and not cert.pulls else np.ones(len(rest)))
     W = np.asarray(W, dtype=float)
     moved = f < 1.0
     d2, p2 = np.asarray(deformed, dtype=float), np.asarray(points, dtype=float)
     if moved.any():
         d2 = d2.copy()
         d2[moved] = rest[moved] + f[moved, None] * (d2[moved] - rest[moved])
-    if deformed_radii:  # unmoved: the frame's own normals, (x_f - x_d) / W, for free
-        radii = _deformed_radii(d2, tri, W, radii, terms, guard,
-                                None if moved.any() else p2 - d2)
-    W2 = guard_wrinkles(W, radii, guard)
+        cert = Certified(False, False, False, False)  # certified for the unscaled pull only
+    W2 = _clamped(W, radii, cert.clamp, d2, tri, terms, guard,
+                  deformed_radii and not cert.balls, None if moved.any() else p2 - d2)
     p2 = _rewrinkled(p2, d2, W, W2, moved, tri, terms)
-    p2, W2 = _held_wrinkles(rest, d2, p2, W2, tri, guard, terms)
+    if not cert.step:
+        p2, W2 = _held_wrinkles(rest, d2, p2, W2, tri, guard, terms)
     acted = moved | (W2 != W)
     if p2 is not points:
         acted |= np.any(p2 != points, axis=1)
@@ -694,10 +721,26 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
     :math:`|W| / \kappa` and the clamp would not act on that bound, so whatever the rest
     radii say decides there (the same clamped :math:`W`, bit for bit).
     """
+    low = _deformed_lows(deformed, tri, W, terms, guard, step)
+    if low is None:
+        return radii
+    rows, values = low
+    out = np.array(radii, dtype=float, copy=True)
+    out[rows] = np.minimum(out[rows], values)
+    return out
+
+
+def _deformed_lows(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, terms: dict,
+                   guard: FoldGuard, step: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray] | None:
+    r"""The search of :func:`_deformed_radii`: the vertices whose ball shrank ``(k,)`` and
+    :math:`\eta_d / \eta` times their deformed radii ``(k, 2)`` (``inf`` on the side
+    :math:`W` does not push to), or None where no ball shrank.
+    """
     ratio = guard.eta_deformed / guard.eta
     ids = np.flatnonzero(W)
     if not len(ids):
-        return radii
+        return None
     start = np.abs(W[ids]) / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6)
     x = deformed[ids]
     reach = 2.0 * float(start.max())  # a ball of radius R tangent at x lies within 2 R of x
@@ -715,17 +758,14 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
     dist, _ = tree.query(c, distance_upper_bound=float(start.max()))
     hit = np.flatnonzero(dist < start * (1.0 - 1e-9))
     if not len(hit):
-        return radii
+        return None
     r = medial_radii(x[hit], n[hit], samples=samples, r_max=side[hit] * start[hit, None],
                      tree=tree)
     r = np.where(side[hit] > 0, r, np.inf)
     low = np.flatnonzero(r.min(axis=1) < start[hit])  # the balls that shrank
     if not len(low):
-        return radii
-    rows = ids[hit[low]]
-    out = np.array(radii, dtype=float, copy=True)
-    out[rows] = np.minimum(out[rows], ratio * r[low])
-    return out
+        return None
+    return ids[hit[low]], ratio * r[low]
 
 
 def _in_box(points: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -863,7 +903,11 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
     """
     if not np.any(state.W) and state.deformed_points is state.rest_points:
         return state
-    radii = fold_radii(face, state.face, state.W, guard)
+    cert = certify(face, state, guard)
+    if cert is not None and cert.all:  # no check can act: the frame as it is
+        return state
+    radii = fold_radii(face, state.face, state.W, guard) if cert is None or not cert.clamp \
+        else lambda: fold_radii(face, state.face, state.W, guard)  # asked for if needed
     skin = state.face  # the face's own skin, or the refined one of this frame
     terms = getattr(skin._rest, "pull_terms", None)
     if terms is None:
@@ -871,7 +915,7 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
                                                    skin.skin.edges)
     g = guard_frame(state.rest_points, state.deformed_points, state.points, state.W,
                     state.triangles, radii, guard, terms=terms,
-                    deformed_radii=True)
+                    deformed_radii=True, certified=cert)
     if not g.acted.any():
         return state
     if state.face is face and np.any(g.scale < 1.0):  # the fields see the guarded pull
@@ -893,3 +937,327 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
         value.setflags(write=False)
         setattr(state, name, value)
     return state
+
+
+# ---------------------------------------------------------------- certified skips
+#
+# Conservative certificates that an unrefined frame of the geometric skin cannot make a
+# guard act (``docs/model.md``, "Certified skips"): each is a handful of operations on
+# numbers kept per skin and per set of active muscles, and where it holds the exact check it
+# stands for is skipped; where it does not, the exact check runs as before. A skipped check
+# would have returned exactly what skipping gives (the frame's own arrays), so the frames are
+# bit for bit those of the exact checks.
+
+_CERT_MAX_POINTS = 20_000  # larger skins keep no pairs and radii for the certificates
+_CERT_REACH = 6.0  # the pairs' reach D, in median edge lengths
+_CERT_ASSEMBLIES = 32  # the active sets whose bounds a skin keeps
+
+
+@dataclass(frozen=True)
+class Certified:
+    r"""Which checks of :func:`guard_frame` a frame's certificate lets it skip.
+
+    Attributes
+    ----------
+    pulls : bool
+        No triangle can fall below ``min_area`` under the pull (:func:`skin_scale` gives 1).
+    step : bool
+        No triangle can fall below ``min_area_wrinkles`` under the wrinkles' step.
+    balls : bool
+        No deformed vertex lies in any ball :func:`_deformed_radii` tests.
+    clamp : bool
+        :math:`|W| \le \kappa\eta r` at every vertex with the rest radii: the clamp is
+        the identity where the deformed skin's radii are not lower.
+
+    Each of ``step``, ``balls`` and ``clamp`` holds for the frame's own pull: where the
+    pulls' check scales it, they say nothing (:func:`guard_frame` then runs every check).
+    """
+
+    pulls: bool
+    step: bool
+    balls: bool
+    clamp: bool
+
+    @property
+    def all(self) -> bool:
+        """Every check certified: the guard cannot act on the frame."""
+        return self.pulls and self.step and self.balls and self.clamp
+
+
+def _skin_bounds(face) -> dict | None:
+    r"""What the certificates need of ``face``'s rest skin, computed once and kept with its
+    rest frame (None for a skin of more than :data:`_CERT_MAX_POINTS` vertices):
+
+    * ``radii`` ``(n, 2)``: every rest radius in full, as lower bounds
+      (:func:`_verified_radii`; the exact checks keep their own, searched as a frame needs);
+    * ``sep`` ``(n,)``: each vertex's distance to the nearest other vertex, :math:`s_x`;
+    * ``K`` ``(m,)``: :math:`\|E_t^+\|_2 = 1/\sigma_{\min}(E_t)` of each triangle's rest
+      edges :math:`E_t = [e_1\ e_2]`, and ``Einv`` ``(m, 2, 3)``: :math:`E_t^+`;
+    * ``pairs`` ``(p, 2)`` and ``dist`` ``(p,)``: every pair of vertices at most
+      :math:`D` = ``reach`` apart (:data:`_CERT_REACH` median edges).
+    """
+    rest = face._rest
+    got = getattr(rest, "fold_bounds", None)
+    if got is not None:
+        return got or None
+    skin = face.skin
+    if skin.n_points > _CERT_MAX_POINTS or skin.n_points < 2:
+        rest.fold_bounds = {}
+        return None
+    pts = np.asarray(skin.points, dtype=float)
+    tri = np.asarray(skin.triangles, dtype=np.intp)
+    d, _ = skin.kdtree.query(pts, k=2)
+    radii = _verified_radii(pts, rest.normals, skin.kdtree, d[:, 1])
+    E = np.stack([pts[tri[:, 1]] - pts[tri[:, 0]], pts[tri[:, 2]] - pts[tri[:, 0]]], axis=2)
+    Einv = np.linalg.pinv(E)  # (m, 2, 3); 0 rows for a triangle with no area
+    sv = np.linalg.svd(E, compute_uv=False)
+    with np.errstate(divide="ignore"):
+        K = np.where(sv[:, 1] > 0, 1.0 / sv[:, 1], np.inf)
+    reach = _CERT_REACH * float(np.median(skin.rest_edge_lengths))
+    pairs = skin.kdtree.query_pairs(reach, output_type="ndarray").astype(np.int32)
+    dist = np.linalg.norm(pts[pairs[:, 0]] - pts[pairs[:, 1]], axis=1)
+    rest.fold_bounds = got = {"radii": radii, "sep": d[:, 1], "K": K, "Einv": Einv,
+                              "pairs": pairs, "dist": dist, "reach": reach,
+                              "size": float(np.abs(pts).max()), "assemblies": {}}
+    return got
+
+
+def _verified_radii(pts: np.ndarray, normals: np.ndarray, tree: cKDTree, sep: np.ndarray
+                    ) -> np.ndarray:
+    r"""``(n, 2)``: lower bounds of the rest radii that any search of :func:`fold_radii`
+    cannot go below: the search in full (from twice the diagonal), each ball checked empty
+    (0 where the search stopped before it was: its iteration cap), times
+    :math:`1 - 4 \cdot 10^{-9} (r / s)^2` (``sep`` ``(n,)``: :math:`s`, the distance to the
+    nearest other vertex). A search stops at a ball with no vertex deeper than
+    :math:`10^{-9} r` inside; a vertex that deep in a ball of radius :math:`r` and at
+    least :math:`s` from :math:`x` bounds a ball of radius at least
+    :math:`r (1 - 2 \cdot 10^{-9} (r / s)^2)` (``docs/model.md``).
+    """
+    r_max = 2.0 * float(np.linalg.norm(np.ptp(pts, axis=0)))
+    r = medial_radii(pts, normals, r_max=r_max, tree=tree)
+    for col, side in enumerate((1.0, -1.0)):
+        dist, _ = tree.query(pts + side * r[:, col, None] * normals)
+        r[dist < r[:, col] * (1.0 - 1e-9), col] = 0.0  # not converged: no bound
+    with np.errstate(divide="ignore", invalid="ignore"):
+        loss = 4e-9 * (r / np.where(sep > 0, sep, 0.0)[:, None]) ** 2
+    return np.where(loss < 1.0, r * (1.0 - loss), 0.0)
+
+
+def _assembly_bounds(face, asm, skin: dict) -> dict:
+    r"""What the certificates need of the active set ``asm`` (a ``_StackedMuscles``), per
+    muscle :math:`m` in its order, from its unit displacement :math:`U_m` (the tangent pull
+    at activation 1, 0 outside its AOI):
+
+    * ``G`` ``(M,)``: :math:`\hat G_m = \max_t \|J_{m,t}\|_2`, :math:`J_{m,t} = [U_1 - U_0\
+      \ U_2 - U_0]\,E_t^+` the gradient of :math:`U_m` on triangle :math:`t`;
+    * ``U`` ``(M,)``: :math:`\hat U_m = \max_v |U_m(v)|`;
+    * ``Lip`` ``(M,)``: :math:`\max |U_m(v) - U_m(w)| / |x_v - x_w|` over the pairs at most
+      :math:`D` apart;
+    * ``Gt`` ``(T, M)``: :math:`\|J_{m,t}\|_2` on each triangle with a moved corner, and
+      ``Um`` ``(3 u, M)``: :math:`U_m` at the moved vertices (``asm.moved``, their x, y
+      and z in turn);
+
+    and of the set: ``Kp``, ``Kw``, the largest :math:`K_t` of the triangles with a moved
+    corner and with a wrinkled one; ``S``, the largest Frobenius norm of the slide's shape
+    operators; ``sep``, the least :math:`s_x` of the wrinkled vertices.
+    """
+    memo = skin["assemblies"]  # by the assembly itself: the same names may be other muscles
+    got = memo.pop(id(asm), None)
+    if got is None or got[0] is not asm:
+        got = (asm, _build_assembly_bounds(face, asm, skin))
+    memo[id(asm)] = got  # (holding the assembly: its id is not reused while kept)
+    while len(memo) > _CERT_ASSEMBLIES:
+        memo.pop(next(iter(memo)))
+    return got[1]
+
+
+def _build_assembly_bounds(face, asm, skin: dict) -> dict:
+    """:func:`_assembly_bounds`, computed."""
+    tri = np.asarray(face.skin.triangles, dtype=np.intp)
+    n = face.skin.n_points
+    pairs, dist = skin["pairs"], skin["dist"]
+    moved = np.zeros(n, bool)
+    moved[asm.moved] = True
+    pulled = np.flatnonzero(moved[tri].any(axis=1))
+    G, U, Lip = [], [], []
+    Gt = np.zeros((len(pulled), len(asm.names)))
+    Um = np.zeros((len(asm.moved), 3, len(asm.names)))
+    for k, name in enumerate(asm.names):
+        data = face.muscle_data(face.muscle(name))
+        u = np.zeros((n, 3))
+        u[data.aoi] = data.unit_disp
+        inside = np.zeros(n, bool)
+        inside[data.aoi] = True
+        rows = np.flatnonzero(inside[tri].any(axis=1))
+        c = tri[rows]
+        D = np.stack([u[c[:, 1]] - u[c[:, 0]], u[c[:, 2]] - u[c[:, 0]]], axis=2)
+        J = D @ skin["Einv"][rows]
+        norms = np.linalg.norm(J, ord=2, axis=(1, 2))
+        G.append(float(norms.max()) if len(rows) else 0.0)
+        Gt[np.searchsorted(pulled, rows), k] = norms  # (its triangles are pulled ones)
+        Um[:, :, k] = u[asm.moved]  # (as rows x, y, z of each moved vertex)
+        U.append(float(np.linalg.norm(u, axis=1).max()))
+        near = np.flatnonzero(inside[pairs[:, 0]] | inside[pairs[:, 1]])
+        p = pairs[near]
+        diff = np.linalg.norm(u[p[:, 0]] - u[p[:, 1]], axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(diff > 0, diff / dist[near], 0.0)
+        Lip.append(float(ratio.max()) if len(ratio) else 0.0)
+    wrinkled = np.zeros(n, bool)
+    wrinkled[asm.wrinkled] = True
+    K = skin["K"]
+    s = asm.slide_s
+    frob = np.sqrt(s[0] ** 2 + s[1] ** 2 + s[2] ** 2 + 2.0 * (s[3] ** 2 + s[4] ** 2 + s[5] ** 2))
+
+    def most(values: np.ndarray) -> float:
+        return float(values.max()) if len(values) else 0.0
+
+    return {"G": np.array(G), "U": np.array(U), "Lip": np.array(Lip), "Gt": Gt,
+            "ULG": np.ascontiguousarray(np.stack([U, Lip, G], axis=1)),
+            "Um": np.ascontiguousarray(Um.reshape(-1, len(asm.names))),
+            "moved": asm.moved, "wrinkled": asm.wrinkled, "clamp": {},
+            "Kp": most(K[moved[tri].any(axis=1)]), "Kw": most(K[wrinkled[tri].any(axis=1)]),
+            "S": most(frob),
+            "sep": float(skin["sep"][asm.wrinkled].min()) if len(asm.wrinkled) else np.inf}
+
+
+def _clamp_limit(skin: dict, bounds: dict, guard: FoldGuard) -> np.ndarray:
+    r"""``(v,)``: :math:`(1 - 10^{-5})\,\kappa\,\eta \min(r_+, r_-)` on the rest radii in
+    full at the wrinkled vertices of an active set (its ``bounds``), kept per guard:
+    :math:`|W|` at or below it leaves the clamp the identity and asks :func:`fold_radii`
+    for no search.
+    """
+    key = (guard.eta, guard.knee)
+    got = bounds["clamp"].get(key)
+    if got is None:
+        r = skin["radii"][bounds["wrinkled"]].min(axis=1)
+        got = bounds["clamp"][key] = (1.0 - 1e-5) * guard.knee * guard.eta * r
+    return got
+
+
+def certify(face, state, guard: FoldGuard = FoldGuard()) -> Certified | None:
+    r"""The certificates of an unrefined frame ``state`` of ``face``'s geometric skin; of
+    any other frame (refined, physical) the clamp's alone (:func:`_clamp_only`); None for a
+    skin too large to keep their data.
+
+    With :math:`a_m` the activations, :math:`D = \sum_m a_m U_m` the summed tangent pull and
+    :math:`b_v n_v` the slide (:func:`~wrinkle_vis.core.refined.slide_bend`), so the pull is
+    :math:`p = D - b\,n`:
+
+    * :math:`D_{\max} = \sum_m a_m \hat U_m`, :math:`b_{\max} = \min(\tfrac12 S D_{\max}^2,
+      0.3 D_{\max})`, :math:`P = D_{\max} + b_{\max}` bound :math:`|D|`, :math:`|b|`, :math:`|p|`;
+    * :math:`g = \sum_m a_m \hat G_m + 2\sqrt2\,K_p b_{\max}` bounds the pull's gradient on
+      every triangle, :math:`\|J_t\|_2`;
+    * pulls: :math:`(1 - g/\kappa)^2 \ge \sigma_{\min}` (then
+      :math:`\sigma_t(s) = \det(I + s P_t J_t) \ge (1 - s g)^2` on :math:`[0, 1/\kappa]`);
+    * step: :math:`g_w = 2\sqrt2\,K_w \max|W|`, :math:`(1 - g - g_w/\kappa_w)^2 \ge
+      \sigma_{\min,w}`;
+    * balls: :math:`\Lambda = \sum_m a_m \mathrm{Lip}_m < 1` and
+      :math:`2\rho(1 + 10^{-6}) + \tau \le \min(s(1 - \Lambda) - 2b_{\max}, D - 2P)`,
+      :math:`\rho = \max|W| / (\kappa \eta_d)\,(1 + 10^{-6})` (no deformed vertex but
+      :math:`x` within :math:`2\rho` of :math:`x`);
+    * clamp: :math:`|W| \le` :func:`_clamp_limit` everywhere.
+
+    ``docs/model.md`` ("Certified skips") has the proofs.
+    """
+    if state.face is not face or state.skin_model != "geometric":
+        return _clamp_only(face, state, guard)
+    acts = state.activations
+    active = tuple(n for n, a in acts.items() if a > 0.0)
+    if not active:
+        return None
+    skin = getattr(face._rest, "fold_bounds", None)
+    if skin is None:
+        skin = _skin_bounds(face)
+    if not skin:
+        return None
+    asm = face._assembly(active)  # the face's own (faces derived by edits share the skin)
+    got = skin["assemblies"].get(id(asm))
+    bounds = got[1] if got is not None and got[0] is asm else _assembly_bounds(face, asm, skin)
+    a = np.array([acts[m] for m in active])
+    w = np.abs(np.take(state.W, bounds["wrinkled"]))  # W is 0 off the wrinkled vertices
+    w_max = float(w.max()) if len(w) else 0.0
+    clamp = bool((w <= _clamp_limit(skin, bounds, guard)).all())
+    d_max, lam, g = (a @ bounds["ULG"]).tolist()  # sums of a_m U_m, a_m Lip_m, a_m G_m
+    b_max = min(0.5 * bounds["S"] * d_max * d_max, 0.3 * d_max)
+    lam *= 1.0 + 1e-9
+    pulls, step, balls = _certificates(g, d_max, b_max, lam, w_max, bounds, skin, guard)
+    if not (pulls and step and balls):  # the frame's own pull: tighter, a few calls more
+        tight = _measured(state, a, (d_max, b_max, lam, w_max), bounds, skin, guard)
+        pulls, step, balls = pulls or tight[0], step or tight[1], balls or tight[2]
+    return Certified(bool(pulls), bool(step), bool(balls), clamp)
+
+
+def _clamp_only(face, state, guard: FoldGuard) -> Certified | None:
+    r"""The clamp's certificate alone, for a frame whose pull is not known in closed form
+    (refined, or the physical skin's): :math:`|W| \le` :func:`_clamp_limit` at every vertex,
+    a refined vertex's limit the least of those of the three nearest vertices of ``face``'s
+    skin (whose radii :func:`fold_radii` gives it). None where the skin keeps no bounds.
+    """
+    skin = getattr(face._rest, "fold_bounds", None)
+    if skin is None:
+        skin = _skin_bounds(face)
+    if not skin:
+        return None
+    fine = state.face._rest
+    limit = getattr(fine, "fold_clamp_limit", None)
+    key = (guard.eta, guard.knee)
+    if limit is None or limit[0] != key:
+        base = (1.0 - 1e-5) * guard.knee * guard.eta * skin["radii"].min(axis=1)
+        if state.face is face or state.face.skin is face.skin:
+            limit = (key, base)
+        else:
+            idx = getattr(fine, "fold_radii_nearest", None)
+            if idx is None or len(idx) != state.face.skin.n_points:
+                _, idx = face.skin.kdtree.query(state.face.skin.points, k=3)
+                fine.fold_radii_nearest = idx  # as fold_radii keeps them
+            limit = (key, base[idx].min(axis=1))
+        fine.fold_clamp_limit = limit
+    clamp = bool((np.abs(state.W) <= limit[1]).all())
+    return Certified(False, False, False, clamp)
+
+
+def _measured(state, a: np.ndarray, loose: tuple[float, ...], bounds: dict, skin: dict,
+              guard: FoldGuard) -> tuple[bool, bool, bool]:
+    r""":func:`_certificates` with the frame's own pull measured: the slide
+    :math:`|p - D|` (``D`` from the kept :math:`U_m` and the activations ``a`` ``(M,)``), the
+    gradient bound :math:`\max_t \sum_m a_m \|J_{m,t}\|` and, where the balls' far term
+    asks for it, :math:`|D|`; ``loose``: the bounds ``d_max``, ``b_max``, ``lam``,
+    ``w_max`` from the per-muscle maxima.
+    """
+    d_max, b_max, lam, w_max = loose
+    moved = bounds["moved"]
+    slide = np.take(state.deformed_points, moved, axis=0)
+    slide -= np.take(state.rest_points, moved, axis=0)
+    D = (bounds["Um"] @ a).reshape(-1, 3)  # the summed tangent pull
+    slide -= D
+    tol = 1e-12 * (1.0 + skin["size"])
+    b_max = min(b_max, math.sqrt(float(np.einsum("ij,ij->i", slide, slide).max())) + tol)
+    g = float((bounds["Gt"] @ a).max())
+    tight = _certificates(g, d_max, b_max, lam, w_max, bounds, skin, guard)
+    if not tight[2]:  # the balls' far term may ask for the measured |D|
+        d_max = min(d_max, math.sqrt(float(np.einsum("ij,ij->i", D, D).max())) + tol)
+        tight = _certificates(g, d_max, b_max, lam, w_max, bounds, skin, guard)
+    return tight
+
+
+def _certificates(g: float, d_max: float, b_max: float, lam: float, w_max: float,
+                  bounds: dict, skin: dict, guard: FoldGuard) -> tuple[bool, bool, bool]:
+    r"""The pulls', the wrinkle step's and the balls' certificates of :func:`certify` from
+    the bounds :math:`\sum_m a_m \|J_{m,t}\|` (``g``, before the slide's part),
+    :math:`|D| \le` ``d_max``, :math:`|b| \le` ``b_max``, :math:`\Lambda` (``lam``) and
+    :math:`\max|W|` (``w_max``); plain floats (a few microseconds).
+    """
+    g = (g + _TWO_SQRT2 * bounds["Kp"] * b_max) * (1.0 + 1e-9) + 1e-12
+    top = g / guard.knee
+    pulls = top < 1.0 and (1.0 - top) ** 2 >= guard.min_area * (1.0 + 1e-9) + 1e-12
+    x = g + (_TWO_SQRT2 * bounds["Kw"] * w_max * (1.0 + 1e-9) + 1e-12) / guard.knee_wrinkles
+    step = x < 1.0 and (1.0 - x) ** 2 >= guard.min_area_wrinkles * (1.0 + 1e-9) + 1e-12
+    room = 2.0 * w_max / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6) * (1.0 + 1e-6) \
+        + 1e-12 * (1.0 + skin["size"])  # 2 rho (1 + 1e-6) + tau
+    balls = (lam < 1.0 and room <= bounds["sep"] * (1.0 - lam) - 2.0 * b_max
+             and room <= skin["reach"] - 2.0 * (d_max + b_max))
+    return pulls, step, balls
+
+
+_TWO_SQRT2 = 2.0 * math.sqrt(2.0)
