@@ -7,7 +7,9 @@ read and welded (datasets.read_surface), its corner UVs read (plotting.bake.read
 moved into the built-in frame in millimetres by the rotation of the similarity that takes
 the procedural face's landmarks onto the scan's (datasets/examples/lee_perry_smith.json,
 picked on a front view), its lips moved apart where they pass through each other at the
-slit or fold flat onto each other at the corners (separate_lips), and stored as float32;
+slit or fold flat onto each other at the corners (separate_lips), its eyelids and an ear
+smoothed where they pass through themselves and the eyes' corners' flat folds opened a little
+(untangle_eyelids), and stored as float32;
 the skull is the level set of datasets.skull.scan_skull; the muscles are the procedural
 layout moved by the landmarks (datasets.scans.transfer_layout), then the frontalis sheets
 refitted to this forehead (fit_frontalis). The original OBJ is never copied into the package.
@@ -22,8 +24,9 @@ import numpy as np
 import wrinkle_vis as wv
 from wrinkle_vis.core.mesh import closest_points
 from wrinkle_vis.datasets import BUILTIN_LAYOUT, read_surface, transfer_layout
+from wrinkle_vis.datasets.eyelids import untangle
 from wrinkle_vis.datasets.lee_perry_smith import DATA, LAYOUT
-from wrinkle_vis.datasets.lips import facing_pairs, separate_crossings
+from wrinkle_vis.datasets.lips import facing_pairs, folded_pairs, separate_crossings
 from wrinkle_vis.datasets.scans import similarity_transform
 from wrinkle_vis.datasets.skull import scan_skull
 from wrinkle_vis.plotting.bake import read_obj_uvs
@@ -74,6 +77,32 @@ def separate_lips(skin, marks):
     return wv.TriangleSurface(points, tri)
 
 
+#: The eyes' region: within this many mm of the mid-point of each eye's corners.
+EYES_RADIUS = 20.0
+#: Umbrella steps on the vertices that crossed and the eyes' corners' flat folds once
+#: nothing crosses (datasets/eyelids.py: room for the pulls and the refined surface).
+EYELIDS_CLEARANCE = 4
+
+
+def untangle_eyelids(skin, marks):
+    """The skin with its eyelids (whose lower margins curl back through the lids at rest)
+    and an ear smoothed by umbrella steps where they pass through themselves, then
+    :data:`EYELIDS_CLEARANCE` steps more there and on the corners of the eyes' flat folds
+    (:func:`~wrinkle_vis.datasets.eyelids.untangle`, float32 as stored): the rest skin then
+    crosses itself nowhere.
+    """
+    eyes = np.zeros(skin.n_points, bool)
+    for side in "LR":
+        mid = 0.5 * (np.asarray(marks[f"eye_inner_{side}"])
+                     + np.asarray(marks[f"eye_outer_{side}"]))
+        eyes |= np.linalg.norm(skin.points - mid, axis=1) < EYES_RADIUS
+    tri = skin.triangles
+    hold = np.zeros(skin.n_points, bool)
+    hold[tri[folded_pairs(skin.points, tri, eyes).ravel()].ravel()] = True
+    return wv.TriangleSurface(untangle(skin.points, tri, clearance=EYELIDS_CLEARANCE,
+                                       hold=hold), tri)
+
+
 def compact(surface):
     """The surface as stored (float32 points), read back as float64."""
     return wv.TriangleSurface(surface.points.astype(np.float32).astype(float),
@@ -109,7 +138,7 @@ def main(path: Path) -> None:
     scanned = compact(scan.with_points(move(scan.points)))
     marks = {k: tuple(map(float, closest_points(scanned, move(v)[None])[0]))
              for k, v in marks_m.items()}
-    skin = separate_lips(scanned, marks)
+    skin = untangle_eyelids(separate_lips(scanned, marks), marks)
     skull = compact(scan_skull(skin, marks))
     assert all(np.allclose(closest_points(skin, np.asarray(v)[None])[0], v)
                for v in marks.values()), "a landmark sits on the lips that moved"
