@@ -20,7 +20,10 @@ follow; the umbrella (uniform Laplacian) step
 
 on the corners of the crossing triangles only (every other vertex stays put) lowers that
 turning whatever the sheets' orientation, so repeated steps (each followed by the certificate
-on the skin rounded to float32, as the package stores it) unwind the fold. Once nothing
+on the skin rounded to float32, as the package stores it) unwind the fold. Where the sheets
+cross away from the turn (a loop whose branches are flat where they meet), smoothing their
+corners moves nothing: when ``patience`` steps in a row leave as many pairs as the fewest
+seen, the smoothed region grows by one ring of neighbours (up to the turn). Once nothing
 crosses, ``clearance`` more steps on every vertex that ever crossed, and on the corners of the
 flat folds asked for (:func:`~wrinkle_vis.datasets.lips.folded_pairs`), open a little room
 between the sheets, so that the pulls of an expression and the refined surface (which bulges
@@ -48,10 +51,11 @@ def _adjacency(n: int, tri: np.ndarray) -> sp.csr_matrix:
 
 def untangle(points: np.ndarray, triangles: np.ndarray, region: np.ndarray | None = None,
              step: float = 0.25, clearance: int = 4, hold: np.ndarray | None = None,
-             max_steps: int = 200, float32: bool = True) -> np.ndarray:
+             max_steps: int = 200, patience: int = 5, float32: bool = True) -> np.ndarray:
     r"""``(n, 3)``: ``points`` ``(n, 3)`` with the triangles ``(m, 3)`` that cross each other
     (both triangles' corners inside ``region`` ``(n,) bool``, default everywhere) smoothed
-    by umbrella steps of size ``step`` (:math:`\mu`, module notes) on their corners until
+    by umbrella steps of size ``step`` (:math:`\mu`, module notes) on their corners (and
+    one more ring of neighbours each time ``patience`` steps bring no fewer pairs) until
     none crosses, then ``clearance`` more steps on every vertex that ever crossed and on
     the vertices ``hold`` ``(n,) bool`` (say, flat folds to open).
     ``float32``: every step's skin is rounded to float32 (as the package stores it) and
@@ -66,15 +70,20 @@ def untangle(points: np.ndarray, triangles: np.ndarray, region: np.ndarray | Non
     degree = np.maximum(np.asarray(adjacency.sum(axis=1)).ravel(), 1.0)[:, None]
     inside = np.ones(len(tri), bool) if region is None else np.asarray(region, bool)[tri].all(1)
     seen = np.zeros(n, bool) if hold is None else np.asarray(hold, bool).copy()
-    extra = 0
+    extra, rings, fewest, idle = 0, 0, len(tri) ** 2, 0
     for _ in range(max_steps):
         if float32:
             pts = pts.astype(np.float32).astype(float)
         pairs = intersecting_pairs(pts, tri)
         pairs = pairs[inside[pairs].all(axis=1)] if len(pairs) else pairs
         if len(pairs):
+            fewest, idle = min(fewest, len(pairs)), 0 if len(pairs) < fewest else idle + 1
+            if idle >= patience:
+                rings, idle = rings + 1, 0
             move = np.zeros(n, bool)
             move[tri[pairs.ravel()].ravel()] = True
+            for _ in range(rings):
+                move |= (adjacency @ move.astype(float)) > 0
             seen |= move
         elif extra < clearance and seen.any():
             move, extra = seen, extra + 1
