@@ -21,7 +21,8 @@ vertices welded along the UV seams, the quads split into triangles, rescaled fro
 millimetres, rotated and moved into the built-in frame, the lips moved apart where the scan's
 closed mouth has them passing through each other (:mod:`wrinkle_vis.datasets.lips`), the
 lower eyelids' margins and an ear smoothed where they pass through themselves
-(:mod:`wrinkle_vis.datasets.eyelids`), and a skull and muscles added. See the package's ``NOTICE.txt`` file.
+(:mod:`wrinkle_vis.datasets.eyelids`), and a skull and muscles added. See the package's
+``NOTICE.txt`` file.
 """
 
 from __future__ import annotations
