@@ -627,6 +627,18 @@ def test_no_head_expression_adds_a_crossing_or_turns_a_triangle_unrefined(head, 
 
 
 @pytest.mark.slow
+def test_the_physical_skin_moves_the_heads_eyelids_without_a_crossing(head):
+    # main's head: 14-48 pairs added at the eyelids (squint, the Duchenne smile at 0.25-1)
+    face = head.with_skin_model("physical")
+    rest = intersecting_pairs(face.skin.points, face.skin.triangles)
+    for name in ("squint", "duchenne_smile", "waters_happiness", "waters_anger",
+                 "waters_disgust"):
+        for intensity in (0.5, 1.0):
+            s = face.evaluate(name, intensity)
+            assert fold_report(s.rest_points, s.points, s.triangles, rest).ok, name
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("intensity", (0.25, 0.5, 0.75, 1.0))
 def test_refined_head_expressions_add_no_more_crossings_than_measured(head, intensity):
     # main's head: the eyelids add up to 255 pairs (squint, the Duchenne smile at 1)
