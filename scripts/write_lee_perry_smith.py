@@ -82,12 +82,17 @@ EYES_RADIUS = 20.0
 #: Umbrella steps on the vertices that crossed and the eyes' corners' flat folds once
 #: nothing crosses (datasets/eyelids.py: room for the pulls and the refined surface).
 EYELIDS_CLEARANCE = 4
+#: Then umbrella steps on the eyes' corners' flat folds alone (the refined squint at 1: 22
+#: pairs added at the left eye's outer corner after 0 such steps, 5 after 6 or 8, 9 after
+#: 10 or 12, 14 after 16).
+EYE_CORNER_STEPS = 8
 
 
 def untangle_eyelids(skin, marks):
     """The skin with its eyelids (whose lower margins curl back through the lids at rest)
     and an ear smoothed by umbrella steps where they pass through themselves, then
-    :data:`EYELIDS_CLEARANCE` steps more there and on the corners of the eyes' flat folds
+    :data:`EYELIDS_CLEARANCE` steps more there and on the corners of the eyes' flat folds,
+    then :data:`EYE_CORNER_STEPS` on those corners alone
     (:func:`~wrinkle_vis.datasets.eyelids.untangle`, float32 as stored): the rest skin then
     crosses itself nowhere.
     """
@@ -99,8 +104,8 @@ def untangle_eyelids(skin, marks):
     tri = skin.triangles
     hold = np.zeros(skin.n_points, bool)
     hold[tri[folded_pairs(skin.points, tri, eyes).ravel()].ravel()] = True
-    return wv.TriangleSurface(untangle(skin.points, tri, clearance=EYELIDS_CLEARANCE,
-                                       hold=hold), tri)
+    points = untangle(skin.points, tri, clearance=EYELIDS_CLEARANCE, hold=hold)
+    return wv.TriangleSurface(untangle(points, tri, clearance=EYE_CORNER_STEPS, hold=hold), tri)
 
 
 def compact(surface):
