@@ -9,7 +9,8 @@ the procedural face's landmarks onto the scan's (datasets/examples/lee_perry_smi
 picked on a front view), its lips moved apart where they pass through each other at the
 slit or fold flat onto each other at the corners (separate_lips), its eyelids and an ear
 smoothed where they pass through themselves and the eyes' corners' flat folds opened a little
-(untangle_eyelids), and stored as float32;
+(untangle_eyelids), the mouth's corners' flat folds opened a little (open_mouth_corners),
+and stored as float32;
 the skull is the level set of datasets.skull.scan_skull; the muscles are the procedural
 layout moved by the landmarks (datasets.scans.transfer_layout), then the frontalis sheets
 refitted to this forehead (fit_frontalis). The original OBJ is never copied into the package.
@@ -108,6 +109,32 @@ def untangle_eyelids(skin, marks):
     return wv.TriangleSurface(untangle(points, tri, clearance=EYE_CORNER_STEPS, hold=hold), tri)
 
 
+#: The mouth's corners' region: within this many mm of each corner's landmark.
+MOUTH_CORNER_RADIUS = 8.0
+#: Umbrella steps on the mouth's corners' flat folds (the refined pucker at 0.25, Waters'
+#: sadness at 0.5 and 0.75 and fear at 1 added 6, 11, 8 and 11 pairs there without them,
+#: none after 2, 4 or 8).
+MOUTH_CORNER_STEPS = 4
+
+
+def open_mouth_corners(skin, marks):
+    """The skin with the flat folds at the mouth's corners (triangles that share a vertex and
+    face each other, :func:`~wrinkle_vis.datasets.lips.folded_pairs`, within
+    :data:`MOUTH_CORNER_RADIUS` of a corner) smoothed by :data:`MOUTH_CORNER_STEPS`
+    umbrella steps (:func:`~wrinkle_vis.datasets.eyelids.untangle`, float32 as stored),
+    never crossing: the refined surface through them then leaves room for the pulls.
+    """
+    corners = np.zeros(skin.n_points, bool)
+    for side in "LR":
+        corners |= np.linalg.norm(skin.points - np.asarray(marks[f"mouth_corner_{side}"]),
+                                  axis=1) < MOUTH_CORNER_RADIUS
+    tri = skin.triangles
+    hold = np.zeros(skin.n_points, bool)
+    hold[tri[folded_pairs(skin.points, tri, corners).ravel()].ravel()] = True
+    return wv.TriangleSurface(untangle(skin.points, tri, clearance=MOUTH_CORNER_STEPS,
+                                       hold=hold), tri)
+
+
 def compact(surface):
     """The surface as stored (float32 points), read back as float64."""
     return wv.TriangleSurface(surface.points.astype(np.float32).astype(float),
@@ -143,7 +170,7 @@ def main(path: Path) -> None:
     scanned = compact(scan.with_points(move(scan.points)))
     marks = {k: tuple(map(float, closest_points(scanned, move(v)[None])[0]))
              for k, v in marks_m.items()}
-    skin = untangle_eyelids(separate_lips(scanned, marks), marks)
+    skin = open_mouth_corners(untangle_eyelids(separate_lips(scanned, marks), marks), marks)
     skull = compact(scan_skull(skin, marks))
     assert all(np.allclose(closest_points(skin, np.asarray(v)[None])[0], v)
                for v in marks.values()), "a landmark sits on the lips that moved"
