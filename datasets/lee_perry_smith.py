@@ -20,7 +20,8 @@ packaging by Morgan McGuire and Guedis Cardenas (McGuire Graphics Data). Changes
 vertices welded along the UV seams, the quads split into triangles, rescaled from metres to
 millimetres, rotated and moved into the built-in frame, the lips moved apart where the scan's
 closed mouth has them passing through each other (:mod:`wrinkle_vis.datasets.lips`), the
-lower eyelids' margins and an ear smoothed where they pass through themselves
+lower eyelids' margins and an ear smoothed where they pass through themselves and the flat
+folds at the corners of the eyes and the mouth opened a little
 (:mod:`wrinkle_vis.datasets.eyelids`), and a skull and muscles added. See the package's
 ``NOTICE.txt`` file.
 """
