@@ -28,6 +28,10 @@ crosses, ``clearance`` more steps on every vertex that ever crossed, and on the 
 flat folds asked for (:func:`~wrinkle_vis.datasets.lips.folded_pairs`), open a little room
 between the sheets, so that the pulls of an expression and the refined surface (which bulges
 beyond the triangles) do not press them through each other again.
+
+The same steps on the corners of flat folds alone (the eyes' and the mouth's corners, where
+the skin is folded onto itself around a vertex) open them a little: ``untangle`` on a skin
+that does not cross, with those vertices as ``hold``.
 """
 
 from __future__ import annotations
