@@ -19,8 +19,11 @@ https://creativecommons.org/licenses/by/3.0/), based on a work at triplegangers.
 packaging by Morgan McGuire and Guedis Cardenas (McGuire Graphics Data). Changes: the
 vertices welded along the UV seams, the quads split into triangles, rescaled from metres to
 millimetres, rotated and moved into the built-in frame, the lips moved apart where the scan's
-closed mouth has them passing through each other (:mod:`wrinkle_vis.datasets.lips`), and a
-skull and muscles added. See the package's ``NOTICE.txt`` file.
+closed mouth has them passing through each other (:mod:`wrinkle_vis.datasets.lips`), the
+lower eyelids' margins and an ear smoothed where they pass through themselves and the flat
+folds at the corners of the eyes and the mouth opened a little
+(:mod:`wrinkle_vis.datasets.eyelids`), and a skull and muscles added. See the package's
+``NOTICE.txt`` file.
 """
 
 from __future__ import annotations

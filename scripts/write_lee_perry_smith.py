@@ -7,10 +7,14 @@ read and welded (datasets.read_surface), its corner UVs read (plotting.bake.read
 moved into the built-in frame in millimetres by the rotation of the similarity that takes
 the procedural face's landmarks onto the scan's (datasets/examples/lee_perry_smith.json,
 picked on a front view), its lips moved apart where they pass through each other at the
-slit or fold flat onto each other at the corners (separate_lips), and stored as float32;
-the skull is the level set of datasets.skull.scan_skull; the muscles are the procedural
-layout moved by the landmarks (datasets.scans.transfer_layout), then the frontalis sheets
-refitted to this forehead (fit_frontalis). The original OBJ is never copied into the package.
+slit or fold flat onto each other at the corners (separate_lips), its eyelids and an ear
+smoothed where they pass through themselves and the eyes' corners' flat folds opened a little
+(untangle_eyelids), the mouth's corners' flat folds opened a little (open_mouth_corners),
+and stored as float32; the skull is the level set of datasets.skull.scan_skull under the
+skin with its lips separated (before the eyelids' and the corners' smoothing); the muscles
+are the procedural layout moved by the landmarks (datasets.scans.transfer_layout), then the
+frontalis sheets refitted to this forehead (fit_frontalis). The original OBJ is never copied
+into the package.
 """
 
 import dataclasses
@@ -22,8 +26,9 @@ import numpy as np
 import wrinkle_vis as wv
 from wrinkle_vis.core.mesh import closest_points
 from wrinkle_vis.datasets import BUILTIN_LAYOUT, read_surface, transfer_layout
+from wrinkle_vis.datasets.eyelids import untangle
 from wrinkle_vis.datasets.lee_perry_smith import DATA, LAYOUT
-from wrinkle_vis.datasets.lips import facing_pairs, separate_crossings
+from wrinkle_vis.datasets.lips import facing_pairs, folded_pairs, separate_crossings
 from wrinkle_vis.datasets.scans import similarity_transform
 from wrinkle_vis.datasets.skull import scan_skull
 from wrinkle_vis.plotting.bake import read_obj_uvs
@@ -74,6 +79,63 @@ def separate_lips(skin, marks):
     return wv.TriangleSurface(points, tri)
 
 
+#: The eyes' region: within this many mm of the mid-point of each eye's corners.
+EYES_RADIUS = 20.0
+#: Umbrella steps on the vertices that crossed and the eyes' corners' flat folds once
+#: nothing crosses (datasets/eyelids.py: room for the pulls and the refined surface).
+EYELIDS_CLEARANCE = 4
+#: Then umbrella steps on the eyes' corners' flat folds alone (the refined squint at 1: 22
+#: pairs added at the left eye's outer corner after 0 such steps, 5 after 6 or 8, 9 after
+#: 10 or 12, 14 after 16).
+EYE_CORNER_STEPS = 8
+
+
+def untangle_eyelids(skin, marks):
+    """The skin with its eyelids (whose lower margins curl back through the lids at rest)
+    and an ear smoothed by umbrella steps where they pass through themselves, then
+    :data:`EYELIDS_CLEARANCE` steps more there and on the corners of the eyes' flat folds,
+    then :data:`EYE_CORNER_STEPS` on those corners alone
+    (:func:`~wrinkle_vis.datasets.eyelids.untangle`, float32 as stored): the rest skin then
+    crosses itself nowhere.
+    """
+    eyes = np.zeros(skin.n_points, bool)
+    for side in "LR":
+        mid = 0.5 * (np.asarray(marks[f"eye_inner_{side}"])
+                     + np.asarray(marks[f"eye_outer_{side}"]))
+        eyes |= np.linalg.norm(skin.points - mid, axis=1) < EYES_RADIUS
+    tri = skin.triangles
+    hold = np.zeros(skin.n_points, bool)
+    hold[tri[folded_pairs(skin.points, tri, eyes).ravel()].ravel()] = True
+    points = untangle(skin.points, tri, clearance=EYELIDS_CLEARANCE, hold=hold)
+    return wv.TriangleSurface(untangle(points, tri, clearance=EYE_CORNER_STEPS, hold=hold), tri)
+
+
+#: The mouth's corners' region: within this many mm of each corner's landmark.
+MOUTH_CORNER_RADIUS = 8.0
+#: Umbrella steps on the mouth's corners' flat folds (the refined pucker at 0.25, Waters'
+#: sadness at 0.5 and 0.75 and fear at 1 added 6, 11, 8 and 11 pairs there without them,
+#: none after 2, 4 or 8).
+MOUTH_CORNER_STEPS = 4
+
+
+def open_mouth_corners(skin, marks):
+    """The skin with the flat folds at the mouth's corners (triangles that share a vertex and
+    face each other, :func:`~wrinkle_vis.datasets.lips.folded_pairs`, within
+    :data:`MOUTH_CORNER_RADIUS` of a corner) smoothed by :data:`MOUTH_CORNER_STEPS`
+    umbrella steps (:func:`~wrinkle_vis.datasets.eyelids.untangle`, float32 as stored),
+    never crossing: the refined surface through them then leaves room for the pulls.
+    """
+    corners = np.zeros(skin.n_points, bool)
+    for side in "LR":
+        corners |= np.linalg.norm(skin.points - np.asarray(marks[f"mouth_corner_{side}"]),
+                                  axis=1) < MOUTH_CORNER_RADIUS
+    tri = skin.triangles
+    hold = np.zeros(skin.n_points, bool)
+    hold[tri[folded_pairs(skin.points, tri, corners).ravel()].ravel()] = True
+    return wv.TriangleSurface(untangle(skin.points, tri, clearance=MOUTH_CORNER_STEPS,
+                                       hold=hold), tri)
+
+
 def compact(surface):
     """The surface as stored (float32 points), read back as float64."""
     return wv.TriangleSurface(surface.points.astype(np.float32).astype(float),
@@ -109,8 +171,12 @@ def main(path: Path) -> None:
     scanned = compact(scan.with_points(move(scan.points)))
     marks = {k: tuple(map(float, closest_points(scanned, move(v)[None])[0]))
              for k, v in marks_m.items()}
-    skin = separate_lips(scanned, marks)
-    skull = compact(scan_skull(skin, marks))
+    lips = separate_lips(scanned, marks)
+    skin = open_mouth_corners(untangle_eyelids(lips, marks), marks)
+    # the skull of the lips' skin: the level set of the smoothed eyelids fills the sockets
+    # behind them with bumps (34,716 triangles against 33,188), and a physical frame under
+    # strong random pulls pressed a socket vertex no longer inside it at rest 0.012 mm in
+    skull = compact(scan_skull(lips, marks))
     assert all(np.allclose(closest_points(skin, np.asarray(v)[None])[0], v)
                for v in marks.values()), "a landmark sits on the lips that moved"
     layout = transfer_layout(wv.load_layout(BUILTIN_LAYOUT), skin, marks, skull)
