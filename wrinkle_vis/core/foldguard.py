@@ -24,6 +24,7 @@ wrinkle amplitude :math:`W` and the triangles, so any skin model can use them:
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -630,7 +631,8 @@ def _held_wrinkles(rest: np.ndarray, d2: np.ndarray, p2: np.ndarray, W2: np.ndar
 
 
 def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
-                triangles: np.ndarray, radii: np.ndarray, guard: FoldGuard = FoldGuard(),
+                triangles: np.ndarray, radii: np.ndarray | Callable[[], np.ndarray],
+                guard: FoldGuard = FoldGuard(),
                 pulls: bool = True, terms: dict | None = None, deformed_radii: bool = False,
                 certified: Certified | None = None) -> GuardResult:
     r"""The guards on one frame: ``rest``, ``deformed`` (before :math:`W`) and final
