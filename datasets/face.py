@@ -41,19 +41,19 @@ MIN_TRIANGLES, MAX_TRIANGLES = 500, 250_000
 
 #: Where the built-in skin is meshed finer: ``(centre, radii, fade, factor)``. Inside the
 #: ellipsoid ``centre``, ``radii`` (mm) round the lips pyacvd's clusters are ``factor``
-#: times smaller in area (edges about 2.4 times shorter), falling smoothly back to 1 at
+#: times smaller in area (edges about half as long), falling smoothly back to 1 at
 #: ``fade`` times the radii (:func:`mesh_density`). The lips' edges and the mouth line
 #: between them bend within 3 to 5 mm, which 6 mm edges cut into a jagged lip line
 #: (issue 32).
-MOUTH_REFINEMENT = ((0.0, -59.0, 88.0), (25.0, 15.0, 20.0), 1.8, 5.0)
+MOUTH_REFINEMENT = ((0.0, -59.0, 88.0), (25.0, 15.0, 20.0), 1.8, 4.0)
 #: Where the built-in skin is meshed coarser, paying for the lips at the same triangle
 #: count: ``(z_face, y_crown, width, factor)``. Behind the face (z below ``z_face``: the
 #: sides of the head and neck) and on the crown (y above ``y_crown``) the density falls to
 #: ``factor`` over ``width`` mm, except within ``width / 2`` to ``1.5 width`` of the cuts
 #: (:data:`SKIN_CUTS`), whose edges stay as fine as the face's. Those parts are smooth
-#: (radii of 50 to 100 mm: their 9 mm edges' midpoints lie within 0.33 mm of the level set,
-#: the face's 6 mm ones within 1.3 mm) and hold no muscle.
-SCALP_COARSENING = (40.0, 80.0, 20.0, 0.35)
+#: (radii of 50 to 100 mm: their 9 mm edges' midpoints lie within 0.31 mm of the level set,
+#: the face's 6 mm ones within 1.1 mm) and hold no muscle.
+SCALP_COARSENING = (40.0, 80.0, 20.0, 0.3)
 
 
 def _smoothstep(t: np.ndarray) -> np.ndarray:
@@ -271,7 +271,7 @@ def build_skin(n_triangles: int = DEFAULT_TRIANGLES) -> TriangleSurface:
     behind the ears (z = -15 mm) and under the chin (y = -112 mm), remeshed with pyacvd to
     a triangulation that is even except round the lips, where it is finer, and on the crown
     and the sides of the head, where it is coarser (:func:`mesh_density`; at 4,500
-    triangles the lips' edges are 2.7 mm, the face's 6.1 mm (5.9 mm when it was even) and
+    triangles the lips' edges are 3.0 mm, the face's 5.95 mm (5.94 mm when it was even) and
     the crown's 9 mm, so the lips and the mouth line are smooth; finer versions subdivide
     the contour first), brought to
     exactly ``n_triangles`` triangles by splitting the longest edges
