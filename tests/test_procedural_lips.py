@@ -98,3 +98,21 @@ def test_the_lips_are_meshed_finer_and_the_face_about_as_before(skin):
     lips, face = np.median(lengths[density > 3.9]), np.median(lengths[density == 1.0])
     assert lips < 3.3 and 5.5 < face < 6.3  # mm; 5.9 on the even mesh
     assert lips / face == pytest.approx(4.0 ** -0.5, rel=0.2)  # edges ~ density^(-1/2)
+
+
+def test_the_mesh_density_is_the_lips_factor_there_one_on_the_face_and_smooth():
+    from wrinkle_vis.datasets.face import MOUTH_REFINEMENT, SCALP_COARSENING, SKIN_CUTS
+
+    centre, radii, fade, factor = MOUTH_REFINEMENT
+    coarse = SCALP_COARSENING[3]
+    points = np.array([centre,                      # the mouth
+                       [0.0, 50.0, 95.0],           # the forehead
+                       [0.0, 115.0, 40.0],          # the crown, 55 mm from the back cut
+                       [60.0, -112.0, 0.0]])        # on the neck cut, at the side
+    np.testing.assert_allclose(mesh_density(points), [factor, 1.0, coarse, 1.0])
+    assert SKIN_CUTS[1] == (1, -112.0)
+    # continuous: along a line from the mouth out through the fade, no step above 2 %
+    t = np.linspace(0.0, 2.0, 2001)[:, None]
+    line = mesh_density(centre + t * np.array([radii[0], 0.0, 0.0]))
+    assert np.abs(np.diff(line)).max() < 0.02 * (factor - 1.0)
+    assert line[0] == factor and line[-1] == 1.0
