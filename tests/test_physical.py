@@ -598,9 +598,10 @@ def test_the_equilibrium_converges_from_the_20k_to_the_60k_face():
     misses 5 % on the frown (6.8 %) by its own error: the corrugator's pull falls from its
     peak to 0 over 3.4 mm, two 60k edges. The local quadratic fit (``quadratic_points``)
     is checked first on the muscles' closed-form pull, whose exact value at the 20k vertex
-    is known: it halves linear interpolation's error there (surprise 1.75 -> 0.49 %,
-    frown 7.8 -> 3.8 %; the rest of the frown's is the 60k sampling of that fall, which
-    no local fit recovers). With it the whole displacement agrees within 5 % at every
+    is known: it halves linear interpolation's error there (surprise 1.8 -> 0.56 %,
+    frown 10.6 -> 4.5 %; the rest of the frown's is the 60k sampling of that fall, which
+    no local fit recovers, and which moves with the 60k tiling: 7.8 -> 3.8 % on the even
+    skin before stop 37 graded it). With it the whole displacement agrees within 5 % at every
     moving vertex. The 60k equilibrium rebuilt as the pull at the 20k vertex plus the 60k
     spring response (equilibrium minus pull) interpolated linearly, which is how the 60k
     face's own refinement carries it to a new point (core/refined.py), agrees within 2 %.
@@ -612,7 +613,7 @@ def test_the_equilibrium_converges_from_the_20k_to_the_60k_face():
     coarse, fine = wv.datasets.load_face(20000), wv.datasets.load_face(60000)
     where = surface_coordinates(fine.skin, coarse.skin.points)
     period = 2.0 * coarse.muscle("frontalis_inner_L").u
-    for name, pull_bound in (("surprise", 0.01), ("frown", 0.04)):
+    for name, pull_bound in (("surprise", 0.01), ("frown", 0.05)):
         sc, sf = (f.evaluate(name, skin="physical") for f in (coarse, fine))
         uc = sc.deformed_points - coarse.skin.points
         uf = sf.deformed_points - fine.skin.points
