@@ -379,12 +379,15 @@ def _winding(surface, x):
 @settings(max_examples=20, deadline=None)
 @given(seed=st.integers(0, 2**16))
 @example(seed=1)
+@example(seed=49268)
 def test_the_skulls_side_of_a_point_is_its_winding_number(seed):
     """The skull contact's sign (``_Skull.distance``) says inside exactly where the winding
     number does, on a bumpy closed surface with concave creases, for points within about a
     twentieth of an edge of it: the vertex normals interpolated across a triangle called a
     point in front of it inside (3 of the scanned head's skin vertices at rest; seed 1 and
-    11 of the first 20 seeds failed so)."""
+    11 of the first 20 seeds failed so); and the closest point taken among the triangles
+    around the four nearest vertices only is not the closest on so uneven a surface (seed
+    49268: a point 0.2 mm inside called 1.7 mm outside)."""
     from meshes import sphere
 
     from wrinkle_vis.core.skin import _Skull

@@ -399,8 +399,9 @@ def closest_points(surface: TriangleSurface, queries) -> np.ndarray:
     return barycentric_points(surface, tri, bary)
 
 
-def surface_coordinates(surface: TriangleSurface, queries) -> tuple[np.ndarray, np.ndarray]:
-    """Where on ``surface`` the closest points to ``queries`` lie, as triangles and weights.
+def surface_coordinates(surface: TriangleSurface, queries, exact: bool = False
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    r"""Where on ``surface`` the closest points to ``queries`` lie, as triangles and weights.
 
     Parameters
     ----------
@@ -408,6 +409,10 @@ def surface_coordinates(surface: TriangleSurface, queries) -> tuple[np.ndarray, 
         The surface.
     queries : (k, 3) array_like
         Points anywhere.
+    exact : bool
+        False (the default): the closest point among the triangles around the four nearest
+        vertices, which is the closest point on an even triangulation. True: the closest
+        point of the whole surface, on any triangulation (see Notes).
 
     Returns
     -------
@@ -417,19 +422,55 @@ def surface_coordinates(surface: TriangleSurface, queries) -> tuple[np.ndarray, 
         Its barycentric coordinates in that triangle (rows sum to 1). The same coordinates on
         a surface with the same triangles and moved points (:meth:`TriangleSurface.with_points`)
         carry a point from one to the other, e.g. from the deformed skin to the rest skin.
+
+    Notes
+    -----
+    With ``exact``: if :math:`c` is the closest point and :math:`\delta` the distance to the
+    best point found among the first candidates, the corner :math:`v` of :math:`c`'s
+    triangle nearest to :math:`c` has :math:`|x - v| \le |x - c| + |c - v| \le \delta + L`
+    (:math:`L` the longest edge), so the triangles around the vertices within
+    :math:`\delta + L` of :math:`x` hold :math:`c`; they are searched wherever that ball
+    holds a vertex the first candidates did not.
     """
     q = np.atleast_2d(np.asarray(queries, dtype=float))
-    _, near = surface.kdtree.query(q, k=min(4, surface.n_points))
-    near = np.atleast_2d(near)
-    inc = surface.incidence
+    k = min(4, surface.n_points)
+    far, near = surface.kdtree.query(q, k=k)
+    near, far = np.atleast_2d(near), np.atleast_2d(far)
     best_tri = np.empty(len(q), dtype=np.intp)
     best = np.empty_like(q)
     for i, (point, verts) in enumerate(zip(q, near, strict=True)):
-        tris = np.unique(np.concatenate([inc[v].indices for v in verts]))
-        cand = _closest_on_triangles(point, surface.points[surface.triangles[tris]])
-        j = int(np.argmin(np.linalg.norm(cand - point, axis=1)))
-        best_tri[i], best[i] = tris[j], cand[j]
+        best_tri[i], best[i] = _closest_around(surface, point, verts)
+    if exact:
+        _closest_exactly(surface, q, far[:, -1], best_tri, best)
     return best_tri, _barycentric(surface.points[surface.triangles[best_tri]], best)
+
+
+def _closest_around(surface: TriangleSurface, point: np.ndarray, verts
+                    ) -> tuple[int, np.ndarray]:
+    """The triangle and closest point ``(3,)`` to ``point`` among the triangles around
+    vertices ``verts``.
+    """
+    inc = surface.incidence
+    tris = np.unique(np.concatenate([inc[v].indices for v in verts]))
+    cand = _closest_on_triangles(point, surface.points[surface.triangles[tris]])
+    j = int(np.argmin(np.linalg.norm(cand - point, axis=1)))
+    return int(tris[j]), cand[j]
+
+
+def _closest_exactly(surface: TriangleSurface, q: np.ndarray, kth: np.ndarray,
+                     best_tri: np.ndarray, best: np.ndarray) -> None:
+    r"""Search again, in place, the queries ``q`` ``(k, 3)`` whose ball of radius
+    :math:`\delta + L` (:func:`surface_coordinates`' Notes) reaches past their farthest
+    first candidate, at distance ``kth`` ``(k,)``.
+    """
+    reach = float(surface.rest_edge_lengths.max(initial=0.0))
+    delta = np.linalg.norm(best - q, axis=1)
+    again = np.flatnonzero(delta + reach > kth)
+    if not len(again):
+        return
+    balls = surface.kdtree.query_ball_point(q[again], delta[again] + reach)
+    for i, verts in zip(again, balls, strict=True):
+        best_tri[i], best[i] = _closest_around(surface, q[i], verts)
 
 
 def closest_on_triangles(surface: TriangleSurface, candidates,

@@ -313,12 +313,12 @@ class _Skull:
     r"""The skull as a constraint.
 
     The signed distance of a point :math:`x` is :math:`s(x) = |x - c|\,\operatorname{sign}
-    ((x - c) \cdot n_c)`, :math:`c` the closest point of the skull (among the triangles
-    around the nearest skull vertices, :func:`~wrinkle_vis.core.mesh.surface_coordinates`)
-    and :math:`n_c` the skull's pseudo-normal there (:func:`_pseudo_normals`: the
-    triangle's own normal inside it, the edge's or the vertex's on them). A vertex outside the
-    skull at rest is kept at :math:`s \ge 0`; one inside it at rest (where a scan's skull
-    reaches through its skin) is left free.
+    ((x - c) \cdot n_c)`, :math:`c` the closest point of the whole skull
+    (:func:`~wrinkle_vis.core.mesh.surface_coordinates` with ``exact=True``: the sign is
+    right only at the true closest point) and :math:`n_c` the skull's pseudo-normal there
+    (:func:`_pseudo_normals`: the triangle's own normal inside it, the edge's or the
+    vertex's on them). A vertex outside the skull at rest is kept at :math:`s \ge 0`; one
+    inside it at rest (where a scan's skull reaches through its skin) is left free.
     """
 
     #: How close, in skull edges by the nearest-vertex estimate (:meth:`rough`), a point
@@ -360,7 +360,7 @@ class _Skull:
         """``(k,)`` signed distances of ``x`` ``(k, 3)``, ``(k, 3)`` closest skull points and
         ``(k, 3)`` the skull's unit normals there.
         """
-        tri, bary = surface_coordinates(self.surface, x)
+        tri, bary = surface_coordinates(self.surface, x, exact=True)
         c = barycentric_points(self.surface, tri, bary)
         n = unit_rows(np.einsum("kj,kjd->kd", bary, self.normals[self.surface.triangles[tri]]))
         d = x - c
