@@ -38,7 +38,7 @@ from .skin import DEFAULT_SKIN_MODEL, SkinMaterial, SpringSkin, _Skull, check_sk
 from .stacked import _StackedMuscles
 from .state import FaceState, _readonly
 from .tracks import Track, TrackMapping, default_mapping, iter_activations
-from .units import LENGTH_UNITS, check_unit, face_unit
+from .units import check_unit, physical_metres_per_unit
 
 if TYPE_CHECKING:
     from .simulation import Simulation
@@ -282,7 +282,7 @@ class FaceModel:
             if len(cache) > 2:
                 cache.clear()
             skin = cache[material] = SpringSkin(
-                self.skin, self.muscle_grip(), material, LENGTH_UNITS[face_unit(self)],
+                self.skin, self.muscle_grip(), material, physical_metres_per_unit(self),
                 self.skull)
         return skin
 
