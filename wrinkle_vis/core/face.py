@@ -34,7 +34,7 @@ from .refinedfields import _RefinedSource
 from .restgeometry import REFINE_CACHE_BYTES as REFINE_CACHE_BYTES
 from .restgeometry import SLIDE_SCALE as SLIDE_SCALE
 from .restgeometry import _RestGeometry
-from .skin import DEFAULT_SKIN_MODEL, SkinMaterial, SpringSkin, _Skull, check_skin_model
+from .skin import SkinMaterial, SpringSkin, _Skull, check_skin_model, default_skin_model
 from .stacked import _StackedMuscles
 from .state import FaceState, _readonly
 from .tracks import Track, TrackMapping, default_mapping, iter_activations
@@ -91,7 +91,11 @@ class FaceModel:
         None: :func:`~wrinkle_vis.core.tracks.default_mapping` (:meth:`play`).
     skin_model : {"geometric", "physical"}, optional
         The skin model :meth:`evaluate` uses unless told otherwise (see
-        :meth:`with_skin_model`); default :data:`~wrinkle_vis.core.skin.DEFAULT_SKIN_MODEL`.
+        :meth:`with_skin_model`); default (None) the skin's size policy,
+        :func:`~wrinkle_vis.core.skin.default_skin_model`: the physical skin
+        (:data:`~wrinkle_vis.core.skin.DEFAULT_SKIN_MODEL`) up to
+        :data:`~wrinkle_vis.core.skin.PHYSICAL_DEFAULT_MAX_POINTS` vertices, the geometric
+        one above.
     material : SkinMaterial, optional
         The physical skin's parameters (default :class:`SkinMaterial()`).
 
@@ -109,7 +113,7 @@ class FaceModel:
                  muscles: Iterable[Muscle] = (),
                  expressions: Mapping[str, Expression] | None = None, *, name: str = "face",
                  landmarks: Mapping[str, Iterable[float]] | None = None, unit: str | None = None,
-                 mapping: TrackMapping | None = None, skin_model: str = DEFAULT_SKIN_MODEL,
+                 mapping: TrackMapping | None = None, skin_model: str | None = None,
                  material: SkinMaterial | None = None,
                  _caches: _SharedCaches | None = None) -> None:
         if not isinstance(skin, TriangleSurface):
@@ -120,7 +124,8 @@ class FaceModel:
         self.skull = skull
         self.name = name
         self.unit: str | None = None if unit is None else check_unit(unit)
-        self.skin_model: str = check_skin_model(skin_model)
+        self.skin_model: str = check_skin_model(
+            default_skin_model(skin.n_points) if skin_model is None else skin_model)
         if material is not None and not isinstance(material, SkinMaterial):
             raise TypeError(f"material must be a SkinMaterial; got {type(material).__name__}")
         self.material: SkinMaterial = material or SkinMaterial()
