@@ -102,10 +102,11 @@ SKIN_MODELS = ("geometric", "physical")
 DEFAULT_SKIN_MODEL = "physical"
 
 #: The largest skin (vertices) on which the default is the physical skin: its first frame
-#: (factorization and equilibrium) fits issue 33's budget for a first frame, 10 s and 1 GB,
-#: up to here and not on the next size measured (``benchmarks/bench_skin_policy.py``,
-#: ``docs/benchmarks.md`` stop 37). A bigger skin defaults to the geometric skin.
-PHYSICAL_DEFAULT_MAX_POINTS = 100_000
+#: (factorization and equilibrium, every muscle at 0.7) fits issue 33's budget for a first
+#: frame, 10 s and 1 GB, at 60,312 vertices (6.6 s of CPU, 471 MiB) and not at 80,387
+#: (11.1 s) (``benchmarks/bench_skin_policy.py``, ``docs/benchmarks.md`` stop 37). A bigger
+#: skin defaults to the geometric skin.
+PHYSICAL_DEFAULT_MAX_POINTS = 65_000
 
 
 def default_skin_model(n_points: int) -> str:
