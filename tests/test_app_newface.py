@@ -299,6 +299,30 @@ def test_the_example_opens_on_the_mesh_chosen_for_it(make_window, answer, monkey
 
 @needs_scans
 @pytest.mark.slow
+def test_the_bust_in_millimetres_keeps_its_frontalis_crests_on_the_physical_skin():
+    """The Demosthenes bust is 2.69 units tall, a head in no unit: read in millimetres, the
+    physical skin's human material (its membrane reaches sqrt(Y / kappa) = 16 mm) smoothed
+    the whole 2.7 mm face and kept n_w crests on 3 of the 6 frontalis sheets (the geometric
+    skin: 6). It is simulated at human size, as in metres, and keeps them all."""
+    from wrinkle_vis.core.skin import vertex_areas
+    from wrinkle_vis.core.units import HUMAN_LANDMARK_RADIUS_M, landmark_radius
+    from wrinkle_vis.datasets.scans import read_surface
+
+    skin = read_surface(REAL / "demosthenes_bust.obj")
+    marks = SCAN_LANDMARKS["demosthenes_bust.obj"]
+    snapped = closest_points(skin, np.array(list(marks.values())))
+    landmarks = {name: tuple(p) for name, p in zip(marks, snapped, strict=True)}
+    face = wv.datasets.load_face(skin=skin, landmarks=landmarks, unit="mm")
+    spring = face.physical_skin()  # per-area stiffness kappa * area * s^2: s m per unit
+    s = np.sqrt(spring.k_att / (spring.material.attachment_stiffness * vertex_areas(skin)))
+    size_m = landmark_radius(face.landmarks) * np.median(s)
+    counts = frontalis_crests(face.evaluate("surprise", refine=True, skin="physical"))
+    assert all(c == n_w for c, n_w in counts.values()), counts
+    assert size_m == pytest.approx(HUMAN_LANDMARK_RADIUS_M, rel=1e-9)  # at human size
+
+
+@needs_scans
+@pytest.mark.slow
 @pytest.mark.parametrize("mesh", list(SCAN_LANDMARKS))
 def test_a_new_face_from_a_scan_by_clicks_wrinkles_and_reopens_bit_for_bit(
         make_window, monkeypatch, tmp_path, mesh, asked_unit):

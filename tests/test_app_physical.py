@@ -10,7 +10,7 @@ import pytest
 
 from wrinkle_vis.app.physics import PhysicalPlayback
 from wrinkle_vis.app.session import TIMELINE_STEPS, Session
-from wrinkle_vis.core.skin import SkinMaterial
+from wrinkle_vis.core.skin import DEFAULT_SKIN_MODEL, SkinMaterial
 
 pytestmark = pytest.mark.usefixtures("no_leaked_plotters")
 H = SkinMaterial().time_step
@@ -140,10 +140,14 @@ def test_the_session_records_the_skin_model_and_the_material_that_differs(wv_fac
     s = Session(wv_face)
     assert s.layout().skin_model is None and s.layout().skin_material == {}  # as before
     s.set_face(s.with_material("membrane_stiffness", 150.0))
-    s.set_skin_model("physical")
     layout = s.layout()
-    assert layout.skin_model == "physical"
+    assert layout.skin_model is None  # the default, which the layout did not record
     assert layout.skin_material == {"membrane_stiffness": 150.0}
+    s.set_skin_model("geometric")  # not the default: recorded
+    assert s.layout().skin_model == "geometric"
+    assert s.layout().skin_material == {"membrane_stiffness": 150.0}
+    s.set_skin_model(DEFAULT_SKIN_MODEL)
+    assert s.layout().skin_model is None
     with pytest.raises(ValueError, match="membrane_stiffness"):
         s.with_material("membrane_stiffness", -1.0)
 
@@ -180,20 +184,25 @@ def _play(window, seconds, ticks):
 
 
 def test_the_skin_switch_shows_the_physical_skin_and_is_an_undoable_edit(window, wv_face):
+    """The window opens on the physical skin (the default); the switch to the geometric
+    skin and back is an undoable edit."""
+    assert DEFAULT_SKIN_MODEL == "physical"
+    assert window.skin_box.currentText() == "physical" and window.skin_group.isVisible()
     # copied: a later draw writes into the arrays of the state drawn first (views.py)
-    geometric_w = window.session.state().W.copy()
-    assert window.skin_box.currentText() == "geometric" and not window.skin_group.isVisible()
-    _physical(window)
-    state = window.session.state()
-    assert state.skin_model == "physical" and window.skin_group.isVisible()
-    assert window.session.dirty and window.windowTitle().endswith("*")
+    physical_w = window.session.state().W.copy()
+    assert window.session.state().skin_model == "physical"
     expected = wv_face.evaluate("surprise", skin="physical")  # the still frame: equilibrium
-    np.testing.assert_allclose(state.W, expected.W, rtol=0, atol=1e-12)
-    assert np.abs(state.W - geometric_w).max() > 1e-3 * np.abs(geometric_w).max()
+    np.testing.assert_allclose(physical_w, expected.W, rtol=0, atol=1e-12)
+    window.skin_box.setCurrentText("geometric")
+    state = window.session.state()
+    assert state.skin_model == "geometric" and not window.skin_group.isVisible()
+    assert window.session.dirty and window.windowTitle().endswith("*")
+    np.testing.assert_array_equal(state.W, wv_face.evaluate("surprise", skin="geometric").W)
+    assert np.abs(state.W - physical_w).max() > 1e-3 * np.abs(physical_w).max()
     window.undo_stack.undo()
-    assert window.session.face.skin_model == "geometric"
-    assert window.skin_box.currentText() == "geometric"
-    np.testing.assert_array_equal(window.session.state().W, geometric_w)
+    assert window.session.face.skin_model == "physical"
+    assert window.skin_box.currentText() == "physical" and window.skin_group.isVisible()
+    np.testing.assert_allclose(window.session.state().W, physical_w, rtol=0, atol=1e-12)
 
 
 def test_play_on_the_physical_skin_follows_the_wall_clock(clocked):
@@ -293,10 +302,16 @@ def test_the_skin_model_and_material_are_saved_and_loaded(make_window, tmp_path)
     path = tmp_path / "physical.json"
     assert w.save_as(path)
     data = json.loads(path.read_text())
-    assert data["skin_model"] == "physical"
+    assert "skin_model" not in data  # the default, as the built-in layout left it
+    assert data["skin_material"] == {"membrane_stiffness": 150.0}
+    w.skin_box.setCurrentText("geometric")
+    assert w.save_as(tmp_path / "geometric.json")
+    data = json.loads((tmp_path / "geometric.json").read_text())
+    assert data["skin_model"] == "geometric"
     assert data["skin_material"] == {"membrane_stiffness": 150.0}
     other = make_window()
-    assert other.skin_box.currentText() == "geometric"
+    assert other.open_layout(tmp_path / "geometric.json")
+    assert other.skin_box.currentText() == "geometric" and not other.skin_group.isVisible()
     assert other.open_layout(path)
     assert other.skin_box.currentText() == "physical" and other.skin_group.isVisible()
     assert other.skin_widgets["membrane_stiffness"].value() == 150.0

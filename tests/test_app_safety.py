@@ -5,6 +5,7 @@ user meets. Each test drives the widgets: clicks, keys, the menus' actions, the 
 own buttons (fixtures in conftest.py).
 """
 
+import dataclasses
 import json
 import os
 import sys
@@ -700,6 +701,38 @@ def test_run_opens_the_app_on_a_layout(wv_face, tmp_path, settings, monkeypatch,
     QtCore.QTimer.singleShot(300, look_and_close)
     assert window_module.run(["wrinkle-vis"], layout=path) == 0
     assert seen == {"path": path, "k0": 1.75}
+
+
+def test_run_on_the_physical_skin_opens_one_window_and_closing_it_ends_the_app(
+        wv_face, tmp_path, settings, monkeypatch, qtbot):
+    """The physical skin's material panel is inside the window: it was a window of its own
+    (a group box in no layout, shown), so closing the main window left it open and the app
+    never ended (``run`` hung once the physical skin was the default)."""
+    from wrinkle_vis.app import window as window_module
+
+    path = tmp_path / "physical.json"
+    wv.save_layout(dataclasses.replace(Session(wv_face).layout(), skin_model="physical"), path)
+    seen = {}
+    real = window_module.MainWindow
+
+    class Private(real):  # the test's settings, not the user's
+        def __init__(self, session, settings_=None, recovery=None):
+            super().__init__(session, settings, recovery)
+
+    def look_and_close():
+        shown = [w for w in QtWidgets.QApplication.topLevelWidgets() if w.isVisible()]
+        main = next(w for w in shown if isinstance(w, real))
+        seen["windows"] = [type(w).__name__ for w in shown]
+        seen["panel"] = (main.skin_group.isVisible(), main.skin_group.window() is main)
+        for w in shown[::-1]:  # the main window last: the app ends even where it did not
+            if w is not main:
+                w.close()
+        main.close()
+
+    monkeypatch.setattr(window_module, "MainWindow", Private)
+    QtCore.QTimer.singleShot(300, look_and_close)
+    assert window_module.run(["wrinkle-vis"], layout=path) == 0
+    assert seen == {"windows": ["Private"], "panel": (True, True)}
 
 
 def test_run_reports_a_layout_it_cannot_open_in_one_line(tmp_path, capsys):

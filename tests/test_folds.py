@@ -836,6 +836,9 @@ def test_an_idle_frame_builds_no_path_graph_and_searches_no_deformed_ball(proced
     nearest-sample query finds no ball with a sample inside)."""
     from wrinkle_vis.core import foldguard
 
+    # the geometric skin's frames: the physical skin moves skin outside the muscles' areas,
+    # and two of its frames look for a ball at one vertex
+    procedural = procedural.with_skin_model("geometric")
     names = [n for n in procedural.expressions if n != "neutral"]
     before = {n: procedural.evaluate(n) for n in names}  # rest radii and terms: cached
     searched = []

@@ -73,3 +73,30 @@ def test_the_summary_of_a_face_in_metres_prints_its_values(wv_face):
     assert low == pytest.approx(w.min(), rel=1e-3) and high == pytest.approx(w.max(), rel=1e-3)
     total = re.search(r"W total \(m\): min (\S+)\s+max (\S+)", text).groups()
     assert [float(x) for x in total] == pytest.approx([state.W.min(), state.W.max()], rel=1e-3)
+
+
+@pytest.mark.parametrize("scale", [1e-3, 0.3, 0.6, 1.0, 1.9, 2.5, 6.5, 1e3])
+def test_the_physical_skin_simulates_a_face_of_no_human_size_at_human_size(wv_face, scale):
+    """A face keeps its unit on the physical skin where its landmarks are a human's in it
+    (within a factor 2), else it is simulated at the built-in face's size."""
+    from types import SimpleNamespace
+
+    from wrinkle_vis.core.units import (
+        HUMAN_LANDMARK_RADIUS_M,
+        HUMAN_SIZE_FACTOR,
+        landmark_radius,
+        physical_metres_per_unit,
+    )
+
+    assert physical_metres_per_unit(wv_face) == 1e-3  # the built-in face: its millimetres
+    assert landmark_radius(wv_face.landmarks) * 1e-3 == pytest.approx(HUMAN_LANDMARK_RADIUS_M,
+                                                                      rel=0.01)
+    marks = {k: scale * np.asarray(v) for k, v in wv_face.landmarks.items()}
+    face = SimpleNamespace(unit="mm", landmarks=marks)
+    s = physical_metres_per_unit(face)
+    if 1 / HUMAN_SIZE_FACTOR <= scale * landmark_radius(wv_face.landmarks) * 1e-3 \
+            / HUMAN_LANDMARK_RADIUS_M <= HUMAN_SIZE_FACTOR:
+        assert s == 1e-3
+    else:
+        assert landmark_radius(marks) * s == pytest.approx(HUMAN_LANDMARK_RADIUS_M, rel=1e-12)
+    assert physical_metres_per_unit(SimpleNamespace(unit="cm", landmarks=None)) == 0.01

@@ -18,7 +18,12 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from wrinkle_vis.core.files import input_problem
-from wrinkle_vis.core.skin import DEFAULT_SKIN_MODEL, SKIN_MODELS
+from wrinkle_vis.core.skin import (
+    DEFAULT_SKIN_MODEL,
+    PHYSICAL_DEFAULT_MAX_POINTS,
+    SKIN_MODELS,
+    default_skin_notice,
+)
 
 CAMERA_CHOICES = ("front", "three_quarter", "side", "forehead", "upper_face")
 FIGURE_CHOICES = ("fig9", "fig10", "fig11")
@@ -123,7 +128,8 @@ def _common(p: argparse.ArgumentParser, *, expression_many: bool = False,
                    help="geometric: the muscles' summed pulls; physical: the simulated "
                         "mass-spring skin bound to the skull, at equilibrium for a still "
                         "frame, simulated over time for animate, export --sequence and fig10 "
-                        f"(default: the layout's, else {DEFAULT_SKIN_MODEL})")
+                        f"(default: the layout's, else {DEFAULT_SKIN_MODEL} up to "
+                        f"{PHYSICAL_DEFAULT_MAX_POINTS:,} vertices, geometric above)")
     p.add_argument("--unit", choices=UNIT_CHOICES, default=None,
                    help="the unit of the face's lengths (default: the layout's; mm for the "
                         "built-in faces; guessed from a scan's size, with a note)")
@@ -548,6 +554,9 @@ def _load(args, *, refine: bool = False):
         _warn_undersampled(args, face, names)
     model = getattr(args, "skin_model", None)
     face = face if model in (None, face.skin_model) else face.with_skin_model(model)
+    notice = default_skin_notice(face.skin.n_points)
+    if notice is not None and model is None and (layout is None or layout.skin_model is None):
+        print(f"wrinkle-vis {args.command}: note: {notice}", file=sys.stderr)
     face.fold_guard = getattr(args, "fold_guard", "on") == "on"
     if face.skin.n_triangles >= LARGE_SKIN_TRIANGLES:
         _prepare_muscles(args, face)

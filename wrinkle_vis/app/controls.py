@@ -269,6 +269,8 @@ class ControlPanel(QtWidgets.QWidget):
             skin_form.addRow(spec.display, box)
         self.skin_error = error_label()
         skin_form.addRow(self.skin_error)
+        # in the form, under the switch: a group box in no layout is a window of its own
+        form.insertRow(form.rowCount() - 1, self.skin_group)
         doc.changed.connect(self._show_skin)
         self._show_skin("session")
 

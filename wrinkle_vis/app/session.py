@@ -21,7 +21,7 @@ from ..core.layout import Layout, load_layout, save_layout
 from ..core.muscle import Muscle
 from ..core.params import Parameter
 from ..core.registry import get_muscle_type
-from ..core.skin import DEFAULT_SKIN_MODEL, SkinMaterial
+from ..core.skin import SkinMaterial, default_skin_model
 from ..core.tracks import Performance, default_mapping
 from ..core.units import face_unit
 from ..plotting.fields import field_info, field_range
@@ -702,8 +702,8 @@ class Session:
         return layout if folder is ... else self._relocated(layout, folder)
 
     def _skin_record(self, base: Layout) -> dict:
-        """The layout's ``skin_model`` (left out, None, for a face on the default skin model,
-        :data:`~wrinkle_vis.core.skin.DEFAULT_SKIN_MODEL`, whose layout recorded none) and
+        """The layout's ``skin_model`` (left out, None, for a face on its default skin model,
+        :func:`~wrinkle_vis.core.skin.default_skin_model`, whose layout recorded none) and
         ``skin_material`` (the parameters that differ from their defaults).
         """
         model = self.face.skin_model
@@ -711,7 +711,7 @@ class Session:
         material = {p.name: getattr(self.face.material, p.name)
                     for p in SkinMaterial.parameters()
                     if getattr(self.face.material, p.name) != getattr(default, p.name)}
-        keep = model == DEFAULT_SKIN_MODEL and base.skin_model is None
+        keep = model == default_skin_model(self.face.skin.n_points) and base.skin_model is None
         return {"skin_model": None if keep else model, "skin_material": material}
 
     def _relocated(self, layout: Layout, folder: str | Path | None) -> Layout:

@@ -34,11 +34,11 @@ from .refinedfields import _RefinedSource
 from .restgeometry import REFINE_CACHE_BYTES as REFINE_CACHE_BYTES
 from .restgeometry import SLIDE_SCALE as SLIDE_SCALE
 from .restgeometry import _RestGeometry
-from .skin import DEFAULT_SKIN_MODEL, SkinMaterial, SpringRest, SpringSkin, _Skull, check_skin_model
+from .skin import SkinMaterial, SpringRest, SpringSkin, _Skull, check_skin_model, default_skin_model
 from .stacked import _StackedMuscles
 from .state import FaceState, _readonly
 from .tracks import Track, TrackMapping, default_mapping, iter_activations
-from .units import LENGTH_UNITS, check_unit, face_unit
+from .units import check_unit, physical_metres_per_unit
 
 if TYPE_CHECKING:
     from .simulation import Simulation
@@ -94,7 +94,11 @@ class FaceModel:
         None: :func:`~wrinkle_vis.core.tracks.default_mapping` (:meth:`play`).
     skin_model : {"geometric", "physical"}, optional
         The skin model :meth:`evaluate` uses unless told otherwise (see
-        :meth:`with_skin_model`); default :data:`~wrinkle_vis.core.skin.DEFAULT_SKIN_MODEL`.
+        :meth:`with_skin_model`); default (None) the skin's size policy,
+        :func:`~wrinkle_vis.core.skin.default_skin_model`: the physical skin
+        (:data:`~wrinkle_vis.core.skin.DEFAULT_SKIN_MODEL`) up to
+        :data:`~wrinkle_vis.core.skin.PHYSICAL_DEFAULT_MAX_POINTS` vertices, the geometric
+        one above.
     material : SkinMaterial, optional
         The physical skin's parameters (default :class:`SkinMaterial()`).
 
@@ -112,7 +116,7 @@ class FaceModel:
                  muscles: Iterable[Muscle] = (),
                  expressions: Mapping[str, Expression] | None = None, *, name: str = "face",
                  landmarks: Mapping[str, Iterable[float]] | None = None, unit: str | None = None,
-                 mapping: TrackMapping | None = None, skin_model: str = DEFAULT_SKIN_MODEL,
+                 mapping: TrackMapping | None = None, skin_model: str | None = None,
                  material: SkinMaterial | None = None,
                  _caches: _SharedCaches | None = None) -> None:
         if not isinstance(skin, TriangleSurface):
@@ -123,7 +127,8 @@ class FaceModel:
         self.skull = skull
         self.name = name
         self.unit: str | None = None if unit is None else check_unit(unit)
-        self.skin_model: str = check_skin_model(skin_model)
+        self.skin_model: str = check_skin_model(
+            default_skin_model(skin.n_points) if skin_model is None else skin_model)
         if material is not None and not isinstance(material, SkinMaterial):
             raise TypeError(f"material must be a SkinMaterial; got {type(material).__name__}")
         self.material: SkinMaterial = material or SkinMaterial()
@@ -312,7 +317,7 @@ class FaceModel:
         and every face derived from it (built on first use).
         """
         shared = self._physical
-        key = (material, LENGTH_UNITS[face_unit(self)])
+        key = (material, physical_metres_per_unit(self))
         rest = shared.get(key)
         if rest is None:
             for old in [k for k in shared if k != "contact"][:-2]:  # a few materials at most

@@ -24,8 +24,8 @@ layout uses when ``skin`` is null (``"lee_perry_smith"``; null: the procedural f
 1.0, ...}, "curve": [[0, 0], [1, 1]]}, ...}``, muscles of ``$.muscles`` only); without it a
 track plays through :func:`~wrinkle_vis.core.tracks.default_mapping`.
 ``skin_model`` (optional) is the skin model the face evaluates with
-(:data:`~wrinkle_vis.core.skin.SKIN_MODELS`; null: the default,
-:data:`~wrinkle_vis.core.skin.DEFAULT_SKIN_MODEL`) and ``skin_material``
+(:data:`~wrinkle_vis.core.skin.SKIN_MODELS`; null: the default for the skin's size,
+:func:`~wrinkle_vis.core.skin.default_skin_model`) and ``skin_material``
 (optional) the physical skin's parameters that differ from their defaults, each checked
 against its declaration in :class:`~wrinkle_vis.core.skin.SkinMaterial`.
 Saving is atomic
@@ -123,7 +123,8 @@ class Layout:
         mapping plays).
     skin_model : str or None
         The skin model the face evaluates with (``"geometric"`` or ``"physical"``); None
-        when not recorded (the default, :data:`~wrinkle_vis.core.skin.DEFAULT_SKIN_MODEL`).
+        when not recorded (the default for the skin's size,
+        :func:`~wrinkle_vis.core.skin.default_skin_model`).
     skin_material : dict of str to float
         The physical skin's parameters that differ from their defaults
         (:class:`~wrinkle_vis.core.skin.SkinMaterial`).

@@ -120,10 +120,10 @@ from scipy.spatial import cKDTree
 from .mesh import TriangleSurface, barycentric_points, surface_coordinates, unit_rows
 from .params import PARAMETER_KEY, Parameter, ParameterValueError, format_value, parameter
 
-__all__ = ["ACTIVATION_TOL", "DEFAULT_SKIN_MODEL", "SKIN_MODELS", "SkinMaterial", "SpringRest",
-           "SpringSkin",
-           "activation_response", "bending_pairs", "check_skin_model", "inverted_triangles",
-           "vertex_areas"]
+__all__ = ["ACTIVATION_TOL", "DEFAULT_SKIN_MODEL", "PHYSICAL_DEFAULT_MAX_POINTS", "SKIN_MODELS",
+           "SkinMaterial", "SpringRest", "SpringSkin", "activation_response", "bending_pairs",
+           "check_skin_model", "default_skin_model", "default_skin_notice",
+           "inverted_triangles", "vertex_areas"]
 
 #: The skin models a face can be evaluated with: the muscles' geometric pulls and the
 #: physically based skin of this module.
@@ -131,11 +131,40 @@ SKIN_MODELS = ("geometric", "physical")
 
 #: The skin model a face evaluates with when nothing says otherwise (a face built without
 #: ``skin_model``, a layout file without one, the command line without ``--skin-model``,
-#: the app, sweeps): the geometric skin, chosen by measurement (README, "Which skin is the
-#: default"): the physical skin meets issue 27's targets on both built-in faces, but as the
-#: default it would break other measured targets (a muscle drag's 30 updates a second, the
-#: 1.3 M-triangle first frame's 10 s and 1 GB). Every layer reads this one name.
-DEFAULT_SKIN_MODEL = "geometric"
+#: the app, sweeps), up to :data:`PHYSICAL_DEFAULT_MAX_POINTS` vertices: the physically
+#: based skin, chosen by measurement (README, "Which skin is the default"): it meets every
+#: target of issue 27 on both built-in faces. Every layer reads it through
+#: :func:`default_skin_model`.
+DEFAULT_SKIN_MODEL = "physical"
+
+#: The largest skin (vertices) on which the default is the physical skin: its first frame
+#: (factorization and equilibrium, every muscle at 0.7) fits issue 33's budget for a first
+#: frame, 10 s and 1 GB, at 60,312 vertices (6.6 s of CPU, 471 MiB) and not at 80,387
+#: (11.1 s) (``benchmarks/bench_skin_policy.py``, ``docs/benchmarks.md`` stop 37). A bigger
+#: skin defaults to the geometric skin.
+PHYSICAL_DEFAULT_MAX_POINTS = 65_000
+
+
+def default_skin_model(n_points: int) -> str:
+    """The skin model of a face of ``n_points`` vertices that names none:
+    :data:`DEFAULT_SKIN_MODEL` up to :data:`PHYSICAL_DEFAULT_MAX_POINTS` vertices, the
+    geometric skin above (:func:`default_skin_notice` says so in one line).
+    """
+    if DEFAULT_SKIN_MODEL == "physical" and int(n_points) > PHYSICAL_DEFAULT_MAX_POINTS:
+        return "geometric"
+    return DEFAULT_SKIN_MODEL
+
+
+def default_skin_notice(n_points: int) -> str | None:
+    """One line for a face of ``n_points`` vertices whose default is not
+    :data:`DEFAULT_SKIN_MODEL` (:func:`default_skin_model`), else None.
+    """
+    model = default_skin_model(n_points)
+    if model == DEFAULT_SKIN_MODEL:
+        return None
+    return (f"the skin has {int(n_points):,} vertices, more than the physical skin's first "
+            f"frame fits in 10 s and 1 GB ({PHYSICAL_DEFAULT_MAX_POINTS:,}): it uses the "
+            f"{model} skin; --skin-model physical (skin=\"physical\") simulates it anyway")
 
 
 def check_skin_model(skin: str) -> str:

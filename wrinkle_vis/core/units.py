@@ -17,8 +17,9 @@ import numpy as np
 if TYPE_CHECKING:
     from .mesh import TriangleSurface
 
-__all__ = ["DEFAULT_UNIT", "HEAD_METRES", "LENGTH_UNITS", "UnitWarning", "check_unit", "face_unit",
-           "face_unit_of", "guess_unit", "millimetre"]
+__all__ = ["DEFAULT_UNIT", "HEAD_METRES", "HUMAN_LANDMARK_RADIUS_M", "HUMAN_SIZE_FACTOR",
+           "LENGTH_UNITS", "UnitWarning", "check_unit", "face_unit", "face_unit_of",
+           "guess_unit", "landmark_radius", "millimetre", "physical_metres_per_unit"]
 
 #: The unit of a face that does not say: the built-in face is in millimetres.
 DEFAULT_UNIT = "mm"
@@ -120,3 +121,46 @@ def millimetre(face) -> float:
     new muscle starts with are given in millimetres, the built-in face's unit.
     """
     return LENGTH_UNITS["mm"] / LENGTH_UNITS[face_unit(face)]
+
+
+#: The RMS distance of a human face's landmarks from their centroid, in metres: the built-in
+#: face's nine (44.5 mm; the Lee Perry-Smith scan's are 47.5 mm).
+HUMAN_LANDMARK_RADIUS_M = 0.0445
+
+#: A face's landmarks within this factor of :data:`HUMAN_LANDMARK_RADIUS_M` (in its unit)
+#: make a human face: a child's to a large adult's, with room to spare.
+HUMAN_SIZE_FACTOR = 2.0
+
+
+def landmark_radius(landmarks) -> float:
+    r"""The RMS distance of ``landmarks`` (name to (3,) point) from their centroid,
+    :math:`\sqrt{\tfrac1k \sum_i \lVert y_i - \bar y \rVert^2}`, in their unit.
+    """
+    p = np.array([tuple(v) for v in dict(landmarks).values()], dtype=float).reshape(-1, 3)
+    return float(np.sqrt(np.mean(np.sum((p - p.mean(axis=0)) ** 2, axis=1))))
+
+
+def physical_metres_per_unit(face) -> float:
+    r"""Metres in one of ``face``'s units for the physically based skin, whose material is a
+    human's skin in SI units (per-area stiffnesses, density, tissue thickness).
+
+    The face's own unit (:func:`face_unit`), unless its landmarks put it outside human
+    size in that unit (their :func:`landmark_radius` more than :data:`HUMAN_SIZE_FACTOR`
+    times from :data:`HUMAN_LANDMARK_RADIUS_M`): then the face is simulated at human size,
+    :math:`s = r_\text{human} / r_\text{landmarks}` metres per unit. A statue or a scan in
+    a unit of its own (the Demosthenes bust is 2.69 units tall: 2.69 mm as millimetres)
+    would otherwise carry the human membrane's reach, :math:`\sqrt{Y / \kappa}` = 16 mm,
+    over the whole of a 2.7 mm face and smooth its compression away; the geometric skin
+    has no such length and scales with the face. A face without landmarks keeps its unit.
+    """
+    declared = LENGTH_UNITS[face_unit(face)]
+    landmarks = getattr(face, "landmarks", None)
+    if not landmarks:
+        return declared
+    radius = landmark_radius(landmarks)
+    if not math.isfinite(radius) or radius <= 0.0:
+        return declared
+    ratio = radius * declared / HUMAN_LANDMARK_RADIUS_M
+    if 1.0 / HUMAN_SIZE_FACTOR <= ratio <= HUMAN_SIZE_FACTOR:
+        return declared
+    return HUMAN_LANDMARK_RADIUS_M / radius
