@@ -396,6 +396,47 @@ def test_a_drag_with_real_qt_mouse_events(window, qtbot):
     assert window.undo_stack.count() == 1
 
 
+def test_a_drag_on_the_physical_skin_starts_warm_and_lets_go_cold(window, qtbot, monkeypatch):
+    """While a handle moves, each physical still frame starts from the last one (a few
+    iterations); the frame the drag lets go on is solved from the rest skin, so the frame
+    shown, saved and exported is the one a fresh evaluation gives, bit for bit."""
+    from qtpy.QtTest import QTest
+
+    from wrinkle_vis.core.face import FaceModel
+
+    assert window.session.face.skin_model == "physical"
+    asked = []
+    evaluate = FaceModel.evaluate
+
+    def spy(self, *args, warm_start=False, **kwargs):
+        asked.append(warm_start)
+        return evaluate(self, *args, warm_start=warm_start, **kwargs)
+
+    monkeypatch.setattr(FaceModel, "evaluate", spy)
+    window.expression_box.setCurrentText("smile")
+    window.select_muscle("zygomaticus_major_L")
+    widget = window.placement
+    handle = next(h for h in widget.handles(widget.muscle) if h.param == "insertion")
+    x, y = display_point(window.skin_view, widget.position(handle))
+    view = window.skin_view.interactor
+    ratio = view.devicePixelRatioF()
+    start = QtCore.QPoint(int(x / ratio), int(view.height() - y / ratio))
+    QTest.mouseMove(view, start)
+    QTest.mousePress(view, QtCore.Qt.LeftButton, QtCore.Qt.NoModifier, start)
+    asked.clear()
+    for k in range(1, 6):
+        QTest.mouseMove(view, start + QtCore.QPoint(-2 * k, 2 * k))
+    assert asked and all(asked)  # every move's frame warm
+    QTest.mouseRelease(view, QtCore.Qt.LeftButton, QtCore.Qt.NoModifier,
+                       start + QtCore.QPoint(-10, 10))
+    assert asked[-1] is False  # the last frame cold
+    face = window.session.face
+    shown = window.session.state()
+    cold = evaluate(face, window.session.activations())
+    assert np.array_equal(shown.W, cold.W)
+    assert np.array_equal(shown.points, cold.points)
+
+
 # ---------------------------------------------------------------------- polish
 def test_duplicate_takes_the_originals_activation(window):
     window.select_muscle("corrugator_L")

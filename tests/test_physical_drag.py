@@ -81,7 +81,7 @@ def test_a_dragged_layouts_still_frame_is_that_layouts_equilibrium(paper_face):
     face.evaluate("surprise")  # the frame the dragged layout starts from
     dragged = _moved(face, DRAG)
     acts = dragged.activations_for("surprise")
-    x = dragged.evaluate("surprise", fold_guard=False).deformed_points
+    x = dragged.evaluate("surprise", fold_guard=False, warm_start=True).deformed_points
     scratch = _fresh(dragged).evaluate("surprise", fold_guard=False).deformed_points
     exact = _exact(dragged, acts)
     size = dragged.physical_skin().size()
@@ -146,7 +146,7 @@ def test_a_dragged_layout_starts_from_the_previous_frame(paper_face, monkeypatch
 
     monkeypatch.setattr(skin_module, "_anderson", recorded)
     dragged = _moved(face, np.array([0.5, 0.0, 0.0]))  # a mouse move
-    dragged.evaluate("surprise")
+    dragged.evaluate("surprise", warm_start=True)
     _fresh(dragged).evaluate("surprise")  # cold: from the rest skin
     (warm_step, warm_iterations), (cold_step, cold_iterations) = solves
     assert warm_step < 0.1 * cold_step
@@ -174,6 +174,24 @@ def test_the_same_face_gives_the_same_frame_bit_for_bit(paper_face):
     _moved(face, DRAG).evaluate("surprise")  # another layout's frame, kept for warm starts
     again = face.evaluate("surprise").deformed_points
     assert np.array_equal(first, again)
+
+
+def test_a_cold_frame_does_not_depend_on_the_frames_asked_for_before(paper_face):
+    """Without ``warm_start`` a still frame starts from the rest skin: a face whose family
+    solved the same activations before (warm, on a dragged layout) gives the frame a fresh
+    face gives, bit for bit (an export, a sweep run, a test), and a warm answer kept by a
+    skin is not handed to a cold request."""
+    face = _fresh(paper_face)
+    face.evaluate("fear", fold_guard=False)  # its layout factorized: the family's base
+    dragged = _moved(face, DRAG)
+    dragged.evaluate("surprise", fold_guard=False)
+    warm = dragged.evaluate("surprise", fold_guard=False, warm_start=True).deformed_points
+    cold = face.evaluate("surprise", fold_guard=False).deformed_points
+    assert np.array_equal(cold, _fresh(paper_face).evaluate("surprise",
+                                                            fold_guard=False).deformed_points)
+    face.evaluate("surprise", fold_guard=False, warm_start=True)  # warm: kept by the skin
+    assert np.array_equal(face.evaluate("surprise", fold_guard=False).deformed_points, cold)
+    assert warm.shape == cold.shape
 
 
 def test_a_large_layout_change_is_factorized_and_becomes_the_base(paper_face):

@@ -328,11 +328,17 @@ class PlacementController:
             w.frames.sync_views()
         else:
             panel.error.setText("")
+            s.dragging = not finished  # the frame let go on is solved cold (bit for bit)
             w.document.set_face(s.face.with_muscle(new))
             # the handle's own view is rendered by its widget right after this callback:
             # the frame must be in its meshes before that
             w.frames.flush(skip=() if finished else (views.placement.views[handle.layer],))
         if finished:
+            if s.dragging:  # let go on a refused move: the last frame solved cold again
+                s.dragging = False
+                s._changed()
+                w.frames.request()
+                w.frames.flush()
             views.end_drag()
             views.render()
             before, self._before = self._before, None

@@ -139,6 +139,9 @@ class Session:
         self.field = "W"
         self.muscle: str | None = None  # None: the total
         self.refine = False  # adaptive refinement (paper Fig. 11)
+        # a muscle is being dragged: physical still frames start from the last one
+        # (FaceModel.evaluate's warm_start); the drag's last frame is solved from rest again
+        self.dragging = False
         self.overrides: dict[str, float] = {}  # activations set by hand, over the expression
         self.dirty = False
         self.frame_ms = 0.0  # how long the last evaluation took
@@ -211,7 +214,8 @@ class Session:
                 self._state = self.face._refined_physical(state, 3.0, 3) if self.refine \
                     else state
             else:  # a still frame: on the physical skin, the equilibrium
-                self._state = self.face.evaluate(self.activations(), refine=self.refine)
+                self._state = self.face.evaluate(self.activations(), refine=self.refine,
+                                                 warm_start=self.dragging)
             self.frame_ms = 1e3 * (time.perf_counter() - t0)
         return self._state
 

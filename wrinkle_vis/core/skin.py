@@ -89,9 +89,11 @@ stiff, :math:`\kappa_z a_i / (L_{ii} + \kappa a_i)` is 13-21 (5th-95th percentil
 size), so the splitting diverges at a vertex that enters a zone and contracts by only about
 0.94 per iteration at one that leaves it.
 
-A still frame of a face starts, when it can, from the latest still frame of the same
-activations on any layout of that face (:meth:`SpringSkin.equilibrium`'s ``warm``): after a
-muscle drag's small move it is a few iterations away. The answer is the equilibrium to the
+A still frame asked for with ``warm_start`` (:meth:`FaceModel.evaluate`; the app does
+while a muscle is dragged) starts from the latest still frame of the same activations on any
+layout of that face (:meth:`SpringSkin.equilibrium`'s ``warm``): after a drag's small move
+it is a few iterations away. Every other still frame starts from the rest skin, so it does
+not depend on which frames were asked for before. The answer is the equilibrium to the
 solver's tolerance from any start (the tolerance, :math:`10^{-7}` of the skin's size on the
 iteration's step, leaves about :math:`1.5 \cdot 10^{-5}` of the size from the exact
 minimum from the rest skin and from a warm start alike), so frames of one layout reached
@@ -640,7 +642,7 @@ class SpringSkin:
         # the attachments' pull towards the rest skin, read by every solve
         self._anchor_rest = self.anchor[:, None] * self.rest
         self._factors: dict[float | None, _GlobalSolve] = {}
-        self._still: tuple | None = None  # (warm key, pull, still frame) of the latest
+        self._still: tuple | None = None  # (warm key, pull, still frame, cold?) of the latest
 
     def size(self) -> float:
         """The length of the rest skin's bounding-box diagonal (face units)."""
@@ -716,7 +718,7 @@ class SpringSkin:
 
     def equilibrium(self, target_disp: np.ndarray, x: np.ndarray | None = None, *,
                     tol: float = 1e-7, max_iter: int = 500, window: int = 5,
-                    warm=None) -> np.ndarray:
+                    warm=None, start_warm: bool = True) -> np.ndarray:
         """``(n, 3)``: the still frame, the minimum of :math:`E` for ``target_disp``
         ``(n, 3)``, from ``x`` (default the rest skin): local/global iterations, sped up by
         Anderson acceleration over the last ``window`` iterates (Peng et al. 2018), until no
@@ -725,19 +727,24 @@ class SpringSkin:
         returned exactly rather than through a solve's rounding.
 
         ``warm`` (hashable, optional) names what is solved for (a face passes its resolved
-        activations). Without ``x``, the solve then starts from the latest still frame kept
+        activations); the answer is kept under that name for later warm starts. With
+        ``start_warm`` and without ``x``, the solve starts from the latest still frame kept
         under that name by any layout sharing :attr:`shared` (a dragged muscle's new layout
-        starts from the old layout's frame, a few iterations away) and keeps its own
-        there; the answer is the equilibrium to the same tolerance from any start. This
-        skin asked again with the same name and pull returns its answer again, bit for bit.
+        starts from the old layout's frame, a few iterations away); the answer is the
+        equilibrium to the same tolerance from any start, not bit for bit. Without
+        ``start_warm`` it starts from the rest skin, so the answer depends on the skin and
+        ``target_disp`` alone. This skin asked again with the same name and pull returns its
+        answer again, bit for bit (a warm-started answer only to a warm request).
         """
         if x is None and not np.any(target_disp):
             return self.rest.copy()
         if warm is not None and x is None:
             still = self._still
-            if still is not None and still[0] == warm and np.array_equal(still[1], target_disp):
+            if still is not None and still[0] == warm and (start_warm or still[3]) \
+                    and np.array_equal(still[1], target_disp):
                 return still[2].copy()
-            x = self.shared.warm_start(warm)
+            if start_warm:
+                x = self.shared.warm_start(warm)
         solve = self._factor(None)
         fixed = np.asfortranarray(self._anchor_rhs(target_disp))
 
@@ -751,7 +758,7 @@ class SpringSkin:
         if self.skull is not None:
             self.skull.project(out)
         if warm is not None:
-            self._still = (warm, np.array(target_disp, dtype=float), out.copy())
+            self._still = (warm, np.array(target_disp, dtype=float), out.copy(), x is None)
             self.shared.keep_warm(warm, self._still[2])
         return out
 
