@@ -1077,7 +1077,6 @@ def _build_assembly_bounds(face, asm, skin: dict) -> dict:
     """:func:`_assembly_bounds`, computed."""
     tri = np.asarray(face.skin.triangles, dtype=np.intp)
     n = face.skin.n_points
-    pairs, dist = skin["pairs"], skin["dist"]
     moved = np.zeros(n, bool)
     moved[asm.moved] = True
     pulled = np.flatnonzero(moved[tri].any(axis=1))
@@ -1086,25 +1085,14 @@ def _build_assembly_bounds(face, asm, skin: dict) -> dict:
     Um = np.zeros((len(asm.moved), 3, len(asm.names)))
     for k, name in enumerate(asm.names):
         data = face.muscle_data(face.muscle(name))
+        rows, norms, g, top, lip = _muscle_bounds(face, data, skin)
+        G.append(g)
+        U.append(top)
+        Lip.append(lip)
+        Gt[np.searchsorted(pulled, rows), k] = norms  # (its triangles are pulled ones)
         u = np.zeros((n, 3))
         u[data.aoi] = data.unit_disp
-        inside = np.zeros(n, bool)
-        inside[data.aoi] = True
-        rows = np.flatnonzero(inside[tri].any(axis=1))
-        c = tri[rows]
-        D = np.stack([u[c[:, 1]] - u[c[:, 0]], u[c[:, 2]] - u[c[:, 0]]], axis=2)
-        J = D @ skin["Einv"][rows]
-        norms = np.linalg.norm(J, ord=2, axis=(1, 2))
-        G.append(float(norms.max()) if len(rows) else 0.0)
-        Gt[np.searchsorted(pulled, rows), k] = norms  # (its triangles are pulled ones)
         Um[:, :, k] = u[asm.moved]  # (as rows x, y, z of each moved vertex)
-        U.append(float(np.linalg.norm(u, axis=1).max()))
-        near = np.flatnonzero(inside[pairs[:, 0]] | inside[pairs[:, 1]])
-        p = pairs[near]
-        diff = np.linalg.norm(u[p[:, 0]] - u[p[:, 1]], axis=1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.where(diff > 0, diff / dist[near], 0.0)
-        Lip.append(float(ratio.max()) if len(ratio) else 0.0)
     wrinkled = np.zeros(n, bool)
     wrinkled[asm.wrinkled] = True
     K = skin["K"]
@@ -1121,6 +1109,46 @@ def _build_assembly_bounds(face, asm, skin: dict) -> dict:
             "Kp": most(K[moved[tri].any(axis=1)]), "Kw": most(K[wrinkled[tri].any(axis=1)]),
             "S": most(frob),
             "sep": float(skin["sep"][asm.wrinkled].min()) if len(asm.wrinkled) else np.inf}
+
+
+def _muscle_bounds(face, data, skin: dict) -> tuple:
+    r"""One muscle's part of :func:`_assembly_bounds`, from its rest data ``data`` (a
+    ``_MuscleData``, shared by every face whose muscle has the same geometry, so a drag
+    recomputes only the dragged muscle's): the triangles of its AOI ``(t,)`` and
+    :math:`\|J_{m,t}\|_2` on them ``(t,)``, :math:`\hat G_m`, :math:`\hat U_m` and its
+    Lipschitz bound. Kept per skin by the data itself (held, so its id is not reused).
+    """
+    memo = skin.setdefault("muscles", {})
+    got = memo.pop(id(data), None)
+    if got is None or got[0] is not data:
+        got = (data, _build_muscle_bounds(face, data, skin))
+    memo[id(data)] = got
+    while len(memo) > 4 * _CERT_ASSEMBLIES:
+        memo.pop(next(iter(memo)))
+    return got[1]
+
+
+def _build_muscle_bounds(face, data, skin: dict) -> tuple:
+    """:func:`_muscle_bounds`, computed."""
+    tri = np.asarray(face.skin.triangles, dtype=np.intp)
+    n = face.skin.n_points
+    pairs, dist = skin["pairs"], skin["dist"]
+    u = np.zeros((n, 3))
+    u[data.aoi] = data.unit_disp
+    inside = np.zeros(n, bool)
+    inside[data.aoi] = True
+    rows = np.flatnonzero(inside[tri].any(axis=1))
+    c = tri[rows]
+    D = np.stack([u[c[:, 1]] - u[c[:, 0]], u[c[:, 2]] - u[c[:, 0]]], axis=2)
+    J = D @ skin["Einv"][rows]
+    norms = np.linalg.norm(J, ord=2, axis=(1, 2))
+    near = np.flatnonzero(inside[pairs[:, 0]] | inside[pairs[:, 1]])
+    p = pairs[near]
+    diff = np.linalg.norm(u[p[:, 0]] - u[p[:, 1]], axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(diff > 0, diff / dist[near], 0.0)
+    return (rows, norms, float(norms.max()) if len(rows) else 0.0,
+            float(np.linalg.norm(u, axis=1).max()), float(ratio.max()) if len(ratio) else 0.0)
 
 
 def _clamp_limit(skin: dict, bounds: dict, guard: FoldGuard) -> np.ndarray:
