@@ -372,18 +372,23 @@ def test_an_unreadable_recovery_folder_does_not_stop_the_start(make_window, monk
     assert "Permission denied" in w.statusBar().currentMessage()
 
 
+def _insertion_on_screen(window):
+    """The skin view's Qt widget and the selected muscle's insertion handle on it."""
+    widget = window.placement
+    handle = next(h for h in widget.handles(widget.muscle) if h.param == "insertion")
+    x, y = display_point(window.skin_view, widget.position(handle))
+    view = window.skin_view.interactor
+    ratio = view.devicePixelRatioF()
+    return view, QtCore.QPoint(int(x / ratio), int(view.height() - y / ratio))
+
+
 def test_a_drag_with_real_qt_mouse_events(window, qtbot):
     """The whole path: Qt mouse events on the view widget, pyvistaqt, VTK, the widget."""
     from qtpy.QtTest import QTest
 
     window.expression_box.setCurrentText("smile")
     window.select_muscle("zygomaticus_major_L")
-    widget = window.placement
-    handle = next(h for h in widget.handles(widget.muscle) if h.param == "insertion")
-    x, y = display_point(window.skin_view, widget.position(handle))
-    view = window.skin_view.interactor
-    ratio = view.devicePixelRatioF()
-    start = QtCore.QPoint(int(x / ratio), int(view.height() - y / ratio))
+    view, start = _insertion_on_screen(window)
     before = np.array(window.session.face.muscle("zygomaticus_major_L").insertion)
     QTest.mouseMove(view, start)
     QTest.mousePress(view, QtCore.Qt.LeftButton, QtCore.Qt.NoModifier, start)
@@ -415,12 +420,7 @@ def test_a_drag_on_the_physical_skin_starts_warm_and_lets_go_cold(window, qtbot,
     monkeypatch.setattr(FaceModel, "evaluate", spy)
     window.expression_box.setCurrentText("smile")
     window.select_muscle("zygomaticus_major_L")
-    widget = window.placement
-    handle = next(h for h in widget.handles(widget.muscle) if h.param == "insertion")
-    x, y = display_point(window.skin_view, widget.position(handle))
-    view = window.skin_view.interactor
-    ratio = view.devicePixelRatioF()
-    start = QtCore.QPoint(int(x / ratio), int(view.height() - y / ratio))
+    view, start = _insertion_on_screen(window)
     QTest.mouseMove(view, start)
     QTest.mousePress(view, QtCore.Qt.LeftButton, QtCore.Qt.NoModifier, start)
     asked.clear()

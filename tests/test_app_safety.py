@@ -686,10 +686,6 @@ def test_run_opens_the_app_on_a_layout(wv_face, tmp_path, settings, monkeypatch,
     seen = {}
     real = window_module.MainWindow
 
-    class Private(real):  # the test's settings, not the user's
-        def __init__(self, session, settings_=None, recovery=None):
-            super().__init__(session, settings, recovery)
-
     def look_and_close():
         w = next(w for w in QtWidgets.QApplication.topLevelWidgets()
                  if isinstance(w, real) and w.isVisible())
@@ -697,9 +693,7 @@ def test_run_opens_the_app_on_a_layout(wv_face, tmp_path, settings, monkeypatch,
         seen["k0"] = w.session.face.muscle("corrugator_L").k0
         w.close()
 
-    monkeypatch.setattr(window_module, "MainWindow", Private)
-    QtCore.QTimer.singleShot(300, look_and_close)
-    assert window_module.run(["wrinkle-vis"], layout=path) == 0
+    _run_with_private_settings(window_module, settings, monkeypatch, look_and_close, path)
     assert seen == {"path": path, "k0": 1.75}
 
 
@@ -715,10 +709,6 @@ def test_run_on_the_physical_skin_opens_one_window_and_closing_it_ends_the_app(
     seen = {}
     real = window_module.MainWindow
 
-    class Private(real):  # the test's settings, not the user's
-        def __init__(self, session, settings_=None, recovery=None):
-            super().__init__(session, settings, recovery)
-
     def look_and_close():
         shown = [w for w in QtWidgets.QApplication.topLevelWidgets() if w.isVisible()]
         main = next(w for w in shown if isinstance(w, real))
@@ -729,10 +719,22 @@ def test_run_on_the_physical_skin_opens_one_window_and_closing_it_ends_the_app(
                 w.close()
         main.close()
 
-    monkeypatch.setattr(window_module, "MainWindow", Private)
-    QtCore.QTimer.singleShot(300, look_and_close)
-    assert window_module.run(["wrinkle-vis"], layout=path) == 0
+    _run_with_private_settings(window_module, settings, monkeypatch, look_and_close, path)
     assert seen == {"windows": ["Private"], "panel": (True, True)}
+
+
+def _run_with_private_settings(window_module, settings, monkeypatch, look, path) -> None:
+    """``wrinkle-vis --layout path`` with the test's settings (a ``MainWindow`` subclass,
+    ``Private``), ``look`` called 300 ms in (it closes the window); the app must end, 0."""
+    real = window_module.MainWindow
+
+    class Private(real):  # the test's settings, not the user's
+        def __init__(self, session, settings_=None, recovery=None):
+            super().__init__(session, settings, recovery)
+
+    monkeypatch.setattr(window_module, "MainWindow", Private)
+    QtCore.QTimer.singleShot(300, look)
+    assert window_module.run(["wrinkle-vis"], layout=path) == 0
 
 
 def test_run_reports_a_layout_it_cannot_open_in_one_line(tmp_path, capsys):
