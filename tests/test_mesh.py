@@ -216,3 +216,27 @@ def test_quadratic_points_are_exact_for_a_quadratic_field_on_a_flat_patch(seed):
     np.testing.assert_allclose(scalar, got[:, 0], atol=1e-12 * np.abs(got).max())
     linear = barycentric_points(surface, tri, bary, field(surface.points))
     assert np.abs(linear - field(at)).max() > 1e-3  # the linear scheme is not exact
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**16))
+def test_exact_surface_coordinates_are_the_closest_point_of_the_whole_surface(seed):
+    """``surface_coordinates(..., exact=True)`` finds the closest point of the whole surface
+    on an uneven triangulation (long, thin triangles), as a brute force over every triangle
+    does; the default, the triangles around the four nearest vertices, may not (seed 49268
+    of the skull's sign test)."""
+    from wrinkle_vis.core.mesh import barycentric_points, closest_on_triangles, surface_coordinates
+
+    rng = np.random.default_rng(seed)
+    ball = sphere(2, 10.0)
+    bumps = wv.TriangleSurface(ball.points * (1.0 + 0.6 * rng.uniform(-1, 1, (ball.n_points, 1))),
+                               ball.triangles)
+    x = rng.normal(0.0, 8.0, (60, 3))
+    tri, bary = surface_coordinates(bumps, x, exact=True)
+    got = np.linalg.norm(barycentric_points(bumps, tri, bary) - x, axis=1)
+    every = np.arange(bumps.n_triangles)
+    want = []
+    for p in x:
+        t, b = closest_on_triangles(bumps, every, p)
+        want.append(np.linalg.norm(b @ bumps.points[bumps.triangles[t]] - p))
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
