@@ -255,10 +255,12 @@ def _timed_ramps(runs: dict, n: int, passes: int, rounds: int) -> dict:
 
 def animation(rounds: int, frames: int, baseline: str | None = None,
               faces: tuple[str, ...] = ("paper", "head"),
-              skins: tuple[str, ...] = ("geometric", "physical")) -> dict:
+              skins: tuple[str, ...] = ("geometric", "physical"),
+              only: tuple[str, ...] = ()) -> dict:
     """The guard's share of animation frames (module notes, ``--animation``): per face,
     refinement, expression, skin and (physical) warm start, the mean frame of a ramp of
-    ``frames`` intensities with the guard off, on and (``baseline``) that revision's."""
+    ``frames`` intensities with the guard off, on and (``baseline``) that revision's;
+    ``only``: the cases whose name (refined/unrefined, expression) holds all of these words."""
     import wrinkle_vis as wv
     from wrinkle_vis.core import foldguard
 
@@ -271,6 +273,9 @@ def animation(rounds: int, frames: int, baseline: str | None = None,
             face_name)
         host = sys.modules[type(face).guarded.__module__]  # where FaceModel finds `guarded`
         for expr, skin in ((e, k) for e in exprs for k in skins):
+            name = f"{'refined' if refine else 'unrefined'} {expr}"
+            if not all(w in name.split() for w in only):
+                continue
             for warm in ((False, True) if skin == "physical" else (False,)):
                 def ramp(levels, module, e=expr, r=refine, f=face, k=skin, w=warm,
                          h=host, own=host.guarded):
@@ -349,6 +354,9 @@ def main() -> None:
     ap.add_argument("--skin-model", default="geometric",
                     choices=("geometric", "physical", "both"),
                     help="the skin of the guard's frames (default geometric)")
+    ap.add_argument("--cases", default="",
+                    help="only the animation cases named by all these comma-separated words "
+                         "(refined or unrefined, an expression: refined,pucker)")
     ap.add_argument("--animation", type=int, default=0, metavar="N",
                     help="time ramps of N frames (intensity 0 to 1) instead of repeats")
     args = ap.parse_args()
@@ -360,7 +368,7 @@ def main() -> None:
             ap.error(f"--animation {args.animation}: a ramp needs at least 2 frames")
         print(f"load average {os.getloadavg()[0]:.2f}")
         res = {"animation": animation(args.rounds, args.animation, args.baseline, faces,
-                                      skins)}
+                                      skins, tuple(filter(None, args.cases.split(","))))}
         if args.json:
             args.json.write_text(json.dumps(res, indent=1))
         print(f"load average {os.getloadavg()[0]:.2f}")
