@@ -231,7 +231,8 @@ def pull_terms(rest: np.ndarray, triangles: np.ndarray,
 
 def _terms_rows(terms: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(3, m)`` thrice: :math:`N / |N|^2`, :math:`A_1`, :math:`A_2` of every triangle of
-    :func:`pull_terms` ``terms``, computed on first use and kept in ``terms``."""
+    :func:`pull_terms` ``terms``, computed on first use and kept in ``terms``.
+    """
     if "N" not in terms:
         terms["N"], terms["A1"], terms["A2"] = _row_terms(terms["rest"], terms["corners"])
     return terms["N"], terms["A1"], terms["A2"]
@@ -239,7 +240,8 @@ def _terms_rows(terms: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def _terms_edges(terms: dict) -> tuple[np.ndarray, np.ndarray]:
     """``(e, 2)`` and ``(e,)``: the edges of :func:`pull_terms` ``terms`` (sorted by first
-    end, then second) and their rest lengths, found on first use and kept in ``terms``."""
+    end, then second) and their rest lengths, found on first use and kept in ``terms``.
+    """
     got = terms.get("edges")
     if got is not None:
         return got, terms["length"]
