@@ -159,9 +159,9 @@ def guard(rounds: int, baseline: str | None = None, intensities: tuple[float, ..
     for face_name, refine, exprs in GUARD_CASES:
         if ("paper" if face_name is None else "head") not in faces:
             continue
-        face = wv.datasets.load_face() if face_name is None else wv.datasets.load_face(
-            face_name)
-        host = sys.modules[type(face).guarded.__module__]  # where FaceModel finds `guarded`
+        face, twin = (wv.datasets.load_face(*(() if face_name is None else (face_name,)))
+                      for _ in range(2))  # the baseline's: caches of its own (their layout
+        host = sys.modules[type(face).guarded.__module__]  # may differ); `guarded`'s host
         for expr, level in ((e, i) for e in exprs for i in intensities):
             def on(module, e=expr, i=level, r=refine, f=face, h=host, own=host.guarded):
                 h.guarded = module.guarded
@@ -174,7 +174,7 @@ def guard(rounds: int, baseline: str | None = None, intensities: tuple[float, ..
                         e, i, refine=r, fold_guard=False, skin=skin),
                     "on": lambda: on(foldguard)}
             if old is not None:
-                runs["baseline"] = lambda: on(old)
+                runs["baseline"] = lambda on=on, t=twin: on(old, f=t)
             s = runs["on"]()  # radii, caches, hierarchy: once
             same = None
             if old is not None:
@@ -269,9 +269,9 @@ def animation(rounds: int, frames: int, baseline: str | None = None,
     for face_name, refine, exprs in ANIMATION_CASES:
         if ("paper" if face_name is None else "head") not in faces:
             continue
-        face = wv.datasets.load_face() if face_name is None else wv.datasets.load_face(
-            face_name)
-        host = sys.modules[type(face).guarded.__module__]  # where FaceModel finds `guarded`
+        face, twin = (wv.datasets.load_face(*(() if face_name is None else (face_name,)))
+                      for _ in range(2))  # the baseline's: caches of its own (their layout
+        host = sys.modules[type(face).guarded.__module__]  # may differ); `guarded`'s host
         for expr, skin in ((e, k) for e in exprs for k in skins):
             name = f"{'refined' if refine else 'unrefined'} {expr}"
             if not all(w in name.split() for w in only):
@@ -292,7 +292,7 @@ def animation(rounds: int, frames: int, baseline: str | None = None,
                 runs = {"off": lambda v, ramp=ramp: ramp(v, None),
                         "on": lambda v, ramp=ramp: ramp(v, foldguard)}
                 if old is not None:
-                    runs["baseline"] = lambda v, ramp=ramp: ramp(v, old)
+                    runs["baseline"] = lambda v, ramp=ramp, t=twin: ramp(v, old, f=t)
                 out.update(_animation_case(face, refine, expr, skin, warm, runs, frames,
                                            rounds))
     return out
