@@ -1014,3 +1014,10 @@ def test_the_pull_terms_are_found_where_needed_and_equal_those_found_at_once():
         np.testing.assert_array_equal(skin_scale(pts, pts + scale * pull, tri, terms=lazy),
                                       skin_scale(pts, pts + scale * pull, tri, terms=eager))
     np.testing.assert_array_equal(_terms_edges(lazy)[0], eager["edges"])
+    pull[np.abs(pts[:, 0] - 2.0) > 5.0] = 0.0  # a region of the sheet: a subset's terms
+    for scale in (0.5, 1.0):  # a step from a deformed skin (the wrinkles' own), acting
+        start = pts + 0.4 * scale * pull
+        got = [skin_scale(pts, pts + scale * pull, tri, 0.05, 0.8, terms=t, start=start)
+               for t in (pull_terms(pts, tri), eager)]
+        assert got[0].min() < 1.0
+        np.testing.assert_array_equal(*got)

@@ -450,9 +450,10 @@ def _triangles_of(terms: dict, moving: np.ndarray) -> tuple:
         hit = (rows, terms["corners"], *_terms_rows(terms))
     elif "N" in terms:
         hit = (rows, *(terms[k][:, rows] for k in ("corners", "N", "A1", "A2")))
-    else:  # (each triangle's terms alone: those of every triangle's, bit for bit)
-        corners = terms["corners"][:, rows]
-        hit = (rows, corners, *_row_terms(terms["rest"], corners))
+    else:  # each triangle's terms alone: those of every triangle's, bit for bit, laid out
+        corners = terms["corners"][:, rows]  # as taking them would (column-major: einsum's
+        hit = (rows, corners, *map(np.asfortranarray,  # sums on their rows follow it)
+                                   _row_terms(terms["rest"], corners)))
     memo[key] = hit
 
     def size(entry: tuple) -> int:
