@@ -961,14 +961,15 @@ def test_the_first_root_is_the_masked_one_bit_for_bit():
 # --- the guard on animation frames (cost29): new activations, a new refined skin a frame ---
 
 
-def test_a_refined_frames_nearest_skin_vertices_are_kept_per_hierarchy_row(procedural):
+def test_a_refined_frames_nearest_skin_vertices_are_kept_per_hierarchy_row():
     """Each refined frame of a ramp has a refined skin of its own; the three nearest skin
     vertices of its vertices (whose rest radii bound its clamp) are those of a fresh query
     of that skin, bit for bit, and a later frame queries only the hierarchy rows no frame
-    asked for before (the first frame's rows: none)."""
+    asked for before (on a face of its own: the first frame's rows, none)."""
+    import wrinkle_vis as wv
     from wrinkle_vis.core import foldguard
 
-    face = procedural.with_skin_model("geometric")
+    face = wv.datasets.load_face().with_skin_model("geometric")
     tree = face.skin.kdtree
     asked = []
 
