@@ -203,21 +203,53 @@ def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
                      u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]], axis=1)
 
 
-def pull_terms(rest: np.ndarray, triangles: np.ndarray, edges: np.ndarray | None = None
-               ) -> dict:
+def pull_terms(rest: np.ndarray, triangles: np.ndarray,
+               edges: np.ndarray | Callable[[], np.ndarray] | None = None) -> dict:
     r"""What :func:`skin_scale` needs of the rest skin ``(n, 3)``, ``(m, 3)``, computed once:
     the corners as rows ``(3, m)``, :math:`N / |N|^2` and the rows
     :math:`A_1 = N \times e_1 / |N|^2`, :math:`A_2 = e_2 \times N / |N|^2` (so that
     :math:`b = \delta_2 \cdot A_1 + \delta_1 \cdot A_2`), each ``(3, m)``; the skin's edges
     ``(e, 2)`` (each sorted, and sorted by first end, then second: the order of a sparse
     matrix's rows) and their rest lengths ``(e,)``. ``edges``: the skin's unique edges sorted
-    (``TriangleSurface.edges``), when at hand.
+    (``TriangleSurface.edges``), when at hand, or a function giving them.
+
+    The edges and their lengths are needed only where a pull is limited (the search of
+    :func:`skin_scale`), so unless given as an array they are found the first time they
+    are (:func:`_terms_edges`): a frame no guard acts on, on a skin of its own (a refined
+    frame's), never pays for them. The rows :math:`N`, :math:`A_1`, :math:`A_2` likewise
+    (:func:`_terms_rows`): a frame asks for those of its pulled triangles only
+    (:func:`_triangles_of`), each triangle's computed alone, the same bit for bit.
     """
     rest = np.asarray(rest, dtype=float)
     tri = np.asarray(triangles, dtype=np.intp)
     corners = np.ascontiguousarray(tri.T)
-    N, A1, A2 = _row_terms(rest, corners)
+    terms = {"corners": corners, "rest": rest, "edges_of": edges}
+    if edges is not None and not callable(edges):
+        _terms_edges(terms)
+    return terms
+
+
+def _terms_rows(terms: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(3, m)`` thrice: :math:`N / |N|^2`, :math:`A_1`, :math:`A_2` of every triangle of
+    :func:`pull_terms` ``terms``, computed on first use and kept in ``terms``.
+    """
+    if "N" not in terms:
+        terms["N"], terms["A1"], terms["A2"] = _row_terms(terms["rest"], terms["corners"])
+    return terms["N"], terms["A1"], terms["A2"]
+
+
+def _terms_edges(terms: dict) -> tuple[np.ndarray, np.ndarray]:
+    """``(e, 2)`` and ``(e,)``: the edges of :func:`pull_terms` ``terms`` (sorted by first
+    end, then second) and their rest lengths, found on first use and kept in ``terms``.
+    """
+    got = terms.get("edges")
+    if got is not None:
+        return got, terms["length"]
+    rest, edges = terms["rest"], terms.pop("edges_of", None)
+    if callable(edges):
+        edges = edges()
     if edges is None:
+        tri = terms["corners"].T
         edges = np.unique(np.sort(np.vstack([tri[:, [0, 1]], tri[:, [1, 2]],
                                              tri[:, [2, 0]]]), axis=1), axis=0)
     edges = np.asarray(edges, dtype=np.intp)
@@ -225,8 +257,9 @@ def pull_terms(rest: np.ndarray, triangles: np.ndarray, edges: np.ndarray | None
     if len(key) > 1 and not np.all(key[1:] > key[:-1]):  # by first end, then second
         edges = edges[np.argsort(key, kind="stable")]
     del key
-    return {"corners": corners, "N": N, "A1": A1, "A2": A2, "edges": edges,
-            "length": np.linalg.norm(rest[edges[:, 0]] - rest[edges[:, 1]], axis=1)}
+    terms["edges"], terms["length"] = edges, np.linalg.norm(rest[edges[:, 0]]
+                                                            - rest[edges[:, 1]], axis=1)
+    return terms["edges"], terms["length"]
 
 
 def _quadratic(pull_t: np.ndarray, corners: np.ndarray, N: np.ndarray, A1: np.ndarray,
@@ -279,7 +312,7 @@ def _edge_graph(size: np.ndarray, terms: dict, reach: float) -> dict:
     larger skin takes only its edges with a pulled end, structured for this frame (what is
     kept would outweigh the frame). Either way a path runs only through pulled edges.
     """
-    e, length = terms["edges"], terms["length"]  # sorted (pull_terms)
+    e, length = _terms_edges(terms)  # sorted (pull_terms)
     live = np.flatnonzero(np.maximum(size[e[:, 0]], size[e[:, 1]]) > 0)
     if len(e) <= _GRAPH_CACHE_EDGES:
         st = terms.get("edge_structure")
@@ -414,9 +447,13 @@ def _triangles_of(terms: dict, moving: np.ndarray) -> tuple:
     c0, c1, c2 = terms["corners"]
     rows = np.flatnonzero(moving[c0] | moving[c1] | moving[c2])
     if len(rows) == c0.shape[0]:
-        hit = (rows, *(terms[k] for k in ("corners", "N", "A1", "A2")))
-    else:
+        hit = (rows, terms["corners"], *_terms_rows(terms))
+    elif "N" in terms:
         hit = (rows, *(terms[k][:, rows] for k in ("corners", "N", "A1", "A2")))
+    else:  # each triangle's terms alone: those of every triangle's, bit for bit, laid out
+        corners = terms["corners"][:, rows]  # as taking them would (column-major: einsum's
+        hit = (rows, corners, *map(np.asfortranarray,  # sums on their rows follow it)
+                                   _row_terms(terms["rest"], corners)))
     memo[key] = hit
 
     def size(entry: tuple) -> int:
@@ -913,8 +950,9 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
     skin = state.face  # the face's own skin, or the refined one of this frame
     terms = getattr(skin._rest, "pull_terms", None)
     if terms is None:
-        terms = skin._rest.pull_terms = pull_terms(skin.skin.points, skin.skin.triangles,
-                                                   skin.skin.edges)
+        surface = skin.skin  # (its edges asked for only where a pull is limited)
+        terms = skin._rest.pull_terms = pull_terms(surface.points, surface.triangles,
+                                                   lambda: surface.edges)
     g = guard_frame(state.rest_points, state.deformed_points, state.points, state.W,
                     state.triangles, radii, guard, terms=terms,
                     deformed_radii=True, certified=cert)
@@ -1237,14 +1275,49 @@ def _clamp_only(face, state, guard: FoldGuard) -> Certified | None:
         if state.face is face or state.face.skin is face.skin:
             limit = (key, base)
         else:
-            idx = getattr(fine, "fold_radii_nearest", None)
-            if idx is None or len(idx) != state.face.skin.n_points:
-                _, idx = face.skin.kdtree.query(state.face.skin.points, k=3)
-                fine.fold_radii_nearest = idx  # as fold_radii keeps them
-            limit = (key, base[idx].min(axis=1))
+            limit = (key, base[_nearest_skin_vertices(face, state.face)].min(axis=1))
         fine.fold_clamp_limit = limit
     clamp = bool((np.abs(state.W) <= limit[1]).all())
     return Certified(False, False, False, clamp)
+
+
+def _nearest_skin_vertices(face, skin_face) -> np.ndarray:
+    r"""``(n, 3)``: the three vertices of ``face``'s skin nearest to each vertex of the
+    refined ``skin_face``'s (the rows :func:`fold_radii` takes a refined vertex's radii
+    from), kept with the refined face's rest frame as ``fold_radii_nearest``.
+
+    A refined face's vertices are rows of its subdivision hierarchy (its rest frame's
+    ``refined_from``: the hierarchy and the rows, set by ``FaceModel._refined_face``),
+    and each frame of an animation splits its own set, so its refined face is new: the
+    nearest vertices are kept per hierarchy row (with ``face``'s rest frame, grown with
+    the hierarchy) and a frame queries only the rows no frame asked for before. A query
+    point's nearest vertices do not depend on the other points queried with it, so the
+    rows are those of querying the refined skin itself, bit for bit.
+    """
+    fine = skin_face._rest
+    n = skin_face.skin.n_points
+    idx = getattr(fine, "fold_radii_nearest", None)
+    if idx is not None and len(idx) == n:
+        return idx
+    src = getattr(fine, "refined_from", None)
+    if src is None:
+        _, idx = face.skin.kdtree.query(skin_face.skin.points, k=3)
+    else:
+        hier, rows = src
+        memo = getattr(face._rest, "fold_nearest_rows", None)
+        if memo is None or memo[0] is not hier:
+            memo = (hier, np.full((0, 3), -1, np.intp))
+        known = memo[1]
+        if len(known) < hier.n_points:
+            known = np.concatenate([known, np.full((hier.n_points - len(known), 3), -1,
+                                                   np.intp)])
+        todo = rows[known[rows, 0] < 0]
+        if len(todo):
+            _, known[todo] = face.skin.kdtree.query(np.take(hier.rest, todo, axis=0), k=3)
+        face._rest.fold_nearest_rows = (hier, known)
+        idx = known[rows]
+    fine.fold_radii_nearest = idx  # as fold_radii keeps them
+    return idx
 
 
 def _measured(state, a: np.ndarray, loose: tuple[float, ...], bounds: dict, skin: dict,
