@@ -108,6 +108,22 @@ def private_recovery_dir(tmp_path, monkeypatch):
 
 
 # ---------------------------------------------------------------------- faces
+@pytest.fixture(scope="session")
+def wv_head():
+    """The built-in scanned head (``load_face("lee_perry_smith")``), loaded once for the
+    session, as the plug-in's ``wv_face`` is the procedural face. Test modules take their
+    own face object from it, ``wv_head.with_skin_model(wv_head.skin_model)``, which shares
+    its caches: what the head builds once (the physical skin's factorization and skull
+    contact, the fold guard's rest radii and bounds, the refinement hierarchy, the muscles'
+    rest data; 5-10 s on 2 cores) is built once per session instead of once per module.
+    Every frame is still bit for bit a fresh face's (physical still frames start from the
+    rest skin unless ``warm_start``); a test about what a fresh face builds loads its own.
+    """
+    from wrinkle_vis.datasets import load_face
+
+    return load_face("lee_perry_smith")
+
+
 def assert_same_face(a, b, expression: str = "surprise") -> None:
     """Faces ``a`` and ``b`` are the same: skin, skull, muscles, landmarks, unit and
     expressions equal, and ``expression`` evaluates to the same points and W bit for bit.

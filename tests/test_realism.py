@@ -115,8 +115,8 @@ PLATEAU_P99 = 5.5
 
 
 @pytest.fixture(scope="module")
-def head():
-    return wv.datasets.load_face("lee_perry_smith")
+def head(wv_head):
+    return wv_head.with_skin_model(wv_head.skin_model)  # the session's caches (conftest)
 
 
 def check_no_plateau(state, name) -> None:
