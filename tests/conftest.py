@@ -13,6 +13,7 @@ import os
 import sys
 import tempfile
 import weakref
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -122,6 +123,26 @@ def wv_head():
     from wrinkle_vis.datasets import load_face
 
     return load_face("lee_perry_smith")
+
+
+#: The head scan (test data beside the checkout: ``../shared/realmeshes``).
+SCAN_HEAD = Path(__file__).resolve().parents[2] / "shared" / "realmeshes" / \
+    "lee_perry_smith_head.obj"
+
+
+@pytest.fixture(scope="session")
+def example_scan():
+    """The head scan with the example layout (``load_face(skin=SCAN_HEAD, layout=<the
+    example>)``), loaded once for the session; modules take a face object sharing its
+    caches (``example_scan.with_skin_model(example_scan.skin_model)``), as with
+    :func:`wv_head`. Skips where the scan is not there.
+    """
+    if not SCAN_HEAD.exists():
+        pytest.skip("../shared/realmeshes is not here")
+    import wrinkle_vis as wv
+
+    example = Path(wv.datasets.__file__).with_name("examples") / "lee_perry_smith.json"
+    return wv.datasets.load_face(skin=SCAN_HEAD, layout=example)
 
 
 def assert_same_face(a, b, expression: str = "surprise") -> None:
