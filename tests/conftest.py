@@ -125,6 +125,28 @@ def wv_head():
     return load_face("lee_perry_smith")
 
 
+@pytest.fixture(scope="session")
+def procedural_at():
+    """``procedural_at(n_triangles)``: the procedural face at that size (20,000 or 60,000
+    triangles, which several modules use), loaded once for the session; each call gives a
+    face object sharing its caches (the 60k physical skin's factorization, its muscles'
+    rest data), as with :func:`wv_head`.
+    """
+    from wrinkle_vis.datasets import load_face
+
+    faces: dict = {}
+
+    def get(n_triangles: int):
+        if n_triangles not in (20000, 60000):
+            raise ValueError("procedural_at keeps the 20k and 60k faces only")
+        if n_triangles not in faces:
+            faces[n_triangles] = load_face(n_triangles)
+        face = faces[n_triangles]
+        return face.with_skin_model(face.skin_model)
+
+    return get
+
+
 #: The head scan (test data beside the checkout: ``../shared/realmeshes``).
 SCAN_HEAD = Path(__file__).resolve().parents[2] / "shared" / "realmeshes" / \
     "lee_perry_smith_head.obj"

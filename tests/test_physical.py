@@ -559,10 +559,10 @@ def test_the_physical_skin_meets_the_paper_size_realism_checks():
 
 
 @pytest.mark.slow
-def test_the_physical_skin_meets_the_realism_checks_on_the_60k_face():
+def test_the_physical_skin_meets_the_realism_checks_on_the_60k_face(procedural_at):
     from test_realism import check_forehead, check_glabella
 
-    face = wv.datasets.load_face(60000)
+    face = procedural_at(60000)
     check_forehead(face.evaluate("surprise", skin="physical"))
     check_glabella(face.evaluate("frown", skin="physical"))
     _no_plateau_edge(face)
@@ -591,7 +591,7 @@ def _closed_form_pull(face, activations) -> np.ndarray:
 
 
 @pytest.mark.slow
-def test_the_equilibrium_converges_from_the_20k_to_the_60k_face():
+def test_the_equilibrium_converges_from_the_20k_to_the_60k_face(procedural_at):
     """Issue 27: the 20k and 60k equilibria agree within 5 % and the forehead's furrows
     within a tenth of a period (docs/model.md, "Across resolutions").
 
@@ -613,7 +613,7 @@ def test_the_equilibrium_converges_from_the_20k_to_the_60k_face():
 
     from wrinkle_vis.core.mesh import barycentric_points, quadratic_points, surface_coordinates
 
-    coarse, fine = wv.datasets.load_face(20000), wv.datasets.load_face(60000)
+    coarse, fine = procedural_at(20000), procedural_at(60000)
     where = surface_coordinates(fine.skin, coarse.skin.points)
     period = 2.0 * coarse.muscle("frontalis_inner_L").u
     for name, pull_bound in (("surprise", 0.01), ("frown", 0.05)):
