@@ -542,10 +542,8 @@ def procedural():
 
 
 @pytest.fixture(scope="module")
-def head():
-    import wrinkle_vis as wv
-
-    return wv.datasets.load_face("lee_perry_smith")
+def head(wv_head):
+    return wv_head.with_skin_model(wv_head.skin_model)  # the session's caches (conftest)
 
 
 @pytest.mark.parametrize("refine, names, intensities", [
