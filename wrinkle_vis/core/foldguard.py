@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -318,7 +319,8 @@ def _edge_graph(size: np.ndarray, terms: dict, reach: float) -> dict:
         st = terms.get("edge_structure")
         if st is None:
             st = terms["edge_structure"] = _edge_structure(e, len(size))
-        graph = {"a": e[:, 0], "b": e[:, 1], "length": length, "w": np.full(len(e), np.inf)}
+        graph: dict[str, Any] = {"a": e[:, 0], "b": e[:, 1], "length": length,
+                                 "w": np.full(len(e), np.inf)}
     else:
         st = _edge_structure(e[live], len(size))
         graph = {"a": e[live, 0], "b": e[live, 1], "length": length[live]}
