@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -630,15 +630,16 @@ def _rewrinkled(points: np.ndarray, d2: np.ndarray, W: np.ndarray, W2: np.ndarra
 
 
 def _clamped(W: np.ndarray, radii, certified: bool, d2: np.ndarray, tri: np.ndarray,
-             terms: dict, guard: FoldGuard, deformed: bool, step: np.ndarray | None
-             ) -> np.ndarray:
+             terms: dict, guard: FoldGuard, deformed: bool, step: np.ndarray | None,
+             empty: np.ndarray | None = None) -> np.ndarray:
     r"""``(n,)``: :math:`W` ``(n,)`` clamped by :func:`guard_wrinkles` on the rest ``radii``
     ``(n, 2)`` (or a function giving them, called only when they are needed), lowered by
     the deformed skin ``d2``'s (:func:`_deformed_radii`) when ``deformed``; ``W`` itself
     where the clamp is ``certified`` (the identity on the rest radii) and no deformed ball
-    shrank. ``step``: the frame's :math:`W n` when ``d2`` is its deformed skin.
+    shrank. ``step``: the frame's :math:`W n` when ``d2`` is its deformed skin; ``empty``
+    ``(n,)`` bool: the vertices whose deformed balls are certified empty (not searched).
     """
-    low = _deformed_lows(d2, tri, W, terms, guard, step) if deformed else None
+    low = _deformed_lows(d2, tri, W, terms, guard, step, empty) if deformed else None
     if certified and low is None:
         return W
     if callable(radii):
@@ -713,7 +714,8 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
         d2[moved] = rest[moved] + f[moved, None] * (d2[moved] - rest[moved])
         cert = Certified(False, False, False, False)  # certified for the unscaled pull only
     W2 = _clamped(W, radii, cert.clamp, d2, tri, terms, guard,
-                  deformed_radii and not cert.balls, None if moved.any() else p2 - d2)
+                  deformed_radii and not cert.balls, None if moved.any() else p2 - d2,
+                  cert.empty)
     p2 = _rewrinkled(p2, d2, W, W2, moved, tri, terms)
     if not cert.step:
         p2, W2 = _held_wrinkles(rest, d2, p2, W2, tri, guard, terms)
@@ -772,31 +774,44 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
 
 
 def _deformed_lows(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, terms: dict,
-                   guard: FoldGuard, step: np.ndarray | None = None
+                   guard: FoldGuard, step: np.ndarray | None = None,
+                   empty: np.ndarray | None = None
                    ) -> tuple[np.ndarray, np.ndarray] | None:
     r"""The search of :func:`_deformed_radii`: the vertices whose ball shrank ``(k,)`` and
     :math:`\eta_d / \eta` times their deformed radii ``(k, 2)`` (``inf`` on the side
     :math:`W` does not push to), or None where no ball shrank.
+
+    ``empty`` ``(n,)`` bool: vertices whose balls are certified empty (:func:`certify`,
+    :func:`_empty_balls`): they are not searched. The samples and their tree are those of
+    searching every wrinkled vertex (the box of all of them), so each searched ball's
+    result is the same bit for bit; with no ball left, nothing is built.
     """
     ratio = guard.eta_deformed / guard.eta
     ids = np.flatnonzero(W)
     if not len(ids):
         return None
     start = np.abs(W[ids]) / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6)
-    x = deformed[ids]
     reach = 2.0 * float(start.max())  # a ball of radius R tangent at x lies within 2 R of x
+    top = float(start.max())
+    lo, hi = deformed[ids].min(axis=0) - reach, deformed[ids].max(axis=0) + reach
+    if empty is not None:
+        keep = ~empty[ids]
+        if not keep.any():
+            return None
+        ids, start = ids[keep], start[keep]
+    x = deformed[ids]
     if step is None:
         n = _vertex_normals(deformed, tri, ids, terms)
     else:
         n = step[ids] / W[ids, None]
         n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
     side = np.where(W[ids, None] >= 0, [[1.0, 0.0]], [[0.0, 1.0]])  # the side W pushes to
-    samples = deformed[_in_box(deformed, x.min(axis=0) - reach, x.max(axis=0) + reach)]
+    samples = deformed[_in_box(deformed, lo, hi)]
     tree = cKDTree(samples, balanced_tree=False)
     # the search's first step for every ball at once: only a ball with a sample inside
     # shrinks (medial_radii's result at the others is their start, exactly)
     c = x + np.where(W[ids] >= 0, 1.0, -1.0)[:, None] * start[:, None] * n
-    dist, _ = tree.query(c, distance_upper_bound=float(start.max()))
+    dist, _ = tree.query(c, distance_upper_bound=top)
     hit = np.flatnonzero(dist < start * (1.0 - 1e-9))
     if not len(hit):
         return None
@@ -1010,6 +1025,9 @@ class Certified:
     clamp : bool
         :math:`|W| \le \kappa\eta r` at every vertex with the rest radii: the clamp is
         the identity where the deformed skin's radii are not lower.
+    empty : (n,) bool or None
+        Where ``balls`` fails: the vertices whose own ball is certified empty
+        (:func:`_empty_balls`; :func:`_deformed_lows` does not search them).
 
     Each of ``step``, ``balls`` and ``clamp`` holds for the frame's own pull: where the
     pulls' check scales it, they say nothing (:func:`guard_frame` then runs every check).
@@ -1019,6 +1037,7 @@ class Certified:
     step: bool
     balls: bool
     clamp: bool
+    empty: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     @property
     def all(self) -> bool:
@@ -1094,7 +1113,8 @@ def _assembly_bounds(face, asm, skin: dict) -> dict:
       \ U_2 - U_0]\,E_t^+` the gradient of :math:`U_m` on triangle :math:`t`;
     * ``U`` ``(M,)``: :math:`\hat U_m = \max_v |U_m(v)|`;
     * ``Lip`` ``(M,)``: :math:`\max |U_m(v) - U_m(w)| / |x_v - x_w|` over the pairs at most
-      :math:`D` apart;
+      :math:`D` apart, and ``LipW`` ``(v, M)``: the same over the pairs of each wrinkled
+      vertex (``asm.wrinkled``), :math:`\mathrm{Lip}_m(x)`;
     * ``Gt`` ``(T, M)``: :math:`\|J_{m,t}\|_2` on each triangle with a moved corner, and
       ``Um`` ``(3 u, M)``: :math:`U_m` at the moved vertices (``asm.moved``, their x, y
       and z in turn);
@@ -1123,9 +1143,11 @@ def _build_assembly_bounds(face, asm, skin: dict) -> dict:
     G, U, Lip = [], [], []
     Gt = np.zeros((len(pulled), len(asm.names)))
     Um = np.zeros((len(asm.moved), 3, len(asm.names)))
+    LipW = np.zeros((len(asm.wrinkled), len(asm.names)))
     for k, name in enumerate(asm.names):
         data = face.muscle_data(face.muscle(name))
-        rows, norms, g, top, lip = _muscle_bounds(face, data, skin)
+        rows, norms, g, top, lip, lip_v = _muscle_bounds(face, data, skin)
+        LipW[:, k] = lip_v[asm.wrinkled]
         G.append(g)
         U.append(top)
         Lip.append(lip)
@@ -1144,7 +1166,7 @@ def _build_assembly_bounds(face, asm, skin: dict) -> dict:
 
     return {"G": np.array(G), "U": np.array(U), "Lip": np.array(Lip), "Gt": Gt,
             "ULG": np.ascontiguousarray(np.stack([U, Lip, G], axis=1)),
-            "Um": np.ascontiguousarray(Um.reshape(-1, len(asm.names))),
+            "Um": np.ascontiguousarray(Um.reshape(-1, len(asm.names))), "LipW": LipW,
             "moved": asm.moved, "wrinkled": asm.wrinkled, "clamp": {},
             "Kp": most(K[moved[tri].any(axis=1)]), "Kw": most(K[wrinkled[tri].any(axis=1)]),
             "S": most(frob),
@@ -1156,7 +1178,8 @@ def _muscle_bounds(face, data, skin: dict) -> tuple:
     ``_MuscleData``, shared by every face whose muscle has the same geometry, so a drag
     recomputes only the dragged muscle's): the triangles of its AOI ``(t,)`` and
     :math:`\|J_{m,t}\|_2` on them ``(t,)``, :math:`\hat G_m`, :math:`\hat U_m` and its
-    Lipschitz bound. Kept per skin by the data itself (held, so its id is not reused).
+    Lipschitz bound, over all its pairs and ``(n,)`` over each vertex's. Kept per skin by
+    the data itself (held, so its id is not reused).
     """
     memo = skin.setdefault("muscles", {})
     got = memo.pop(id(data), None)
@@ -1187,8 +1210,12 @@ def _build_muscle_bounds(face, data, skin: dict) -> tuple:
     diff = np.linalg.norm(u[p[:, 0]] - u[p[:, 1]], axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(diff > 0, diff / dist[near], 0.0)
+    lip = np.zeros(n)  # per vertex: the largest ratio of its pairs
+    np.maximum.at(lip, p[:, 0], ratio)
+    np.maximum.at(lip, p[:, 1], ratio)
     return (rows, norms, float(norms.max()) if len(rows) else 0.0,
-            float(np.linalg.norm(u, axis=1).max()), float(ratio.max()) if len(ratio) else 0.0)
+            float(np.linalg.norm(u, axis=1).max()), float(ratio.max()) if len(ratio) else 0.0,
+            lip)
 
 
 def _clamp_limit(skin: dict, bounds: dict, guard: FoldGuard) -> np.ndarray:
@@ -1255,7 +1282,34 @@ def certify(face, state, guard: FoldGuard = FoldGuard()) -> Certified | None:
     if not (pulls and step and balls):  # the frame's own pull: tighter, a few calls more
         tight = _measured(state, a, (d_max, b_max, lam, w_max), bounds, skin, guard)
         pulls, step, balls = pulls or tight[0], step or tight[1], balls or tight[2]
-    return Certified(bool(pulls), bool(step), bool(balls), clamp)
+        d_max, b_max = tight[3], tight[4]
+    empty = None
+    if not balls:  # each vertex's own ball, on its own |W| and separation
+        lam_x = (bounds["LipW"] @ a) * (1.0 + 1e-9)  # Lambda_x = sum_m a_m Lip_m(x)
+        ok = _empty_balls(w, skin["sep"][bounds["wrinkled"]], lam_x, b_max, d_max, skin,
+                          guard)
+        balls = bool(ok.all())
+        if not balls and ok.any():
+            empty = np.zeros(len(state.W), bool)
+            empty[bounds["wrinkled"][ok]] = True
+    return Certified(bool(pulls), bool(step), bool(balls), clamp, empty)
+
+
+def _empty_balls(w: np.ndarray, sep: np.ndarray, lam: np.ndarray, b_max: float,
+                 d_max: float, skin: dict, guard: FoldGuard) -> np.ndarray:
+    r"""``(v,)`` bool: the balls' certificate of :func:`certify` per wrinkled vertex, from
+    its :math:`|W|` ``w`` ``(v,)``, rest separation :math:`s_x` ``sep`` ``(v,)`` and
+    Lipschitz bound :math:`\Lambda_x` ``lam`` ``(v,)`` (of the summed pull over the pairs
+    of :math:`x` at most :math:`D` apart): :math:`\Lambda_x < 1` and
+    :math:`2\rho_x(1 + 10^{-6}) + \tau \le \min(s_x(1 - \Lambda_x) - 2b_{\max}, D - 2P)`,
+    :math:`\rho_x = |W_x| / (\kappa\eta_d)(1 + 10^{-6})`: no deformed vertex but
+    :math:`x'` lies within :math:`2\rho_x` of :math:`x'`, so its ball holds none
+    (``docs/model.md``, "Certified skips").
+    """
+    tau = 1e-12 * (1.0 + skin["size"])
+    room = 2.0 * w / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6) * (1.0 + 1e-6) + tau
+    far = skin["reach"] - 2.0 * (d_max + b_max)
+    return (lam < 1.0) & (room <= sep * (1.0 - lam) - 2.0 * b_max) & (room <= far)
 
 
 def _clamp_only(face, state, guard: FoldGuard) -> Certified | None:
@@ -1323,8 +1377,9 @@ def _nearest_skin_vertices(face, skin_face) -> np.ndarray:
 
 
 def _measured(state, a: np.ndarray, loose: tuple[float, ...], bounds: dict, skin: dict,
-              guard: FoldGuard) -> tuple[bool, bool, bool]:
-    r""":func:`_certificates` with the frame's own pull measured: the slide
+              guard: FoldGuard) -> tuple[bool, bool, bool, float, float]:
+    r""":func:`_certificates` with the frame's own pull measured, and the bounds
+    :math:`|D| \le` ``d_max`` and :math:`|b| \le` ``b_max`` it used: the slide
     :math:`|p - D|` (``D`` from the kept :math:`U_m` and the activations ``a`` ``(M,)``), the
     gradient bound :math:`\max_t \sum_m a_m \|J_{m,t}\|` and, where the balls' far term
     asks for it, :math:`|D|`; ``loose``: the bounds ``d_max``, ``b_max``, ``lam``,
@@ -1343,7 +1398,7 @@ def _measured(state, a: np.ndarray, loose: tuple[float, ...], bounds: dict, skin
     if not tight[2]:  # the balls' far term may ask for the measured |D|
         d_max = min(d_max, math.sqrt(float(np.einsum("ij,ij->i", D, D).max())) + tol)
         tight = _certificates(g, d_max, b_max, lam, w_max, bounds, skin, guard)
-    return tight
+    return (*tight, d_max, b_max)
 
 
 def _certificates(g: float, d_max: float, b_max: float, lam: float, w_max: float,
