@@ -1285,14 +1285,29 @@ def certify(face, state, guard: FoldGuard = FoldGuard()) -> Certified | None:
         d_max, b_max = tight[3], tight[4]
     empty = None
     if not balls:  # each vertex's own ball, on its own |W| and separation
-        lam_x = (bounds["LipW"] @ a) * (1.0 + 1e-9)  # Lambda_x = sum_m a_m Lip_m(x)
-        ok = _empty_balls(w, skin["sep"][bounds["wrinkled"]], lam_x, b_max, d_max, skin,
-                          guard)
-        balls = bool(ok.all())
-        if not balls and ok.any():
-            empty = np.zeros(len(state.W), bool)
-            empty[bounds["wrinkled"][ok]] = True
+        balls, empty = _balls_per_vertex(len(state.W), a, w, b_max, d_max, bounds, skin,
+                                         guard)
     return Certified(bool(pulls), bool(step), bool(balls), clamp, empty)
+
+
+def _balls_per_vertex(n: int, a: np.ndarray, w: np.ndarray, b_max: float, d_max: float,
+                      bounds: dict, skin: dict, guard: FoldGuard
+                      ) -> tuple[bool, np.ndarray | None]:
+    r"""The balls' certificate of :func:`certify` vertex by vertex (:func:`_empty_balls`),
+    from the activations ``a`` ``(M,)`` and :math:`|W|` ``w`` ``(v,)`` at the active set's
+    wrinkled vertices: whether every ball is certified empty, else the ``(n,)`` bool mask of
+    those that are (None when none is), with :math:`\Lambda_x = \sum_m a_m
+    \mathrm{Lip}_m(x)`.
+    """
+    lam_x = (bounds["LipW"] @ a) * (1.0 + 1e-9)
+    ok = _empty_balls(w, skin["sep"][bounds["wrinkled"]], lam_x, b_max, d_max, skin, guard)
+    if ok.all():
+        return True, None
+    if not ok.any():
+        return False, None
+    empty = np.zeros(n, bool)
+    empty[bounds["wrinkled"][ok]] = True
+    return False, empty
 
 
 def _empty_balls(w: np.ndarray, sep: np.ndarray, lam: np.ndarray, b_max: float,
