@@ -123,6 +123,20 @@ def _baseline_guard(ref: str):
     return module
 
 
+def _cases(cases: tuple, faces: tuple[str, ...]):
+    """Per case of ``cases`` ((face, refine, expressions)) whose face is in ``faces``: the
+    face, a twin for the baseline's guard (caches of its own: their layout may differ), the
+    module `guarded` is looked up in, refine and the expressions."""
+    import wrinkle_vis as wv
+
+    for face_name, refine, exprs in cases:
+        if ("paper" if face_name is None else "head") not in faces:
+            continue
+        face, twin = (wv.datasets.load_face(*(() if face_name is None else (face_name,)))
+                      for _ in range(2))
+        yield face, twin, sys.modules[type(face).guarded.__module__], refine, exprs
+
+
 def _interleaved(runs: dict, calls: int, rounds: int) -> dict:
     """``{name: (wall s, CPU s)}``: medians over ``rounds`` of the medians of ``calls`` calls of
     each function in ``runs``, the functions taking turns call by call (so load that comes
@@ -151,17 +165,11 @@ def guard(rounds: int, baseline: str | None = None, intensities: tuple[float, ..
     terms cached by a first call), and, with ``baseline`` (a git revision), against that
     revision's guard on the same frames, the three taking turns call by call. Wall and
     process CPU time (the CPU time is what a shared machine's load disturbs least)."""
-    import wrinkle_vis as wv
     from wrinkle_vis.core import foldguard
 
     old = _baseline_guard(baseline) if baseline else None
     out = {}
-    for face_name, refine, exprs in GUARD_CASES:
-        if ("paper" if face_name is None else "head") not in faces:
-            continue
-        face, twin = (wv.datasets.load_face(*(() if face_name is None else (face_name,)))
-                      for _ in range(2))  # the baseline's: caches of its own (their layout
-        host = sys.modules[type(face).guarded.__module__]  # may differ); `guarded`'s host
+    for face, twin, host, refine, exprs in _cases(GUARD_CASES, faces):
         for expr, level in ((e, i) for e in exprs for i in intensities):
             def on(module, e=expr, i=level, r=refine, f=face, h=host, own=host.guarded):
                 h.guarded = module.guarded
@@ -261,17 +269,11 @@ def animation(rounds: int, frames: int, baseline: str | None = None,
     refinement, expression, skin and (physical) warm start, the mean frame of a ramp of
     ``frames`` intensities with the guard off, on and (``baseline``) that revision's;
     ``only``: the cases whose name (refined/unrefined, expression) holds all of these words."""
-    import wrinkle_vis as wv
     from wrinkle_vis.core import foldguard
 
     old = _baseline_guard(baseline) if baseline else None
     out = {}
-    for face_name, refine, exprs in ANIMATION_CASES:
-        if ("paper" if face_name is None else "head") not in faces:
-            continue
-        face, twin = (wv.datasets.load_face(*(() if face_name is None else (face_name,)))
-                      for _ in range(2))  # the baseline's: caches of its own (their layout
-        host = sys.modules[type(face).guarded.__module__]  # may differ); `guarded`'s host
+    for face, twin, host, refine, exprs in _cases(ANIMATION_CASES, faces):
         for expr, skin in ((e, k) for e in exprs for k in skins):
             name = f"{'refined' if refine else 'unrefined'} {expr}"
             if not all(w in name.split() for w in only):
