@@ -925,11 +925,7 @@ def fold_radii(face, skin_face=None, W: np.ndarray | None = None,
         view = _rest_radii(face, need, ids).view()  # the cache, read-only: no copy a frame
         view.setflags(write=False)
         return view
-    fine = skin_face._rest
-    idx = getattr(fine, "fold_radii_nearest", None)
-    if idx is None or len(idx) != n:
-        _, idx = face.skin.kdtree.query(skin_face.skin.points, k=3)
-        fine.fold_radii_nearest = idx
+    idx = _nearest_skin_vertices(face, skin_face)  # kept per hierarchy row
     base = np.zeros((2, face.skin.n_points))  # by side: numpy's fast 1-D ufunc.at
     for k in range(3):
         col = idx[ids, k]
