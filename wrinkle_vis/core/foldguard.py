@@ -149,11 +149,13 @@ def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | 
     return out
 
 
-def _row_terms(points: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, ...]:
+def _row_terms(points: np.ndarray, corners: np.ndarray, normals_only: bool = False
+               ) -> tuple[np.ndarray, ...]:
     r"""``(3, k)`` thrice: :math:`N / |N|^2`, :math:`A_1 = N \times e_1 / |N|^2` and
     :math:`A_2 = e_2 \times N / |N|^2` of the triangles ``corners`` ``(3, k)`` on ``points``
-    ``(n, 3)`` (0 for a triangle with no area). Computed as rows, component by component
-    (the products of :func:`numpy.cross`, in its order; :math:`|N|^2` by ``einsum`` on rows).
+    ``(n, 3)`` (0 for a triangle with no area); with ``normals_only`` :math:`N / |N|^2`
+    alone (a 1-tuple). Computed as rows, component by component (the products of
+    :func:`numpy.cross`, in its order; :math:`|N|^2` by ``einsum`` on rows).
     """
     pts = np.ascontiguousarray(np.asarray(points, dtype=float).T)
     r0 = np.take(pts, corners[0], axis=1)
@@ -165,6 +167,9 @@ def _row_terms(points: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, ...
     nn = np.einsum("ij,ij->i", rows, rows)
     del rows
     nn = np.where(nn > 0, nn, np.inf)
+    if normals_only:
+        N /= nn
+        return (N,)
     A1 = _cross_rows(N, e1)
     A1 /= nn
     del e1
@@ -250,9 +255,7 @@ def _terms_edges(terms: dict) -> tuple[np.ndarray, np.ndarray]:
     if callable(edges):
         edges = edges()
     if edges is None:
-        tri = terms["corners"].T
-        edges = np.unique(np.sort(np.vstack([tri[:, [0, 1]], tri[:, [1, 2]],
-                                             tri[:, [2, 0]]]), axis=1), axis=0)
+        edges = _skin_edges(terms["corners"], len(rest))
     edges = np.asarray(edges, dtype=np.intp)
     key = edges[:, 0] * len(rest) + edges[:, 1]
     if len(key) > 1 and not np.all(key[1:] > key[:-1]):  # by first end, then second
@@ -261,6 +264,25 @@ def _terms_edges(terms: dict) -> tuple[np.ndarray, np.ndarray]:
     terms["edges"], terms["length"] = edges, np.linalg.norm(rest[edges[:, 0]]
                                                             - rest[edges[:, 1]], axis=1)
     return terms["edges"], terms["length"]
+
+
+def _skin_edges(corners: np.ndarray, n: int) -> np.ndarray:
+    r"""``(e, 2)``: the unique edges of the triangles ``corners`` ``(3, m)`` on ``n``
+    vertices, each sorted, sorted by first end then second: one sort of a key
+    :math:`\min \cdot n + \max` per directed edge (32-bit where :math:`n^2` fits; a
+    refined frame's skin is new on each frame, and this runs on each it limits a pull of).
+    """
+    key_type = np.int32 if n * n < 2**31 else np.int64
+    a = corners.astype(key_type).ravel()  # the corners 0, 1, 2 of every triangle ...
+    b = np.roll(corners, -1, axis=0).astype(key_type).ravel()  # ... and 1, 2, 0
+    key = np.minimum(a, b)
+    key *= key_type(n)
+    key += np.maximum(a, b)
+    key.sort()
+    first = np.ones(len(key), bool)
+    first[1:] = key[1:] != key[:-1]
+    key = key[first]
+    return np.stack([key // n, key % n], axis=1).astype(np.intp)
 
 
 def _quadratic(pull_t: np.ndarray, corners: np.ndarray, N: np.ndarray, A1: np.ndarray,
@@ -418,10 +440,10 @@ def _pulled_triangles(terms: dict, moving: np.ndarray, base: np.ndarray,
     and the terms :math:`\sigma_t(0)`, :math:`A_1`, :math:`A_2` of their signed areas
     (those of ``base`` when a ``start`` skin is given).
     """
-    rows, corners, Nt, A1, A2 = _triangles_of(terms, moving)
+    rows, corners, Nt, A1, A2 = _triangles_of(terms, moving, start is not None)
     if start is None:
         a0 = np.ones(len(rows))
-    else:
+    else:  # (the rest skin's A1, A2 not asked for: those of ``base`` replace them)
         a0, A1, A2 = _start_terms(Nt, base, corners)
     return rows, corners, Nt, a0, A1, A2
 
@@ -430,9 +452,11 @@ _SUBSETS = 8  # the pulled regions a skin's terms remember (an expression's musc
 _SUBSET_BYTES = 1 << 24  # and at most this many bytes of them together
 
 
-def _triangles_of(terms: dict, moving: np.ndarray) -> tuple:
+def _triangles_of(terms: dict, moving: np.ndarray, normals_only: bool = False) -> tuple:
     r"""The triangles of :func:`pull_terms` ``terms`` with a corner where ``moving``
-    ``(n,)``: their ``rows`` ``(k,)`` and ``corners``, ``N``, ``A1``, ``A2`` ``(3, k)``.
+    ``(n,)``: their ``rows`` ``(k,)`` and ``corners``, ``N``, ``A1``, ``A2`` ``(3, k)``
+    (with ``normals_only``, ``A1`` and ``A2`` are None and not taken: a step from a skin
+    of its own, :func:`_start_terms`, replaces them).
 
     These depend on the rest skin and on which vertices move only, so they are kept in
     ``terms`` for the last few moving sets (a frame of the same muscles, at any
@@ -440,7 +464,7 @@ def _triangles_of(terms: dict, moving: np.ndarray) -> tuple:
     the least recently used dropped first); every triangle: the terms themselves, not
     copies.
     """
-    key = np.flatnonzero(moving).tobytes()
+    key = (normals_only, np.flatnonzero(moving).tobytes())
     memo = terms.setdefault("subsets", {})
     hit = memo.pop(key, None)
     if hit is not None:
@@ -448,18 +472,20 @@ def _triangles_of(terms: dict, moving: np.ndarray) -> tuple:
         return hit
     c0, c1, c2 = terms["corners"]
     rows = np.flatnonzero(moving[c0] | moving[c1] | moving[c2])
+    names = ("corners", "N") if normals_only else ("corners", "N", "A1", "A2")
     if len(rows) == c0.shape[0]:
         hit = (rows, terms["corners"], *_terms_rows(terms))
     elif "N" in terms:
-        hit = (rows, *(terms[k][:, rows] for k in ("corners", "N", "A1", "A2")))
+        hit = (rows, *(terms[k][:, rows] for k in names))
     else:  # each triangle's terms alone: those of every triangle's, bit for bit, laid out
         corners = terms["corners"][:, rows]  # as taking them would (column-major: einsum's
         hit = (rows, corners, *map(np.asfortranarray,  # sums on their rows follow it)
-                                   _row_terms(terms["rest"], corners)))
+                                   _row_terms(terms["rest"], corners, normals_only)))
+    hit = hit if len(hit) == 5 else (*hit, None, None)
     memo[key] = hit
 
     def size(entry: tuple) -> int:
-        return sum(a.nbytes for a in entry)
+        return sum(a.nbytes for a in entry if a is not None)
 
     while len(memo) > _SUBSETS or (memo and sum(map(size, memo.values())) > _SUBSET_BYTES):
         memo.pop(next(iter(memo)))  # (a subset larger than the budget is not kept at all)
@@ -839,21 +865,24 @@ def _in_box(points: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
 
 def _vertex_normals(points: np.ndarray, tri: np.ndarray, ids: np.ndarray,
                     terms: dict) -> np.ndarray:
-    """``(k, 3)``: unit area-weighted normals of ``points`` at vertices ``ids`` ``(k,)``
-    (the vertex-triangle incidence is cached in ``terms``).
+    r"""``(k, 3)``: unit area-weighted normals of ``points`` at vertices ``ids`` ``(k,)``
+    (distinct): at each, :math:`\sum_t (c_1 - c_0) \times (c_2 - c_0)` over the triangles
+    ``tri`` ``(m, 3)`` around it, summed from 0 in ascending triangle order (as the
+    vertex-triangle incidence matrix's product summed them; a refined frame's skin is new
+    on each frame, and a matrix built for it outweighed the sums). Only the triangles with
+    a corner in ``ids`` are looked at. ``terms``: unused, kept for the callers.
     """
-    inc = terms.get("incidence")
-    if inc is None:
-        m = len(tri)
-        inc = terms["incidence"] = sp.csr_matrix(
-            (np.ones(3 * m), (tri.ravel(), np.repeat(np.arange(m), 3))),
-            shape=(len(points), m))
-    sub = inc[ids]
-    use = np.unique(sub.indices)
+    at = np.full(len(points), -1, np.intp)  # each vertex's row in ids, -1 off them
+    at[ids] = np.arange(len(ids))
+    corner_at = np.take(at, tri)
+    use = np.flatnonzero((corner_at >= 0).any(axis=1))  # ascending
     c = points[tri[use]]
-    fn = np.zeros((len(tri), 3))
-    fn[use] = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
-    n = sub @ fn
+    fn = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
+    row = corner_at[use].ravel()  # triangle by triangle: each vertex's in ascending order
+    keep = np.flatnonzero(row >= 0)
+    row, src = row[keep], keep // 3
+    n = np.stack([np.bincount(row, weights=fn[src, j], minlength=len(ids))
+                  for j in range(3)], axis=1)
     return n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
 
 
@@ -963,9 +992,9 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
     skin = state.face  # the face's own skin, or the refined one of this frame
     terms = getattr(skin._rest, "pull_terms", None)
     if terms is None:
-        surface = skin.skin  # (its edges asked for only where a pull is limited)
-        terms = skin._rest.pull_terms = pull_terms(surface.points, surface.triangles,
-                                                   lambda: surface.edges)
+        surface = skin.skin  # (its edges found only where a pull is limited, when the
+        terms = skin._rest.pull_terms = pull_terms(  # surface has not found them already)
+            surface.points, surface.triangles, vars(surface).get("edges"))
     g = guard_frame(state.rest_points, state.deformed_points, state.points, state.W,
                     state.triangles, radii, guard, terms=terms,
                     deformed_radii=True, certified=cert)
@@ -1341,8 +1370,11 @@ def _clamp_only(face, state, guard: FoldGuard) -> Certified | None:
         base = (1.0 - 1e-5) * guard.knee * guard.eta * skin["radii"].min(axis=1)
         if state.face is face or state.face.skin is face.skin:
             limit = (key, base)
-        else:
-            limit = (key, base[_nearest_skin_vertices(face, state.face)].min(axis=1))
+        else:  # (three takes and two minima: a refined frame's face is new on each frame)
+            idx = _nearest_skin_vertices(face, state.face)
+            limit = (key, np.minimum(np.minimum(np.take(base, idx[:, 0]),
+                                                np.take(base, idx[:, 1])),
+                                     np.take(base, idx[:, 2])))
         fine.fold_clamp_limit = limit
     clamp = bool((np.abs(state.W) <= limit[1]).all())
     return Certified(False, False, False, clamp)
