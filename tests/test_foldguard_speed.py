@@ -139,3 +139,28 @@ def test_a_refined_frames_clamp_limit_is_the_least_of_its_nearest_vertices():
     key, limit = s.face._rest.fold_clamp_limit
     assert key == (guard.eta, guard.knee)
     assert np.array_equal(limit, base[idx].min(axis=1))
+
+
+def _lowest_reference(b, c, top):
+    """``_lowest_sigma`` before stop 39 (every entry's vertex, masked by np.where)."""
+    low = 1.0 + b * top + c * top * top
+    vertex = np.where(c > 0, -b / np.where(c > 0, 2.0 * c, 1.0), 0.0)
+    inside = (vertex > 0) & (vertex < top)
+    return np.where(inside, np.minimum(low, 1.0 - b * b / np.where(c > 0, 4.0 * c, 1.0)),
+                    low)
+
+
+_COEFFICIENT = st.one_of(st.floats(-5, 5), st.sampled_from([0.0, -0.0, 1e-300, -1e-300,
+                                                              1e300, np.inf, np.nan]))
+
+
+@settings(max_examples=50, deadline=None)
+@given(bc=st.lists(st.tuples(_COEFFICIENT, _COEFFICIENT), min_size=0, max_size=40),
+       top=st.sampled_from([2.0, 1.25, 1.0]))
+def test_the_least_signed_area_is_the_masked_formulas_bit_for_bit(bc, top):
+    b = np.array([x for x, _ in bc], dtype=float)
+    c = np.array([y for _, y in bc], dtype=float)
+    with np.errstate(all="ignore"):
+        got, want = foldguard._lowest_sigma(b, c, top), _lowest_reference(b, c, top)
+    assert np.array_equal(got, want, equal_nan=True)
+    assert np.array_equal(np.signbit(got), np.signbit(want))

@@ -310,12 +310,19 @@ def _quadratic(pull_t: np.ndarray, corners: np.ndarray, N: np.ndarray, A1: np.nd
 
 
 def _lowest_sigma(b: np.ndarray, c: np.ndarray, top: float) -> np.ndarray:
-    r"""``(k,)``: the least :math:`\sigma_t(s) = 1 + b s + c s^2` over :math:`s \in [0, top]`."""
+    r"""``(k,)``: the least :math:`\sigma_t(s) = 1 + b s + c s^2` over :math:`s \in [0, top]`
+    (:func:`skin_scale` compares it with ``min_area`` as it is from the rest skin, where
+    :math:`\sigma_t(0) = 1`: adding :math:`\sigma_t(0) - 1 = 0` would change no comparison).
+    """
     low = 1.0 + b * top + c * top * top
-    vertex = np.where(c > 0, -b / np.where(c > 0, 2.0 * c, 1.0), 0.0)
-    inside = (vertex > 0) & (vertex < top)
-    return np.where(inside, np.minimum(low, 1.0 - b * b / np.where(c > 0, 4.0 * c, 1.0)),
-                    low)
+    up = np.flatnonzero(c > 0)  # only a convex one dips inside: the vertex -b / 2c there
+    bu, cu = np.take(b, up), np.take(c, up)
+    vertex = -bu / (2.0 * cu)
+    inside = np.flatnonzero((vertex > 0) & (vertex < top))
+    bi, ci = np.take(bu, inside), np.take(cu, inside)
+    at = np.take(up, inside)
+    low[at] = np.minimum(np.take(low, at), 1.0 - bi * bi / (4.0 * ci))
+    return low
 
 
 _GRAPH_CACHE_EDGES = 1 << 20  # skins with more edges build their graph per frame, small
@@ -533,7 +540,7 @@ def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
     if not len(rows):
         return f
     b, c = _quadratic(pull_t, corners, Nt, A1, A2)
-    low = a0 - 1.0 + _lowest_sigma(b, c, top)
+    low = _lowest_sigma(b, c, top) if start is None else a0 - 1.0 + _lowest_sigma(b, c, top)
     graph = None  # the edges' weights, built only when a triangle is bad
     for _ in range(iterations):
         bad = np.flatnonzero(low < min_area)
@@ -645,9 +652,12 @@ def _rewrinkled(points: np.ndarray, d2: np.ndarray, W: np.ndarray, W2: np.ndarra
     changed_w = W2 != W
     if not (moved.any() or changed_w.any()):
         return points
-    ring = np.zeros(len(points), bool)
-    ring[tri[moved[tri].any(axis=1)].ravel()] = True
-    redo = np.flatnonzero((ring & (W2 != 0.0)) | changed_w)
+    if moved.any():  # (where only the clamp acted, no ring moved: no scan of the skin)
+        ring = np.zeros(len(points), bool)
+        ring[tri[moved[tri].any(axis=1)].ravel()] = True
+        redo = np.flatnonzero((ring & (W2 != 0.0)) | changed_w)
+    else:
+        redo = np.flatnonzero(changed_w)
     p2 = points.copy()
     p2[moved] = d2[moved]
     if len(redo):
@@ -875,7 +885,7 @@ def _vertex_normals(points: np.ndarray, tri: np.ndarray, ids: np.ndarray,
     at = np.full(len(points), -1, np.intp)  # each vertex's row in ids, -1 off them
     at[ids] = np.arange(len(ids))
     corner_at = np.take(at, tri)
-    use = np.flatnonzero((corner_at >= 0).any(axis=1))  # ascending
+    use = np.flatnonzero(np.max(corner_at, axis=1) >= 0)  # ascending
     c = points[tri[use]]
     fn = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
     row = corner_at[use].ravel()  # triangle by triangle: each vertex's in ascending order
