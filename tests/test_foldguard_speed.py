@@ -164,3 +164,64 @@ def test_the_least_signed_area_is_the_masked_formulas_bit_for_bit(bc, top):
         got, want = foldguard._lowest_sigma(b, c, top), _lowest_reference(b, c, top)
     assert np.array_equal(got, want, equal_nan=True)
     assert np.array_equal(np.signbit(got), np.signbit(want))
+
+
+def _old_cross_rows(u, v):
+    return np.stack([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                     u[0] * v[1] - u[1] * v[0]])
+
+
+def _old_cross(u, v):
+    return np.stack([u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1],
+                     u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2],
+                     u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]], axis=1)
+
+
+def _row_terms_reference(points, corners):
+    """``_row_terms`` before stop 39 (stacked cross products)."""
+    pts = np.ascontiguousarray(np.asarray(points, dtype=float).T)
+    r0 = np.take(pts, corners[0], axis=1)
+    e1 = np.take(pts, corners[1], axis=1) - r0
+    e2 = np.take(pts, corners[2], axis=1) - r0
+    N = _old_cross_rows(e1, e2)
+    rows = np.ascontiguousarray(N.T)
+    nn = np.where(np.einsum("ij,ij->i", rows, rows) > 0, np.einsum("ij,ij->i", rows, rows),
+                  np.inf)
+    A1 = _old_cross_rows(N, e1) / nn
+    A2 = _old_cross_rows(e2, N) / nn
+    return N / nn, A1, A2
+
+
+def _start_terms_reference(Nt, start, corners):
+    """``_start_terms`` before stop 39 (row-wise cross products on (k, 3) rows)."""
+    r0 = np.take(start, corners[0], axis=0)
+    e1 = np.take(start, corners[1], axis=0) - r0
+    e2 = np.take(start, corners[2], axis=0) - r0
+    N = Nt.T
+    return (np.einsum("ij,ij->i", N, _old_cross(e1, e2)), _old_cross(N, e1).T,
+            _old_cross(e2, N).T)
+
+
+def _layout(a):
+    return a.shape, a.flags.c_contiguous, a.flags.f_contiguous
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**31), n=st.integers(3, 30), m=st.integers(1, 60),
+       fortran=st.booleans())
+def test_the_row_and_start_terms_are_the_stacked_products_bit_for_bit(seed, n, m, fortran):
+    # fortran: rest normals taken as a subset's are (column-major), else as every
+    # triangle's (row-major); the step's einsum and sums follow the layout
+    rng = np.random.default_rng(seed)
+    points, tri = _random_mesh(rng, n, m)
+    corners = np.ascontiguousarray(tri.T)
+    got, want = foldguard._row_terms(points, corners), _row_terms_reference(points, corners)
+    for a, b in zip(got, want, strict=True):
+        assert np.array_equal(a, b) and _layout(a) == _layout(b)
+    assert np.array_equal(foldguard._row_terms(points, corners, True)[0], want[0])
+    Nt = np.asfortranarray(got[0]) if fortran else got[0]
+    start = points + rng.normal(scale=0.3, size=points.shape)
+    got = foldguard._start_terms(Nt, start, corners)
+    want = _start_terms_reference(Nt, start, corners)
+    for a, b in zip(got, want, strict=True):
+        assert np.array_equal(a, b) and _layout(a) == _layout(b)

@@ -159,10 +159,13 @@ def _row_terms(points: np.ndarray, corners: np.ndarray, normals_only: bool = Fal
     """
     pts = np.ascontiguousarray(np.asarray(points, dtype=float).T)
     r0 = np.take(pts, corners[0], axis=1)
-    e1 = np.take(pts, corners[1], axis=1) - r0
-    e2 = np.take(pts, corners[2], axis=1) - r0
+    e1 = np.take(pts, corners[1], axis=1)
+    e1 -= r0
+    e2 = np.take(pts, corners[2], axis=1)
+    e2 -= r0
     del r0
-    N = _cross_rows(e1, e2)
+    t = np.empty(corners.shape[1])  # the products' scratch
+    N = _cross_rows(e1, e2, np.empty((3, len(t))), t)
     rows = np.ascontiguousarray(N.T)  # |N|^2 by einsum on rows, its summation order
     nn = np.einsum("ij,ij->i", rows, rows)
     del rows
@@ -170,19 +173,25 @@ def _row_terms(points: np.ndarray, corners: np.ndarray, normals_only: bool = Fal
     if normals_only:
         N /= nn
         return (N,)
-    A1 = _cross_rows(N, e1)
+    A1 = _cross_rows(N, e1, np.empty((3, len(t))), t)
     A1 /= nn
     del e1
-    A2 = _cross_rows(e2, N)
+    A2 = _cross_rows(e2, N, np.empty((3, len(t))), t)
     A2 /= nn
     N /= nn
     return N, A1, A2
 
 
-def _cross_rows(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """``(3, k)``: the cross products of the columns of ``u`` and ``v`` ``(3, k)``."""
-    return np.stack([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
-                     u[0] * v[1] - u[1] * v[0]])
+def _cross_rows(u: np.ndarray, v: np.ndarray, out: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """``out`` ``(3, k)`` (any layout): the cross products of the columns of ``u`` and
+    ``v`` ``(3, k)``, each component :math:`u_i v_j - u_j v_i` (:func:`numpy.cross`'s
+    products, in its order) written in place; ``t`` ``(k,)``: scratch.
+    """
+    for row, (i, j) in enumerate(((1, 2), (2, 0), (0, 1))):
+        np.multiply(u[i], v[j], out=out[row])
+        np.multiply(u[j], v[i], out=t)
+        out[row] -= t
+    return out
 
 
 def _start_terms(Nt: np.ndarray, start: np.ndarray, corners: np.ndarray
@@ -192,21 +201,20 @@ def _start_terms(Nt: np.ndarray, start: np.ndarray, corners: np.ndarray
     :math:`N_t = N / |N|^2` ``(3, k)`` and the edges :math:`e_1, e_2` of the triangles
     ``corners`` ``(3, k)`` on the skin ``start`` ``(n, 3)`` a step begins from.
     """
-    r0 = np.take(start, corners[0], axis=0)
-    e1 = np.take(start, corners[1], axis=0)
+    st = np.ascontiguousarray(np.asarray(start, dtype=float).T)  # rows x, y, z
+    r0 = np.take(st, corners[0], axis=1)
+    e1 = np.take(st, corners[1], axis=1)
     e1 -= r0
-    e2 = np.take(start, corners[2], axis=0)
+    e2 = np.take(st, corners[2], axis=1)
     e2 -= r0
     del r0
-    N = Nt.T
-    return (np.einsum("ij,ij->i", N, _cross(e1, e2)), _cross(N, e1).T, _cross(e2, N).T)
-
-
-def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """``(k, 3)``: row-wise cross product (faster than :func:`numpy.cross` on short rows)."""
-    return np.stack([u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1],
-                     u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2],
-                     u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]], axis=1)
+    k = corners.shape[1]
+    t = np.empty(k)
+    cross = np.empty((k, 3))  # laid out as before (the einsum's sums follow the layout):
+    _cross_rows(e1, e2, cross.T, t)  # rows of (k, 3), and A1, A2 the transposes of such
+    A1 = _cross_rows(Nt, e1, np.empty((3, k), order="F"), t)
+    A2 = _cross_rows(e2, Nt, np.empty((3, k), order="F"), t)
+    return np.einsum("ij,ij->i", Nt.T, cross), A1, A2
 
 
 def pull_terms(rest: np.ndarray, triangles: np.ndarray,
@@ -654,7 +662,7 @@ def _rewrinkled(points: np.ndarray, d2: np.ndarray, W: np.ndarray, W2: np.ndarra
         return points
     if moved.any():  # (where only the clamp acted, no ring moved: no scan of the skin)
         ring = np.zeros(len(points), bool)
-        ring[tri[moved[tri].any(axis=1)].ravel()] = True
+        ring[tri[_any_corner(moved, tri)].ravel()] = True
         redo = np.flatnonzero((ring & (W2 != 0.0)) | changed_w)
     else:
         redo = np.flatnonzero(changed_w)
@@ -756,8 +764,9 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
     if not cert.step:
         p2, W2 = _held_wrinkles(rest, d2, p2, W2, tri, guard, terms)
     acted = moved | (W2 != W)
-    if p2 is not points:
-        acted |= np.any(p2 != points, axis=1)
+    if p2 is not points:  # (ors of the columns: a reduction over rows of 3 is slow)
+        differ = p2 != points
+        acted |= differ[:, 0] | differ[:, 1] | differ[:, 2]
     return GuardResult(d2, p2, W2, f, acted)
 
 
@@ -884,16 +893,23 @@ def _vertex_normals(points: np.ndarray, tri: np.ndarray, ids: np.ndarray,
     """
     at = np.full(len(points), -1, np.intp)  # each vertex's row in ids, -1 off them
     at[ids] = np.arange(len(ids))
-    corner_at = np.take(at, tri)
-    use = np.flatnonzero(np.max(corner_at, axis=1) >= 0)  # ascending
+    use = np.flatnonzero(_any_corner(at >= 0, tri))  # ascending
     c = points[tri[use]]
     fn = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
-    row = corner_at[use].ravel()  # triangle by triangle: each vertex's in ascending order
+    row = np.take(at, tri[use]).ravel()  # triangle by triangle: each vertex's ascending
     keep = np.flatnonzero(row >= 0)
     row, src = row[keep], keep // 3
     n = np.stack([np.bincount(row, weights=fn[src, j], minlength=len(ids))
                   for j in range(3)], axis=1)
     return n / np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+
+
+def _any_corner(mark: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """``(m,)`` bool: the triangles ``tri`` ``(m, 3)`` with a corner where ``mark`` ``(n,)``
+    (three takes and two ors: ``mark[tri].any(axis=1)``, a reduction over rows of 3, is
+    ten times slower).
+    """
+    return mark[tri[:, 0]] | mark[tri[:, 1]] | mark[tri[:, 2]]
 
 
 def _needed(W: np.ndarray, guard: FoldGuard) -> np.ndarray:
@@ -1377,7 +1393,8 @@ def _clamp_only(face, state, guard: FoldGuard) -> Certified | None:
     limit = getattr(fine, "fold_clamp_limit", None)
     key = (guard.eta, guard.knee)
     if limit is None or limit[0] != key:
-        base = (1.0 - 1e-5) * guard.knee * guard.eta * skin["radii"].min(axis=1)
+        r = skin["radii"]
+        base = (1.0 - 1e-5) * guard.knee * guard.eta * np.minimum(r[:, 0], r[:, 1])
         if state.face is face or state.face.skin is face.skin:
             limit = (key, base)
         else:  # (three takes and two minima: a refined frame's face is new on each frame)
