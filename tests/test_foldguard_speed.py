@@ -219,6 +219,8 @@ def test_the_row_and_start_terms_are_the_stacked_products_bit_for_bit(seed, n, m
     for a, b in zip(got, want, strict=True):
         assert np.array_equal(a, b) and _layout(a) == _layout(b)
     assert np.array_equal(foldguard._row_terms(points, corners, True)[0], want[0])
+    for a, b in zip(foldguard._row_terms(points, corners, order="F"), want, strict=True):
+        assert np.array_equal(a, b) and _layout(a) == _layout(np.asfortranarray(b))
     Nt = np.asfortranarray(got[0]) if fortran else got[0]
     start = points + rng.normal(scale=0.3, size=points.shape)
     got = foldguard._start_terms(Nt, start, corners)

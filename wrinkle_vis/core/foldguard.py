@@ -149,13 +149,14 @@ def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | 
     return out
 
 
-def _row_terms(points: np.ndarray, corners: np.ndarray, normals_only: bool = False
-               ) -> tuple[np.ndarray, ...]:
+def _row_terms(points: np.ndarray, corners: np.ndarray, normals_only: bool = False,
+               order: str = "C") -> tuple[np.ndarray, ...]:
     r"""``(3, k)`` thrice: :math:`N / |N|^2`, :math:`A_1 = N \times e_1 / |N|^2` and
     :math:`A_2 = e_2 \times N / |N|^2` of the triangles ``corners`` ``(3, k)`` on ``points``
     ``(n, 3)`` (0 for a triangle with no area); with ``normals_only`` :math:`N / |N|^2`
     alone (a 1-tuple). Computed as rows, component by component (the products of
-    :func:`numpy.cross`, in its order; :math:`|N|^2` by ``einsum`` on rows).
+    :func:`numpy.cross`, in its order; :math:`|N|^2` by ``einsum`` on rows), into arrays
+    of the memory ``order`` ``"C"`` or ``"F"`` (the same values).
     """
     pts = np.ascontiguousarray(np.asarray(points, dtype=float).T)
     r0 = np.take(pts, corners[0], axis=1)
@@ -165,7 +166,7 @@ def _row_terms(points: np.ndarray, corners: np.ndarray, normals_only: bool = Fal
     e2 -= r0
     del r0
     t = np.empty(corners.shape[1])  # the products' scratch
-    N = _cross_rows(e1, e2, np.empty((3, len(t))), t)
+    N = _cross_rows(e1, e2, np.empty((3, len(t)), order=order), t)
     rows = np.ascontiguousarray(N.T)  # |N|^2 by einsum on rows, its summation order
     nn = np.einsum("ij,ij->i", rows, rows)
     del rows
@@ -173,10 +174,10 @@ def _row_terms(points: np.ndarray, corners: np.ndarray, normals_only: bool = Fal
     if normals_only:
         N /= nn
         return (N,)
-    A1 = _cross_rows(N, e1, np.empty((3, len(t))), t)
+    A1 = _cross_rows(N, e1, np.empty((3, len(t)), order=order), t)
     A1 /= nn
     del e1
-    A2 = _cross_rows(e2, N, np.empty((3, len(t))), t)
+    A2 = _cross_rows(e2, N, np.empty((3, len(t)), order=order), t)
     A2 /= nn
     N /= nn
     return N, A1, A2
@@ -494,8 +495,8 @@ def _triangles_of(terms: dict, moving: np.ndarray, normals_only: bool = False) -
         hit = (rows, *(terms[k][:, rows] for k in names))
     else:  # each triangle's terms alone: those of every triangle's, bit for bit, laid out
         corners = terms["corners"][:, rows]  # as taking them would (column-major: einsum's
-        hit = (rows, corners, *map(np.asfortranarray,  # sums on their rows follow it)
-                                   _row_terms(terms["rest"], corners, normals_only)))
+        hit = (rows, corners,  # sums on their rows follow it)
+               *_row_terms(terms["rest"], corners, normals_only, order="F"))
     hit = hit if len(hit) == 5 else (*hit, None, None)
     memo[key] = hit
 
