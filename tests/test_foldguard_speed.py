@@ -128,17 +128,47 @@ def test_the_wrinkle_steps_rest_normals_are_the_full_terms_bit_for_bit(rows_firs
     assert _triangles_of(alone, moving)[3] is not None  # not mistaken for the full entry
 
 
-def test_a_refined_frames_clamp_limit_is_the_least_of_its_nearest_vertices():
+def _limit_reference(face, s, guard):
+    """The clamp's limits on a refined frame as found before stop 39 (a gather of every
+    vertex's three nearest skin vertices and a min over them)."""
+    r = face._rest.fold_bounds["radii"]
+    base = (1.0 - 1e-5) * guard.knee * guard.eta * r.min(axis=1)
+    return base[foldguard._nearest_skin_vertices(face, s.face)].min(axis=1)
+
+
+@pytest.mark.parametrize("skin", ["geometric", "physical"])
+def test_a_refined_frames_clamp_limits_are_the_least_of_its_nearest_vertices(skin):
+    # kept per hierarchy row with the face's rest frame: each frame of a ramp (its own
+    # split set, its own refined face), then a guard of other parameters (its own
+    # limits), then a fresh face's frame, all as found anew
+    face = wv.datasets.load_face()
+    guards = (FoldGuard(), FoldGuard(), FoldGuard(eta=0.3, knee=0.6))
+    for level, guard in zip((0.4, 1.0, 0.7), guards, strict=True):
+        s = face.evaluate("pucker", level, refine=True, skin=skin, fold_guard=False)
+        foldguard._clamp_only(face, s, guard)
+        key, limit = s.face._rest.fold_clamp_limit
+        assert key == (guard.eta, guard.knee)
+        assert np.array_equal(limit, _limit_reference(face, s, guard))
+        assert face._rest.fold_clamp_rows[1] == key
+    fresh = wv.datasets.load_face()
+    s = fresh.evaluate("pucker", 0.7, refine=True, skin=skin, fold_guard=False)
+    foldguard._clamp_only(fresh, s, guards[-1])
+    assert np.array_equal(s.face._rest.fold_clamp_limit[1], limit)
+
+
+def test_a_refined_frames_clamp_limits_follow_a_new_hierarchy():
+    # the rows are kept for one hierarchy: another (a face whose engine was built anew)
+    # finds its own, never the rows of the first
     face = wv.datasets.load_face()
     s = face.evaluate("pucker", 1.0, refine=True, skin="geometric", fold_guard=False)
-    guard = FoldGuard()
-    foldguard._clamp_only(face, s, guard)
-    skin = face._rest.fold_bounds
-    base = (1.0 - 1e-5) * guard.knee * guard.eta * skin["radii"].min(axis=1)
-    idx = foldguard._nearest_skin_vertices(face, s.face)
-    key, limit = s.face._rest.fold_clamp_limit
-    assert key == (guard.eta, guard.knee)
-    assert np.array_equal(limit, base[idx].min(axis=1))
+    foldguard._clamp_only(face, s, FoldGuard())
+    hier, key, rows = face._rest.fold_clamp_rows
+    face._rest.fold_clamp_rows = (object(), key, np.zeros_like(rows))  # a stale hierarchy
+    s.face._rest.fold_clamp_limit = None
+    foldguard._clamp_only(face, s, FoldGuard())
+    assert face._rest.fold_clamp_rows[0] is hier
+    assert np.array_equal(s.face._rest.fold_clamp_limit[1],
+                          _limit_reference(face, s, FoldGuard()))
 
 
 def _lowest_reference(b, c, top):

@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import scipy.sparse as sp
@@ -150,7 +150,7 @@ def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | 
 
 
 def _row_terms(points: np.ndarray, corners: np.ndarray, normals_only: bool = False,
-               order: str = "C") -> tuple[np.ndarray, ...]:
+               order: Literal["C", "F"] = "C") -> tuple[np.ndarray, ...]:
     r"""``(3, k)`` thrice: :math:`N / |N|^2`, :math:`A_1 = N \times e_1 / |N|^2` and
     :math:`A_2 = e_2 \times N / |N|^2` of the triangles ``corners`` ``(3, k)`` on ``points``
     ``(n, 3)`` (0 for a triangle with no area); with ``normals_only`` :math:`N / |N|^2`
@@ -1398,14 +1398,44 @@ def _clamp_only(face, state, guard: FoldGuard) -> Certified | None:
         base = (1.0 - 1e-5) * guard.knee * guard.eta * np.minimum(r[:, 0], r[:, 1])
         if state.face is face or state.face.skin is face.skin:
             limit = (key, base)
-        else:  # (three takes and two minima: a refined frame's face is new on each frame)
-            idx = _nearest_skin_vertices(face, state.face)
-            limit = (key, np.minimum(np.minimum(np.take(base, idx[:, 0]),
-                                                np.take(base, idx[:, 1])),
-                                     np.take(base, idx[:, 2])))
+        else:
+            limit = (key, _refined_limits(face, state.face, base, key))
         fine.fold_clamp_limit = limit
     clamp = bool((np.abs(state.W) <= limit[1]).all())
     return Certified(False, False, False, clamp)
+
+
+def _refined_limits(face, skin_face, base: np.ndarray, key: tuple) -> np.ndarray:
+    r"""``(n,)``: the clamp's limit at each vertex of the refined ``skin_face``, the least of
+    ``base`` ``(N,)`` (the limits on ``face``'s skin, for the guard's ``key``) at its three
+    nearest vertices of ``face``'s skin (:func:`_nearest_skin_vertices`).
+
+    A refined face is new on nearly every frame of an animation, its vertices rows
+    ``order`` of the subdivision hierarchy (its rest frame's ``refined_from``; the rows
+    are append-only), so the limits are kept per hierarchy row with ``face``'s rest frame
+    (``fold_clamp_rows``: the hierarchy, ``key``, the limits, NaN where not yet found)
+    and a frame takes them (one take of ``n``) and finds only the rows no frame asked for.
+    """
+    src = getattr(skin_face._rest, "refined_from", None)
+    if src is None:
+        idx = _nearest_skin_vertices(face, skin_face)
+        return np.minimum(np.minimum(np.take(base, idx[:, 0]), np.take(base, idx[:, 1])),
+                          np.take(base, idx[:, 2]))
+    hier, order = src
+    memo = getattr(face._rest, "fold_clamp_rows", None)
+    rows = memo[2] if memo is not None and memo[0] is hier and memo[1] == key else \
+        np.zeros(0)
+    if len(rows) < hier.n_points:
+        rows = np.concatenate([rows, np.full(hier.n_points - len(rows), np.nan)])
+    out = np.take(rows, order)
+    todo = np.flatnonzero(np.isnan(out))
+    if len(todo):
+        idx = np.take(_nearest_skin_vertices(face, skin_face), todo, axis=0)
+        out[todo] = np.minimum(np.minimum(np.take(base, idx[:, 0]), np.take(base, idx[:, 1])),
+                               np.take(base, idx[:, 2]))
+        rows[np.take(order, todo)] = out[todo]
+    face._rest.fold_clamp_rows = (hier, key, rows)
+    return out
 
 
 def _nearest_skin_vertices(face, skin_face) -> np.ndarray:
