@@ -1316,18 +1316,38 @@ def _build_assembly_bounds(face, asm, skin: dict) -> dict:
     def most(values: np.ndarray) -> float:
         return float(values.max()) if len(values) else 0.0
 
-    pts = face.skin.points
-    _, near_t = _near_triangles(pts[asm.wrinkled], np.full(len(asm.wrinkled), skin["reach"]),
-                                pts, tri)  # the triangles a wrinkled vertex's reach meets
-    edge = pts[tri[near_t]] - pts[np.roll(tri[near_t], 1, axis=1)]
-    L = float(np.sqrt(np.einsum("ijk,ijk->ij", edge, edge).max())) if len(near_t) else 0.0
-    return {"G": np.array(G), "U": np.array(U), "Lip": np.array(Lip), "Gt": Gt, "L": L,
+    return {"G": np.array(G), "U": np.array(U), "Lip": np.array(Lip), "Gt": Gt,
+            "L": _near_edges(face, asm.wrinkled, skin),
             "ULG": np.ascontiguousarray(np.stack([U, Lip, G], axis=1)),
             "Um": np.ascontiguousarray(Um.reshape(-1, len(asm.names))),
             "moved": asm.moved, "wrinkled": asm.wrinkled, "clamp": {},
             "Kp": most(K[moved[tri].any(axis=1)]), "Kw": most(K[wrinkled[tri].any(axis=1)]),
             "S": most(frob),
             "sep": float(skin["sep"][asm.wrinkled].min()) if len(asm.wrinkled) else np.inf}
+
+
+def _near_edges(face, wrinkled: np.ndarray, skin: dict) -> tuple[np.ndarray, np.ndarray, float]:
+    r"""``(k,)`` twice and a float: for every pair of a ``wrinkled`` vertex :math:`x` and a
+    triangle :math:`t` not incident to it that comes within :math:`D` = ``reach`` / 2 of it,
+    the distance :math:`d_{x,t}` from :math:`x` to :math:`t` (ascending) and the largest
+    distance :math:`M_{x,t}` from :math:`x` to a corner of :math:`t`; and :math:`D`. The
+    balls' certificate asks for the triangles within :math:`2\rho + 2P` of a wrinkled
+    vertex only (:func:`_certificates`).
+    """
+    pts = np.asarray(face.skin.points, dtype=float)
+    tri = np.asarray(face.skin.triangles, dtype=np.intp)
+    D = 0.5 * skin["reach"]
+    owner, t = _near_triangles(pts[wrinkled], np.full(len(wrinkled), D), pts, tri)
+    keep = ~(tri[t] == wrinkled[owner, None]).any(axis=1)  # not the vertex's own
+    owner, t = owner[keep], t[keep]
+    x = pts[wrinkled[owner]]
+    corners = pts[tri[t]]
+    d = np.linalg.norm(_closest_on_triangles(x, corners[:, 0], corners[:, 1], corners[:, 2])
+                       - x, axis=1)
+    M = np.linalg.norm(corners - x[:, None], axis=2).max(axis=1)
+    within = np.flatnonzero(d <= D)
+    order = within[np.argsort(d[within], kind="stable")]
+    return d[order], M[order], D
 
 
 def _clamp_limit(skin: dict, bounds: dict, guard: FoldGuard) -> np.ndarray:
@@ -1464,10 +1484,17 @@ def _certificates(g: float, d_max: float, b_max: float, lam: float, w_max: float
     step = x < 1.0 and (1.0 - x) ** 2 >= guard.min_area_wrinkles * (1.0 + 1e-9) + 1e-12
     room = 2.0 * w_max / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6) * (1.0 + 1e-6) \
         + 1e-12 * (1.0 + skin["size"])  # 2 rho (1 + 1e-6) + tau
-    L = bounds.get("L", 0.0)  # a point of a triangle near x is within L of its corners
-    sep = bounds["sep"]
-    balls = (lam < 1.0 and room <= sep - lam * math.sqrt(sep * sep + L * L / 3.0) - 2.0 * b_max
-             and room <= skin["reach"] - L - 2.0 * (d_max + b_max))
+    P = d_max + b_max
+    far = room + 2.0 * P  # beyond it no point of the skin comes within room of x
+    lam = max(lam, 2.0 * P / skin["reach"])  # (a corner beyond the pairs: |p - p'| <= 2P)
+    near = bounds.get("L")  # the triangles near the wrinkled vertices (_near_edges)
+    if lam >= 1.0 or far > (near[2] if near is not None else skin["reach"]):
+        return pulls, step, False
+    need = room + 2.0 * b_max
+    balls = need <= bounds["sep"] * (1.0 - lam)
+    if balls and near is not None:
+        k = int(np.searchsorted(near[0], far, side="right"))
+        balls = k == 0 or float((near[0][:k] - lam * near[1][:k]).min()) >= need
     return pulls, step, balls
 
 
