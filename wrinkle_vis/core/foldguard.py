@@ -5,7 +5,9 @@ wrinkle amplitude :math:`W` and the triangles, so any skin model can use them:
 
 * **Wrinkles** (:func:`guard_wrinkles`). Each vertex moves by :math:`W` along its normal.
   With :math:`r_\pm(x)` the radius of the largest ball empty of the skin that touches it at
-  :math:`x` on the side :math:`\pm n` (the medial ball, :func:`medial_radii`), the point
+  :math:`x` on the side :math:`\pm n` (the medial ball: empty of the vertices,
+  :func:`medial_radii`, and of every triangle not incident to :math:`x`,
+  :func:`triangle_radii`), the point
   :math:`x + t\,n(x)` with :math:`0 \le t < r_+(x)` (or :math:`-r_-(x) < t \le 0`) has
   :math:`x` as its unique closest skin point. Two skin points moved by less than their own
   medial radius therefore never land on the same place, whatever the neighbour does: the
@@ -226,8 +228,7 @@ def _incidence(tri: np.ndarray, n: int) -> sp.csr_matrix:
 
 
 def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
-                   points: np.ndarray, triangles: np.ndarray, tree: cKDTree | None = None,
-                   incidence: sp.csr_matrix | None = None, iterations: int = 60
+                   points: np.ndarray, triangles: np.ndarray, iterations: int = 60
                    ) -> np.ndarray:
     r"""``(k, 2)``: the radii ``radii`` ``(k, 2)`` (:math:`r_\pm` of balls empty of the
     vertices, :func:`medial_radii`, touching vertices ``ids`` ``(k,)`` of the skin
@@ -241,8 +242,8 @@ def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
     :math:`x` and :math:`q`, :math:`r = |q - x|^2 / (2 |n \cdot (q - x)|)`. The balls tangent
     at :math:`x` on a side nest, so every step stays at or above the largest empty ball and
     a triangle that meets a smaller ball meets the first one: the candidates are found once,
-    the triangles with a corner within :math:`r + L` of the first centre (:math:`L` the
-    longest edge of the skin; ``tree``: a ``cKDTree`` of ``points``). A search that does not
+    the triangles with a corner within :math:`\sqrt{r^2 + \ell^2 / 3}` of the first centre
+    (:func:`_near_triangles`, :math:`\ell` the triangle's longest edge). A search that does not
     settle within ``iterations`` steps falls back to half the distance from :math:`x` to its
     nearest candidate (a ball tangent at :math:`x` lies within its diameter of :math:`x`),
     so the result is never above the largest empty ball's radius.
@@ -252,10 +253,6 @@ def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
     if not len(ids) or not len(triangles):
         return out
     tri = np.asarray(triangles, dtype=np.intp)
-    if tree is None:
-        tree = cKDTree(points, balanced_tree=False)
-    if incidence is None:
-        incidence = _incidence(tri, len(points))
     x_all = points[ids]
     for col, side in enumerate((1.0, -1.0)):
         rows = np.flatnonzero(out[:, col] > 0)
@@ -298,13 +295,12 @@ def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
 
 
 
-def _triangle_gaps(points: np.ndarray, tri: np.ndarray, tree: cKDTree,
-                   incidence: sp.csr_matrix) -> tuple[np.ndarray, float]:
+def _triangle_gaps(points: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, float]:
     r"""``(n,)`` and a float: each vertex's distance to the nearest triangle not incident to
     it (:math:`s^t_x`; ``inf`` where there is none) and the longest edge :math:`L` of
     ``tri`` ``(m, 3)`` on ``points`` ``(n, 3)``. The nearest such triangle has a corner
     within the vertex's longest incident edge :math:`e_x` (the triangle beyond that edge's
-    far end), so the candidates are the triangles with a corner within :math:`e_x + L`.
+    far end), so the candidates are those :func:`_near_triangles` finds within :math:`e_x`.
     """
     e = points[tri] - points[np.roll(tri, 1, axis=1)]
     length = np.sqrt(np.einsum("ijk,ijk->ij", e, e))
@@ -820,7 +816,8 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
     2. :math:`W` is clamped by :func:`guard_wrinkles` (below :math:`\eta\, r_\pm`); with
        ``deformed_radii``, :math:`r_\pm` at each wrinkled vertex is the lesser of ``radii``
        and the medial radii of the guarded deformed skin itself (the surface :math:`W`
-       displaces; the pulls may have pressed it together).
+       displaces; the pulls may have pressed it together), its balls empty of its
+       triangles (:func:`triangle_radii`), not only of its vertices.
     3. The wrinkles' own step, :math:`x' \to x' + W' n'`, is held to the same rule as the
        pulls, against the guarded deformed skin: :math:`W'` is scaled by
        :func:`skin_scale` of that step (a steep furrow on small triangles would otherwise
@@ -888,7 +885,8 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
                     ) -> np.ndarray:
     r"""``(n, 2)``: ``radii`` ``(n, 2)``, lowered at the vertices where ``W`` ``(n,)`` is not 0
     to :math:`\eta_d / \eta` times the medial radii of the skin ``deformed`` ``(n, 3)``
-    along its area-weighted normals (``eta_deformed``: the clamp then keeps
+    (balls empty of its vertices and of its triangles not incident to the vertex,
+    :func:`triangle_radii`) along its area-weighted normals (``eta_deformed``: the clamp then keeps
     :math:`|W| < \eta_d\, r^{\text{def}}_\pm`). The search starts at the radius where
     the clamp's knee would just reach :math:`|W|`, so it stops at once wherever the clamp
     would not act. ``step`` ``(n, 3)``: :math:`W n`, when the frame's normals are those of
@@ -947,7 +945,7 @@ def _deformed_lows(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, terms: 
     hit = np.flatnonzero(dist < start * (1.0 - 1e-9))
     if len(hit):
         r[hit] = medial_radii(x[hit], n[hit], samples=samples, r_max=r[hit], tree=tree)
-    r = triangle_radii(local[ids], n, r, samples, t_loc, tree=tree)
+    r = triangle_radii(local[ids], n, r, samples, t_loc)
     r = np.where(side > 0, r, np.inf)
     low = np.flatnonzero(r.min(axis=1) < start)  # the balls that shrank
     if not len(low):
@@ -1021,22 +1019,12 @@ def _rest_radii(face, need: np.ndarray, ids: np.ndarray | None = None) -> np.nda
         r_max = np.where(todo, need, 0.0)
         r = medial_radii(face.skin.points[rows], rest.normals[rows],
                          samples=face.skin.points, r_max=r_max, tree=face.skin.kdtree)
-        r = triangle_radii(rows, rest.normals[rows], r, face.skin.points, face.skin.triangles,
-                           tree=face.skin.kdtree, incidence=_skin_incidence(face))
+        r = triangle_radii(rows, rest.normals[rows], r, face.skin.points, face.skin.triangles)
         known[rows] = np.where(todo, r, known[rows])
         rest.fold_radii_exact[rows] |= todo & (r < r_max)
     return known
 
 
-
-def _skin_incidence(face) -> sp.csr_matrix:
-    """``face``'s vertex-triangle incidence (:func:`_incidence`), kept with its rest frame."""
-    rest = face._rest
-    inc = getattr(rest, "fold_incidence", None)
-    if inc is None:
-        inc = rest.fold_incidence = _incidence(np.asarray(face.skin.triangles, dtype=np.intp),
-                                               face.skin.n_points)
-    return inc
 
 def fold_radii(face, skin_face=None, W: np.ndarray | None = None,
                guard: FoldGuard = FoldGuard()) -> np.ndarray:
@@ -1163,7 +1151,8 @@ class Certified:
     step : bool
         No triangle can fall below ``min_area_wrinkles`` under the wrinkles' step.
     balls : bool
-        No deformed vertex lies in any ball :func:`_deformed_radii` tests.
+        No deformed vertex, and no deformed triangle not incident to the ball's vertex,
+        meets any ball :func:`_deformed_radii` tests.
     clamp : bool
         :math:`|W| \le \kappa\eta r` at every vertex with the rest radii: the clamp is
         the identity where the deformed skin's radii are not lower.
@@ -1189,7 +1178,8 @@ def _skin_bounds(face) -> dict | None:
 
     * ``radii`` ``(n, 2)``: every rest radius in full, as lower bounds
       (:func:`_verified_radii`; the exact checks keep their own, searched as a frame needs);
-    * ``sep`` ``(n,)``: each vertex's distance to the nearest other vertex, :math:`s_x`;
+    * ``sep`` ``(n,)``: each vertex's distance to the nearest other vertex or triangle not
+      incident to it, :math:`s_x` (:func:`_triangle_gaps`), and ``L`` the longest edge;
     * ``K`` ``(m,)``: :math:`\|E_t^+\|_2 = 1/\sigma_{\min}(E_t)` of each triangle's rest
       edges :math:`E_t = [e_1\ e_2]`, and ``Einv`` ``(m, 2, 3)``: :math:`E_t^+`;
     * ``pairs`` ``(p, 2)`` and ``dist`` ``(p,)``: every pair of vertices at most
@@ -1206,10 +1196,9 @@ def _skin_bounds(face) -> dict | None:
     pts = np.asarray(skin.points, dtype=float)
     tri = np.asarray(skin.triangles, dtype=np.intp)
     d, _ = skin.kdtree.query(pts, k=2)
-    inc = _skin_incidence(face)
-    gaps, L = _triangle_gaps(pts, tri, skin.kdtree, inc)
+    gaps, L = _triangle_gaps(pts, tri)
     sep = np.minimum(d[:, 1], gaps)  # to the nearest other vertex or triangle not its own
-    radii = _verified_radii(pts, rest.normals, skin.kdtree, sep, tri, inc)
+    radii = _verified_radii(pts, rest.normals, skin.kdtree, sep, tri)
     E = np.stack([pts[tri[:, 1]] - pts[tri[:, 0]], pts[tri[:, 2]] - pts[tri[:, 0]]], axis=2)
     Einv = np.linalg.pinv(E)  # (m, 2, 3); 0 rows for a triangle with no area
     sv = np.linalg.svd(E, compute_uv=False)
@@ -1225,12 +1214,14 @@ def _skin_bounds(face) -> dict | None:
 
 
 def _verified_radii(pts: np.ndarray, normals: np.ndarray, tree: cKDTree, sep: np.ndarray,
-                    tri: np.ndarray, incidence: sp.csr_matrix) -> np.ndarray:
+                    tri: np.ndarray) -> np.ndarray:
     r"""``(n, 2)``: lower bounds of the rest radii that any search of :func:`fold_radii`
     cannot go below: the search in full (from twice the diagonal), each ball checked empty
-    (0 where the search stopped before it was: its iteration cap), times
+    of vertices (0 where the search stopped before it was: its iteration cap), then emptied
+    of the triangles (:func:`triangle_radii`, ``tri`` ``(m, 3)``), times
     :math:`1 - 4 \cdot 10^{-9} (r / s)^2` (``sep`` ``(n,)``: :math:`s`, the distance to the
-    nearest other vertex). A search stops at a ball with no vertex deeper than
+    nearest other vertex or triangle not the vertex's own). A search stops at a ball with no
+    vertex or triangle point deeper than
     :math:`10^{-9} r` inside; a vertex that deep in a ball of radius :math:`r` and at
     least :math:`s` from :math:`x` bounds a ball of radius at least
     :math:`r (1 - 2 \cdot 10^{-9} (r / s)^2)` (``docs/model.md``).
@@ -1240,8 +1231,7 @@ def _verified_radii(pts: np.ndarray, normals: np.ndarray, tree: cKDTree, sep: np
     for col, side in enumerate((1.0, -1.0)):
         dist, _ = tree.query(pts + side * r[:, col, None] * normals)
         r[dist < r[:, col] * (1.0 - 1e-9), col] = 0.0  # not converged: no bound
-    r = triangle_radii(np.arange(len(pts)), normals, r, pts, tri, tree=tree,
-                       incidence=incidence)
+    r = triangle_radii(np.arange(len(pts)), normals, r, pts, tri)
     with np.errstate(divide="ignore", invalid="ignore"):
         loss = 4e-9 * (r / np.where(sep > 0, sep, 0.0)[:, None]) ** 2
     return np.where(loss < 1.0, r * (1.0 - loss), 0.0)
@@ -1381,10 +1371,13 @@ def certify(face, state, guard: FoldGuard = FoldGuard()) -> Certified | None:
       :math:`\sigma_t(s) = \det(I + s P_t J_t) \ge (1 - s g)^2` on :math:`[0, 1/\kappa]`);
     * step: :math:`g_w = 2\sqrt2\,K_w \max|W|`, :math:`(1 - g - g_w/\kappa_w)^2 \ge
       \sigma_{\min,w}`;
-    * balls: :math:`\Lambda = \sum_m a_m \mathrm{Lip}_m < 1` and
-      :math:`2\rho(1 + 10^{-6}) + \tau \le \min(s(1 - \Lambda) - 2b_{\max}, D - 2P)`,
-      :math:`\rho = \max|W| / (\kappa \eta_d)\,(1 + 10^{-6})` (no deformed vertex but
-      :math:`x` within :math:`2\rho` of :math:`x`);
+    * balls: :math:`\Lambda' = \max(\sum_m a_m \mathrm{Lip}_m, 2P/D) < 1`,
+      :math:`2\rho + 2P \le D/2` and, with :math:`\delta = 2\rho(1 + 10^{-6}) + \tau`,
+      :math:`\delta + 2b_{\max} \le s(1 - \Lambda')` and :math:`\le d_{x,t} - \Lambda'
+      M_{x,t}` over the triangles within :math:`2\rho + 2P` of a wrinkled vertex
+      (:func:`_near_edges`), :math:`\rho = \max|W| / (\kappa \eta_d)\,(1 + 10^{-6})` (no
+      deformed vertex but :math:`x`, and no triangle not its own, within :math:`2\rho` of
+      :math:`x`);
     * clamp: :math:`|W| \le` :func:`_clamp_limit` everywhere.
 
     ``docs/model.md`` ("Certified skips") has the proofs.
