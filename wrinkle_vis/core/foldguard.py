@@ -253,44 +253,43 @@ def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
     if not len(ids) or not len(triangles):
         return out
     tri = np.asarray(triangles, dtype=np.intp)
-    x_all = points[ids]
-    for col, side in enumerate((1.0, -1.0)):
-        rows = np.flatnonzero(out[:, col] > 0)
-        if not len(rows):
-            continue
-        r = out[rows, col]
-        x, n = x_all[rows], normals[rows]
-        ball, t = _near_triangles(x + side * r[:, None] * n, r, points, tri)
-        own = (tri[t] == ids[rows][ball, None]).any(axis=1)
-        ball, t = ball[~own], t[~own]
-        if not len(ball):
-            continue
-        a, b, c = points[tri[t, 0]], points[tri[t, 1]], points[tri[t, 2]]
-        xb, nb = x[ball], n[ball]
-        live = np.ones(len(ball), bool)
-        for _ in range(iterations):
-            k = np.flatnonzero(live)
-            if not len(k):
-                break
-            centre = xb[k] + side * r[ball[k], None] * nb[k]
-            q = _closest_on_triangles(centre, a[k], b[k], c[k])
-            dq = q - centre
-            inside = np.einsum("ij,ij->i", dq, dq) < (r[ball[k]] * (1.0 - 1e-9)) ** 2
-            k, q = k[inside], q[inside]
-            live[:] = False
-            if not len(k):
-                break
-            d = q - xb[k]
-            dd = np.einsum("ij,ij->i", d, d)
-            h = side * np.einsum("ij,ij->i", d, nb[k])
-            new = np.where(h > 0, dd / (2.0 * np.where(h > 0, h, 1.0)), 0.0)
-            np.minimum.at(r, ball[k], new)
-            live[np.isin(ball, ball[k])] = True  # a shrunk ball: its triangles again
-        else:
-            k = np.flatnonzero(live)  # not settled: half the distance to the candidates
-            q = _closest_on_triangles(xb[k], a[k], b[k], c[k])
-            np.minimum.at(r, ball[k], 0.5 * np.linalg.norm(q - xb[k], axis=1))
-        out[rows, col] = r
+    rows, cols = np.nonzero(out > 0)  # every wanted ball, both sides in one search
+    if not len(rows):
+        return out
+    r = out[rows, cols]
+    sign = np.where(cols == 0, 1.0, -1.0)
+    x, n = points[ids[rows]], normals[rows] * sign[:, None]  # n: towards the ball
+    ball, t = _near_triangles(x + r[:, None] * n, r, points, tri)
+    own = (tri[t] == ids[rows][ball, None]).any(axis=1)
+    ball, t = ball[~own], t[~own]
+    if not len(ball):
+        return out
+    a, b, c = points[tri[t, 0]], points[tri[t, 1]], points[tri[t, 2]]
+    xb, nb = x[ball], n[ball]
+    live = np.ones(len(ball), bool)
+    for _ in range(iterations):
+        k = np.flatnonzero(live)
+        if not len(k):
+            break
+        centre = xb[k] + r[ball[k], None] * nb[k]
+        q = _closest_on_triangles(centre, a[k], b[k], c[k])
+        dq = q - centre
+        inside = np.einsum("ij,ij->i", dq, dq) < (r[ball[k]] * (1.0 - 1e-9)) ** 2
+        k, q = k[inside], q[inside]
+        live[:] = False
+        if not len(k):
+            break
+        d = q - xb[k]
+        dd = np.einsum("ij,ij->i", d, d)
+        h = np.einsum("ij,ij->i", d, nb[k])
+        new = np.where(h > 0, dd / (2.0 * np.where(h > 0, h, 1.0)), 0.0)
+        np.minimum.at(r, ball[k], new)
+        live[np.isin(ball, ball[k])] = True  # a shrunk ball: its triangles again
+    else:
+        k = np.flatnonzero(live)  # not settled: half the distance to the candidates
+        q = _closest_on_triangles(xb[k], a[k], b[k], c[k])
+        np.minimum.at(r, ball[k], 0.5 * np.linalg.norm(q - xb[k], axis=1))
+    out[rows, cols] = r
     return out
 
 
