@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from itertools import chain
 
 import numpy as np
 import scipy.sparse as sp
@@ -207,10 +208,10 @@ def _near_triangles(centres: np.ndarray, radii: np.ndarray, points: np.ndarray,
         bound = top * 2.0 ** float(k)
         tree = cKDTree(points[corners], balanced_tree=False)
         near = tree.query_ball_point(centres, np.sqrt(radii * radii + bound * bound / 3.0))
-        counts = np.fromiter((len(v) for v in near), np.intp, len(near))
+        counts = np.fromiter(map(len, near), np.intp, len(near))
         if not counts.sum():
             continue
-        verts = corners[np.concatenate([np.asarray(v, dtype=np.intp) for v in near])]
+        verts = corners[np.fromiter(chain.from_iterable(near), np.intp, int(counts.sum()))]
         owner = np.repeat(np.arange(len(centres)), counts)
         inc = _incidence(tri[group], len(points))[verts]
         owners.append(np.repeat(owner, np.diff(inc.indptr)))
