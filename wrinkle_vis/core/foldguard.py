@@ -5,7 +5,9 @@ wrinkle amplitude :math:`W` and the triangles, so any skin model can use them:
 
 * **Wrinkles** (:func:`guard_wrinkles`). Each vertex moves by :math:`W` along its normal.
   With :math:`r_\pm(x)` the radius of the largest ball empty of the skin that touches it at
-  :math:`x` on the side :math:`\pm n` (the medial ball, :func:`medial_radii`), the point
+  :math:`x` on the side :math:`\pm n` (the medial ball: empty of the vertices,
+  :func:`medial_radii`, and of every triangle not incident to :math:`x`,
+  :func:`triangle_radii`), the point
   :math:`x + t\,n(x)` with :math:`0 \le t < r_+(x)` (or :math:`-r_-(x) < t \le 0`) has
   :math:`x` as its unique closest skin point. Two skin points moved by less than their own
   medial radius therefore never land on the same place, whatever the neighbour does: the
@@ -26,6 +28,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from itertools import chain
 
 import numpy as np
 import scipy.sparse as sp
@@ -34,7 +37,7 @@ from scipy.spatial import cKDTree
 
 __all__ = ["Certified", "FoldGuard", "GuardResult", "certify", "fold_radii", "guard_amount",
            "guard_frame", "guard_wrinkles", "guarded", "medial_radii", "pull_terms",
-           "skin_scale", "soft_clamp"]
+           "skin_scale", "soft_clamp", "triangle_radii"]
 
 
 @dataclass(frozen=True)
@@ -147,6 +150,177 @@ def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | 
         out[:, col] = r
     return out
 
+
+def _closest_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray
+                          ) -> np.ndarray:
+    r"""``(k, 3)``: the point of each triangle ``a``, ``b``, ``c`` ``(k, 3)`` nearest to
+    ``p`` ``(k, 3)`` (its projection on the plane where that falls inside, else the nearest
+    point of the nearest edge; a triangle with no area: of its edges).
+    """
+    e1, e2 = b - a, c - a
+    d = p - a
+    N = _cross(e1, e2)
+    nn = np.einsum("ij,ij->i", N, N)
+    ok = nn > 0
+    safe = np.where(ok, nn, 1.0)
+    u = np.einsum("ij,ij->i", _cross(d, e2), N) / safe  # p's barycentrics (of b, c)
+    v = np.einsum("ij,ij->i", _cross(e1, d), N) / safe
+    inside = ok & (u >= 0) & (v >= 0) & (u + v <= 1)
+    best = a + u[:, None] * e1 + v[:, None] * e2
+    far = np.flatnonzero(~inside)
+    if len(far):
+        pf = p[far]
+        cand = []
+        for s, t in ((a, b), (b, c), (c, a)):
+            s, t = s[far], t[far]
+            e = t - s
+            ee = np.einsum("ij,ij->i", e, e)
+            w = np.clip(np.einsum("ij,ij->i", pf - s, e) / np.where(ee > 0, ee, 1.0), 0, 1)
+            cand.append(s + w[:, None] * e)
+        cand = np.stack(cand)  # (3, f, 3)
+        dist = np.einsum("kij,kij->ki", cand - pf, cand - pf)
+        best[far] = cand[np.argmin(dist, axis=0), np.arange(len(far))]
+    return best
+
+
+
+def _near_triangles(centres: np.ndarray, radii: np.ndarray, points: np.ndarray,
+                    tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(p,)`` twice: the pairs (ball, triangle) of balls ``centres`` ``(k, 3)``,
+    ``radii`` ``(k,)`` and triangles ``tri`` ``(m, 3)`` on ``points`` ``(n, 3)`` that may
+    meet (every pair that does, once). A point :math:`q = \sum_i \lambda_i v_i` of a
+    triangle has :math:`\sum_i \lambda_i |v_i - c|^2 = |q - c|^2 + \sum_i \lambda_i
+    |v_i - q|^2` and :math:`\sum_i \lambda_i |v_i - q|^2 \le \ell^2 / 3` (its corners lie
+    in a circle of radius :math:`\ell / \sqrt 3`, :math:`\ell` its longest edge), so a
+    triangle meeting the ball has a corner within :math:`\sqrt{r^2 + \ell^2 / 3}` of the
+    centre. The triangles are taken in classes of :math:`\ell` (doubling), each with its
+    own corners' ``cKDTree``, so a few long triangles do not widen every query.
+    """
+    e = points[tri] - points[np.roll(tri, 1, axis=1)]
+    longest = np.sqrt(np.einsum("ijk,ijk->ij", e, e).max(axis=1))
+    top = float(longest.max()) if len(tri) else 0.0
+    if not len(tri) or not len(centres) or top <= 0.0:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    level = np.ceil(np.log2(np.maximum(longest, top * 2.0 ** -12) / top)).astype(int)
+    owners, tris = [], []
+    for k in np.unique(level):
+        group = np.flatnonzero(level == k)
+        corners = np.unique(tri[group])
+        bound = top * 2.0 ** float(k)
+        tree = cKDTree(points[corners], balanced_tree=False)
+        near = tree.query_ball_point(centres, np.sqrt(radii * radii + bound * bound / 3.0))
+        counts = np.fromiter(map(len, near), np.intp, len(near))
+        if not counts.sum():
+            continue
+        verts = corners[np.fromiter(chain.from_iterable(near), np.intp, int(counts.sum()))]
+        owner = np.repeat(np.arange(len(centres)), counts)
+        inc = _incidence(tri[group], len(points))[verts]
+        owners.append(np.repeat(owner, np.diff(inc.indptr)))
+        tris.append(group[inc.indices])
+    if not owners:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    key = np.unique(np.concatenate(owners) * np.int64(len(tri)) + np.concatenate(tris))
+    return (key // len(tri)).astype(np.intp), (key % len(tri)).astype(np.intp)
+
+def _incidence(tri: np.ndarray, n: int) -> sp.csr_matrix:
+    """``(n, m)``: the vertex-triangle incidence of ``tri`` ``(m, 3)`` on ``n`` vertices."""
+    m = len(tri)
+    return sp.csr_matrix((np.ones(3 * m), (tri.ravel(), np.repeat(np.arange(m), 3))),
+                         shape=(n, m))
+
+
+def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
+                   points: np.ndarray, triangles: np.ndarray, iterations: int = 60
+                   ) -> np.ndarray:
+    r"""``(k, 2)``: the radii ``radii`` ``(k, 2)`` (:math:`r_\pm` of balls empty of the
+    vertices, :func:`medial_radii`, touching vertices ``ids`` ``(k,)`` of the skin
+    ``points`` ``(n, 3)``, ``triangles`` ``(m, 3)``, at unit ``normals`` ``(k, 3)``) lowered
+    to balls empty of the *triangles* not incident to the vertex (0: that side not wanted).
+
+    A ball of radius :math:`r` tangent at :math:`x` can hold part of a triangle whose
+    corners all lie outside it (a ball smaller than the triangle, or two sheets pressed
+    together): the shrinking-ball search is run again on the triangles, with :math:`q` the
+    point of a triangle nearest the centre: while one lies inside, shrink to the ball through
+    :math:`x` and :math:`q`, :math:`r = |q - x|^2 / (2 |n \cdot (q - x)|)`. The balls tangent
+    at :math:`x` on a side nest, so every step stays at or above the largest empty ball and
+    a triangle that meets a smaller ball meets the first one: the candidates are found once,
+    the triangles with a corner within :math:`\sqrt{r^2 + \ell^2 / 3}` of the first centre
+    (:func:`_near_triangles`, :math:`\ell` the triangle's longest edge). A search that does not
+    settle within ``iterations`` steps falls back to half the distance from :math:`x` to its
+    nearest candidate (a ball tangent at :math:`x` lies within its diameter of :math:`x`),
+    so the result is never above the largest empty ball's radius.
+    """
+    ids = np.asarray(ids, dtype=np.intp)
+    out = np.array(radii, dtype=float, copy=True)
+    if not len(ids) or not len(triangles):
+        return out
+    tri = np.asarray(triangles, dtype=np.intp)
+    rows, cols = np.nonzero(out > 0)  # every wanted ball, both sides in one search
+    if not len(rows):
+        return out
+    r = out[rows, cols]
+    sign = np.where(cols == 0, 1.0, -1.0)
+    x, n = points[ids[rows]], normals[rows] * sign[:, None]  # n: towards the ball
+    ball, t = _near_triangles(x + r[:, None] * n, r, points, tri)
+    own = (tri[t] == ids[rows][ball, None]).any(axis=1)
+    ball, t = ball[~own], t[~own]
+    if not len(ball):
+        return out
+    a, b, c = points[tri[t, 0]], points[tri[t, 1]], points[tri[t, 2]]
+    xb, nb = x[ball], n[ball]
+    live = np.ones(len(ball), bool)
+    for _ in range(iterations):
+        k = np.flatnonzero(live)
+        if not len(k):
+            break
+        centre = xb[k] + r[ball[k], None] * nb[k]
+        q = _closest_on_triangles(centre, a[k], b[k], c[k])
+        dq = q - centre
+        inside = np.einsum("ij,ij->i", dq, dq) < (r[ball[k]] * (1.0 - 1e-9)) ** 2
+        k, q = k[inside], q[inside]
+        live[:] = False
+        if not len(k):
+            break
+        d = q - xb[k]
+        dd = np.einsum("ij,ij->i", d, d)
+        h = np.einsum("ij,ij->i", d, nb[k])
+        new = np.where(h > 0, dd / (2.0 * np.where(h > 0, h, 1.0)), 0.0)
+        np.minimum.at(r, ball[k], new)
+        live[np.isin(ball, ball[k])] = True  # a shrunk ball: its triangles again
+    else:
+        k = np.flatnonzero(live)  # not settled: half the distance to the candidates
+        q = _closest_on_triangles(xb[k], a[k], b[k], c[k])
+        np.minimum.at(r, ball[k], 0.5 * np.linalg.norm(q - xb[k], axis=1))
+    out[rows, cols] = r
+    return out
+
+
+
+def _triangle_gaps(points: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, float]:
+    r"""``(n,)`` and a float: each vertex's distance to the nearest triangle not incident to
+    it (:math:`s^t_x`; ``inf`` where there is none) and the longest edge :math:`L` of
+    ``tri`` ``(m, 3)`` on ``points`` ``(n, 3)``. The nearest such triangle has a corner
+    within the vertex's longest incident edge :math:`e_x` (the triangle beyond that edge's
+    far end), so the candidates are those :func:`_near_triangles` finds within :math:`e_x`.
+    """
+    e = points[tri] - points[np.roll(tri, 1, axis=1)]
+    length = np.sqrt(np.einsum("ijk,ijk->ij", e, e))
+    L = float(length.max()) if len(tri) else 0.0
+    longest = np.zeros(len(points))
+    for k in range(3):  # edge k joins corners k - 1 and k
+        np.maximum.at(longest, tri[:, k], length[:, k])
+        np.maximum.at(longest, tri[:, k - 1], length[:, k])
+    gaps = np.full(len(points), np.inf)
+    step = 2000
+    for lo in range(0, len(points), step):
+        ids = np.arange(lo, min(lo + step, len(points)))
+        owner, t = _near_triangles(points[ids], longest[ids], points, tri)
+        keep = ~(tri[t] == ids[owner, None]).any(axis=1)
+        owner, t = owner[keep], t[keep]
+        x = points[ids[owner]]
+        q = _closest_on_triangles(x, points[tri[t, 0]], points[tri[t, 1]], points[tri[t, 2]])
+        np.minimum.at(gaps, ids[owner], np.linalg.norm(q - x, axis=1))
+    return gaps, L
 
 def _row_terms(points: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, ...]:
     r"""``(3, k)`` thrice: :math:`N / |N|^2`, :math:`A_1 = N \times e_1 / |N|^2` and
@@ -644,7 +818,8 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
     2. :math:`W` is clamped by :func:`guard_wrinkles` (below :math:`\eta\, r_\pm`); with
        ``deformed_radii``, :math:`r_\pm` at each wrinkled vertex is the lesser of ``radii``
        and the medial radii of the guarded deformed skin itself (the surface :math:`W`
-       displaces; the pulls may have pressed it together).
+       displaces; the pulls may have pressed it together), its balls empty of its
+       triangles (:func:`triangle_radii`), not only of its vertices.
     3. The wrinkles' own step, :math:`x' \to x' + W' n'`, is held to the same rule as the
        pulls, against the guarded deformed skin: :math:`W'` is scaled by
        :func:`skin_scale` of that step (a steep furrow on small triangles would otherwise
@@ -712,7 +887,8 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
                     ) -> np.ndarray:
     r"""``(n, 2)``: ``radii`` ``(n, 2)``, lowered at the vertices where ``W`` ``(n,)`` is not 0
     to :math:`\eta_d / \eta` times the medial radii of the skin ``deformed`` ``(n, 3)``
-    along its area-weighted normals (``eta_deformed``: the clamp then keeps
+    (balls empty of its vertices and of its triangles not incident to the vertex,
+    :func:`triangle_radii`) along its area-weighted normals (``eta_deformed``: the clamp then keeps
     :math:`|W| < \eta_d\, r^{\text{def}}_\pm`). The search starts at the radius where
     the clamp's knee would just reach :math:`|W|`, so it stops at once wherever the clamp
     would not act. ``step`` ``(n, 3)``: :math:`W n`, when the frame's normals are those of
@@ -752,22 +928,31 @@ def _deformed_lows(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, terms: 
         n = step[ids] / W[ids, None]
         n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
     side = np.where(W[ids, None] >= 0, [[1.0, 0.0]], [[0.0, 1.0]])  # the side W pushes to
-    samples = deformed[_in_box(deformed, x.min(axis=0) - reach, x.max(axis=0) + reach)]
+    # a triangle meeting a ball has its corners within the ball's reach plus its edges
+    e = deformed[tri] - deformed[np.roll(tri, 1, axis=1)]
+    L = float(np.sqrt(np.einsum("ijk,ijk->ij", e, e).max())) if len(tri) else 0.0
+    box = _in_box(deformed, x.min(axis=0) - reach - L, x.max(axis=0) + reach + L)
+    samples = deformed[box]
+    local = np.full(len(deformed), -1, dtype=np.intp)
+    local[box] = np.arange(len(box))
+    t_loc = local[tri]
+    t_loc = t_loc[(t_loc >= 0).all(axis=1)]
     tree = cKDTree(samples, balanced_tree=False)
-    # the search's first step for every ball at once: only a ball with a sample inside
-    # shrinks (medial_radii's result at the others is their start, exactly)
+    # the vertices' search where a vertex lies inside (medial_radii), then every ball
+    # against the triangles not incident to its vertex (a ball empty of vertices may still
+    # hold a triangle between them); the vertex search's result at the others is its start
     c = x + np.where(W[ids] >= 0, 1.0, -1.0)[:, None] * start[:, None] * n
     dist, _ = tree.query(c, distance_upper_bound=float(start.max()))
+    r = side * start[:, None]
     hit = np.flatnonzero(dist < start * (1.0 - 1e-9))
-    if not len(hit):
-        return None
-    r = medial_radii(x[hit], n[hit], samples=samples, r_max=side[hit] * start[hit, None],
-                     tree=tree)
-    r = np.where(side[hit] > 0, r, np.inf)
-    low = np.flatnonzero(r.min(axis=1) < start[hit])  # the balls that shrank
+    if len(hit):
+        r[hit] = medial_radii(x[hit], n[hit], samples=samples, r_max=r[hit], tree=tree)
+    r = triangle_radii(local[ids], n, r, samples, t_loc)
+    r = np.where(side > 0, r, np.inf)
+    low = np.flatnonzero(r.min(axis=1) < start)  # the balls that shrank
     if not len(low):
         return None
-    return ids[hit[low]], ratio * r[low]
+    return ids[low], ratio * r[low]
 
 
 def _in_box(points: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -836,9 +1021,11 @@ def _rest_radii(face, need: np.ndarray, ids: np.ndarray | None = None) -> np.nda
         r_max = np.where(todo, need, 0.0)
         r = medial_radii(face.skin.points[rows], rest.normals[rows],
                          samples=face.skin.points, r_max=r_max, tree=face.skin.kdtree)
+        r = triangle_radii(rows, rest.normals[rows], r, face.skin.points, face.skin.triangles)
         known[rows] = np.where(todo, r, known[rows])
         rest.fold_radii_exact[rows] |= todo & (r < r_max)
     return known
+
 
 
 def fold_radii(face, skin_face=None, W: np.ndarray | None = None,
@@ -966,7 +1153,8 @@ class Certified:
     step : bool
         No triangle can fall below ``min_area_wrinkles`` under the wrinkles' step.
     balls : bool
-        No deformed vertex lies in any ball :func:`_deformed_radii` tests.
+        No deformed vertex, and no deformed triangle not incident to the ball's vertex,
+        meets any ball :func:`_deformed_radii` tests.
     clamp : bool
         :math:`|W| \le \kappa\eta r` at every vertex with the rest radii: the clamp is
         the identity where the deformed skin's radii are not lower.
@@ -992,7 +1180,8 @@ def _skin_bounds(face) -> dict | None:
 
     * ``radii`` ``(n, 2)``: every rest radius in full, as lower bounds
       (:func:`_verified_radii`; the exact checks keep their own, searched as a frame needs);
-    * ``sep`` ``(n,)``: each vertex's distance to the nearest other vertex, :math:`s_x`;
+    * ``sep`` ``(n,)``: each vertex's distance to the nearest other vertex or triangle not
+      incident to it, :math:`s_x` (:func:`_triangle_gaps`), and ``L`` the longest edge;
     * ``K`` ``(m,)``: :math:`\|E_t^+\|_2 = 1/\sigma_{\min}(E_t)` of each triangle's rest
       edges :math:`E_t = [e_1\ e_2]`, and ``Einv`` ``(m, 2, 3)``: :math:`E_t^+`;
     * ``pairs`` ``(p, 2)`` and ``dist`` ``(p,)``: every pair of vertices at most
@@ -1009,7 +1198,9 @@ def _skin_bounds(face) -> dict | None:
     pts = np.asarray(skin.points, dtype=float)
     tri = np.asarray(skin.triangles, dtype=np.intp)
     d, _ = skin.kdtree.query(pts, k=2)
-    radii = _verified_radii(pts, rest.normals, skin.kdtree, d[:, 1])
+    gaps, L = _triangle_gaps(pts, tri)
+    sep = np.minimum(d[:, 1], gaps)  # to the nearest other vertex or triangle not its own
+    radii = _verified_radii(pts, rest.normals, skin.kdtree, sep, tri)
     E = np.stack([pts[tri[:, 1]] - pts[tri[:, 0]], pts[tri[:, 2]] - pts[tri[:, 0]]], axis=2)
     Einv = np.linalg.pinv(E)  # (m, 2, 3); 0 rows for a triangle with no area
     sv = np.linalg.svd(E, compute_uv=False)
@@ -1018,19 +1209,21 @@ def _skin_bounds(face) -> dict | None:
     reach = _CERT_REACH * float(np.median(skin.rest_edge_lengths))
     pairs = skin.kdtree.query_pairs(reach, output_type="ndarray").astype(np.int32)
     dist = np.linalg.norm(pts[pairs[:, 0]] - pts[pairs[:, 1]], axis=1)
-    rest.fold_bounds = got = {"radii": radii, "sep": d[:, 1], "K": K, "Einv": Einv,
-                              "pairs": pairs, "dist": dist, "reach": reach,
+    rest.fold_bounds = got = {"radii": radii, "sep": sep, "K": K, "Einv": Einv,
+                              "pairs": pairs, "dist": dist, "reach": reach, "L": L,
                               "size": float(np.abs(pts).max()), "assemblies": {}}
     return got
 
 
-def _verified_radii(pts: np.ndarray, normals: np.ndarray, tree: cKDTree, sep: np.ndarray
-                    ) -> np.ndarray:
+def _verified_radii(pts: np.ndarray, normals: np.ndarray, tree: cKDTree, sep: np.ndarray,
+                    tri: np.ndarray) -> np.ndarray:
     r"""``(n, 2)``: lower bounds of the rest radii that any search of :func:`fold_radii`
     cannot go below: the search in full (from twice the diagonal), each ball checked empty
-    (0 where the search stopped before it was: its iteration cap), times
+    of vertices (0 where the search stopped before it was: its iteration cap), then emptied
+    of the triangles (:func:`triangle_radii`, ``tri`` ``(m, 3)``), times
     :math:`1 - 4 \cdot 10^{-9} (r / s)^2` (``sep`` ``(n,)``: :math:`s`, the distance to the
-    nearest other vertex). A search stops at a ball with no vertex deeper than
+    nearest other vertex or triangle not the vertex's own). A search stops at a ball with no
+    vertex or triangle point deeper than
     :math:`10^{-9} r` inside; a vertex that deep in a ball of radius :math:`r` and at
     least :math:`s` from :math:`x` bounds a ball of radius at least
     :math:`r (1 - 2 \cdot 10^{-9} (r / s)^2)` (``docs/model.md``).
@@ -1040,6 +1233,7 @@ def _verified_radii(pts: np.ndarray, normals: np.ndarray, tree: cKDTree, sep: np
     for col, side in enumerate((1.0, -1.0)):
         dist, _ = tree.query(pts + side * r[:, col, None] * normals)
         r[dist < r[:, col] * (1.0 - 1e-9), col] = 0.0  # not converged: no bound
+    r = triangle_radii(np.arange(len(pts)), normals, r, pts, tri)
     with np.errstate(divide="ignore", invalid="ignore"):
         loss = 4e-9 * (r / np.where(sep > 0, sep, 0.0)[:, None]) ** 2
     return np.where(loss < 1.0, r * (1.0 - loss), 0.0)
@@ -1103,6 +1297,7 @@ def _build_assembly_bounds(face, asm, skin: dict) -> dict:
         return float(values.max()) if len(values) else 0.0
 
     return {"G": np.array(G), "U": np.array(U), "Lip": np.array(Lip), "Gt": Gt,
+            "L": _near_edges(face, asm.wrinkled, skin),
             "ULG": np.ascontiguousarray(np.stack([U, Lip, G], axis=1)),
             "Um": np.ascontiguousarray(Um.reshape(-1, len(asm.names))),
             "moved": asm.moved, "wrinkled": asm.wrinkled, "clamp": {},
@@ -1151,6 +1346,30 @@ def _build_muscle_bounds(face, data, skin: dict) -> tuple:
             float(np.linalg.norm(u, axis=1).max()), float(ratio.max()) if len(ratio) else 0.0)
 
 
+def _near_edges(face, wrinkled: np.ndarray, skin: dict) -> tuple[np.ndarray, np.ndarray, float]:
+    r"""``(k,)`` twice and a float: for every pair of a ``wrinkled`` vertex :math:`x` and a
+    triangle :math:`t` not incident to it that comes within :math:`D` = ``reach`` / 2 of it,
+    the distance :math:`d_{x,t}` from :math:`x` to :math:`t` (ascending) and the largest
+    distance :math:`M_{x,t}` from :math:`x` to a corner of :math:`t`; and :math:`D`. The
+    balls' certificate asks for the triangles within :math:`2\rho + 2P` of a wrinkled
+    vertex only (:func:`_certificates`).
+    """
+    pts = np.asarray(face.skin.points, dtype=float)
+    tri = np.asarray(face.skin.triangles, dtype=np.intp)
+    D = 0.5 * skin["reach"]
+    owner, t = _near_triangles(pts[wrinkled], np.full(len(wrinkled), D), pts, tri)
+    keep = ~(tri[t] == wrinkled[owner, None]).any(axis=1)  # not the vertex's own
+    owner, t = owner[keep], t[keep]
+    x = pts[wrinkled[owner]]
+    corners = pts[tri[t]]
+    d = np.linalg.norm(_closest_on_triangles(x, corners[:, 0], corners[:, 1], corners[:, 2])
+                       - x, axis=1)
+    M = np.linalg.norm(corners - x[:, None], axis=2).max(axis=1)
+    within = np.flatnonzero(d <= D)
+    order = within[np.argsort(d[within], kind="stable")]
+    return d[order], M[order], D
+
+
 def _clamp_limit(skin: dict, bounds: dict, guard: FoldGuard) -> np.ndarray:
     r"""``(v,)``: :math:`(1 - 10^{-5})\,\kappa\,\eta \min(r_+, r_-)` on the rest radii in
     full at the wrinkled vertices of an active set (its ``bounds``), kept per guard:
@@ -1182,10 +1401,13 @@ def certify(face, state, guard: FoldGuard = FoldGuard()) -> Certified | None:
       :math:`\sigma_t(s) = \det(I + s P_t J_t) \ge (1 - s g)^2` on :math:`[0, 1/\kappa]`);
     * step: :math:`g_w = 2\sqrt2\,K_w \max|W|`, :math:`(1 - g - g_w/\kappa_w)^2 \ge
       \sigma_{\min,w}`;
-    * balls: :math:`\Lambda = \sum_m a_m \mathrm{Lip}_m < 1` and
-      :math:`2\rho(1 + 10^{-6}) + \tau \le \min(s(1 - \Lambda) - 2b_{\max}, D - 2P)`,
-      :math:`\rho = \max|W| / (\kappa \eta_d)\,(1 + 10^{-6})` (no deformed vertex but
-      :math:`x` within :math:`2\rho` of :math:`x`);
+    * balls: :math:`\Lambda' = \max(\sum_m a_m \mathrm{Lip}_m, 2P/D) < 1`,
+      :math:`2\rho + 2P \le D/2` and, with :math:`\delta = 2\rho(1 + 10^{-6}) + \tau`,
+      :math:`\delta + 2b_{\max} \le s(1 - \Lambda')` and :math:`\le d_{x,t} - \Lambda'
+      M_{x,t}` over the triangles within :math:`2\rho + 2P` of a wrinkled vertex
+      (:func:`_near_edges`), :math:`\rho = \max|W| / (\kappa \eta_d)\,(1 + 10^{-6})` (no
+      deformed vertex but :math:`x`, and no triangle not its own, within :math:`2\rho` of
+      :math:`x`);
     * clamp: :math:`|W| \le` :func:`_clamp_limit` everywhere.
 
     ``docs/model.md`` ("Certified skips") has the proofs.
@@ -1285,8 +1507,17 @@ def _certificates(g: float, d_max: float, b_max: float, lam: float, w_max: float
     step = x < 1.0 and (1.0 - x) ** 2 >= guard.min_area_wrinkles * (1.0 + 1e-9) + 1e-12
     room = 2.0 * w_max / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6) * (1.0 + 1e-6) \
         + 1e-12 * (1.0 + skin["size"])  # 2 rho (1 + 1e-6) + tau
-    balls = (lam < 1.0 and room <= bounds["sep"] * (1.0 - lam) - 2.0 * b_max
-             and room <= skin["reach"] - 2.0 * (d_max + b_max))
+    P = d_max + b_max
+    far = room + 2.0 * P  # beyond it no point of the skin comes within room of x
+    lam = max(lam, 2.0 * P / skin["reach"])  # (a corner beyond the pairs: |p - p'| <= 2P)
+    near = bounds.get("L")  # the triangles near the wrinkled vertices (_near_edges)
+    if lam >= 1.0 or far > (near[2] if near is not None else skin["reach"]):
+        return pulls, step, False
+    need = room + 2.0 * b_max
+    balls = need <= bounds["sep"] * (1.0 - lam)
+    if balls and near is not None:
+        k = int(np.searchsorted(near[0], far, side="right"))
+        balls = k == 0 or float((near[0][:k] - lam * near[1][:k]).min()) >= need
     return pulls, step, balls
 
 
