@@ -229,9 +229,154 @@ def _incidence(tri: np.ndarray, n: int) -> sp.csr_matrix:
                          shape=(n, m))
 
 
+def _enclosing_sq(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    r"""``(m,)``: an upper bound of :math:`\rho_t^2`, the squared radius of the smallest disc
+    holding the triangles ``tri`` ``(m, 3)`` on ``points`` ``(n, 3)``: half the longest edge
+    where the triangle is right or obtuse (:math:`c^2 \ge a^2 + b^2`), else its circumradius
+    :math:`a^2 b^2 c^2 / (16 A^2)`; never above :math:`\ell^2 / 3` (Jung), and raised by
+    :math:`10^{-9}` of itself against rounding.
+    """
+    a, b, c = points[tri[:, 0]], points[tri[:, 1]], points[tri[:, 2]]
+    a2 = np.einsum("ij,ij->i", b - c, b - c)
+    b2 = np.einsum("ij,ij->i", c - a, c - a)
+    c2 = np.einsum("ij,ij->i", a - b, a - b)
+    top = np.maximum(np.maximum(a2, b2), c2)  # the longest edge's square, and the rest:
+    rest = a2 + b2 + c2 - top  # the other two's sum (obtuse or right: top >= rest)
+    area16 = 2.0 * (a2 * b2 + b2 * c2 + c2 * a2) - (a2 * a2 + b2 * b2 + c2 * c2)
+    acute = (top < rest) & (area16 > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        circ = np.where(acute, a2 * b2 * c2 / np.where(acute, area16, 1.0), 0.0)
+    rho = np.where(acute, np.minimum(circ, top / 3.0), 0.25 * top)
+    return rho * (1.0 + 1e-9)
+
+
+def _lift(points: np.ndarray, tri: np.ndarray) -> dict:
+    r"""The triangles' reach, lifted to a 4-D ``cKDTree``, for :func:`_suspects`: each vertex
+    :math:`v` of ``points`` ``(n, 3)`` carries :math:`\rho_v^2 = \max_{t \ni v} \rho_t^2`
+    over its triangles of ``tri`` ``(m, 3)`` (:func:`_enclosing_sq`) and is lifted to
+    :math:`(v, \sqrt{T - \rho_v^2})`, :math:`T = \max_v \rho_v^2`; a centre :math:`c` lifted
+    to :math:`(c, 0)` is then :math:`\sqrt{|v - c|^2 - \rho_v^2 + T}` from it, so one
+    nearest-point query, or one ball query of radius :math:`\sqrt{r^2 + T}`, finds the
+    vertices with :math:`|v - c|^2 - \rho_v^2 \le r^2` exactly. (Classes of
+    :math:`\rho_v`, each with its own tree, cost more than they save on the skins here: a
+    ball query's lists, once per class.)
+    """
+    rho_t = _enclosing_sq(points, tri) if len(tri) else np.zeros(0)
+    rho = np.zeros(len(points))
+    np.maximum.at(rho, tri.ravel(), np.repeat(rho_t, 3))
+    top = float(rho.max()) if len(rho) else 0.0
+    lifted = np.column_stack([points, np.sqrt(np.maximum(top - rho, 0.0))])
+    return {"classes": [(cKDTree(lifted, balanced_tree=False), np.arange(len(points)), top)],
+            "T": np.full(len(points), top), "rho_t": rho_t, "rho": rho, "tri": tri,
+            "n": len(points)}
+
+
+def _skin_lift(face) -> dict:
+    """:func:`_lift` of ``face``'s own rest skin, kept with its rest frame."""
+    rest = face._rest
+    got = getattr(rest, "fold_lift", None)
+    if got is None:
+        got = rest.fold_lift = _lift(np.asarray(face.skin.points, dtype=float),
+                                     np.asarray(face.skin.triangles, dtype=np.intp))
+    return got
+
+
+def _cleared(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray
+             ) -> np.ndarray:
+    r"""``(k,)`` bool: the balls ``centres`` ``(k, 3)``, ``radii`` ``(k,)`` that no triangle
+    not incident to vertex ``own`` ``(k,)`` can meet, and no vertex but ``own``, by one
+    2-nearest query per class of :func:`_lift`: a triangle :math:`t` with a point :math:`q =
+    \sum_i \lambda_i v_i` at :math:`|q - c| \le r` has :math:`\sum_i \lambda_i |v_i - c|^2 =
+    |q - c|^2 + \sum_i \lambda_i |v_i - q|^2 \le r^2 + \rho_t^2` (the weighted spread of
+    its corners about their mean :math:`q` is at most their spread about the centre of the
+    smallest disc holding them), so a corner :math:`v \ne` ``own`` has :math:`|v - c|^2 -
+    \rho_v^2 \le r^2`. Where, in every class, the nearest lifted vertex other than ``own``
+    is farther than :math:`\sqrt{(r^2 + T)(1 + 10^{-9})}`, no such corner exists.
+    """
+    out = np.ones(len(centres), bool)
+    if not len(centres):
+        return out
+    c4 = np.column_stack([centres, np.zeros(len(centres))])
+    for tree, ids, Tk in lift["classes"]:
+        k = min(2, len(ids))
+        d, i = tree.query(c4, k=k)
+        d, i = d.reshape(len(c4), k), i.reshape(len(c4), k)
+        first = np.where(i[:, 0] < len(ids), ids[np.minimum(i[:, 0], len(ids) - 1)], -1)
+        other = np.where(first == own, d[:, -1] if k == 2 else np.inf, d[:, 0])
+        out &= other * other > (radii * radii + Tk) * (1.0 + 1e-9)
+    return out
+
+
+def _suspects(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray,
+              points: np.ndarray, tri: np.ndarray, clear: bool = True
+              ) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(p,)`` twice: the pairs (ball, triangle) of balls ``centres`` ``(k, 3)``,
+    ``radii`` ``(k,)`` tangent at vertices ``own`` ``(k,)`` and triangles ``tri`` ``(m, 3)``
+    on ``points`` ``(n, 3)`` not incident to ``own`` that may meet (every pair that does,
+    once): a triangle meeting the ball has a corner :math:`v` with :math:`|v - c|^2 \le r^2
+    + \rho_t^2 \le r^2 + \rho_v^2` (:func:`_cleared`). With ``clear``, the balls
+    :func:`_cleared` clears are skipped first; the others' vertices with :math:`|v - c|^2 -
+    \rho_v^2 \le r^2` are found by one ball query per class of lifted vertices
+    (:func:`_lift`), then each of their triangles is kept if a corner has :math:`|v - c|^2
+    \le (r^2 + \rho_t^2)(1 + 10^{-9})`, once: through the first of its corners with
+    :math:`|v - c|^2 - \rho_v^2 \le r^2 + 1.5 \cdot 10^{-9} (r^2 + T_v)` (the class's query,
+    at :math:`2 \cdot 10^{-9}`, finds it; a triangle kept has one, as :math:`\rho_t \le
+    \rho_v \le T_v`).
+    """
+    none = np.zeros(0, np.intp), np.zeros(0, np.intp)
+    if not len(centres) or not len(tri):
+        return none
+    left = np.flatnonzero(~_cleared(lift, centres, radii, own)) if clear \
+        else np.arange(len(centres))
+    if not len(left):
+        return none
+    c4 = np.column_stack([centres[left], np.zeros(len(left))])
+    balls, verts = [], []
+    for tree, ids, Tk in lift["classes"]:
+        near = tree.query_ball_point(c4, np.sqrt((radii[left] ** 2 + Tk) * (1.0 + 2e-9)))
+        counts = np.fromiter(map(len, near), np.intp, len(near))
+        if counts.sum():
+            verts.append(ids[np.fromiter(chain.from_iterable(near), np.intp,
+                                         int(counts.sum()))])
+            balls.append(np.repeat(left, counts))
+    if not balls:
+        return none
+    ball, t, verts = _expand(lift, np.concatenate(balls), np.concatenate(verts))
+    corners = tri[t]
+    keep = ~(corners == own[ball, None]).any(axis=1)  # not the ball's own vertex's
+    ball, t, verts, corners = ball[keep], t[keep], verts[keep], corners[keep]
+    diff = points[corners] - centres[ball, None]
+    dd = np.einsum("ijk,ijk->ij", diff, diff)  # (p, 3)
+    r2 = radii[ball, None] ** 2
+    found = dd - lift["rho"][corners] <= r2 + 1.5e-9 * (r2 + lift["T"][corners])
+    first = np.argmax(found, axis=1)
+    keep = (corners[np.arange(len(t)), first] == verts) \
+        & (dd.min(axis=1) <= (r2[:, 0] + lift["rho_t"][t]) * (1.0 + 1e-9))
+    return ball[keep], t[keep]
+
+
+def _expand(lift: dict, ball: np.ndarray, verts: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(p,)`` thrice: each pair of ``ball`` and ``verts`` ``(q,)`` repeated for every
+    triangle of that vertex (ball, triangle, vertex), from :func:`_lift`'s incidence.
+    """
+    if "ptr" not in lift:  # the vertex-triangle incidence, built on first need
+        tri = lift["tri"]
+        order = np.argsort(tri.ravel(), kind="stable")
+        lift["by_vertex"] = (order // 3).astype(np.intp)
+        lift["ptr"] = np.concatenate([[0], np.cumsum(np.bincount(tri.ravel(),
+                                                                 minlength=lift["n"]))])
+    ptr = lift["ptr"]
+    deg = ptr[verts + 1] - ptr[verts]
+    total = int(deg.sum())
+    starts = np.repeat(ptr[verts] - np.concatenate([[0], np.cumsum(deg)[:-1]]), deg)
+    t = lift["by_vertex"][starts + np.arange(total)]
+    return np.repeat(ball, deg), t, np.repeat(verts, deg)
+
+
 def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
-                   points: np.ndarray, triangles: np.ndarray, iterations: int = 60
-                   ) -> np.ndarray:
+                   points: np.ndarray, triangles: np.ndarray, iterations: int = 60,
+                   lift: dict | None = None, clear: bool = True) -> np.ndarray:
     r"""``(k, 2)``: the radii ``radii`` ``(k, 2)`` (:math:`r_\pm` of balls empty of the
     vertices, :func:`medial_radii`, touching vertices ``ids`` ``(k,)`` of the skin
     ``points`` ``(n, 3)``, ``triangles`` ``(m, 3)``, at unit ``normals`` ``(k, 3)``) lowered
@@ -244,8 +389,13 @@ def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
     :math:`x` and :math:`q`, :math:`r = |q - x|^2 / (2 |n \cdot (q - x)|)`. The balls tangent
     at :math:`x` on a side nest, so every step stays at or above the largest empty ball and
     a triangle that meets a smaller ball meets the first one: the candidates are found once,
-    the triangles with a corner within :math:`\sqrt{r^2 + \ell^2 / 3}` of the first centre
-    (:func:`_near_triangles`, :math:`\ell` the triangle's longest edge). A search that does not
+    the triangles with a corner within :math:`\sqrt{r^2 + \rho_t^2}` of the first centre
+    (:func:`_suspects`, :math:`\rho_t \le \ell / \sqrt 3` the radius of the smallest disc
+    holding the triangle; ``lift``: :func:`_lift` of ``points`` and ``triangles``, when one
+    is at hand). With ``clear``, a ball whose nearest vertex but its own is farther than
+    :math:`\sqrt{r^2 + \max \rho_v^2}` in the lifted metric is cleared by one nearest-point
+    query first (:func:`_cleared`: most balls well below the medial radius; not those of a
+    finished vertex search, which end on a vertex). A search that does not
     settle within ``iterations`` steps falls back to half the distance from :math:`x` to its
     nearest candidate (a ball tangent at :math:`x` lies within its diameter of :math:`x`),
     so the result is never above the largest empty ball's radius.
@@ -261,9 +411,9 @@ def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
     r = out[rows, cols]
     sign = np.where(cols == 0, 1.0, -1.0)
     x, n = points[ids[rows]], normals[rows] * sign[:, None]  # n: towards the ball
-    ball, t = _near_triangles(x + r[:, None] * n, r, points, tri)
-    own = (tri[t] == ids[rows][ball, None]).any(axis=1)
-    ball, t = ball[~own], t[~own]
+    if lift is None:
+        lift = _lift(points, tri)
+    ball, t = _suspects(lift, x + r[:, None] * n, r, ids[rows], points, tri, clear)
     if not len(ball):
         return out
     a, b, c = points[tri[t, 0]], points[tri[t, 1]], points[tri[t, 2]]
@@ -276,9 +426,14 @@ def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
         centre = xb[k] + r[ball[k], None] * nb[k]
         q = _closest_on_triangles(centre, a[k], b[k], c[k])
         dq = q - centre
-        inside = np.einsum("ij,ij->i", dq, dq) < (r[ball[k]] * (1.0 - 1e-9)) ** 2
-        k, q = k[inside], q[inside]
+        dd = np.einsum("ij,ij->i", dq, dq)
+        rk = r[ball[k]]
+        # a triangle outside this ball is outside every smaller one (they nest): only the
+        # triangles that reach inside are tried again, and only where their ball shrank
         live[:] = False
+        live[k[dd < rk * rk]] = True
+        inside = dd < (rk * (1.0 - 1e-9)) ** 2
+        k, q = k[inside], q[inside]
         if not len(k):
             break
         d = q - xb[k]
@@ -286,7 +441,7 @@ def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
         h = np.einsum("ij,ij->i", d, nb[k])
         new = np.where(h > 0, dd / (2.0 * np.where(h > 0, h, 1.0)), 0.0)
         np.minimum.at(r, ball[k], new)
-        live[np.isin(ball, ball[k])] = True  # a shrunk ball: its triangles again
+        live &= np.isin(ball, ball[k])  # a shrunk ball: its triangles that reached in
     else:
         k = np.flatnonzero(live)  # not settled: half the distance to the candidates
         q = _closest_on_triangles(xb[k], a[k], b[k], c[k])
@@ -296,31 +451,31 @@ def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
 
 
 
-def _triangle_gaps(points: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, float]:
-    r"""``(n,)`` and a float: each vertex's distance to the nearest triangle not incident to
-    it (:math:`s^t_x`; ``inf`` where there is none) and the longest edge :math:`L` of
-    ``tri`` ``(m, 3)`` on ``points`` ``(n, 3)``. The nearest such triangle has a corner
-    within the vertex's longest incident edge :math:`e_x` (the triangle beyond that edge's
-    far end), so the candidates are those :func:`_near_triangles` finds within :math:`e_x`.
+def _triangle_seps(points: np.ndarray, tri: np.ndarray, near: np.ndarray,
+                   lift: dict | None = None) -> tuple[np.ndarray, float]:
+    r"""``(n,)`` and a float: each vertex's distance :math:`s_x` to the nearest other vertex
+    or triangle not incident to it, given ``near`` ``(n,)``, the distance to the nearest
+    other vertex, and the longest edge :math:`L` of ``tri`` ``(m, 3)`` on ``points``
+    ``(n, 3)``. Only the triangles that come within ``near`` of :math:`x` can lower it: the
+    candidates of the ball of radius ``near`` about :math:`x` (:func:`_suspects`, ``lift``:
+    :func:`_lift`).
     """
     e = points[tri] - points[np.roll(tri, 1, axis=1)]
-    length = np.sqrt(np.einsum("ijk,ijk->ij", e, e))
-    L = float(length.max()) if len(tri) else 0.0
-    longest = np.zeros(len(points))
-    for k in range(3):  # edge k joins corners k - 1 and k
-        np.maximum.at(longest, tri[:, k], length[:, k])
-        np.maximum.at(longest, tri[:, k - 1], length[:, k])
-    gaps = np.full(len(points), np.inf)
-    step = 2000
+    L = float(np.sqrt(np.einsum("ijk,ijk->ij", e, e).max())) if len(tri) else 0.0
+    if lift is None:
+        lift = _lift(points, tri)
+    sep = np.array(near, dtype=float, copy=True)
+    step = 4000
     for lo in range(0, len(points), step):
         ids = np.arange(lo, min(lo + step, len(points)))
-        owner, t = _near_triangles(points[ids], longest[ids], points, tri)
-        keep = ~(tri[t] == ids[owner, None]).any(axis=1)
-        owner, t = owner[keep], t[keep]
+        ok = np.isfinite(sep[ids])
+        ids = ids[ok]
+        owner, t = _suspects(lift, points[ids], sep[ids], ids, points, tri, clear=False)
         x = points[ids[owner]]
         q = _closest_on_triangles(x, points[tri[t, 0]], points[tri[t, 1]], points[tri[t, 2]])
-        np.minimum.at(gaps, ids[owner], np.linalg.norm(q - x, axis=1))
-    return gaps, L
+        np.minimum.at(sep, ids[owner], np.linalg.norm(q - x, axis=1))
+    return sep, L
+
 
 def _row_terms(points: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, ...]:
     r"""``(3, k)`` thrice: :math:`N / |N|^2`, :math:`A_1 = N \times e_1 / |N|^2` and
@@ -929,30 +1084,53 @@ def _deformed_lows(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, terms: 
         n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
     side = np.where(W[ids, None] >= 0, [[1.0, 0.0]], [[0.0, 1.0]])  # the side W pushes to
     # a triangle meeting a ball has its corners within the ball's reach plus its edges
-    e = deformed[tri] - deformed[np.roll(tri, 1, axis=1)]
-    L = float(np.sqrt(np.einsum("ijk,ijk->ij", e, e).max())) if len(tri) else 0.0
+    L = _longest_edge(deformed, tri, terms)
     box = _in_box(deformed, x.min(axis=0) - reach - L, x.max(axis=0) + reach + L)
     samples = deformed[box]
     local = np.full(len(deformed), -1, dtype=np.intp)
     local[box] = np.arange(len(box))
     t_loc = local[tri]
-    t_loc = t_loc[(t_loc >= 0).all(axis=1)]
-    tree = cKDTree(samples, balanced_tree=False)
-    # the vertices' search where a vertex lies inside (medial_radii), then every ball
-    # against the triangles not incident to its vertex (a ball empty of vertices may still
-    # hold a triangle between them); the vertex search's result at the others is its start
+    t_loc = t_loc[t_loc.min(axis=1) >= 0]
+    # one nearest-point query of the lifted vertices clears the balls that no vertex and no
+    # triangle not incident to their vertex can enter (_cleared); the others: the vertices'
+    # search where a vertex lies inside (medial_radii), then the triangles' (a ball empty of
+    # vertices may still hold a triangle between them)
+    lift = _lift(samples, t_loc)
     c = x + np.where(W[ids] >= 0, 1.0, -1.0)[:, None] * start[:, None] * n
+    todo = np.flatnonzero(~_cleared(lift, c, start, local[ids]))
+    if not len(todo):
+        return None
+    ids, x, n, c, start, side = ids[todo], x[todo], n[todo], c[todo], start[todo], side[todo]
+    tree = cKDTree(samples, balanced_tree=False)  # the vertices' search, where needed
     dist, _ = tree.query(c, distance_upper_bound=float(start.max()))
     r = side * start[:, None]
     hit = np.flatnonzero(dist < start * (1.0 - 1e-9))
     if len(hit):
         r[hit] = medial_radii(x[hit], n[hit], samples=samples, r_max=r[hit], tree=tree)
-    r = triangle_radii(local[ids], n, r, samples, t_loc)
+    r = triangle_radii(local[ids], n, r, samples, t_loc, lift=lift, clear=False)
     r = np.where(side > 0, r, np.inf)
     low = np.flatnonzero(r.min(axis=1) < start)  # the balls that shrank
     if not len(low):
         return None
     return ids[low], ratio * r[low]
+
+
+def _longest_edge(points: np.ndarray, tri: np.ndarray, terms: dict) -> float:
+    """The longest edge of the skin ``points`` ``(n, 3)``, ``tri`` ``(m, 3)`` (its unique
+    edges' ends kept in ``terms`` as two contiguous arrays).
+    """
+    ends = terms.get("edge_ends")
+    if ends is None:
+        edges = terms.get("edges")
+        if edges is None:
+            edges = np.vstack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+        ends = terms["edge_ends"] = (np.ascontiguousarray(edges[:, 0], dtype=np.intp),
+                                     np.ascontiguousarray(edges[:, 1], dtype=np.intp))
+    if not len(ends[0]):
+        return 0.0
+    e = points[ends[0]]
+    e -= points[ends[1]]
+    return float(np.sqrt(np.einsum("ij,ij->i", e, e).max()))
 
 
 def _in_box(points: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -1021,7 +1199,8 @@ def _rest_radii(face, need: np.ndarray, ids: np.ndarray | None = None) -> np.nda
         r_max = np.where(todo, need, 0.0)
         r = medial_radii(face.skin.points[rows], rest.normals[rows],
                          samples=face.skin.points, r_max=r_max, tree=face.skin.kdtree)
-        r = triangle_radii(rows, rest.normals[rows], r, face.skin.points, face.skin.triangles)
+        r = triangle_radii(rows, rest.normals[rows], r, face.skin.points, face.skin.triangles,
+                           lift=_skin_lift(face))
         known[rows] = np.where(todo, r, known[rows])
         rest.fold_radii_exact[rows] |= todo & (r < r_max)
     return known
@@ -1181,7 +1360,7 @@ def _skin_bounds(face) -> dict | None:
     * ``radii`` ``(n, 2)``: every rest radius in full, as lower bounds
       (:func:`_verified_radii`; the exact checks keep their own, searched as a frame needs);
     * ``sep`` ``(n,)``: each vertex's distance to the nearest other vertex or triangle not
-      incident to it, :math:`s_x` (:func:`_triangle_gaps`), and ``L`` the longest edge;
+      incident to it, :math:`s_x` (:func:`_triangle_seps`), and ``L`` the longest edge;
     * ``K`` ``(m,)``: :math:`\|E_t^+\|_2 = 1/\sigma_{\min}(E_t)` of each triangle's rest
       edges :math:`E_t = [e_1\ e_2]`, and ``Einv`` ``(m, 2, 3)``: :math:`E_t^+`;
     * ``pairs`` ``(p, 2)`` and ``dist`` ``(p,)``: every pair of vertices at most
@@ -1198,9 +1377,9 @@ def _skin_bounds(face) -> dict | None:
     pts = np.asarray(skin.points, dtype=float)
     tri = np.asarray(skin.triangles, dtype=np.intp)
     d, _ = skin.kdtree.query(pts, k=2)
-    gaps, L = _triangle_gaps(pts, tri)
-    sep = np.minimum(d[:, 1], gaps)  # to the nearest other vertex or triangle not its own
-    radii = _verified_radii(pts, rest.normals, skin.kdtree, sep, tri)
+    lift = _skin_lift(face)
+    sep, L = _triangle_seps(pts, tri, d[:, 1], lift)  # vertex or triangle not its own
+    radii = _verified_radii(pts, rest.normals, skin.kdtree, sep, tri, lift)
     E = np.stack([pts[tri[:, 1]] - pts[tri[:, 0]], pts[tri[:, 2]] - pts[tri[:, 0]]], axis=2)
     Einv = np.linalg.pinv(E)  # (m, 2, 3); 0 rows for a triangle with no area
     sv = np.linalg.svd(E, compute_uv=False)
@@ -1216,7 +1395,7 @@ def _skin_bounds(face) -> dict | None:
 
 
 def _verified_radii(pts: np.ndarray, normals: np.ndarray, tree: cKDTree, sep: np.ndarray,
-                    tri: np.ndarray) -> np.ndarray:
+                    tri: np.ndarray, lift: dict | None = None) -> np.ndarray:
     r"""``(n, 2)``: lower bounds of the rest radii that any search of :func:`fold_radii`
     cannot go below: the search in full (from twice the diagonal), each ball checked empty
     of vertices (0 where the search stopped before it was: its iteration cap), then emptied
@@ -1233,7 +1412,7 @@ def _verified_radii(pts: np.ndarray, normals: np.ndarray, tree: cKDTree, sep: np
     for col, side in enumerate((1.0, -1.0)):
         dist, _ = tree.query(pts + side * r[:, col, None] * normals)
         r[dist < r[:, col] * (1.0 - 1e-9), col] = 0.0  # not converged: no bound
-    r = triangle_radii(np.arange(len(pts)), normals, r, pts, tri)
+    r = triangle_radii(np.arange(len(pts)), normals, r, pts, tri, lift=lift, clear=False)
     with np.errstate(divide="ignore", invalid="ignore"):
         loss = 4e-9 * (r / np.where(sep > 0, sep, 0.0)[:, None]) ** 2
     return np.where(loss < 1.0, r * (1.0 - loss), 0.0)
