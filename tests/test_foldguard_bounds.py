@@ -61,7 +61,10 @@ def test_certified_unrefined_frames_are_the_exact_guards_bit_for_bit(faces, name
             _assert_same(s, _exact(exact, expression, intensity), f"{expression} {intensity}")
             c = certify(fast, fast._frame(fast.activations_for(expression, intensity)))
             skipped += c is not None and c.all
-    assert skipped >= (20 if name == "procedural" else 1)  # the skips did happen
+    # the skips did happen (the procedural face: 22 of its 56 frames with balls empty of
+    # vertices, 17 with balls empty of triangles, whose certificate also bounds the
+    # triangles near each wrinkled vertex)
+    assert skipped >= (15 if name == "procedural" else 1)
 
 
 @pytest.mark.slow

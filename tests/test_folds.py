@@ -508,6 +508,106 @@ def test_the_deformed_balls_keep_a_wrinkle_from_passing_through_a_triangle():
     assert fold_report(pts, g.points, tri).ok
     assert 0.0 < g.W[0] < FoldGuard().eta_deformed * gap / 2.0
 
+def _fine_sheet_under_coarse_triangles(seed: int):
+    """A bumpy fine sheet (edges about 1, jittered in the plane, x in [-10, 10]) under a
+    bumpy coarse one (edges about 5-7, x in [4, 19]) a random gap above, and two random
+    slivers over it: balls at the fine sheet's vertices reach the coarse triangles between
+    their corners (and those far from the coarse sheet do not)."""
+    rng = np.random.default_rng(seed)
+    fine, tri = _sheet(21, 21, lambda x, y: 0.6 * np.sin(0.5 * x + seed) * np.cos(0.4 * y))
+    fine[:, :2] += rng.uniform(-0.2, 0.2, (len(fine), 2))
+    coarse, ctri = _sheet(4, 4, lambda x, y: 0.5 * np.cos(0.3 * x - seed), flip=True,
+                          width=15.0)
+    coarse[:, 0] += 11.5
+    coarse[:, 2] += rng.uniform(0.3, 2.5) + rng.uniform(-0.3, 0.3, len(coarse))
+    sliver = rng.uniform(-6, 6, (6, 3)) * [1, 1, 0.3] + [12.0, 0, 1.0]
+    pts = np.vstack([fine, coarse, sliver])
+    k, s0 = len(fine), len(fine) + len(coarse)
+    tri = np.vstack([tri, ctri + k, [[s0, s0 + 1, s0 + 2], [s0 + 3, s0 + 4, s0 + 5]]])
+    return pts, tri, k
+
+
+def _brute_meets(pts, tri, centres, radii, own):
+    """(ball, triangle) pairs of every triangle not incident to ``own`` that comes nearer
+    than its ball's radius to the centre, by the closest point of every triangle."""
+    from wrinkle_vis.core.foldguard import _closest_on_triangles
+
+    b = np.repeat(np.arange(len(centres)), len(tri))
+    t = np.tile(np.arange(len(tri)), len(centres))
+    q = _closest_on_triangles(centres[b], pts[tri[t, 0]], pts[tri[t, 1]], pts[tri[t, 2]])
+    inside = np.linalg.norm(q - centres[b], axis=1) < radii[b]
+    inside &= ~(tri[t] == own[b, None]).any(axis=1)
+    return set(zip(b[inside].tolist(), t[inside].tolist(), strict=True))
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1))
+def test_the_cheap_filter_never_clears_a_ball_a_triangle_enters(seed):
+    """``_suspects`` (and the 2-nearest clearing ``_cleared`` it starts with) against every
+    triangle's closest point: each ball that any triangle not its vertex's own enters keeps
+    that triangle among its candidates, once."""
+    from wrinkle_vis.core.foldguard import _cleared, _lift, _suspects
+
+    pts, tri, k = _fine_sheet_under_coarse_triangles(seed)
+    rng = np.random.default_rng(seed)
+    own = rng.integers(0, k, 300)
+    n = np.tile([0.0, 0.0, 1.0], (len(own), 1))
+    r = rng.uniform(0.05, 3.0, len(own))
+    c = pts[own] + r[:, None] * n
+    lift = _lift(pts, tri)
+    truth = _brute_meets(pts, tri, c, r, own)
+    ball, t = _suspects(lift, c, r, own, pts, tri)
+    got = list(zip(ball.tolist(), t.tolist(), strict=True))
+    assert len(got) == len(set(got))  # each pair once
+    assert truth <= set(got)
+    met = {b for b, _ in truth}
+    cleared = np.flatnonzero(_cleared(lift, c, r, own))
+    assert not met & set(cleared.tolist())
+    assert 0.1 < len(cleared) / len(own) < 0.9  # both kinds of ball are there
+    assert len(truth) > 0
+
+
+def _brute_triangle_radii(ids, normals, radii, pts, tri, iterations=60):
+    """The shrinking ball on every triangle not incident to the vertex (no candidates)."""
+    from wrinkle_vis.core.foldguard import _closest_on_triangles
+
+    out = np.array(radii, dtype=float)
+    for i, v in enumerate(ids):
+        others = tri[~(tri == v).any(axis=1)]
+        a, b, c = pts[others[:, 0]], pts[others[:, 1]], pts[others[:, 2]]
+        for col, sign in ((0, 1.0), (1, -1.0)):
+            r, x, nv = out[i, col], pts[v], sign * normals[i]
+            for _ in range(iterations if r > 0 else 0):
+                centre = np.broadcast_to(x + r * nv, a.shape)
+                q = _closest_on_triangles(centre, a, b, c)
+                dq = np.einsum("ij,ij->i", q - centre, q - centre)
+                inside = dq < (r * (1.0 - 1e-9)) ** 2
+                if not inside.any():
+                    break
+                d = q[inside] - x
+                h = d @ nv
+                r = min(r, float(np.min(np.where(h > 0, np.einsum("ij,ij->i", d, d)
+                                                 / (2.0 * np.where(h > 0, h, 1.0)), 0.0))))
+            out[i, col] = r
+    return out
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1))
+def test_triangle_radii_are_the_search_on_every_triangle(seed):
+    """The balls emptied of triangles through the filtered candidates are the shrinking-ball
+    search on every triangle not incident to the vertex, to rounding (rest radii of the
+    fine sheet, both sides, from the vertex search)."""
+    pts, tri, k = _fine_sheet_under_coarse_triangles(seed)
+    rng = np.random.default_rng(seed)
+    ids = np.sort(rng.choice(k, 40, replace=False))
+    n = TriangleSurface(pts, tri).vertex_normals()[ids]
+    r = medial_radii(pts[ids], n, samples=pts)
+    got = triangle_radii(ids, n, r, pts, tri)
+    np.testing.assert_allclose(got, _brute_triangle_radii(ids, n, r, pts, tri), rtol=1e-12)
+    assert (got < r).any()  # the triangles did lower some
+
+
 def test_soft_clamp_is_the_identity_below_the_knee_and_c1():
     x = np.linspace(-3, 3, 6001)
     c = soft_clamp(x, np.full_like(x, 1.0), 0.5)

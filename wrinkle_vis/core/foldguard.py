@@ -1388,7 +1388,7 @@ def _skin_bounds(face) -> dict | None:
     reach = _CERT_REACH * float(np.median(skin.rest_edge_lengths))
     pairs = skin.kdtree.query_pairs(reach, output_type="ndarray").astype(np.int32)
     dist = np.linalg.norm(pts[pairs[:, 0]] - pts[pairs[:, 1]], axis=1)
-    rest.fold_bounds = got = {"radii": radii, "sep": sep, "K": K, "Einv": Einv,
+    rest.fold_bounds = got = {"radii": radii, "sep": sep, "near": d[:, 1], "K": K, "Einv": Einv,
                               "pairs": pairs, "dist": dist, "reach": reach, "L": L,
                               "size": float(np.abs(pts).max()), "assemblies": {}}
     return got
@@ -1482,7 +1482,8 @@ def _build_assembly_bounds(face, asm, skin: dict) -> dict:
             "moved": asm.moved, "wrinkled": asm.wrinkled, "clamp": {},
             "Kp": most(K[moved[tri].any(axis=1)]), "Kw": most(K[wrinkled[tri].any(axis=1)]),
             "S": most(frob),
-            "sep": float(skin["sep"][asm.wrinkled].min()) if len(asm.wrinkled) else np.inf}
+            # the vertices' separation (the triangles near x: "L", _near_edges)
+            "sep": float(skin["near"][asm.wrinkled].min()) if len(asm.wrinkled) else np.inf}
 
 
 def _muscle_bounds(face, data, skin: dict) -> tuple:
@@ -1525,13 +1526,16 @@ def _build_muscle_bounds(face, data, skin: dict) -> tuple:
             float(np.linalg.norm(u, axis=1).max()), float(ratio.max()) if len(ratio) else 0.0)
 
 
-def _near_edges(face, wrinkled: np.ndarray, skin: dict) -> tuple[np.ndarray, np.ndarray, float]:
-    r"""``(k,)`` twice and a float: for every pair of a ``wrinkled`` vertex :math:`x` and a
-    triangle :math:`t` not incident to it that comes within :math:`D` = ``reach`` / 2 of it,
-    the distance :math:`d_{x,t}` from :math:`x` to :math:`t` (ascending) and the largest
-    distance :math:`M_{x,t}` from :math:`x` to a corner of :math:`t`; and :math:`D`. The
-    balls' certificate asks for the triangles within :math:`2\rho + 2P` of a wrinkled
-    vertex only (:func:`_certificates`).
+def _near_edges(face, wrinkled: np.ndarray, skin: dict
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    r"""``(k,)``, ``(k, 3)`` twice and a float: for every pair of a ``wrinkled`` vertex
+    :math:`x` and a triangle :math:`t` not incident to it that comes within :math:`D` =
+    ``reach`` / 2 of it, the distance :math:`d_{x,t}` from :math:`x` to :math:`t`
+    (ascending), and for each corner :math:`v_i` of :math:`t` its height :math:`h_i = u \cdot
+    (v_i - x) \ge d_{x,t}` along the unit :math:`u` from :math:`x` to its closest point of
+    :math:`t` and its distance :math:`m_i = |v_i - x|`; and :math:`D`. The balls'
+    certificate asks for the triangles within :math:`2\rho + 2P` of a wrinkled vertex only
+    (:func:`_certificates`).
     """
     pts = np.asarray(face.skin.points, dtype=float)
     tri = np.asarray(face.skin.triangles, dtype=np.intp)
@@ -1540,13 +1544,15 @@ def _near_edges(face, wrinkled: np.ndarray, skin: dict) -> tuple[np.ndarray, np.
     keep = ~(tri[t] == wrinkled[owner, None]).any(axis=1)  # not the vertex's own
     owner, t = owner[keep], t[keep]
     x = pts[wrinkled[owner]]
-    corners = pts[tri[t]]
-    d = np.linalg.norm(_closest_on_triangles(x, corners[:, 0], corners[:, 1], corners[:, 2])
-                       - x, axis=1)
-    M = np.linalg.norm(corners - x[:, None], axis=2).max(axis=1)
+    corners = pts[tri[t]] - x[:, None]  # (k, 3, 3): v_i - x
+    q = _closest_on_triangles(x, pts[tri[t, 0]], pts[tri[t, 1]], pts[tri[t, 2]]) - x
+    d = np.linalg.norm(q, axis=1)
+    u = q / np.where(d > 0, d, 1.0)[:, None]
+    h = np.where(d[:, None] > 0, np.einsum("ikj,ij->ik", corners, u), 0.0)
+    m = np.linalg.norm(corners, axis=2)
     within = np.flatnonzero(d <= D)
     order = within[np.argsort(d[within], kind="stable")]
-    return d[order], M[order], D
+    return d[order], np.ascontiguousarray(h[order]), np.ascontiguousarray(m[order]), D
 
 
 def _clamp_limit(skin: dict, bounds: dict, guard: FoldGuard) -> np.ndarray:
@@ -1690,13 +1696,13 @@ def _certificates(g: float, d_max: float, b_max: float, lam: float, w_max: float
     far = room + 2.0 * P  # beyond it no point of the skin comes within room of x
     lam = max(lam, 2.0 * P / skin["reach"])  # (a corner beyond the pairs: |p - p'| <= 2P)
     near = bounds.get("L")  # the triangles near the wrinkled vertices (_near_edges)
-    if lam >= 1.0 or far > (near[2] if near is not None else skin["reach"]):
+    if lam >= 1.0 or far > (near[3] if near is not None else skin["reach"]):
         return pulls, step, False
     need = room + 2.0 * b_max
     balls = need <= bounds["sep"] * (1.0 - lam)
-    if balls and near is not None:
+    if balls and near is not None:  # |q' - x'| >= min_i (h_i - lam m_i) - 2 b_max
         k = int(np.searchsorted(near[0], far, side="right"))
-        balls = k == 0 or float((near[0][:k] - lam * near[1][:k]).min()) >= need
+        balls = k == 0 or float((near[1][:k] - lam * near[2][:k]).min()) >= need
     return pulls, step, balls
 
 
