@@ -251,23 +251,36 @@ def _enclosing_sq(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
 
 
 def _lift(points: np.ndarray, tri: np.ndarray) -> dict:
-    r"""The triangles' reach, lifted to a 4-D ``cKDTree``, for :func:`_suspects`: each vertex
+    r"""The triangles' reach, lifted to 4-D ``cKDTree`` s, for :func:`_suspects`: each vertex
     :math:`v` of ``points`` ``(n, 3)`` carries :math:`\rho_v^2 = \max_{t \ni v} \rho_t^2`
-    over its triangles of ``tri`` ``(m, 3)`` (:func:`_enclosing_sq`) and is lifted to
-    :math:`(v, \sqrt{T - \rho_v^2})`, :math:`T = \max_v \rho_v^2`; a centre :math:`c` lifted
-    to :math:`(c, 0)` is then :math:`\sqrt{|v - c|^2 - \rho_v^2 + T}` from it, so one
-    nearest-point query, or one ball query of radius :math:`\sqrt{r^2 + T}`, finds the
-    vertices with :math:`|v - c|^2 - \rho_v^2 \le r^2` exactly. (Classes of
-    :math:`\rho_v`, each with its own tree, cost more than they save on the skins here: a
-    ball query's lists, once per class.)
+    over its triangles of ``tri`` ``(m, 3)`` (:func:`_enclosing_sq`). The vertices are taken
+    in classes of :math:`\rho_v^2` (by factors of 16, at most 6), each class with the
+    largest :math:`T` of its :math:`\rho_v^2` and its own tree of the vertices lifted to
+    :math:`(v, \sqrt{T - \rho_v^2})`: a centre :math:`c` lifted to :math:`(c, 0)` is
+    :math:`\sqrt{|v - c|^2 - \rho_v^2 + T}` from :math:`v`, so one nearest-point query, or one
+    ball query of radius :math:`\sqrt{r^2 + T}`, per class finds the vertices with
+    :math:`|v - c|^2 - \rho_v^2 \le r^2` exactly. (One tree for a skin whose triangles
+    differ much in size, a refined one, is slow to query: its fine vertices' lifts are all
+    near :math:`\sqrt T`.)
     """
     rho_t = _enclosing_sq(points, tri) if len(tri) else np.zeros(0)
     rho = np.zeros(len(points))
     np.maximum.at(rho, tri.ravel(), np.repeat(rho_t, 3))
     top = float(rho.max()) if len(rho) else 0.0
-    lifted = np.column_stack([points, np.sqrt(np.maximum(top - rho, 0.0))])
-    return {"classes": [(cKDTree(lifted, balanced_tree=False), np.arange(len(points)), top)],
-            "T": np.full(len(points), top), "rho_t": rho_t, "rho": rho, "tri": tri,
+    if top > 0:
+        with np.errstate(divide="ignore"):
+            level = np.floor(np.log(top / np.maximum(rho, top * 1e-300)) / math.log(16.0))
+        level = np.clip(level, 0, 5).astype(np.intp)
+    else:
+        level = np.zeros(len(rho), np.intp)
+    classes, T = [], np.zeros(len(points))
+    for k in np.unique(level):
+        ids = np.flatnonzero(level == k)
+        Tk = float(rho[ids].max())
+        T[ids] = Tk
+        lifted = np.column_stack([points[ids], np.sqrt(np.maximum(Tk - rho[ids], 0.0))])
+        classes.append((cKDTree(lifted, balanced_tree=False), ids, Tk))
+    return {"classes": classes, "T": T, "rho_t": rho_t, "rho": rho, "tri": tri,
             "n": len(points)}
 
 
@@ -307,6 +320,9 @@ def _cleared(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray
     return out
 
 
+_SUSPECTS_K = 12  # the nearest lifted vertices a ball's candidates are first looked for in
+
+
 def _suspects(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray,
               points: np.ndarray, tri: np.ndarray, clear: bool = True
               ) -> tuple[np.ndarray, np.ndarray]:
@@ -333,13 +349,23 @@ def _suspects(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarra
     c4 = np.column_stack([centres[left], np.zeros(len(left))])
     balls, verts = [], []
     for tree, ids, Tk in lift["classes"]:
-        near = tree.query_ball_point(c4, np.sqrt((radii[left] ** 2 + Tk) * (1.0 + 2e-9)))
-        counts = np.fromiter(map(len, near), np.intp, len(near))
-        if counts.sum():
+        bound = np.sqrt((radii[left] ** 2 + Tk) * (1.0 + 2e-9))
+        k = min(_SUSPECTS_K, len(ids))  # k nearest first (arrays); a full row: a ball query
+        d, i = tree.query(c4, k=k, distance_upper_bound=float(bound.max()))
+        d, i = d.reshape(len(c4), k), i.reshape(len(c4), k)
+        inside = d <= bound[:, None]
+        full = inside[:, -1].copy() if k == _SUSPECTS_K else np.zeros(len(c4), bool)
+        inside[full] = False
+        rows, cols = np.nonzero(inside)
+        verts.append(ids[i[rows, cols]])
+        balls.append(left[rows])
+        if full.any():
+            near = tree.query_ball_point(c4[full], bound[full])
+            counts = np.fromiter(map(len, near), np.intp, len(near))
             verts.append(ids[np.fromiter(chain.from_iterable(near), np.intp,
                                          int(counts.sum()))])
-            balls.append(np.repeat(left, counts))
-    if not balls:
+            balls.append(np.repeat(left[full], counts))
+    if not sum(map(len, balls)):
         return none
     ball, t, verts = _expand(lift, np.concatenate(balls), np.concatenate(verts))
     corners = tri[t]
