@@ -951,9 +951,11 @@ def test_rest_radii_are_searched_as_far_as_a_frame_needs():
 
 
 def test_the_guard_on_needed_radii_gives_the_frame_of_the_true_radii(monkeypatch):
-    """A guarded frame on the radii searched as far as its W needs is bit for bit the one
-    the true radii (searched from the whole diagonal, at every vertex) give; radii searched
-    less far give another frame (the test can fail)."""
+    """A guarded frame on the radii searched as far as its W needs is the one the true radii
+    (searched from the whole diagonal, at every vertex) give, to the search's tolerance (a
+    ball that a triangle's face stops ends through a point of the face that depends on
+    where the search started, by a few ulps here: 1e-14 at one vertex); radii searched less
+    far give another frame (the test can fail)."""
     import wrinkle_vis as wv
     from wrinkle_vis.core import foldguard
 
@@ -976,8 +978,10 @@ def test_the_guard_on_needed_radii_gives_the_frame_of_the_true_radii(monkeypatch
     needed, true = frame("needed"), frame("true")
     assert np.any(true.fold_guard > 0)  # the clamp acts on this frame
     for key in ("points", "W", "deformed_points", "fold_guard"):
-        np.testing.assert_array_equal(getattr(needed, key), getattr(true, key), key)
-    assert not np.array_equal(frame("short").W, true.W)
+        np.testing.assert_allclose(getattr(needed, key), getattr(true, key), rtol=1e-9,
+                                   atol=1e-9, err_msg=key)
+    short = frame("short").W
+    assert np.abs(short - true.W).max() > 1e-3  # far beyond the tolerance
 
 
 # --- the guard's cost: rest work once, per-frame checks where the frame acts (guard29) ----
