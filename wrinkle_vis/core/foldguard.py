@@ -478,22 +478,24 @@ def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
 
 
 def _triangle_seps(points: np.ndarray, tri: np.ndarray, near: np.ndarray,
-                   lift: dict | None = None) -> tuple[np.ndarray, float]:
+                   lift: dict | None = None, rows: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, float]:
     r"""``(n,)`` and a float: each vertex's distance :math:`s_x` to the nearest other vertex
     or triangle not incident to it, given ``near`` ``(n,)``, the distance to the nearest
     other vertex, and the longest edge :math:`L` of ``tri`` ``(m, 3)`` on ``points``
     ``(n, 3)``. Only the triangles that come within ``near`` of :math:`x` can lower it: the
     candidates of the ball of radius ``near`` about :math:`x` (:func:`_suspects`, ``lift``:
-    :func:`_lift`).
+    :func:`_lift`). ``rows``: the vertices searched (default all; ``near`` at the others).
     """
     e = points[tri] - points[np.roll(tri, 1, axis=1)]
     L = float(np.sqrt(np.einsum("ijk,ijk->ij", e, e).max())) if len(tri) else 0.0
     if lift is None:
         lift = _lift(points, tri)
     sep = np.array(near, dtype=float, copy=True)
+    rows = np.arange(len(points)) if rows is None else np.asarray(rows, dtype=np.intp)
     step = 4000
-    for lo in range(0, len(points), step):
-        ids = np.arange(lo, min(lo + step, len(points)))
+    for lo in range(0, len(rows), step):
+        ids = rows[lo:lo + step]
         ok = np.isfinite(sep[ids])
         ids = ids[ok]
         owner, t = _suspects(lift, points[ids], sep[ids], ids, points, tri, clear=False)
@@ -1384,9 +1386,13 @@ def _skin_bounds(face) -> dict | None:
     rest frame (None for a skin of more than :data:`_CERT_MAX_POINTS` vertices):
 
     * ``radii`` ``(n, 2)``: every rest radius in full, as lower bounds
-      (:func:`_verified_radii`; the exact checks keep their own, searched as a frame needs);
+      (:func:`_verified_radii`; the exact checks keep their own, searched as a frame needs),
+      at the vertices a muscle's wrinkles may reach (:func:`_may_wrinkle`), 0 (no bound)
+      elsewhere;
     * ``sep`` ``(n,)``: each vertex's distance to the nearest other vertex or triangle not
-      incident to it, :math:`s_x` (:func:`_triangle_seps`), and ``L`` the longest edge;
+      incident to it, :math:`s_x` (:func:`_triangle_seps`, at the same vertices; elsewhere
+      the nearest vertex's), ``near`` ``(n,)``: to the nearest other vertex, and ``L`` the
+      longest edge;
     * ``K`` ``(m,)``: :math:`\|E_t^+\|_2 = 1/\sigma_{\min}(E_t)` of each triangle's rest
       edges :math:`E_t = [e_1\ e_2]`, and ``Einv`` ``(m, 2, 3)``: :math:`E_t^+`;
     * ``pairs`` ``(p, 2)`` and ``dist`` ``(p,)``: every pair of vertices at most
@@ -1404,8 +1410,9 @@ def _skin_bounds(face) -> dict | None:
     tri = np.asarray(skin.triangles, dtype=np.intp)
     d, _ = skin.kdtree.query(pts, k=2)
     lift = _skin_lift(face)
-    sep, L = _triangle_seps(pts, tri, d[:, 1], lift)  # vertex or triangle not its own
-    radii = _verified_radii(pts, rest.normals, skin.kdtree, sep, tri, lift)
+    rows = _may_wrinkle(face)
+    sep, L = _triangle_seps(pts, tri, d[:, 1], lift, rows)  # vertex or triangle not its own
+    radii = _verified_radii(pts, rest.normals, skin.kdtree, sep, tri, lift, rows)
     E = np.stack([pts[tri[:, 1]] - pts[tri[:, 0]], pts[tri[:, 2]] - pts[tri[:, 0]]], axis=2)
     Einv = np.linalg.pinv(E)  # (m, 2, 3); 0 rows for a triangle with no area
     sv = np.linalg.svd(E, compute_uv=False)
@@ -1420,8 +1427,26 @@ def _skin_bounds(face) -> dict | None:
     return got
 
 
+def _may_wrinkle(face, rings: int = 2) -> np.ndarray:
+    """``(k,)``: the vertices of ``face``'s skin in any of its muscles' areas of influence
+    and ``rings`` rings of edges about them (a refined vertex takes the radii of its three
+    nearest skin vertices): where its frames' :math:`W` may be nonzero. A radius left 0
+    elsewhere only takes the clamp's certificate from a frame whose :math:`W` reaches there
+    (a muscle moved since): ``|W| <= 0`` fails and the exact check runs.
+    """
+    inside = np.zeros(face.skin.n_points, bool)
+    for m in face.muscles:
+        inside[face.muscle_data(m).aoi] = True
+    edges = np.asarray(face.skin.edges, dtype=np.intp)
+    for _ in range(rings):
+        grow = inside[edges[:, 0]] | inside[edges[:, 1]]
+        inside[edges[grow].ravel()] = True
+    return np.flatnonzero(inside)
+
+
 def _verified_radii(pts: np.ndarray, normals: np.ndarray, tree: cKDTree, sep: np.ndarray,
-                    tri: np.ndarray, lift: dict | None = None) -> np.ndarray:
+                    tri: np.ndarray, lift: dict | None = None, rows: np.ndarray | None = None
+                    ) -> np.ndarray:
     r"""``(n, 2)``: lower bounds of the rest radii that any search of :func:`fold_radii`
     cannot go below: the search in full (from twice the diagonal), each ball checked empty
     of vertices (0 where the search stopped before it was: its iteration cap), then emptied
@@ -1433,15 +1458,19 @@ def _verified_radii(pts: np.ndarray, normals: np.ndarray, tree: cKDTree, sep: np
     least :math:`s` from :math:`x` bounds a ball of radius at least
     :math:`r (1 - 2 \cdot 10^{-9} (r / s)^2)` (``docs/model.md``).
     """
+    rows = np.arange(len(pts)) if rows is None else np.asarray(rows, dtype=np.intp)
+    out = np.zeros((len(pts), 2))
     r_max = 2.0 * float(np.linalg.norm(np.ptp(pts, axis=0)))
-    r = medial_radii(pts, normals, r_max=r_max, tree=tree)
+    x, n = pts[rows], normals[rows]
+    r = medial_radii(x, n, samples=pts, r_max=r_max, tree=tree)
     for col, side in enumerate((1.0, -1.0)):
-        dist, _ = tree.query(pts + side * r[:, col, None] * normals)
+        dist, _ = tree.query(x + side * r[:, col, None] * n)
         r[dist < r[:, col] * (1.0 - 1e-9), col] = 0.0  # not converged: no bound
-    r = triangle_radii(np.arange(len(pts)), normals, r, pts, tri, lift=lift, clear=False)
+    r = triangle_radii(rows, n, r, pts, tri, lift=lift, clear=False)
     with np.errstate(divide="ignore", invalid="ignore"):
-        loss = 4e-9 * (r / np.where(sep > 0, sep, 0.0)[:, None]) ** 2
-    return np.where(loss < 1.0, r * (1.0 - loss), 0.0)
+        loss = 4e-9 * (r / np.where(sep[rows] > 0, sep[rows], 0.0)[:, None]) ** 2
+    out[rows] = np.where(loss < 1.0, r * (1.0 - loss), 0.0)
+    return out
 
 
 def _assembly_bounds(face, asm, skin: dict) -> dict:
