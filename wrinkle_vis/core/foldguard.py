@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from itertools import chain
 
 import numpy as np
@@ -1531,7 +1532,10 @@ def _build_assembly_bounds(face, asm, skin: dict) -> dict:
         return float(values.max()) if len(values) else 0.0
 
     return {"G": np.array(G), "U": np.array(U), "Lip": np.array(Lip), "Gt": Gt,
-            "L": _near_edges(face, asm.wrinkled, skin),
+            # the triangles near the wrinkled vertices, found when a frame first asks
+            "L": partial(_near_edges, np.asarray(face.skin.points, dtype=float),
+                         np.asarray(face.skin.triangles, dtype=np.intp), asm.wrinkled,
+                         0.5 * skin["reach"]),
             "ULG": np.ascontiguousarray(np.stack([U, Lip, G], axis=1)),
             "Um": np.ascontiguousarray(Um.reshape(-1, len(asm.names))),
             "moved": asm.moved, "wrinkled": asm.wrinkled, "clamp": {},
@@ -1581,20 +1585,18 @@ def _build_muscle_bounds(face, data, skin: dict) -> tuple:
             float(np.linalg.norm(u, axis=1).max()), float(ratio.max()) if len(ratio) else 0.0)
 
 
-def _near_edges(face, wrinkled: np.ndarray, skin: dict
+def _near_edges(pts: np.ndarray, tri: np.ndarray, wrinkled: np.ndarray, D: float
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     r"""``(k,)``, ``(k, 3)`` twice and a float: for every pair of a ``wrinkled`` vertex
-    :math:`x` and a triangle :math:`t` not incident to it that comes within :math:`D` =
-    ``reach`` / 2 of it, the distance :math:`d_{x,t}` from :math:`x` to :math:`t`
-    (ascending), and for each corner :math:`v_i` of :math:`t` its height :math:`h_i = u \cdot
-    (v_i - x) \ge d_{x,t}` along the unit :math:`u` from :math:`x` to its closest point of
-    :math:`t` and its distance :math:`m_i = |v_i - x|`; and :math:`D`. The balls'
-    certificate asks for the triangles within :math:`2\rho + 2P` of a wrinkled vertex only
-    (:func:`_certificates`).
+    :math:`x` of the skin ``pts`` ``(n, 3)``, ``tri`` ``(m, 3)`` and a triangle :math:`t`
+    not incident to it that comes within :math:`D` (the pairs' reach / 2) of it, the
+    distance :math:`d_{x,t}` from :math:`x` to :math:`t` (ascending), and for each corner
+    :math:`v_i` of :math:`t` its height :math:`h_i = u \cdot (v_i - x) \ge d_{x,t}` along the
+    unit :math:`u` from :math:`x` to its closest point of :math:`t` and its distance
+    :math:`m_i = |v_i - x|`; and :math:`D`. The balls' certificate asks for the triangles
+    within :math:`2\rho + 2P` of a wrinkled vertex only (:func:`_certificates`), and for
+    them only once a frame passes its other tests (kept per set of active muscles).
     """
-    pts = np.asarray(face.skin.points, dtype=float)
-    tri = np.asarray(face.skin.triangles, dtype=np.intp)
-    D = 0.5 * skin["reach"]
     owner, t = _near_triangles(pts[wrinkled], np.full(len(wrinkled), D), pts, tri)
     keep = ~(tri[t] == wrinkled[owner, None]).any(axis=1)  # not the vertex's own
     owner, t = owner[keep], t[keep]
@@ -1750,11 +1752,13 @@ def _certificates(g: float, d_max: float, b_max: float, lam: float, w_max: float
     P = d_max + b_max
     far = room + 2.0 * P  # beyond it no point of the skin comes within room of x
     lam = max(lam, 2.0 * P / skin["reach"])  # (a corner beyond the pairs: |p - p'| <= 2P)
-    near = bounds.get("L")  # the triangles near the wrinkled vertices (_near_edges)
-    if lam >= 1.0 or far > (near[3] if near is not None else skin["reach"]):
+    if lam >= 1.0 or far > 0.5 * skin["reach"]:  # (the near triangles' reach)
         return pulls, step, False
     need = room + 2.0 * b_max
     balls = need <= bounds["sep"] * (1.0 - lam)
+    near = bounds.get("L")  # the triangles near the wrinkled vertices (_near_edges)
+    if balls and callable(near):  # found once, by the first frame that gets this far
+        near = bounds["L"] = near()
     if balls and near is not None:  # |q' - x'| >= min_i (h_i - lam m_i) - 2 b_max
         k = int(np.searchsorted(near[0], far, side="right"))
         balls = k == 0 or float((near[1][:k] - lam * near[2][:k]).min()) >= need
