@@ -311,13 +311,18 @@ def _cleared(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray
     if not len(centres):
         return out
     c4 = np.column_stack([centres, np.zeros(len(centres))])
-    for tree, ids, Tk in lift["classes"]:
+    # the largest class first (most balls fail there); each later one asks only for the
+    # balls still cleared
+    for tree, ids, Tk in sorted(lift["classes"], key=lambda c: -len(c[1])):
+        left = np.flatnonzero(out)
+        if not len(left):
+            break
         k = min(2, len(ids))
-        d, i = tree.query(c4, k=k)
-        d, i = d.reshape(len(c4), k), i.reshape(len(c4), k)
+        d, i = tree.query(c4[left], k=k)
+        d, i = d.reshape(len(left), k), i.reshape(len(left), k)
         first = np.where(i[:, 0] < len(ids), ids[np.minimum(i[:, 0], len(ids) - 1)], -1)
-        other = np.where(first == own, d[:, -1] if k == 2 else np.inf, d[:, 0])
-        out &= other * other > (radii * radii + Tk) * (1.0 + 1e-9)
+        other = np.where(first == own[left], d[:, -1] if k == 2 else np.inf, d[:, 0])
+        out[left] = other * other > (radii[left] ** 2 + Tk) * (1.0 + 1e-9)
     return out
 
 
