@@ -2,8 +2,9 @@
 
 Usage:  .venv/bin/python docs/make_physical_images.py
 
-Writes ``images/fig9_physical.png`` (Fig. 9 on the physical skin, refined as the paper
-renders it; the same as ``wrinkle-vis figure fig9 --refine --skin-model physical``),
+Writes ``images/fig9_geometric.png`` (Fig. 9 on the geometric skin, refined as the paper
+renders it, to hold beside ``images/fig9.png``, the default physical skin's; the same as
+``wrinkle-vis figure fig9 --refine --skin-model geometric``),
 ``images/fig10.png`` (wrinkles forming after a step to surprise),
 ``images/physical_maps.png`` (W and the compression of one muscle, geometric and physical
 skin side by side, for surprise, frown and fear) and ``images/physical_step.png`` (W
@@ -60,8 +61,8 @@ def step_response(face, dt=0.005, duration=0.5):
 def main() -> None:
     """Write the four images and print the step response."""
     face = wv.datasets.load_face()
-    save_image(figure_expressions(face.with_skin_model("physical"), refine=True),
-               OUT / "fig9_physical.png")
+    save_image(figure_expressions(face.with_skin_model("geometric"), refine=True),
+               OUT / "fig9_geometric.png")
     save_image(figure_dynamics(face, "surprise"), OUT / "fig10.png")
     save_image(maps(face), OUT / "physical_maps.png")
     t, w = step_response(face)

@@ -13,6 +13,7 @@ import os
 import sys
 import tempfile
 import weakref
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -108,6 +109,64 @@ def private_recovery_dir(tmp_path, monkeypatch):
 
 
 # ---------------------------------------------------------------------- faces
+@pytest.fixture(scope="session")
+def wv_head():
+    """The built-in scanned head (``load_face("lee_perry_smith")``), loaded once for the
+    session, as the plug-in's ``wv_face`` is the procedural face. Test modules take their
+    own face object from it, ``wv_head.with_skin_model(wv_head.skin_model)``, which shares
+    its caches: what the head builds once (the physical skin's factorization and skull
+    contact, the fold guard's rest radii and bounds, the refinement hierarchy, the muscles'
+    rest data; 5-10 s on 2 cores) is built once per session instead of once per module.
+    Every frame is still bit for bit a fresh face's (physical still frames start from the
+    rest skin unless ``warm_start``); a test about what a fresh face builds loads its own.
+    """
+    from wrinkle_vis.datasets import load_face
+
+    return load_face("lee_perry_smith")
+
+
+@pytest.fixture(scope="session")
+def procedural_at():
+    """``procedural_at(n_triangles)``: the procedural face at that size (20,000 or 60,000
+    triangles, which several modules use), loaded once for the session; each call gives a
+    face object sharing its caches (the 60k physical skin's factorization, its muscles'
+    rest data), as with :func:`wv_head`.
+    """
+    from wrinkle_vis.datasets import load_face
+
+    faces: dict = {}
+
+    def get(n_triangles: int):
+        if n_triangles not in (20000, 60000):
+            raise ValueError("procedural_at keeps the 20k and 60k faces only")
+        if n_triangles not in faces:
+            faces[n_triangles] = load_face(n_triangles)
+        face = faces[n_triangles]
+        return face.with_skin_model(face.skin_model)
+
+    return get
+
+
+#: The head scan (test data beside the checkout: ``../shared/realmeshes``).
+SCAN_HEAD = Path(__file__).resolve().parents[2] / "shared" / "realmeshes" / \
+    "lee_perry_smith_head.obj"
+
+
+@pytest.fixture(scope="session")
+def example_scan():
+    """The head scan with the example layout (``load_face(skin=SCAN_HEAD, layout=<the
+    example>)``), loaded once for the session; modules take a face object sharing its
+    caches (``example_scan.with_skin_model(example_scan.skin_model)``), as with
+    :func:`wv_head`. Skips where the scan is not there.
+    """
+    if not SCAN_HEAD.exists():
+        pytest.skip("../shared/realmeshes is not here")
+    import wrinkle_vis as wv
+
+    example = Path(wv.datasets.__file__).with_name("examples") / "lee_perry_smith.json"
+    return wv.datasets.load_face(skin=SCAN_HEAD, layout=example)
+
+
 def assert_same_face(a, b, expression: str = "surprise") -> None:
     """Faces ``a`` and ``b`` are the same: skin, skull, muscles, landmarks, unit and
     expressions equal, and ``expression`` evaluates to the same points and W bit for bit.

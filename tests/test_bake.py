@@ -34,8 +34,8 @@ needs_scans = pytest.mark.skipif(not HEAD.exists(), reason="../shared/realmeshes
 
 
 @pytest.fixture(scope="module")
-def head():
-    return wv.datasets.load_face(skin=HEAD, layout=EXAMPLE)
+def head(example_scan):  # the scan with the example layout, the session's caches (conftest)
+    return example_scan.with_skin_model(example_scan.skin_model)
 
 
 @pytest.fixture(scope="module")

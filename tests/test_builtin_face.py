@@ -138,8 +138,8 @@ def test_triangles_are_well_shaped_and_even(face):
 
 
 @pytest.mark.slow
-def test_finer_resolution_has_the_same_shape_and_muscles(face):
-    fine = wv.datasets.load_face(20000)
+def test_finer_resolution_has_the_same_shape_and_muscles(face, procedural_at):
+    fine = procedural_at(20000)
     assert 18000 <= fine.skin.n_triangles <= 22000
     assert fine.muscles == face.muscles
     lo0, hi0 = face.skin.bounds()
@@ -149,8 +149,8 @@ def test_finer_resolution_has_the_same_shape_and_muscles(face):
 
 
 @pytest.mark.slow
-def test_wrinkle_count_along_the_frontalis_central_fibre_equals_n_w():
-    face = wv.datasets.load_face(60000)
+def test_wrinkle_count_along_the_frontalis_central_fibre_equals_n_w(procedural_at):
+    face = procedural_at(60000)
     state = face.evaluate("surprise")
     for name in ("frontalis_major_L", "frontalis_inner_R"):
         m = face.muscle(name)

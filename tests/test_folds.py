@@ -685,10 +685,8 @@ def procedural():
 
 
 @pytest.fixture(scope="module")
-def head():
-    import wrinkle_vis as wv
-
-    return wv.datasets.load_face("lee_perry_smith")
+def head(wv_head):
+    return wv_head.with_skin_model(wv_head.skin_model)  # the session's caches (conftest)
 
 
 @pytest.mark.parametrize("refine, names, intensities", [
@@ -1123,3 +1121,69 @@ def test_the_first_root_is_the_masked_one_bit_for_bit():
     got = _first_root(a, b, c)
     np.testing.assert_array_equal(got, out)
     assert np.isfinite(got).sum() > k // 4 and np.isinf(got).sum() > k // 10
+
+
+# --- the guard on animation frames (cost29): new activations, a new refined skin a frame ---
+
+
+def test_a_refined_frames_nearest_skin_vertices_are_kept_per_hierarchy_row():
+    """Each refined frame of a ramp has a refined skin of its own; the three nearest skin
+    vertices of its vertices (whose rest radii bound its clamp) are those of a fresh query
+    of that skin, bit for bit, and a later frame queries only the hierarchy rows no frame
+    asked for before (on a face of its own: the first frame's rows, none)."""
+    import wrinkle_vis as wv
+    from wrinkle_vis.core import foldguard
+
+    face = wv.datasets.load_face().with_skin_model("geometric")
+    tree = face.skin.kdtree
+    asked = []
+
+    class Counting:  # the skin's kd-tree, counting the points each query asks for
+        def query(self, x, k=1, **kw):
+            asked.append(len(x))
+            return tree.query(x, k=k, **kw)
+
+        def __getattr__(self, name):
+            return getattr(tree, name)
+
+    states = [face.evaluate("surprise", i, refine=True, fold_guard=False)
+              for i in (0.6, 0.8, 1.0, 0.6)]
+    assert len({s.n_points for s in states[:3]}) == 3  # three split sets, three skins
+    foldguard._skin_bounds(face)  # the rest skin's bounds: once, before counting
+    face.skin.__dict__["kdtree"] = Counting()
+    try:
+        for k, s in enumerate(states):
+            asked.clear()
+            foldguard.certify(face, s)  # the clamp's certificate asks for them
+            idx = s.face._rest.fold_radii_nearest
+            np.testing.assert_array_equal(idx, tree.query(s.face.skin.points, k=3)[1])
+            new = sum(asked)  # the rows no frame asked for: all, some, some, none
+            assert new == s.n_points if k == 0 else (0 < new < s.n_points if k < 3 else
+                                                     new == 0)
+    finally:
+        face.skin.__dict__["kdtree"] = tree
+
+
+def test_the_pull_terms_are_found_where_needed_and_equal_those_found_at_once():
+    """``pull_terms`` finds the edges and the triangles' rows lazily: a frame no guard
+    limits finds no edges, and the factors (acting or not) are bit for bit those of terms
+    whose every row and edge was found first."""
+    from wrinkle_vis.core.foldguard import _terms_edges, _terms_rows
+
+    pts, tri, pull = _pulled_sheet()
+    lazy = pull_terms(pts, tri)
+    f = skin_scale(pts, pts + 0.01 * pull, tri, terms=lazy)  # nothing limited
+    assert np.all(f == 1.0) and "edges" not in lazy and "N" not in lazy
+    eager = pull_terms(pts, tri, TriangleSurface(pts, tri).edges)
+    _terms_rows(eager)
+    for scale in (0.01, 0.5, 1.0):
+        np.testing.assert_array_equal(skin_scale(pts, pts + scale * pull, tri, terms=lazy),
+                                      skin_scale(pts, pts + scale * pull, tri, terms=eager))
+    np.testing.assert_array_equal(_terms_edges(lazy)[0], eager["edges"])
+    pull[np.abs(pts[:, 0] - 2.0) > 5.0] = 0.0  # a region of the sheet: a subset's terms
+    for scale in (0.5, 1.0):  # a step from a deformed skin (the wrinkles' own), acting
+        start = pts + 0.4 * scale * pull
+        got = [skin_scale(pts, pts + scale * pull, tri, 0.05, 0.8, terms=t, start=start)
+               for t in (pull_terms(pts, tri), eager)]
+        assert got[0].min() < 1.0
+        np.testing.assert_array_equal(*got)

@@ -21,8 +21,8 @@ FOREHEAD_X = (-40.0, -24.0, -8.0, 8.0, 24.0, 40.0)
 
 
 @pytest.fixture(scope="module")
-def head():
-    return wv.datasets.load_face("lee_perry_smith")
+def head(wv_head):
+    return wv_head.with_skin_model(wv_head.skin_model)  # the session's caches (conftest)
 
 
 def test_loads_fast_from_the_package(tmp_path):

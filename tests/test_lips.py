@@ -4,7 +4,6 @@
 import numpy as np
 import pytest
 
-import wrinkle_vis as wv
 from wrinkle_vis.core.certificate import fold_report, intersecting_pairs
 from wrinkle_vis.datasets.lips import facing_pairs, folded_pairs, separate_crossings
 
@@ -65,8 +64,8 @@ def test_folded_pairs_finds_a_sheet_folded_back_around_a_vertex():
 
 
 @pytest.fixture(scope="module")
-def head():
-    return wv.datasets.load_face("lee_perry_smith")
+def head(wv_head):
+    return wv_head.with_skin_model(wv_head.skin_model)  # the session's caches (conftest)
 
 
 def _mouth(head) -> np.ndarray:

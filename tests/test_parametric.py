@@ -13,8 +13,8 @@ from wrinkle_vis.core.parametric import refined_root_coordinates
 
 
 @pytest.fixture(scope="module")
-def head():
-    return wv.datasets.load_face("lee_perry_smith")
+def head(wv_head):
+    return wv_head.with_skin_model(wv_head.skin_model)  # the session's caches (conftest)
 
 
 def _areas(corners_2d: np.ndarray) -> np.ndarray:

@@ -497,12 +497,12 @@ def test_load_face_applies_the_layouts_skin_model():
     assert wv.datasets.load_face().skin_model == DEFAULT_SKIN_MODEL
 
 
-def test_the_scanned_head_neither_folds_nor_enters_its_skull():
+def test_the_scanned_head_neither_folds_nor_enters_its_skull(scanned_head):
     """The Lee Perry-Smith skull reaches through the scan's skin in places (vertices inside
     it at rest are left free); every other vertex stays outside, and nothing folds."""
     pv = pytest.importorskip("pyvista")
     vtk = pytest.importorskip("vtk")
-    face = wv.datasets.load_face("lee_perry_smith")
+    face = scanned_head
     implicit = vtk.vtkImplicitPolyDataDistance()
     implicit.SetInput(pv.PolyData.from_regular_faces(face.skull.points, face.skull.triangles))
 
@@ -559,18 +559,18 @@ def test_the_physical_skin_meets_the_paper_size_realism_checks():
 
 
 @pytest.mark.slow
-def test_the_physical_skin_meets_the_realism_checks_on_the_60k_face():
+def test_the_physical_skin_meets_the_realism_checks_on_the_60k_face(procedural_at):
     from test_realism import check_forehead, check_glabella
 
-    face = wv.datasets.load_face(60000)
+    face = procedural_at(60000)
     check_forehead(face.evaluate("surprise", skin="physical"))
     check_glabella(face.evaluate("frown", skin="physical"))
     _no_plateau_edge(face)
 
 
 @pytest.mark.slow
-def test_the_physical_skin_adds_no_plateau_edge_on_the_scanned_head():
-    _no_plateau_edge(wv.datasets.load_face("lee_perry_smith"))
+def test_the_physical_skin_adds_no_plateau_edge_on_the_scanned_head(scanned_head):
+    _no_plateau_edge(scanned_head)
 
 
 # ---------------------------------------------------------------- convergence
@@ -591,7 +591,7 @@ def _closed_form_pull(face, activations) -> np.ndarray:
 
 
 @pytest.mark.slow
-def test_the_equilibrium_converges_from_the_20k_to_the_60k_face():
+def test_the_equilibrium_converges_from_the_20k_to_the_60k_face(procedural_at):
     """Issue 27: the 20k and 60k equilibria agree within 5 % and the forehead's furrows
     within a tenth of a period (docs/model.md, "Across resolutions").
 
@@ -613,7 +613,7 @@ def test_the_equilibrium_converges_from_the_20k_to_the_60k_face():
 
     from wrinkle_vis.core.mesh import barycentric_points, quadratic_points, surface_coordinates
 
-    coarse, fine = wv.datasets.load_face(20000), wv.datasets.load_face(60000)
+    coarse, fine = procedural_at(20000), procedural_at(60000)
     where = surface_coordinates(fine.skin, coarse.skin.points)
     period = 2.0 * coarse.muscle("frontalis_inner_L").u
     for name, pull_bound in (("surprise", 0.01), ("frown", 0.05)):
@@ -686,12 +686,13 @@ def _skull_check(face):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["procedural", "lee_perry_smith"])
-def test_every_built_in_expression_neither_enters_the_skull_nor_folds_at_any_frame(name):
+def test_every_built_in_expression_neither_enters_the_skull_nor_folds_at_any_frame(
+        name, wv_face, scanned_head):
     """Issue 27: no skin vertex inside the skull and no inverted triangle at any frame, for
     every built-in expression (a step to it, 0.2 s in 0.05 s steps, and the still frame),
     on both built-in faces; on the scanned head the vertices inside its skull at rest are
     exempt (762 of 8,844, :data:`HEAD_INSIDE_AT_REST`)."""
-    face = wv.datasets.load_face() if name == "procedural" else wv.datasets.load_face(name)
+    face = wv_face.with_skin_model(wv_face.skin_model) if name == "procedural" else scanned_head
     check, inside = _skull_check(face)
     assert inside.mean() <= (0.0 if name == "procedural" else HEAD_INSIDE_AT_REST)
     assert len(face.expressions) >= 14
@@ -702,9 +703,14 @@ def test_every_built_in_expression_neither_enters_the_skull_nor_folds_at_any_fra
 
 
 @pytest.fixture(scope="module")
-def head():
-    face = wv.datasets.load_face("lee_perry_smith")
-    return face, *_skull_check(face)
+def scanned_head(wv_head):
+    """The scanned head, sharing the session's caches (conftest's ``wv_head``)."""
+    return wv_head.with_skin_model(wv_head.skin_model)
+
+
+@pytest.fixture(scope="module")
+def head(scanned_head):
+    return scanned_head, *_skull_check(scanned_head)
 
 
 @pytest.mark.slow
@@ -725,13 +731,13 @@ def test_random_activations_up_to_three_times_the_strength_on_the_scanned_head(
 
 
 @pytest.mark.slow
-def test_the_scanned_head_meets_the_dynamic_targets():
+def test_the_scanned_head_meets_the_dynamic_targets(scanned_head):
     """Issue 27's dynamic targets on the scanned head (tests above on small faces): a step
     to surprise forms its wrinkles (the sum of |W|) to 90 % within 50-300 ms at both steps
     with at most 10 % overshoot and settles on the still frame; halving the step changes a
     1 s ramp by under 2 %; the damped free skin released from the surprise equilibrium
     never gains energy."""
-    face = wv.datasets.load_face("lee_perry_smith")
+    face = scanned_head
     for dt in (0.01, None):
         states = list(face.simulate("surprise", 0.6, dt))
         w = np.array([np.abs(s.W).sum() for s in states])

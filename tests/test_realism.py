@@ -37,8 +37,8 @@ def refined(wv_face):
 
 
 @pytest.fixture(scope="module")
-def face60k():
-    return wv.datasets.load_face(60000)
+def face60k(procedural_at):
+    return procedural_at(60000)  # the session's (conftest)
 
 
 def forehead_rows(state) -> list[dict]:
@@ -115,8 +115,8 @@ PLATEAU_P99 = 5.5
 
 
 @pytest.fixture(scope="module")
-def head():
-    return wv.datasets.load_face("lee_perry_smith")
+def head(wv_head):
+    return wv_head.with_skin_model(wv_head.skin_model)  # the session's caches (conftest)
 
 
 def check_no_plateau(state, name) -> None:
@@ -181,12 +181,12 @@ def test_surprise_frown_and_creases_on_the_60k_face(face60k):
 
 
 @pytest.mark.slow
-def test_furrows_converge_with_resolution(wv_face, face60k):
+def test_furrows_converge_with_resolution(wv_face, face60k, procedural_at):
     """Positions within a tenth of a period everywhere; median depths within 10 % between
     the 60k, 200k and refined paper-size faces. The 20k face's 2.5 mm edges cut the sharp
     furrow bottoms (Eq. 5's kink), so its depth is held to 15 %.
     """
-    faces = {"paper refined": (wv_face, True), "20k": (wv.datasets.load_face(20000), False),
+    faces = {"paper refined": (wv_face, True), "20k": (procedural_at(20000), False),
              "60k": (face60k, False), "200k": (wv.datasets.load_face(200000), False)}
     measured = {}
     for k, (f, r) in faces.items():

@@ -38,8 +38,8 @@ def test_other_scans_load_and_report_boundaries(name):
 
 
 @needs_scans
-def test_example_layout_evaluates_on_the_scan():
-    face = wv.datasets.load_face(skin=HEAD, layout=EXAMPLE)
+def test_example_layout_evaluates_on_the_scan(example_scan):
+    face = example_scan.with_skin_model(example_scan.skin_model)  # (conftest)
     assert len(face.muscles) == 17  # the example layout (written before the AU muscles)
     for expression in ("surprise", "frown", "fear"):
         state = face.evaluate(expression)
@@ -189,12 +189,12 @@ def test_a_badly_oriented_scan_is_read_facing_outward(tmp_path, how):
 
 @needs_scans
 @pytest.mark.parametrize("how", ["inside out", "mixed"])
-def test_a_face_on_a_badly_oriented_scan_has_its_skull_inside(tmp_path, how):
+def test_a_face_on_a_badly_oriented_scan_has_its_skull_inside(tmp_path, how, example_scan):
     good = read_surface(HEAD)
     path = tmp_path / "head.obj"
     _write_obj(path, good.points, _flipped(good.triangles, how))
     face = wv.datasets.load_face(skin=path, layout=EXAMPLE)
-    ref = wv.datasets.load_face(skin=HEAD, layout=EXAMPLE)
+    ref = example_scan.with_skin_model(example_scan.skin_model)  # the scan read as it is
     np.testing.assert_array_equal(face.skull.points, ref.skull.points)
     assert 0 < face.skull.signed_volume() < 0.9 * face.skin.signed_volume()  # inside
     state, expected = face.evaluate("surprise"), ref.evaluate("surprise")
@@ -247,17 +247,23 @@ def test_a_non_orientable_scan_is_refused_with_the_way_out(tmp_path):
         read_surface(path)
 
 
+@pytest.fixture(scope="module")
+def raw_scan():
+    """The raw head scan with the example's landmarks (the README's scan example)."""
+    return wv.datasets.load_face(skin=HEAD, landmarks=wv.datasets.read_landmarks(EXAMPLE),
+                                 unit="m")
+
+
 @needs_scans
 @pytest.mark.parametrize("refine", [False, True])
-def test_on_the_raw_scan_no_sheet_wrinkles_skin_hidden_behind_skin(refine):
+def test_on_the_raw_scan_no_sheet_wrinkles_skin_hidden_behind_skin(refine, raw_scan):
     """Issue 32: on the raw head scan (the README's scan example) the frontalis wrinkled
     the hidden roof of the eye socket, 25 mm behind the forehead: W 2.6 mm there against
     0.35 mm on the forehead, and that value set the summary and the colour ranges. Every
     vertex a sheet wrinkles is seen from outside along the sheet's normal (VTK's ray
     tracer: the ray from half the sheet's width out meets no skin), and the largest |W| is
     on skin that faces the sheet."""
-    face = wv.datasets.load_face(skin=HEAD, landmarks=wv.datasets.read_landmarks(EXAMPLE),
-                                 unit="m")
+    face = raw_scan
     skin = to_surface_polydata(face.skin)
     centre = face.skin.points.mean(axis=0)
     for expression in ("surprise", "fear"):

@@ -356,12 +356,12 @@ def test_no_refined_triangle_turns_over(refined):
 
 
 @pytest.mark.slow
-def test_crows_feet_and_lip_lines_on_the_60k_face():
+def test_crows_feet_and_lip_lines_on_the_60k_face(procedural_at):
     """Unrefined at 60,000 triangles (median edge 1.7 mm): the crow's feet as refined, the
     lip lines at least 0.3 mm deep in the middle of the upper lip, and no crease or turned
     over triangle in any new expression.
     """
-    face = wv.datasets.load_face(60000)
+    face = procedural_at(60000)
     eye = np.concatenate([r["depths"] for r in _crows_feet(face.evaluate("squint"))])
     assert len(eye) >= 6 and np.median(eye) >= 0.3
     mouth = np.concatenate([r["depths"] for r in _lip_lines(face.evaluate("pucker"))])

@@ -337,8 +337,8 @@ def test_forehead_w_follows_au01_and_au02(wv_face):
 
 
 @pytest.fixture(scope="module")
-def head():
-    return wv.datasets.load_face("lee_perry_smith")
+def head(wv_head):
+    return wv_head.with_skin_model(wv_head.skin_model)  # the session's caches (conftest)
 
 
 @pytest.mark.parametrize("which", ["procedural", "lee_perry_smith"])

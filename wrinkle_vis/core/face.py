@@ -616,6 +616,7 @@ class FaceModel:
         rest = _RestGeometry(surface, np.take(hier.normal, order, axis=0), self._rest.radius)
         rest.slide_normals = np.take(hier.slide, order, axis=0)
         rest.shape6 = np.take(hier.shape6, order, axis=0)
+        rest.refined_from = (hier, order)  # its rows of the hierarchy (the fold guard's)
         face = FaceModel(surface, self.skull, self.muscles, self.expressions, name=self.name,
                          landmarks=self.landmarks, unit=self.unit,
                          _caches=_SharedCaches({}, None, rest))

@@ -27,9 +27,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import partial
 from itertools import chain
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -171,14 +172,14 @@ def _closest_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.nda
     far = np.flatnonzero(~inside)
     if len(far):
         pf = p[far]
-        cand = []
+        edges = []
         for s, t in ((a, b), (b, c), (c, a)):
             s, t = s[far], t[far]
             e = t - s
             ee = np.einsum("ij,ij->i", e, e)
             w = np.clip(np.einsum("ij,ij->i", pf - s, e) / np.where(ee > 0, ee, 1.0), 0, 1)
-            cand.append(s + w[:, None] * e)
-        cand = np.stack(cand)  # (3, f, 3)
+            edges.append(s + w[:, None] * e)
+        cand = np.stack(edges)  # (3, f, 3)
         dist = np.einsum("kij,kij->ki", cand - pf, cand - pf)
         best[far] = cand[np.argmin(dist, axis=0), np.arange(len(far))]
     return best
@@ -373,16 +374,16 @@ def _suspects(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarra
             balls.append(np.repeat(left[full], counts))
     if not sum(map(len, balls)):
         return none
-    ball, t, verts = _expand(lift, np.concatenate(balls), np.concatenate(verts))
+    ball, t, vert = _expand(lift, np.concatenate(balls), np.concatenate(verts))
     corners = tri[t]
     keep = ~(corners == own[ball, None]).any(axis=1)  # not the ball's own vertex's
-    ball, t, verts, corners = ball[keep], t[keep], verts[keep], corners[keep]
+    ball, t, vert, corners = ball[keep], t[keep], vert[keep], corners[keep]
     diff = points[corners] - centres[ball, None]
     dd = np.einsum("ijk,ijk->ij", diff, diff)  # (p, 3)
     r2 = radii[ball, None] ** 2
     found = dd - lift["rho"][corners] <= r2 + 1.5e-9 * (r2 + lift["T"][corners])
     first = np.argmax(found, axis=1)
-    keep = (corners[np.arange(len(t)), first] == verts) \
+    keep = (corners[np.arange(len(t)), first] == vert) \
         & (dd.min(axis=1) <= (r2[:, 0] + lift["rho_t"][t]) * (1.0 + 1e-9))
     return ball[keep], t[keep]
 
@@ -448,8 +449,19 @@ def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
     ball, t = _suspects(lift, x + r[:, None] * n, r, ids[rows], points, tri, clear)
     if not len(ball):
         return out
-    a, b, c = points[tri[t, 0]], points[tri[t, 1]], points[tri[t, 2]]
-    xb, nb = x[ball], n[ball]
+    out[rows, cols] = _shrink_on_triangles(r, ball, x[ball], n[ball], points[tri[t]],
+                                           iterations)
+    return out
+
+
+def _shrink_on_triangles(r: np.ndarray, ball: np.ndarray, xb: np.ndarray, nb: np.ndarray,
+                         corners: np.ndarray, iterations: int) -> np.ndarray:
+    r"""``(k,)``: the shrinking-ball search of :func:`triangle_radii` on the balls' radii
+    ``r`` ``(k,)`` (lowered in place) over their candidate pairs: the ball ``ball`` ``(p,)``
+    tangent at ``xb`` ``(p, 3)`` along ``nb`` ``(p, 3)`` (towards the ball) and the
+    triangle ``corners`` ``(p, 3, 3)``.
+    """
+    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
     live = np.ones(len(ball), bool)
     for _ in range(iterations):
         k = np.flatnonzero(live)
@@ -478,8 +490,7 @@ def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
         k = np.flatnonzero(live)  # not settled: half the distance to the candidates
         q = _closest_on_triangles(xb[k], a[k], b[k], c[k])
         np.minimum.at(r, ball[k], 0.5 * np.linalg.norm(q - xb[k], axis=1))
-    out[rows, cols] = r
-    return out
+    return r
 
 
 
@@ -566,21 +577,53 @@ def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
                      u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]], axis=1)
 
 
-def pull_terms(rest: np.ndarray, triangles: np.ndarray, edges: np.ndarray | None = None
-               ) -> dict:
+def pull_terms(rest: np.ndarray, triangles: np.ndarray,
+               edges: np.ndarray | Callable[[], np.ndarray] | None = None) -> dict:
     r"""What :func:`skin_scale` needs of the rest skin ``(n, 3)``, ``(m, 3)``, computed once:
     the corners as rows ``(3, m)``, :math:`N / |N|^2` and the rows
     :math:`A_1 = N \times e_1 / |N|^2`, :math:`A_2 = e_2 \times N / |N|^2` (so that
     :math:`b = \delta_2 \cdot A_1 + \delta_1 \cdot A_2`), each ``(3, m)``; the skin's edges
     ``(e, 2)`` (each sorted, and sorted by first end, then second: the order of a sparse
     matrix's rows) and their rest lengths ``(e,)``. ``edges``: the skin's unique edges sorted
-    (``TriangleSurface.edges``), when at hand.
+    (``TriangleSurface.edges``), when at hand, or a function giving them.
+
+    The edges and their lengths are needed only where a pull is limited (the search of
+    :func:`skin_scale`), so unless given as an array they are found the first time they
+    are (:func:`_terms_edges`): a frame no guard acts on, on a skin of its own (a refined
+    frame's), never pays for them. The rows :math:`N`, :math:`A_1`, :math:`A_2` likewise
+    (:func:`_terms_rows`): a frame asks for those of its pulled triangles only
+    (:func:`_triangles_of`), each triangle's computed alone, the same bit for bit.
     """
     rest = np.asarray(rest, dtype=float)
     tri = np.asarray(triangles, dtype=np.intp)
     corners = np.ascontiguousarray(tri.T)
-    N, A1, A2 = _row_terms(rest, corners)
+    terms = {"corners": corners, "rest": rest, "edges_of": edges}
+    if edges is not None and not callable(edges):
+        _terms_edges(terms)
+    return terms
+
+
+def _terms_rows(terms: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(3, m)`` thrice: :math:`N / |N|^2`, :math:`A_1`, :math:`A_2` of every triangle of
+    :func:`pull_terms` ``terms``, computed on first use and kept in ``terms``.
+    """
+    if "N" not in terms:
+        terms["N"], terms["A1"], terms["A2"] = _row_terms(terms["rest"], terms["corners"])
+    return terms["N"], terms["A1"], terms["A2"]
+
+
+def _terms_edges(terms: dict) -> tuple[np.ndarray, np.ndarray]:
+    """``(e, 2)`` and ``(e,)``: the edges of :func:`pull_terms` ``terms`` (sorted by first
+    end, then second) and their rest lengths, found on first use and kept in ``terms``.
+    """
+    got = terms.get("edges")
+    if got is not None:
+        return got, terms["length"]
+    rest, edges = terms["rest"], terms.pop("edges_of", None)
+    if callable(edges):
+        edges = edges()
     if edges is None:
+        tri = terms["corners"].T
         edges = np.unique(np.sort(np.vstack([tri[:, [0, 1]], tri[:, [1, 2]],
                                              tri[:, [2, 0]]]), axis=1), axis=0)
     edges = np.asarray(edges, dtype=np.intp)
@@ -588,8 +631,9 @@ def pull_terms(rest: np.ndarray, triangles: np.ndarray, edges: np.ndarray | None
     if len(key) > 1 and not np.all(key[1:] > key[:-1]):  # by first end, then second
         edges = edges[np.argsort(key, kind="stable")]
     del key
-    return {"corners": corners, "N": N, "A1": A1, "A2": A2, "edges": edges,
-            "length": np.linalg.norm(rest[edges[:, 0]] - rest[edges[:, 1]], axis=1)}
+    terms["edges"], terms["length"] = edges, np.linalg.norm(rest[edges[:, 0]]
+                                                            - rest[edges[:, 1]], axis=1)
+    return terms["edges"], terms["length"]
 
 
 def _quadratic(pull_t: np.ndarray, corners: np.ndarray, N: np.ndarray, A1: np.ndarray,
@@ -642,13 +686,14 @@ def _edge_graph(size: np.ndarray, terms: dict, reach: float) -> dict:
     larger skin takes only its edges with a pulled end, structured for this frame (what is
     kept would outweigh the frame). Either way a path runs only through pulled edges.
     """
-    e, length = terms["edges"], terms["length"]  # sorted (pull_terms)
+    e, length = _terms_edges(terms)  # sorted (pull_terms)
     live = np.flatnonzero(np.maximum(size[e[:, 0]], size[e[:, 1]]) > 0)
     if len(e) <= _GRAPH_CACHE_EDGES:
         st = terms.get("edge_structure")
         if st is None:
             st = terms["edge_structure"] = _edge_structure(e, len(size))
-        graph = {"a": e[:, 0], "b": e[:, 1], "length": length, "w": np.full(len(e), np.inf)}
+        graph: dict[str, Any] = {"a": e[:, 0], "b": e[:, 1], "length": length,
+                                 "w": np.full(len(e), np.inf)}
     else:
         st = _edge_structure(e[live], len(size))
         graph = {"a": e[live, 0], "b": e[live, 1], "length": length[live]}
@@ -777,9 +822,13 @@ def _triangles_of(terms: dict, moving: np.ndarray) -> tuple:
     c0, c1, c2 = terms["corners"]
     rows = np.flatnonzero(moving[c0] | moving[c1] | moving[c2])
     if len(rows) == c0.shape[0]:
-        hit = (rows, *(terms[k] for k in ("corners", "N", "A1", "A2")))
-    else:
+        hit = (rows, terms["corners"], *_terms_rows(terms))
+    elif "N" in terms:
         hit = (rows, *(terms[k][:, rows] for k in ("corners", "N", "A1", "A2")))
+    else:  # each triangle's terms alone: those of every triangle's, bit for bit, laid out
+        corners = terms["corners"][:, rows]  # as taking them would (column-major: einsum's
+        hit = (rows, corners, *map(np.asfortranarray,  # sums on their rows follow it)
+                                   _row_terms(terms["rest"], corners)))
     memo[key] = hit
 
     def size(entry: tuple) -> int:
@@ -954,15 +1003,16 @@ def _rewrinkled(points: np.ndarray, d2: np.ndarray, W: np.ndarray, W2: np.ndarra
 
 
 def _clamped(W: np.ndarray, radii, certified: bool, d2: np.ndarray, tri: np.ndarray,
-             terms: dict, guard: FoldGuard, deformed: bool, step: np.ndarray | None
-             ) -> np.ndarray:
+             terms: dict, guard: FoldGuard, deformed: bool, step: np.ndarray | None,
+             empty: np.ndarray | None = None) -> np.ndarray:
     r"""``(n,)``: :math:`W` ``(n,)`` clamped by :func:`guard_wrinkles` on the rest ``radii``
     ``(n, 2)`` (or a function giving them, called only when they are needed), lowered by
     the deformed skin ``d2``'s (:func:`_deformed_radii`) when ``deformed``; ``W`` itself
     where the clamp is ``certified`` (the identity on the rest radii) and no deformed ball
-    shrank. ``step``: the frame's :math:`W n` when ``d2`` is its deformed skin.
+    shrank. ``step``: the frame's :math:`W n` when ``d2`` is its deformed skin; ``empty``
+    ``(n,)`` bool: the vertices whose deformed balls are certified empty (not searched).
     """
-    low = _deformed_lows(d2, tri, W, terms, guard, step) if deformed else None
+    low = _deformed_lows(d2, tri, W, terms, guard, step, empty) if deformed else None
     if certified and low is None:
         return W
     if callable(radii):
@@ -1038,7 +1088,8 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
         d2[moved] = rest[moved] + f[moved, None] * (d2[moved] - rest[moved])
         cert = Certified(False, False, False, False)  # certified for the unscaled pull only
     W2 = _clamped(W, radii, cert.clamp, d2, tri, terms, guard,
-                  deformed_radii and not cert.balls, None if moved.any() else p2 - d2)
+                  deformed_radii and not cert.balls, None if moved.any() else p2 - d2,
+                  cert.empty)
     p2 = _rewrinkled(p2, d2, W, W2, moved, tri, terms)
     if not cert.step:
         p2, W2 = _held_wrinkles(rest, d2, p2, W2, tri, guard, terms)
@@ -1098,19 +1149,31 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
 
 
 def _deformed_lows(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, terms: dict,
-                   guard: FoldGuard, step: np.ndarray | None = None
+                   guard: FoldGuard, step: np.ndarray | None = None,
+                   empty: np.ndarray | None = None
                    ) -> tuple[np.ndarray, np.ndarray] | None:
     r"""The search of :func:`_deformed_radii`: the vertices whose ball shrank ``(k,)`` and
     :math:`\eta_d / \eta` times their deformed radii ``(k, 2)`` (``inf`` on the side
     :math:`W` does not push to), or None where no ball shrank.
+
+    ``empty`` ``(n,)`` bool: vertices whose balls are certified empty (:func:`certify`,
+    :func:`_empty_balls`): they are not searched. The samples, their triangles, lifts and
+    tree are those of searching every wrinkled vertex (the box of all of them), so each
+    searched ball's result is the same bit for bit; with no ball left, nothing is built.
     """
     ratio = guard.eta_deformed / guard.eta
     ids = np.flatnonzero(W)
     if not len(ids):
         return None
     start = np.abs(W[ids]) / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6)
-    x = deformed[ids]
     reach = 2.0 * float(start.max())  # a ball of radius R tangent at x lies within 2 R of x
+    lo, hi = deformed[ids].min(axis=0) - reach, deformed[ids].max(axis=0) + reach
+    if empty is not None:
+        keep = ~empty[ids]
+        if not keep.any():
+            return None
+        ids, start = ids[keep], start[keep]
+    x = deformed[ids]
     if step is None:
         n = _vertex_normals(deformed, tri, ids, terms)
     else:
@@ -1119,12 +1182,7 @@ def _deformed_lows(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, terms: 
     side = np.where(W[ids, None] >= 0, [[1.0, 0.0]], [[0.0, 1.0]])  # the side W pushes to
     # a triangle meeting a ball has its corners within the ball's reach plus its edges
     L = _longest_edge(deformed, tri, terms)
-    box = _in_box(deformed, x.min(axis=0) - reach - L, x.max(axis=0) + reach + L)
-    samples = deformed[box]
-    local = np.full(len(deformed), -1, dtype=np.intp)
-    local[box] = np.arange(len(box))
-    t_loc = local[tri]
-    t_loc = t_loc[t_loc.min(axis=1) >= 0]
+    samples, local, t_loc = _local_skin(deformed, tri, lo - L, hi + L)
     # one nearest-point query of the lifted vertices clears the balls that no vertex and no
     # triangle not incident to their vertex can enter (_cleared); the others: the vertices'
     # search where a vertex lies inside (medial_radii), then the triangles' (a ball empty of
@@ -1147,6 +1205,19 @@ def _deformed_lows(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, terms: 
     if not len(low):
         return None
     return ids[low], ratio * r[low]
+
+
+def _local_skin(points: np.ndarray, tri: np.ndarray, lo: np.ndarray, hi: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The skin ``points`` ``(n, 3)``, ``tri`` ``(m, 3)`` in the box ``lo``-``hi``: its
+    vertices ``(s, 3)`` (:func:`_in_box`), each vertex's row among them ``(n,)`` (-1
+    outside) and the triangles with every corner inside, on those rows ``(t, 3)``.
+    """
+    box = _in_box(points, lo, hi)
+    local = np.full(len(points), -1, dtype=np.intp)
+    local[box] = np.arange(len(box))
+    t_loc = local[tri]
+    return points[box], local, t_loc[t_loc.min(axis=1) >= 0]
 
 
 def _longest_edge(points: np.ndarray, tri: np.ndarray, terms: dict) -> float:
@@ -1271,11 +1342,7 @@ def fold_radii(face, skin_face=None, W: np.ndarray | None = None,
         view = _rest_radii(face, need, ids).view()  # the cache, read-only: no copy a frame
         view.setflags(write=False)
         return view
-    fine = skin_face._rest
-    idx = getattr(fine, "fold_radii_nearest", None)
-    if idx is None or len(idx) != n:
-        _, idx = face.skin.kdtree.query(skin_face.skin.points, k=3)
-        fine.fold_radii_nearest = idx
+    idx = _nearest_skin_vertices(face, skin_face)  # kept per hierarchy row
     base = np.zeros((2, face.skin.n_points))  # by side: numpy's fast 1-D ufunc.at
     for k in range(3):
         col = idx[ids, k]
@@ -1313,8 +1380,9 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
     skin = state.face  # the face's own skin, or the refined one of this frame
     terms = getattr(skin._rest, "pull_terms", None)
     if terms is None:
-        terms = skin._rest.pull_terms = pull_terms(skin.skin.points, skin.skin.triangles,
-                                                   skin.skin.edges)
+        surface = skin.skin  # (its edges asked for only where a pull is limited)
+        terms = skin._rest.pull_terms = pull_terms(surface.points, surface.triangles,
+                                                   lambda: surface.edges)
     g = guard_frame(state.rest_points, state.deformed_points, state.points, state.W,
                     state.triangles, radii, guard, terms=terms,
                     deformed_radii=True, certified=cert)
@@ -1371,6 +1439,9 @@ class Certified:
     clamp : bool
         :math:`|W| \le \kappa\eta r` at every vertex with the rest radii: the clamp is
         the identity where the deformed skin's radii are not lower.
+    empty : (n,) bool or None
+        Where ``balls`` fails: the vertices whose own ball is certified empty
+        (:func:`_empty_balls`; :func:`_deformed_lows` does not search them).
 
     Each of ``step``, ``balls`` and ``clamp`` holds for the frame's own pull: where the
     pulls' check scales it, they say nothing (:func:`guard_frame` then runs every check).
@@ -1380,6 +1451,7 @@ class Certified:
     step: bool
     balls: bool
     clamp: bool
+    empty: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     @property
     def all(self) -> bool:
@@ -1488,7 +1560,8 @@ def _assembly_bounds(face, asm, skin: dict) -> dict:
       \ U_2 - U_0]\,E_t^+` the gradient of :math:`U_m` on triangle :math:`t`;
     * ``U`` ``(M,)``: :math:`\hat U_m = \max_v |U_m(v)|`;
     * ``Lip`` ``(M,)``: :math:`\max |U_m(v) - U_m(w)| / |x_v - x_w|` over the pairs at most
-      :math:`D` apart;
+      :math:`D` apart, and ``LipW`` ``(v, M)``: the same over the pairs of each wrinkled
+      vertex (``asm.wrinkled``), :math:`\mathrm{Lip}_m(x)`;
     * ``Gt`` ``(T, M)``: :math:`\|J_{m,t}\|_2` on each triangle with a moved corner, and
       ``Um`` ``(3 u, M)``: :math:`U_m` at the moved vertices (``asm.moved``, their x, y
       and z in turn);
@@ -1517,9 +1590,11 @@ def _build_assembly_bounds(face, asm, skin: dict) -> dict:
     G, U, Lip = [], [], []
     Gt = np.zeros((len(pulled), len(asm.names)))
     Um = np.zeros((len(asm.moved), 3, len(asm.names)))
+    LipW = np.zeros((len(asm.wrinkled), len(asm.names)))
     for k, name in enumerate(asm.names):
         data = face.muscle_data(face.muscle(name))
-        rows, norms, g, top, lip = _muscle_bounds(face, data, skin)
+        rows, norms, g, top, lip, lip_v = _muscle_bounds(face, data, skin)
+        LipW[:, k] = lip_v[asm.wrinkled]
         G.append(g)
         U.append(top)
         Lip.append(lip)
@@ -1542,7 +1617,7 @@ def _build_assembly_bounds(face, asm, skin: dict) -> dict:
                          np.asarray(face.skin.triangles, dtype=np.intp), asm.wrinkled,
                          0.5 * skin["reach"]),
             "ULG": np.ascontiguousarray(np.stack([U, Lip, G], axis=1)),
-            "Um": np.ascontiguousarray(Um.reshape(-1, len(asm.names))),
+            "Um": np.ascontiguousarray(Um.reshape(-1, len(asm.names))), "LipW": LipW,
             "moved": asm.moved, "wrinkled": asm.wrinkled, "clamp": {},
             "Kp": most(K[moved[tri].any(axis=1)]), "Kw": most(K[wrinkled[tri].any(axis=1)]),
             "S": most(frob),
@@ -1555,7 +1630,8 @@ def _muscle_bounds(face, data, skin: dict) -> tuple:
     ``_MuscleData``, shared by every face whose muscle has the same geometry, so a drag
     recomputes only the dragged muscle's): the triangles of its AOI ``(t,)`` and
     :math:`\|J_{m,t}\|_2` on them ``(t,)``, :math:`\hat G_m`, :math:`\hat U_m` and its
-    Lipschitz bound. Kept per skin by the data itself (held, so its id is not reused).
+    Lipschitz bound, over all its pairs and ``(n,)`` over each vertex's. Kept per skin by
+    the data itself (held, so its id is not reused).
     """
     memo = skin.setdefault("muscles", {})
     got = memo.pop(id(data), None)
@@ -1586,21 +1662,30 @@ def _build_muscle_bounds(face, data, skin: dict) -> tuple:
     diff = np.linalg.norm(u[p[:, 0]] - u[p[:, 1]], axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(diff > 0, diff / dist[near], 0.0)
+    lip = np.zeros(n)  # per vertex: the largest ratio of its pairs
+    np.maximum.at(lip, p[:, 0], ratio)
+    np.maximum.at(lip, p[:, 1], ratio)
     return (rows, norms, float(norms.max()) if len(rows) else 0.0,
-            float(np.linalg.norm(u, axis=1).max()), float(ratio.max()) if len(ratio) else 0.0)
+            float(np.linalg.norm(u, axis=1).max()), float(ratio.max()) if len(ratio) else 0.0,
+            lip)
 
 
 def _near_edges(pts: np.ndarray, tri: np.ndarray, wrinkled: np.ndarray, D: float
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    r"""``(k,)``, ``(k, 3)`` twice and a float: for every pair of a ``wrinkled`` vertex
-    :math:`x` of the skin ``pts`` ``(n, 3)``, ``tri`` ``(m, 3)`` and a triangle :math:`t`
-    not incident to it that comes within :math:`D` (the pairs' reach / 2) of it, the
-    distance :math:`d_{x,t}` from :math:`x` to :math:`t` (ascending), and for each corner
-    :math:`v_i` of :math:`t` its height :math:`h_i = u \cdot (v_i - x) \ge d_{x,t}` along the
-    unit :math:`u` from :math:`x` to its closest point of :math:`t` and its distance
-    :math:`m_i = |v_i - x|`; and :math:`D`. The balls' certificate asks for the triangles
-    within :math:`2\rho + 2P` of a wrinkled vertex only (:func:`_certificates`), and for
-    them only once a frame passes its other tests (kept per set of active muscles).
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, np.ndarray]:
+    r"""``(k,)``, ``(k, 4, 3)``, ``(k, 3)``, a float and ``(k,)``: for every pair of a
+    ``wrinkled`` vertex :math:`x` of the skin ``pts`` ``(n, 3)``, ``tri`` ``(m, 3)`` and a
+    triangle :math:`t` not incident to it that comes within :math:`D` (the pairs' reach / 2)
+    of it, the distance :math:`d_{x,t}` from :math:`x` to :math:`t` (ascending), for each
+    corner :math:`v_i` of :math:`t` its heights :math:`h_{ki} = u_k \cdot (v_i - x)` along
+    four unit directions :math:`u_k` (to the closest point of :math:`t`, where
+    :math:`h_{0i} \ge d_{x,t}`, and to each corner; a zero vector where that point is
+    :math:`x`) and its distance :math:`m_i = |v_i - x|`; :math:`D`; and the pair's vertex
+    (its row of ``wrinkled``). Any unit :math:`u` bounds every point :math:`q = \sum_i
+    \lambda_i v_i` of :math:`t`: :math:`|q - x| \ge u \cdot (q - x) = \sum_i \lambda_i
+    h_i`.
+    The balls' certificate asks for the triangles within :math:`2\rho + 2P` of a wrinkled
+    vertex only (:func:`_certificates`, :func:`_empty_balls`), and for them only once a
+    frame passes its other tests (kept per set of active muscles).
     """
     owner, t = _near_triangles(pts[wrinkled], np.full(len(wrinkled), D), pts, tri)
     keep = ~(tri[t] == wrinkled[owner, None]).any(axis=1)  # not the vertex's own
@@ -1609,12 +1694,26 @@ def _near_edges(pts: np.ndarray, tri: np.ndarray, wrinkled: np.ndarray, D: float
     corners = pts[tri[t]] - x[:, None]  # (k, 3, 3): v_i - x
     q = _closest_on_triangles(x, pts[tri[t, 0]], pts[tri[t, 1]], pts[tri[t, 2]]) - x
     d = np.linalg.norm(q, axis=1)
-    u = q / np.where(d > 0, d, 1.0)[:, None]
-    h = np.where(d[:, None] > 0, np.einsum("ikj,ij->ik", corners, u), 0.0)
     m = np.linalg.norm(corners, axis=2)
+    # the directions u: to the closest point, and to each corner (0 where there is none)
+    u = np.concatenate([q[:, None], corners], axis=1)  # (k, 4, 3)
+    size = np.concatenate([d[:, None], m], axis=1)
+    u /= np.where(size > 0, size, np.inf)[:, :, None]
+    h = np.einsum("ikj,ilj->ikl", u, corners)  # (k, 4, 3): u_k . (v_l - x)
     within = np.flatnonzero(d <= D)
     order = within[np.argsort(d[within], kind="stable")]
-    return d[order], np.ascontiguousarray(h[order]), np.ascontiguousarray(m[order]), D
+    return (d[order], np.ascontiguousarray(h[order]), np.ascontiguousarray(m[order]), D,
+            owner[order])
+
+
+def _near_of(bounds: dict) -> tuple | None:
+    """:func:`_near_edges` of an active set's ``bounds``, found on first use and kept (None
+    for bounds that have none: a test's skin of vertices alone).
+    """
+    near = bounds.get("L")
+    if callable(near):
+        near = bounds["L"] = near()
+    return near
 
 
 def _clamp_limit(skin: dict, bounds: dict, guard: FoldGuard) -> np.ndarray:
@@ -1684,7 +1783,83 @@ def certify(face, state, guard: FoldGuard = FoldGuard()) -> Certified | None:
     if not (pulls and step and balls):  # the frame's own pull: tighter, a few calls more
         tight = _measured(state, a, (d_max, b_max, lam, w_max), bounds, skin, guard)
         pulls, step, balls = pulls or tight[0], step or tight[1], balls or tight[2]
-    return Certified(bool(pulls), bool(step), bool(balls), clamp)
+        d_max, b_max = tight[3], tight[4]
+    empty = None
+    if not balls:  # each vertex's own ball, on its own |W| and separation
+        balls, empty = _balls_per_vertex(len(state.W), a, w, b_max, d_max, bounds, skin,
+                                         guard)
+    return Certified(bool(pulls), bool(step), bool(balls), clamp, empty)
+
+
+def _balls_per_vertex(n: int, a: np.ndarray, w: np.ndarray, b_max: float, d_max: float,
+                      bounds: dict, skin: dict, guard: FoldGuard
+                      ) -> tuple[bool, np.ndarray | None]:
+    r"""The balls' certificate of :func:`certify` vertex by vertex (:func:`_empty_balls`),
+    from the activations ``a`` ``(M,)`` and :math:`|W|` ``w`` ``(v,)`` at the active set's
+    wrinkled vertices: whether every ball is certified empty, else the ``(n,)`` bool mask of
+    those that are (None when none is), with :math:`\Lambda_x = \sum_m a_m
+    \mathrm{Lip}_m(x)`, the vertices' separations and the triangles near each vertex
+    (:func:`_near_edges`).
+    """
+    lam_x = (bounds["LipW"] @ a) * (1.0 + 1e-9)
+    wrinkled = bounds["wrinkled"]
+    ok = _empty_balls(w, skin["near"][wrinkled], lam_x, b_max, d_max, skin, guard,
+                      partial(_near_of, bounds))
+    if ok.all():
+        return True, None
+    if not ok.any():
+        return False, None
+    empty = np.zeros(n, bool)
+    empty[wrinkled[ok]] = True
+    return False, empty
+
+
+def _empty_balls(w: np.ndarray, sep: np.ndarray, lam: np.ndarray, b_max: float,
+                 d_max: float, skin: dict, guard: FoldGuard,
+                 near: tuple | Callable[[], tuple | None] | None) -> np.ndarray:
+    r"""``(v,)`` bool: the balls' certificate of :func:`certify` per wrinkled vertex, from
+    its :math:`|W|` ``w`` ``(v,)``, rest separation from the other vertices :math:`s_x`
+    ``sep`` ``(v,)``, Lipschitz bound :math:`\Lambda_x` ``lam`` ``(v,)`` (of the summed
+    pull over the pairs of :math:`x` at most :math:`D` apart) and the triangles near it
+    ``near`` (:func:`_near_edges`, or a function giving them, called only if a vertex
+    passes the other tests). With :math:`\rho_x = |W_x| / (\kappa\eta_d)(1 + 10^{-6})`,
+    :math:`\delta_x = 2\rho_x(1 + 10^{-6}) + \tau` and :math:`P = d_{\max} + b_{\max}`:
+
+    * vertices: :math:`\Lambda_x < 1`, :math:`\delta_x \le \min(s_x(1 - \Lambda_x) -
+      2b_{\max}, D - 2P)`;
+    * triangles not incident to :math:`x`: :math:`\delta_x + 2P` within the near triangles'
+      reach and :math:`\delta_x \le \min_i(h_i - e_i)` over those with
+      :math:`d_{x,t} \le \delta_x + 2P`, :math:`e_i = \min(\Lambda_x m_i + 2b_{\max}, 2P)`
+      for a corner within :math:`D` of :math:`x` (:math:`m_i \le D(1 - 10^{-9})`), else
+      :math:`2P`.
+
+    Then no deformed vertex but :math:`x'`, and no point of a deformed triangle not
+    incident to :math:`x'`, lies within :math:`2\rho_x` of :math:`x'`, so its ball holds
+    none (``docs/model.md``, "Certified skips").
+    """
+    tau = 1e-12 * (1.0 + skin["size"])
+    room = 2.0 * w / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6) * (1.0 + 1e-6) + tau
+    P = d_max + b_max
+    ok = (lam < 1.0) & (room <= sep * (1.0 - lam) - 2.0 * b_max) \
+        & (room <= skin["reach"] - 2.0 * P)
+    if not ok.any():
+        return ok
+    near = near() if callable(near) else near
+    if near is None:  # no triangles kept: no vertex is certified for them
+        return np.zeros(len(ok), bool)
+    d, h, m, reach, owner = near
+    far = room + 2.0 * P  # beyond it no point of the skin comes within room of x
+    ok &= far <= reach
+    ask = ok & (w > 0)  # (a vertex with W = 0 has no ball to search)
+    k = int(np.searchsorted(d, float(far[ask].max()), side="right")) if ask.any() else 0
+    rows = np.flatnonzero(ask[owner[:k]] & (d[:k] <= far[owner[:k]]))
+    o = owner[rows]
+    mr = m[rows]  # a corner v_i moves at most e_i from x's own move (docs/model.md)
+    e = np.where(mr <= skin["reach"] * (1.0 - 1e-9),
+                 np.minimum(lam[o, None] * mr + 2.0 * b_max, 2.0 * P), 2.0 * P)
+    least = np.full(len(ok), np.inf)  # min over x's triangles of max_k min_i (h_ki - e_i)
+    np.minimum.at(least, o, (h[rows] - e[:, None]).min(axis=2).max(axis=1))
+    return ok & (room <= least)
 
 
 def _clamp_only(face, state, guard: FoldGuard) -> Certified | None:
@@ -1706,19 +1881,55 @@ def _clamp_only(face, state, guard: FoldGuard) -> Certified | None:
         if state.face is face or state.face.skin is face.skin:
             limit = (key, base)
         else:
-            idx = getattr(fine, "fold_radii_nearest", None)
-            if idx is None or len(idx) != state.face.skin.n_points:
-                _, idx = face.skin.kdtree.query(state.face.skin.points, k=3)
-                fine.fold_radii_nearest = idx  # as fold_radii keeps them
-            limit = (key, base[idx].min(axis=1))
+            limit = (key, base[_nearest_skin_vertices(face, state.face)].min(axis=1))
         fine.fold_clamp_limit = limit
     clamp = bool((np.abs(state.W) <= limit[1]).all())
     return Certified(False, False, False, clamp)
 
 
+def _nearest_skin_vertices(face, skin_face) -> np.ndarray:
+    r"""``(n, 3)``: the three vertices of ``face``'s skin nearest to each vertex of the
+    refined ``skin_face``'s (the rows :func:`fold_radii` takes a refined vertex's radii
+    from), kept with the refined face's rest frame as ``fold_radii_nearest``.
+
+    A refined face's vertices are rows of its subdivision hierarchy (its rest frame's
+    ``refined_from``: the hierarchy and the rows, set by ``FaceModel._refined_face``),
+    and each frame of an animation splits its own set, so its refined face is new: the
+    nearest vertices are kept per hierarchy row (with ``face``'s rest frame, grown with
+    the hierarchy) and a frame queries only the rows no frame asked for before. A query
+    point's nearest vertices do not depend on the other points queried with it, so the
+    rows are those of querying the refined skin itself, bit for bit.
+    """
+    fine = skin_face._rest
+    n = skin_face.skin.n_points
+    idx = getattr(fine, "fold_radii_nearest", None)
+    if idx is not None and len(idx) == n:
+        return idx
+    src = getattr(fine, "refined_from", None)
+    if src is None:
+        _, idx = face.skin.kdtree.query(skin_face.skin.points, k=3)
+    else:
+        hier, rows = src
+        memo = getattr(face._rest, "fold_nearest_rows", None)
+        if memo is None or memo[0] is not hier:
+            memo = (hier, np.full((0, 3), -1, np.intp))
+        known = memo[1]
+        if len(known) < hier.n_points:
+            known = np.concatenate([known, np.full((hier.n_points - len(known), 3), -1,
+                                                   np.intp)])
+        todo = rows[known[rows, 0] < 0]
+        if len(todo):
+            _, known[todo] = face.skin.kdtree.query(np.take(hier.rest, todo, axis=0), k=3)
+        face._rest.fold_nearest_rows = (hier, known)
+        idx = known[rows]
+    fine.fold_radii_nearest = idx  # as fold_radii keeps them
+    return idx
+
+
 def _measured(state, a: np.ndarray, loose: tuple[float, ...], bounds: dict, skin: dict,
-              guard: FoldGuard) -> tuple[bool, bool, bool]:
-    r""":func:`_certificates` with the frame's own pull measured: the slide
+              guard: FoldGuard) -> tuple[bool, bool, bool, float, float]:
+    r""":func:`_certificates` with the frame's own pull measured, and the bounds
+    :math:`|D| \le` ``d_max`` and :math:`|b| \le` ``b_max`` it used: the slide
     :math:`|p - D|` (``D`` from the kept :math:`U_m` and the activations ``a`` ``(M,)``), the
     gradient bound :math:`\max_t \sum_m a_m \|J_{m,t}\|` and, where the balls' far term
     asks for it, :math:`|D|`; ``loose``: the bounds ``d_max``, ``b_max``, ``lam``,
@@ -1737,7 +1948,7 @@ def _measured(state, a: np.ndarray, loose: tuple[float, ...], bounds: dict, skin
     if not tight[2]:  # the balls' far term may ask for the measured |D|
         d_max = min(d_max, math.sqrt(float(np.einsum("ij,ij->i", D, D).max())) + tol)
         tight = _certificates(g, d_max, b_max, lam, w_max, bounds, skin, guard)
-    return tight
+    return (*tight, d_max, b_max)
 
 
 def _certificates(g: float, d_max: float, b_max: float, lam: float, w_max: float,
@@ -1761,12 +1972,12 @@ def _certificates(g: float, d_max: float, b_max: float, lam: float, w_max: float
         return pulls, step, False
     need = room + 2.0 * b_max
     balls = need <= bounds["sep"] * (1.0 - lam)
-    near = bounds.get("L")  # the triangles near the wrinkled vertices (_near_edges)
-    if balls and callable(near):  # found once, by the first frame that gets this far
-        near = bounds["L"] = near()
+    # the triangles near the wrinkled vertices (_near_edges), found once, by the first
+    near = _near_of(bounds) if balls else None  # frame that gets this far
     if balls and near is not None:  # |q' - x'| >= min_i (h_i - lam m_i) - 2 b_max
         k = int(np.searchsorted(near[0], far, side="right"))
-        balls = k == 0 or float((near[1][:k] - lam * near[2][:k]).min()) >= need
+        low = (near[1][:k] - lam * near[2][:k, None]).min(axis=2).max(axis=1)
+        balls = k == 0 or float(low.min()) >= need
     return pulls, step, balls
 
 

@@ -450,8 +450,9 @@ def _closest_around(surface: TriangleSurface, point: np.ndarray, verts
     """The triangle and closest point ``(3,)`` to ``point`` among the triangles around
     vertices ``verts``.
     """
-    inc = surface.incidence
-    tris = np.unique(np.concatenate([inc[v].indices for v in verts]))
+    inc = surface.incidence  # row v's triangles read off the CSR arrays (a scipy row
+    ptr, ids = inc.indptr, inc.indices  # slice per vertex cost 70 us: 5 s a head's skull)
+    tris = np.unique(np.concatenate([ids[ptr[v]:ptr[v + 1]] for v in verts]))
     cand = _closest_on_triangles(point, surface.points[surface.triangles[tris]])
     j = int(np.argmin(np.linalg.norm(cand - point, axis=1)))
     return int(tris[j]), cand[j]

@@ -47,6 +47,9 @@ class _RestGeometry:
             radius = SLIDE_SCALE * float(np.sqrt(skin.triangle_areas().sum()))
         self.radius = radius
         self.shape6: np.ndarray | None = None  # (n, 6): set on a refined skin
+        #: A refined skin's hierarchy and its rows in it (``FaceModel._refined_face``; the
+        #: fold guard keeps per-row data with the coarse face).
+        self.refined_from: tuple | None = None
         self._engines: dict[int, RefinedEngine] = {}
 
     def engine(self, depth: int) -> RefinedEngine:
