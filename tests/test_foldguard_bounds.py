@@ -19,8 +19,10 @@ from wrinkle_vis.core.foldguard import (
     _empty_balls,
     _lowest_sigma,
     _near_edges,
+    _near_table,
     _quadratic,
     _row_terms,
+    _table_bounds,
     certify,
     fold_radii,
     guard_wrinkles,
@@ -447,7 +449,8 @@ def test_the_per_vertex_balls_certificate_is_sound_on_random_pulls(bump, gap, la
     b_max = float(np.linalg.norm(slide, axis=1).max())
     d_max = float(np.linalg.norm(u, axis=1).max())
     guard = FoldGuard()
-    near = _near_edges(rest, tri, np.arange(len(rest)), 0.5 * reach)
+    near = _near_table(_near_edges(rest, tri, np.arange(len(rest)), 0.5 * reach), len(rest),
+                       reach)
     ok = _empty_balls(np.abs(W), sep, lam * (1 + 1e-9), b_max, d_max, skin, guard, near)
     terms = pull_terms(rest, tri)
     exact = _deformed_lows(deformed, tri, W, terms, guard)
@@ -455,6 +458,30 @@ def test_the_per_vertex_balls_certificate_is_sound_on_random_pulls(bump, gap, la
         assert not ok[exact[0]].any()
     empty = ok & (W != 0)
     assert _same_lows(_deformed_lows(deformed, tri, W, terms, guard, empty=empty), exact)
+
+
+@settings(max_examples=40, deadline=None)
+@given(bump=st.floats(0.0, 1.0), gap=st.floats(0.2, 1.5), shift=st.floats(0.0, 0.5),
+       lam=st.floats(0.0, 1.2), far=st.floats(0.0, 4.0))
+def test_the_near_table_bounds_the_near_triangles_from_below(bump, gap, shift, lam, far):
+    """The certificates' table (_near_table, _table_bounds) never exceeds the bound it
+    stands for, min over each vertex's triangles within ``far`` of max_k min_i (h_ki - lam
+    m_i), and is -inf where lam > 1 or ``far`` passes the triangles' reach."""
+    rest, tri = _bumpy_sheets(8, bump, gap, shift)
+    n, reach = len(rest), 6.0
+    near = _near_edges(rest, tri, np.arange(n), 0.5 * reach)
+    d, h, m, D, owner = near
+    table = _near_table(near, n, reach)
+    rows = np.arange(n)
+    got = _table_bounds(table, np.full(n, lam), np.full(n, far), rows)
+    exact = np.full(n, np.inf)
+    take = d <= far
+    np.minimum.at(exact, owner[take], (h[take] - lam * m[take, None]).min(axis=2).max(axis=1))
+    if lam > 1.0 or far > D:
+        assert np.all(got == -np.inf)
+    else:
+        assert np.all(got <= exact)
+        assert _table_bounds(table, np.array([lam]), np.array([far]))[0] <= exact.min()
 
 
 def test_the_papers_frames_skip_most_balls(faces):

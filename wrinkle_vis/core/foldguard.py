@@ -1706,14 +1706,82 @@ def _near_edges(pts: np.ndarray, tri: np.ndarray, wrinkled: np.ndarray, D: float
             owner[order])
 
 
-def _near_of(bounds: dict) -> tuple | None:
-    """:func:`_near_edges` of an active set's ``bounds``, found on first use and kept (None
-    for bounds that have none: a test's skin of vertices alone).
+def _near_of(bounds: dict, R: float) -> dict | None:
+    """:func:`_near_table` of the triangles near an active set's wrinkled vertices
+    (:func:`_near_edges`, ``bounds["L"]``), found on first use and kept; ``R``: the pairs'
+    reach. None for bounds that have none (a test's skin of vertices alone).
     """
     near = bounds.get("L")
     if callable(near):
-        near = bounds["L"] = near()
+        near = bounds["L"] = _near_table(near(), len(bounds["wrinkled"]), R)
     return near
+
+
+_TABLE_STEPS = 32  # the near triangles' bounds are kept at Lambda = j / 32, j = 0..32
+_TABLE_CUTS = (0.125, 0.25, 0.5, 1.0)  # and over the triangles within these parts of D
+
+
+def _near_table(near: tuple, count: int, R: float) -> dict:
+    r"""The triangles near ``count`` wrinkled vertices (:func:`_near_edges` ``near``; ``R``
+    the pairs' reach) as a table the balls' certificates read in constant time:
+
+    * ``F`` ``(count, c, J + 1)``: per vertex :math:`x`, cut :math:`l` and step :math:`j`,
+      :math:`\min_t \max_k \min_i (h_{ki} - \Lambda_j m_i)` over :math:`x`'s triangles with
+      :math:`d_{x,t} \le` ``cut[l]`` (:data:`_TABLE_CUTS` of the near triangles' reach
+      :math:`D`), :math:`\Lambda_j = j / J` (:data:`_TABLE_STEPS`), ``inf`` where none;
+      ``G`` ``(c, J + 1)``: its least over the vertices;
+    * ``far`` ``(count,)`` bool: whether a corner of one of :math:`x`'s triangles lies
+      beyond the pairs (:math:`m_i > R (1 - 10^{-9})`, its move bounded by :math:`2P`
+      alone); ``cut`` ``(c,)``.
+
+    Each entry is non-increasing in :math:`\Lambda` (:math:`m_i \ge 0`) and in the cut
+    (a minimum over more triangles), so a frame's :math:`\Lambda` and reach read the entry
+    at the next step and cut above them: a lower bound of the one they ask for.
+    """
+    d, h, m, D, owner = near
+    J = _TABLE_STEPS
+    cut = np.array(_TABLE_CUTS) * D
+    steps = np.arange(J + 1) / J
+    level = np.minimum(np.searchsorted(cut, d, side="left"), len(cut) - 1)
+    key = owner * len(cut) + level
+    order = np.argsort(key, kind="stable")  # the rows by vertex and cut
+    g = np.empty((len(d), J + 1))
+    for lo in range(0, len(d), 8192):  # max_k min_i (h_ki - lam_j m_i), 8192 rows at a time
+        rows = order[lo:lo + 8192]
+        lm = [m[rows, i, None] * steps for i in range(3)]
+        for k in range(h.shape[1]):
+            hk = h[rows, k]
+            low = np.minimum(np.minimum(hk[:, 0, None] - lm[0], hk[:, 1, None] - lm[1]),
+                             hk[:, 2, None] - lm[2])
+            g[lo:lo + len(rows)] = low if k == 0 else np.maximum(g[lo:lo + len(rows)], low)
+    F = np.full((count * len(cut), J + 1), np.inf)
+    if len(d):
+        key = key[order]
+        starts = np.flatnonzero(np.concatenate([[True], key[1:] != key[:-1]]))
+        F[key[starts]] = np.minimum.reduceat(g, starts, axis=0)
+    F = np.minimum.accumulate(F.reshape(count, len(cut), J + 1), axis=1)
+    far = np.zeros(count, bool)
+    far[owner[(m > R * (1.0 - 1e-9)).any(axis=1)]] = True
+    return {"F": F, "G": F.min(axis=0) if count else np.full((len(cut), J + 1), np.inf),
+            "far": far, "cut": cut, "D": D}
+
+
+def _table_bounds(table: dict, lam: np.ndarray, far: np.ndarray,
+                  rows: np.ndarray | None = None) -> np.ndarray:
+    r"""``(k,)``: lower bounds of :math:`\min_t \max_k \min_i (h_{ki} - \Lambda m_i)` over
+    the triangles within ``far`` ``(k,)`` of each of the wrinkled vertices ``rows`` ``(k,)``
+    (their rows of the table; None: the least over all, :func:`_near_table`'s ``G``) at
+    :math:`\Lambda` = ``lam`` ``(k,)``: ``-inf`` where :math:`\Lambda > 1` or ``far``
+    exceeds the table's reach.
+    """
+    J = _TABLE_STEPS
+    j = np.ceil(lam * J * (1.0 + 1e-9)).astype(np.intp)  # the next step above lam
+    j = np.where(j / J >= lam, j, j + 1)
+    l = np.searchsorted(table["cut"], far, side="left")
+    ok = (j <= J) & (l < len(table["cut"])) & (lam >= 0)
+    j, l = np.where(ok, j, 0), np.where(ok, l, 0)
+    got = table["G"][l, j] if rows is None else table["F"][rows, l, j]
+    return np.where(ok, got, -np.inf)
 
 
 def _clamp_limit(skin: dict, bounds: dict, guard: FoldGuard) -> np.ndarray:
@@ -1804,7 +1872,7 @@ def _balls_per_vertex(n: int, a: np.ndarray, w: np.ndarray, b_max: float, d_max:
     lam_x = (bounds["LipW"] @ a) * (1.0 + 1e-9)
     wrinkled = bounds["wrinkled"]
     ok = _empty_balls(w, skin["near"][wrinkled], lam_x, b_max, d_max, skin, guard,
-                      partial(_near_of, bounds))
+                      partial(_near_of, bounds, skin["reach"]))
     if ok.all():
         return True, None
     if not ok.any():
@@ -1816,22 +1884,22 @@ def _balls_per_vertex(n: int, a: np.ndarray, w: np.ndarray, b_max: float, d_max:
 
 def _empty_balls(w: np.ndarray, sep: np.ndarray, lam: np.ndarray, b_max: float,
                  d_max: float, skin: dict, guard: FoldGuard,
-                 near: tuple | Callable[[], tuple | None] | None) -> np.ndarray:
+                 near: dict | Callable[[], dict | None] | None) -> np.ndarray:
     r"""``(v,)`` bool: the balls' certificate of :func:`certify` per wrinkled vertex, from
     its :math:`|W|` ``w`` ``(v,)``, rest separation from the other vertices :math:`s_x`
     ``sep`` ``(v,)``, Lipschitz bound :math:`\Lambda_x` ``lam`` ``(v,)`` (of the summed
     pull over the pairs of :math:`x` at most :math:`D` apart) and the triangles near it
-    ``near`` (:func:`_near_edges`, or a function giving them, called only if a vertex
-    passes the other tests). With :math:`\rho_x = |W_x| / (\kappa\eta_d)(1 + 10^{-6})`,
+    ``near`` (:func:`_near_table`, or a function giving it, called only if a vertex passes
+    the other tests). With :math:`\rho_x = |W_x| / (\kappa\eta_d)(1 + 10^{-6})`,
     :math:`\delta_x = 2\rho_x(1 + 10^{-6}) + \tau` and :math:`P = d_{\max} + b_{\max}`:
 
     * vertices: :math:`\Lambda_x < 1`, :math:`\delta_x \le \min(s_x(1 - \Lambda_x) -
       2b_{\max}, D - 2P)`;
-    * triangles not incident to :math:`x`: :math:`\delta_x + 2P` within the near triangles'
-      reach and :math:`\delta_x \le \min_i(h_i - e_i)` over those with
-      :math:`d_{x,t} \le \delta_x + 2P`, :math:`e_i = \min(\Lambda_x m_i + 2b_{\max}, 2P)`
-      for a corner within :math:`D` of :math:`x` (:math:`m_i \le D(1 - 10^{-9})`), else
-      :math:`2P`.
+    * triangles not incident to :math:`x`: :math:`\delta_x + 2b_{\max} \le \min_t \max_k
+      \min_i (h_{ki} - \Lambda'_x m_i)` over those with :math:`d_{x,t} \le \delta_x + 2P`
+      (within the near triangles' reach), :math:`\Lambda'_x = \Lambda_x`, or
+      :math:`\max(\Lambda_x, 2P/D)` where a corner lies beyond the pairs; read off the
+      table (:func:`_table_bounds`).
 
     Then no deformed vertex but :math:`x'`, and no point of a deformed triangle not
     incident to :math:`x'`, lies within :math:`2\rho_x` of :math:`x'`, so its ball holds
@@ -1844,22 +1912,15 @@ def _empty_balls(w: np.ndarray, sep: np.ndarray, lam: np.ndarray, b_max: float,
         & (room <= skin["reach"] - 2.0 * P)
     if not ok.any():
         return ok
-    near = near() if callable(near) else near
-    if near is None:  # no triangles kept: no vertex is certified for them
+    table = near() if callable(near) else near
+    if table is None:  # no triangles kept: no vertex is certified for them
         return np.zeros(len(ok), bool)
-    d, h, m, reach, owner = near
     far = room + 2.0 * P  # beyond it no point of the skin comes within room of x
-    ok &= far <= reach
-    ask = ok & (w > 0)  # (a vertex with W = 0 has no ball to search)
-    k = int(np.searchsorted(d, float(far[ask].max()), side="right")) if ask.any() else 0
-    rows = np.flatnonzero(ask[owner[:k]] & (d[:k] <= far[owner[:k]]))
-    o = owner[rows]
-    mr = m[rows]  # a corner v_i moves at most e_i from x's own move (docs/model.md)
-    e = np.where(mr <= skin["reach"] * (1.0 - 1e-9),
-                 np.minimum(lam[o, None] * mr + 2.0 * b_max, 2.0 * P), 2.0 * P)
-    least = np.full(len(ok), np.inf)  # min over x's triangles of max_k min_i (h_ki - e_i)
-    np.minimum.at(least, o, (h[rows] - e[:, None]).min(axis=2).max(axis=1))
-    return ok & (room <= least)
+    lam_t = np.where(table["far"], np.maximum(lam, 2.0 * P / skin["reach"]), lam)
+    ask = np.flatnonzero(ok & (w > 0))  # (a vertex with W = 0 has no ball to search)
+    low = _table_bounds(table, lam_t[ask], far[ask], ask)
+    ok[ask] &= room[ask] + 2.0 * b_max <= low
+    return ok
 
 
 def _clamp_only(face, state, guard: FoldGuard) -> Certified | None:
@@ -1972,12 +2033,11 @@ def _certificates(g: float, d_max: float, b_max: float, lam: float, w_max: float
         return pulls, step, False
     need = room + 2.0 * b_max
     balls = need <= bounds["sep"] * (1.0 - lam)
-    # the triangles near the wrinkled vertices (_near_edges), found once, by the first
-    near = _near_of(bounds) if balls else None  # frame that gets this far
-    if balls and near is not None:  # |q' - x'| >= min_i (h_i - lam m_i) - 2 b_max
-        k = int(np.searchsorted(near[0], far, side="right"))
-        low = (near[1][:k] - lam * near[2][:k, None]).min(axis=2).max(axis=1)
-        balls = k == 0 or float(low.min()) >= need
+    # the triangles near the wrinkled vertices (_near_edges, _near_table), found once, by
+    table = _near_of(bounds, skin["reach"]) if balls else None  # the first frame that
+    if balls and table is not None:  # gets this far: |q' - x'| >= min_i (h_i - lam m_i) - 2b
+        low = _table_bounds(table, np.array([lam]), np.array([far]))
+        balls = bool(low[0] >= need)
     return pulls, step, balls
 
 
