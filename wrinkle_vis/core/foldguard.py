@@ -318,8 +318,9 @@ def _cleared(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray
         left = np.flatnonzero(out)
         if not len(left):
             break
-        k = min(2, len(ids))
-        d, i = tree.query(c4[left], k=k)
+        k = min(2, len(ids))  # (a neighbour beyond every ball's bound is not needed)
+        bound = math.sqrt((float(radii[left].max()) ** 2 + Tk) * (1.0 + 1e-9)) * (1.0 + 1e-6)
+        d, i = tree.query(c4[left], k=k, distance_upper_bound=bound)
         d, i = d.reshape(len(left), k), i.reshape(len(left), k)
         first = np.where(i[:, 0] < len(ids), ids[np.minimum(i[:, 0], len(ids) - 1)], -1)
         other = np.where(first == own[left], d[:, -1] if k == 2 else np.inf, d[:, 0])
@@ -1221,16 +1222,20 @@ def _local_skin(points: np.ndarray, tri: np.ndarray, lo: np.ndarray, hi: np.ndar
 
 
 def _longest_edge(points: np.ndarray, tri: np.ndarray, terms: dict) -> float:
-    """The longest edge of the skin ``points`` ``(n, 3)``, ``tri`` ``(m, 3)`` (its unique
-    edges' ends kept in ``terms`` as two contiguous arrays).
+    """The longest edge of the skin ``points`` ``(n, 3)``, ``tri`` ``(m, 3)``, its edges'
+    ends kept in ``terms`` as two contiguous arrays: each triangle's three sides on a
+    skin's first frame; from its second (the terms of a skin that is guarded again: an
+    unrefined face's), its unique edges (:func:`_terms_edges`), half as many, the same
+    lengths (a side's length does not depend on its direction).
     """
-    ends = terms.get("edge_ends")
-    if ends is None:
-        edges = terms.get("edges")
-        if edges is None:
-            edges = np.vstack([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
-        ends = terms["edge_ends"] = (np.ascontiguousarray(edges[:, 0], dtype=np.intp),
-                                     np.ascontiguousarray(edges[:, 1], dtype=np.intp))
+    ends, unique = terms.get("edge_ends", (None, False))
+    if ends is None or not unique:
+        unique = ends is not None or "edges" in terms  # (a second frame, or found already)
+        edges = _terms_edges(terms)[0] if unique else np.vstack(
+            [tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+        ends = (np.ascontiguousarray(edges[:, 0], dtype=np.intp),
+                np.ascontiguousarray(edges[:, 1], dtype=np.intp))
+        terms["edge_ends"] = (ends, unique)
     if not len(ends[0]):
         return 0.0
     e = points[ends[0]]
