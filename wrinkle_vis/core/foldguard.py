@@ -1005,15 +1005,17 @@ def _rewrinkled(points: np.ndarray, d2: np.ndarray, W: np.ndarray, W2: np.ndarra
 
 def _clamped(W: np.ndarray, radii, certified: bool, d2: np.ndarray, tri: np.ndarray,
              terms: dict, guard: FoldGuard, deformed: bool, step: np.ndarray | None,
-             empty: np.ndarray | None = None) -> np.ndarray:
+             empty: np.ndarray | None = None, clear: np.ndarray | None = None
+             ) -> np.ndarray:
     r"""``(n,)``: :math:`W` ``(n,)`` clamped by :func:`guard_wrinkles` on the rest ``radii``
     ``(n, 2)`` (or a function giving them, called only when they are needed), lowered by
     the deformed skin ``d2``'s (:func:`_deformed_radii`) when ``deformed``; ``W`` itself
     where the clamp is ``certified`` (the identity on the rest radii) and no deformed ball
     shrank. ``step``: the frame's :math:`W n` when ``d2`` is its deformed skin; ``empty``
-    ``(n,)`` bool: the vertices whose deformed balls are certified empty (not searched).
+    ``(n,)`` bool: the vertices whose deformed balls are certified empty (not searched),
+    ``clear`` ``(n,)`` bool: those certified empty of triangles (:func:`_gaps_clear`).
     """
-    low = _deformed_lows(d2, tri, W, terms, guard, step, empty) if deformed else None
+    low = _deformed_lows(d2, tri, W, terms, guard, step, empty, clear) if deformed else None
     if certified and low is None:
         return W
     if callable(radii):
@@ -1088,9 +1090,10 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
         d2 = d2.copy()
         d2[moved] = rest[moved] + f[moved, None] * (d2[moved] - rest[moved])
         cert = Certified(False, False, False, False)  # certified for the unscaled pull only
-    W2 = _clamped(W, radii, cert.clamp, d2, tri, terms, guard,
-                  deformed_radii and not cert.balls, None if moved.any() else p2 - d2,
-                  cert.empty)
+    search = deformed_radii and not cert.balls
+    W2 = _clamped(W, radii, cert.clamp, d2, tri, terms, guard, search,
+                  None if moved.any() else p2 - d2, cert.empty,
+                  _gaps_clear(rest, d2, W, tri, terms, guard) if search else None)
     p2 = _rewrinkled(p2, d2, W, W2, moved, tri, terms)
     if not cert.step:
         p2, W2 = _held_wrinkles(rest, d2, p2, W2, tri, guard, terms)
@@ -1151,16 +1154,17 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
 
 def _deformed_lows(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, terms: dict,
                    guard: FoldGuard, step: np.ndarray | None = None,
-                   empty: np.ndarray | None = None
+                   empty: np.ndarray | None = None, clear: np.ndarray | None = None
                    ) -> tuple[np.ndarray, np.ndarray] | None:
     r"""The search of :func:`_deformed_radii`: the vertices whose ball shrank ``(k,)`` and
     :math:`\eta_d / \eta` times their deformed radii ``(k, 2)`` (``inf`` on the side
     :math:`W` does not push to), or None where no ball shrank.
 
-    ``empty`` ``(n,)`` bool: vertices whose balls are certified empty (:func:`certify`,
-    :func:`_empty_balls`): they are not searched. The samples, their triangles, lifts and
-    tree are those of searching every wrinkled vertex (the box of all of them), so each
-    searched ball's result is the same bit for bit; with no ball left, nothing is built.
+    ``empty`` ``(n,)`` bool: balls certified empty (:func:`_empty_balls`), not searched;
+    ``clear``: balls certified empty of triangles (:func:`_gaps_clear`), searched for
+    vertices alone (a radius at most the start, whose ball no triangle enters). The
+    samples, triangles, lifts and tree are those of searching every wrinkled vertex (the
+    box of all), so each searched ball's result is the same bit for bit.
     """
     ratio = guard.eta_deformed / guard.eta
     ids = np.flatnonzero(W)
@@ -1184,28 +1188,47 @@ def _deformed_lows(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, terms: 
     # a triangle meeting a ball has its corners within the ball's reach plus its edges
     L = _longest_edge(deformed, tri, terms)
     samples, local, t_loc = _local_skin(deformed, tri, lo - L, hi + L)
-    # one nearest-point query of the lifted vertices clears the balls that no vertex and no
-    # triangle not incident to their vertex can enter (_cleared); the others: the vertices'
-    # search where a vertex lies inside (medial_radii), then the triangles' (a ball empty of
-    # vertices may still hold a triangle between them)
-    lift = _lift(samples, t_loc)
+    # the balls to search (_to_search): the vertices' search where a vertex lies inside
+    # (medial_radii), then the triangles' (a ball empty of vertices may hold a triangle)
     c = x + np.where(W[ids] >= 0, 1.0, -1.0)[:, None] * start[:, None] * n
-    todo = np.flatnonzero(~_cleared(lift, c, start, local[ids]))
+    free = np.zeros(len(ids), bool) if clear is None else clear[ids]
+    todo, lift = _to_search(samples, t_loc, c, start, local[ids], free)
     if not len(todo):
         return None
     ids, x, n, c, start, side = ids[todo], x[todo], n[todo], c[todo], start[todo], side[todo]
+    free = free[todo]
     tree = cKDTree(samples, balanced_tree=False)  # the vertices' search, where needed
     dist, _ = tree.query(c, distance_upper_bound=float(start.max()))
     r = side * start[:, None]
     hit = np.flatnonzero(dist < start * (1.0 - 1e-9))
     if len(hit):
         r[hit] = medial_radii(x[hit], n[hit], samples=samples, r_max=r[hit], tree=tree)
-    r = triangle_radii(local[ids], n, r, samples, t_loc, lift=lift, clear=False)
+    if lift is not None:  # the triangles' search, where not certified clear
+        o = np.flatnonzero(~free)
+        r[o] = triangle_radii(local[ids[o]], n[o], r[o], samples, t_loc, lift=lift, clear=False)
     r = np.where(side > 0, r, np.inf)
     low = np.flatnonzero(r.min(axis=1) < start)  # the balls that shrank
     if not len(low):
         return None
     return ids[low], ratio * r[low]
+
+
+def _to_search(samples: np.ndarray, t_loc: np.ndarray, c: np.ndarray, start: np.ndarray,
+               own: np.ndarray, free: np.ndarray) -> tuple[np.ndarray, dict | None]:
+    r"""The balls of :func:`_deformed_lows` to search ``(k,)`` (ascending) and the lifted
+    classes of the local skin ``samples`` ``(s, 3)``, ``t_loc`` ``(t, 3)`` (None where not
+    needed): those certified ``free`` ``(b,)`` of triangles (the vertices' search alone),
+    and of the others, centres ``c`` ``(b, 3)``, radii ``start`` ``(b,)`` at the local
+    vertices ``own`` ``(b,)``, those :func:`_cleared` does not clear (one nearest-point
+    query of the lifted vertices clears a ball no vertex and no triangle not incident to
+    its vertex can enter).
+    """
+    todo = np.flatnonzero(free)
+    if free.all():
+        return todo, None
+    lift = _lift(samples, t_loc)
+    rest = np.flatnonzero(~free)
+    return np.union1d(todo, rest[~_cleared(lift, c[rest], start[rest], own[rest])]), lift
 
 
 def _local_skin(points: np.ndarray, tri: np.ndarray, lo: np.ndarray, hi: np.ndarray
@@ -1219,6 +1242,107 @@ def _local_skin(points: np.ndarray, tri: np.ndarray, lo: np.ndarray, hi: np.ndar
     local[box] = np.arange(len(box))
     t_loc = local[tri]
     return points[box], local, t_loc[t_loc.min(axis=1) >= 0]
+
+
+_GAP_CUTS = (0.25, 0.5, 0.75, 1.0)  # of the rest gaps' reach, 3 median edges
+_GAP_CORNERS = 160  # the corners a vertex keeps over its gaps' reach (more: no certificate)
+
+
+def _gaps_clear(rest: np.ndarray, deformed: np.ndarray, W: np.ndarray, tri: np.ndarray,
+                terms: dict, guard: FoldGuard) -> np.ndarray | None:
+    r"""``(n,)`` bool: the wrinkled vertices whose deformed ball (:func:`_deformed_lows`,
+    radius :math:`\rho = |W| / (\kappa\eta_d)(1 + 10^{-6})` tangent at :math:`x'`) no
+    triangle not incident to :math:`x` can enter, from the rest skin ``rest`` ``(n, 3)``,
+    ``tri`` ``(m, 3)`` and the frame's move :math:`u = x' - x` (``deformed``): with
+    :func:`_rest_gaps`' :math:`H_{x,l}` and corners, :math:`\delta_{x,l} = \max |u_w - u_x|`
+    over those corners, :math:`U = \max_v |u_v|` and :math:`\sigma = 2\rho(1 + 10^{-6}) +
+    \tau`, some cut :math:`c_l` with :math:`c_l - U - |u_x| \ge \sigma` and
+    :math:`H_{x,l} - \delta_{x,l} \ge \sigma` (``docs/model.md``, "The rest gaps"). None on
+    a skin's first frame (a refined frame's skin is new every frame: its gaps would cost
+    more than the search they spare).
+    """
+    terms["gap_frames"] = seen = terms.get("gap_frames", 0) + 1
+    ids = np.flatnonzero(W)
+    if seen < 2 or not len(ids):
+        return None
+    gaps = _rest_gaps(rest, tri, ids, terms)
+    u = deformed - rest
+    U = float(np.sqrt(np.einsum("ij,ij->i", u, u).max()))
+    tau = 1e-12 * (1.0 + float(np.abs(rest).max()) + U)
+    sigma = 2.0 * np.abs(W[ids]) / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6) \
+        * (1.0 + 1e-6) + tau
+    ux = u[ids]
+    span = gaps["cut"][None, :] - U - np.linalg.norm(ux, axis=1)[:, None]  # (k, c)
+    ok_far = span >= sigma[:, None]
+    level = np.argmax(ok_far, axis=1)  # the least cut far enough
+    count = gaps["count"][ids, level]
+    ok = ok_far.any(axis=1) & (count >= 0)
+    rows = np.flatnonzero(ok)
+    width = int(count[rows].max()) if len(rows) else 0
+    corners = gaps["corners"][ids[rows], :width]
+    inside = np.arange(width)[None, :] < count[rows, None]
+    move = u[np.where(inside, corners, ids[rows, None])] - ux[rows, None]
+    delta = np.sqrt(np.einsum("ijk,ijk->ij", move, move).max(axis=1)) if width \
+        else np.zeros(len(rows))
+    ok[rows] = gaps["H"][ids[rows], level[rows]] - delta >= sigma[rows]
+    out = np.zeros(len(W), bool)
+    out[ids] = ok
+    return out
+
+
+def _rest_gaps(rest: np.ndarray, tri: np.ndarray, ids: np.ndarray, terms: dict) -> dict:
+    r"""Per vertex of the rest skin ``rest`` ``(n, 3)``, ``tri`` ``(m, 3)``, found for the
+    vertices ``ids`` ``(k,)`` that have none yet and kept in ``terms``: over its triangles
+    not incident to it within each cut :math:`c_l` (:data:`_GAP_CUTS` of :math:`D`, 3 median
+    edges; :func:`_near_edges`), ``H`` ``(n, c)``: :math:`\min_t \max_k \min_i h_{ki}`
+    (the best of four directions' least corner height, at most the distance to the
+    triangle's points), ``corners`` ``(n, K)`` their distinct corners nearest cut first
+    and ``count`` ``(n, c)`` how many lie within each cut (-1: more than
+    :data:`_GAP_CORNERS`; -2: not found yet); ``cut`` ``(c,)``.
+    """
+    gaps = terms.get("gaps")
+    if gaps is None:
+        e = rest[tri] - rest[np.roll(tri, 1, axis=1)]
+        D = 3.0 * float(np.median(np.sqrt(np.einsum("ijk,ijk->ij", e, e))))
+        n, c = len(rest), len(_GAP_CUTS)
+        gaps = terms["gaps"] = {"cut": np.array(_GAP_CUTS) * D, "D": D,
+                                "H": np.full((n, c), -np.inf),
+                                "corners": np.zeros((n, _GAP_CORNERS), np.intp),
+                                "count": np.full((n, c), -2, np.intp)}
+    todo = ids[gaps["count"][ids, 0] == -2]
+    if len(todo):
+        _fill_gaps(gaps, rest, tri, todo)
+    return gaps
+
+
+def _fill_gaps(gaps: dict, rest: np.ndarray, tri: np.ndarray, todo: np.ndarray) -> None:
+    """:func:`_rest_gaps`' entries of the vertices ``todo`` ``(k,)``, in place."""
+    d, h, _, D, owner, t = _near_edges(rest, tri, todo, gaps["D"])
+    cut = gaps["cut"]
+    c = len(cut)
+    level = np.minimum(np.searchsorted(cut, d, side="left"), c - 1)
+    H = np.full((len(todo), c), np.inf)
+    np.minimum.at(H, (owner, level), h.min(axis=2).max(axis=1))
+    gaps["H"][todo] = np.minimum.accumulate(H, axis=1)
+    # each vertex's distinct corners, at the least cut they appear within
+    v = tri[t].ravel()
+    key = np.repeat(owner, 3) * np.int64(len(rest)) + v
+    lvl = np.repeat(level, 3)
+    order = np.lexsort((lvl, key))
+    key, lvl = key[order], lvl[order]
+    first = np.concatenate([[True], key[1:] != key[:-1]]) if len(key) else np.zeros(0, bool)
+    key, lvl = key[first], lvl[first]
+    own, v = key // len(rest), key % len(rest)
+    order = np.lexsort((lvl, own))
+    own, v, lvl = own[order], v[order], lvl[order]
+    per = np.zeros((len(todo), c), np.intp)
+    np.add.at(per, (own, lvl), 1)
+    count = np.cumsum(per, axis=1)
+    start = np.concatenate([[0], np.cumsum(count[:, -1])[:-1]]) if len(todo) else per[:, 0]
+    slot = np.arange(len(own)) - np.repeat(start, count[:, -1])
+    fits = slot < _GAP_CORNERS
+    gaps["corners"][todo[own[fits]], slot[fits]] = v[fits]
+    gaps["count"][todo] = np.where(count <= _GAP_CORNERS, count, -1)
 
 
 def _longest_edge(points: np.ndarray, tri: np.ndarray, terms: dict) -> float:
@@ -1676,18 +1800,18 @@ def _build_muscle_bounds(face, data, skin: dict) -> tuple:
 
 
 def _near_edges(pts: np.ndarray, tri: np.ndarray, wrinkled: np.ndarray, D: float
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, np.ndarray]:
-    r"""``(k,)``, ``(k, 4, 3)``, ``(k, 3)``, a float and ``(k,)``: for every pair of a
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, np.ndarray, np.ndarray]:
+    r"""``(k,)``, ``(k, 4, 3)``, ``(k, 3)``, a float and ``(k,)`` twice: for every pair of a
     ``wrinkled`` vertex :math:`x` of the skin ``pts`` ``(n, 3)``, ``tri`` ``(m, 3)`` and a
     triangle :math:`t` not incident to it that comes within :math:`D` (the pairs' reach / 2)
     of it, the distance :math:`d_{x,t}` from :math:`x` to :math:`t` (ascending), for each
     corner :math:`v_i` of :math:`t` its heights :math:`h_{ki} = u_k \cdot (v_i - x)` along
     four unit directions :math:`u_k` (to the closest point of :math:`t`, where
     :math:`h_{0i} \ge d_{x,t}`, and to each corner; a zero vector where that point is
-    :math:`x`) and its distance :math:`m_i = |v_i - x|`; :math:`D`; and the pair's vertex
-    (its row of ``wrinkled``). Any unit :math:`u` bounds every point :math:`q = \sum_i
-    \lambda_i v_i` of :math:`t`: :math:`|q - x| \ge u \cdot (q - x) = \sum_i \lambda_i
-    h_i`.
+    :math:`x`) and its distance :math:`m_i = |v_i - x|`; :math:`D`; the pair's vertex
+    (its row of ``wrinkled``) and its triangle. Any unit :math:`u` bounds every point
+    :math:`q = \sum_i \lambda_i v_i` of :math:`t`: :math:`|q - x| \ge u \cdot (q - x) =
+    \sum_i \lambda_i h_i`.
     The balls' certificate asks for the triangles within :math:`2\rho + 2P` of a wrinkled
     vertex only (:func:`_certificates`, :func:`_empty_balls`), and for them only once a
     frame passes its other tests (kept per set of active muscles).
@@ -1708,7 +1832,7 @@ def _near_edges(pts: np.ndarray, tri: np.ndarray, wrinkled: np.ndarray, D: float
     within = np.flatnonzero(d <= D)
     order = within[np.argsort(d[within], kind="stable")]
     return (d[order], np.ascontiguousarray(h[order]), np.ascontiguousarray(m[order]), D,
-            owner[order])
+            owner[order], t[order])
 
 
 def _near_of(bounds: dict, R: float) -> dict | None:
@@ -1743,7 +1867,7 @@ def _near_table(near: tuple, count: int, R: float) -> dict:
     (a minimum over more triangles), so a frame's :math:`\Lambda` and reach read the entry
     at the next step and cut above them: a lower bound of the one they ask for.
     """
-    d, h, m, D, owner = near
+    d, h, m, D, owner = near[:5]
     J = _TABLE_STEPS
     cut = np.array(_TABLE_CUTS) * D
     steps = np.arange(J + 1) / J
