@@ -1946,11 +1946,12 @@ def certify(face, state, guard: FoldGuard = FoldGuard()) -> Certified | None:
       \sigma_{\min,w}`;
     * balls: :math:`\Lambda' = \max(\sum_m a_m \mathrm{Lip}_m, 2P/D) < 1`,
       :math:`2\rho + 2P \le D/2` and, with :math:`\delta = 2\rho(1 + 10^{-6}) + \tau`,
-      :math:`\delta + 2b_{\max} \le s(1 - \Lambda')` and :math:`\le d_{x,t} - \Lambda'
-      M_{x,t}` over the triangles within :math:`2\rho + 2P` of a wrinkled vertex
-      (:func:`_near_edges`), :math:`\rho = \max|W| / (\kappa \eta_d)\,(1 + 10^{-6})` (no
-      deformed vertex but :math:`x`, and no triangle not its own, within :math:`2\rho` of
-      :math:`x`);
+      :math:`\delta + 2b_{\max} \le s(1 - \Lambda')` and :math:`\le \min_t \max_u \min_i
+      (h_i - \Lambda' m_i)` over the triangles within :math:`2\rho + 2P` of a wrinkled
+      vertex (:func:`_near_edges`, read off :func:`_near_table`),
+      :math:`\rho = \max|W| / (\kappa \eta_d)\,(1 + 10^{-6})` (no deformed vertex but
+      :math:`x`, and no triangle not its own, within :math:`2\rho` of :math:`x`); where it
+      fails, vertex by vertex (:func:`_balls_per_vertex`);
     * clamp: :math:`|W| \le` :func:`_clamp_limit` everywhere.
 
     ``docs/model.md`` ("Certified skips") has the proofs.
