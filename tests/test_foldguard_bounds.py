@@ -18,8 +18,11 @@ from wrinkle_vis.core.foldguard import (
     _deformed_radii,
     _empty_balls,
     _lowest_sigma,
+    _near_edges,
+    _near_table,
     _quadratic,
     _row_terms,
+    _table_bounds,
     certify,
     fold_radii,
     guard_wrinkles,
@@ -65,7 +68,10 @@ def test_certified_unrefined_frames_are_the_exact_guards_bit_for_bit(faces, name
             _assert_same(s, _exact(exact, expression, intensity), f"{expression} {intensity}")
             c = certify(fast, fast._frame(fast.activations_for(expression, intensity)))
             skipped += c is not None and c.all
-    assert skipped >= (20 if name == "procedural" else 1)  # the skips did happen
+    # the skips did happen (the procedural face: 22 of its 56 frames with balls empty of
+    # vertices, 17 with balls empty of triangles, whose certificate also bounds the
+    # triangles near each wrinkled vertex)
+    assert skipped >= (15 if name == "procedural" else 1)
 
 
 @pytest.mark.slow
@@ -392,30 +398,34 @@ def test_a_ball_certified_empty_is_one_the_exact_check_would_not_shrink(faces, n
         assert _same_lows(skipped, exact)
 
 
-def _bumpy_sheets(n: int, bump: float, gap: float):
+def _bumpy_sheets(n: int, bump: float, gap: float, shift: float = 0.0):
     """Two bumpy ``n`` x ``n`` grid sheets of unit spacing, the second ``gap`` above the
-    first (lips, a fold's two sides): their points and triangles (normals along +z)."""
+    first (lips, a fold's two sides) and ``shift`` along x and y (its vertices over the
+    first's cells: a triangle then comes nearer a vertex across than any vertex does):
+    their points and triangles (normals along +z)."""
     i, j = np.meshgrid(np.arange(n, dtype=float), np.arange(n, dtype=float), indexing="ij")
     z = bump * np.sin(0.7 * i) * np.cos(0.5 * j)
     one = np.stack([i.ravel(), j.ravel(), z.ravel()], axis=1)
     v = (np.arange(n - 1)[:, None] * n + np.arange(n - 1)[None, :]).ravel()
     tri = np.concatenate([np.stack([v, v + n, v + 1], 1), np.stack([v + 1, v + n, v + n + 1], 1)])
-    return np.vstack([one, one + [0.0, 0.0, gap]]), np.vstack([tri, tri + n * n])
+    return np.vstack([one, one + [shift, shift, gap]]), np.vstack([tri, tri + n * n])
 
 
 @settings(max_examples=60, deadline=None)
 @given(bump=st.floats(0.0, 1.0), gap=st.floats(0.2, 1.5), lam0=st.floats(0.0, 0.9),
        k=st.floats(0.5, 2.0), b=st.floats(0.0, 0.1), w=st.floats(0.05, 0.6),
-       seed=st.integers(0, 2 ** 16))
+       seed=st.integers(0, 2 ** 16), shift=st.sampled_from([0.0, 0.5, 0.3]))
 def test_the_per_vertex_balls_certificate_is_sound_on_random_pulls(bump, gap, lam0, k, b, w,
-                                                                   seed):
+                                                                   seed, shift):
     """Two bumpy sheets ``gap`` apart pulled by a smooth field of known per-pair Lipschitz
     bounds plus a slide of at most b_max: every ball ``_empty_balls`` certifies, the exact
-    search leaves alone (a vertex straight across the gap is inside a ball of radius
-    above gap / 2: the certificate's 2 rho is tight there), and the search skipping them
-    returns the exact one's result."""
+    search (of vertices and triangles) leaves alone (a vertex straight across the gap is
+    inside a ball of radius above gap / 2: the certificate's 2 rho is tight there; with the
+    sheets shifted, a triangle across is nearer than its vertices, and a certificate of the
+    vertices alone is caught), and the search skipping them returns the exact one's
+    result."""
     rng = np.random.default_rng(seed)
-    rest, tri = _bumpy_sheets(12, bump, gap)
+    rest, tri = _bumpy_sheets(12, bump, gap, shift)
     kv = rng.normal(size=3)
     kv *= k / np.linalg.norm(kv)
     amp = rng.normal(size=3)
@@ -439,7 +449,9 @@ def test_the_per_vertex_balls_certificate_is_sound_on_random_pulls(bump, gap, la
     b_max = float(np.linalg.norm(slide, axis=1).max())
     d_max = float(np.linalg.norm(u, axis=1).max())
     guard = FoldGuard()
-    ok = _empty_balls(np.abs(W), sep, lam * (1 + 1e-9), b_max, d_max, skin, guard)
+    near = _near_table(_near_edges(rest, tri, np.arange(len(rest)), 0.5 * reach), len(rest),
+                       reach)
+    ok = _empty_balls(np.abs(W), sep, lam * (1 + 1e-9), b_max, d_max, skin, guard, near)
     terms = pull_terms(rest, tri)
     exact = _deformed_lows(deformed, tri, W, terms, guard)
     if exact is not None:
@@ -448,11 +460,69 @@ def test_the_per_vertex_balls_certificate_is_sound_on_random_pulls(bump, gap, la
     assert _same_lows(_deformed_lows(deformed, tri, W, terms, guard, empty=empty), exact)
 
 
+@settings(max_examples=40, deadline=None)
+@given(bump=st.floats(0.0, 1.0), gap=st.floats(0.2, 1.5), shift=st.floats(0.0, 0.5),
+       lam=st.floats(0.0, 1.2), far=st.floats(0.0, 4.0))
+def test_the_near_table_bounds_the_near_triangles_from_below(bump, gap, shift, lam, far):
+    """The certificates' table (_near_table, _table_bounds) never exceeds the bound it
+    stands for, min over each vertex's triangles within ``far`` of max_k min_i (h_ki - lam
+    m_i), and is -inf where lam > 1 or ``far`` passes the triangles' reach."""
+    rest, tri = _bumpy_sheets(8, bump, gap, shift)
+    n, reach = len(rest), 6.0
+    near = _near_edges(rest, tri, np.arange(n), 0.5 * reach)
+    d, h, m, D, owner = near[:5]
+    table = _near_table(near, n, reach)
+    rows = np.arange(n)
+    got = _table_bounds(table, np.full(n, lam), np.full(n, far), rows)
+    exact = np.full(n, np.inf)
+    take = d <= far
+    np.minimum.at(exact, owner[take], (h[take] - lam * m[take, None]).min(axis=2).max(axis=1))
+    if lam > 1.0 or far > D:
+        assert np.all(got == -np.inf)
+    else:
+        assert np.all(got <= exact)
+        assert _table_bounds(table, np.array([lam]), np.array([far]))[0] <= exact.min()
+
+
+@settings(max_examples=40, deadline=None)
+@given(bump=st.floats(0.0, 1.0), gap=st.floats(0.2, 1.5), shift=st.sampled_from([0.0, 0.5]),
+       amp=st.floats(0.0, 1.0), k=st.floats(0.3, 2.0), w=st.floats(0.02, 0.5),
+       seed=st.integers(0, 2 ** 16))
+def test_a_ball_clear_of_the_rest_gaps_holds_no_triangle(bump, gap, shift, amp, k, w, seed):
+    """Two bumpy sheets moved by a random smooth field (sheared towards each other): every
+    ball _gaps_clear certifies (from the rest skin's gaps and the frame's move) holds no
+    point of a triangle not incident to its vertex, on either side (the triangles' search
+    keeps its radius), and the deformed search told so returns the exact one's result.
+    None on a skin's first frame."""
+    rng = np.random.default_rng(seed)
+    rest, tri = _bumpy_sheets(10, bump, gap, shift)
+    kv = rng.normal(size=3)
+    kv *= k / np.linalg.norm(kv)
+    u = amp * rng.normal(size=3)[None, :] * np.sin(rest @ kv + rng.uniform(0, 6.3))[:, None]
+    deformed = rest + u
+    W = rng.uniform(-w, w, len(rest))
+    W[rng.uniform(size=len(rest)) < 0.2] = 0.0
+    guard = FoldGuard()
+    terms = pull_terms(rest, tri)
+    assert foldguard._gaps_clear(rest, deformed, W, tri, terms, guard) is None
+    clear = foldguard._gaps_clear(rest, deformed, W, tri, terms, guard)
+    ids = np.flatnonzero(clear)
+    if len(ids):
+        n = foldguard._vertex_normals(deformed, tri, ids, terms)
+        start = np.abs(W[ids]) / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6)
+        radii = np.repeat(start[:, None], 2, axis=1)
+        got = foldguard.triangle_radii(ids, n, radii, deformed, tri, clear=False)
+        assert np.array_equal(got, radii)
+    exact = _deformed_lows(deformed, tri, W, terms, guard)
+    assert _same_lows(_deformed_lows(deformed, tri, W, terms, guard, clear=clear), exact)
+
+
 def test_the_papers_frames_skip_most_balls(faces):
     """The procedural face's expressions at full intensity: the balls' certificate per
-    vertex holds on every wrinkled vertex of six of them (the global one on pucker alone,
-    Lambda being the sum of the muscles' largest Lipschitz bounds) and on most vertices of
-    the others, so their deformed balls are not searched."""
+    vertex (vertices and triangles) holds on every wrinkled vertex of squint and on most
+    vertices of the others (1,573 of 2,216; bounding the vertices alone, unsound for balls
+    empty of triangles, gave 1,811 and six whole frames), so their deformed balls are not
+    searched."""
     face = faces["procedural"][0].with_skin_model("geometric")
     whole = certified = wrinkled = 0
     for expression in face.expressions:
@@ -464,5 +534,5 @@ def test_the_papers_frames_skip_most_balls(faces):
         whole += c.balls
         wrinkled += len(ids)
         certified += len(ids) if c.balls else int(c.empty[ids].sum())
-    assert whole >= 6
-    assert certified >= 0.8 * wrinkled
+    assert whole >= 1
+    assert certified >= 0.7 * wrinkled

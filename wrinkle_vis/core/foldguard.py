@@ -5,7 +5,9 @@ wrinkle amplitude :math:`W` and the triangles, so any skin model can use them:
 
 * **Wrinkles** (:func:`guard_wrinkles`). Each vertex moves by :math:`W` along its normal.
   With :math:`r_\pm(x)` the radius of the largest ball empty of the skin that touches it at
-  :math:`x` on the side :math:`\pm n` (the medial ball, :func:`medial_radii`), the point
+  :math:`x` on the side :math:`\pm n` (the medial ball: empty of the vertices,
+  :func:`medial_radii`, and of every triangle not incident to :math:`x`,
+  :func:`triangle_radii`), the point
   :math:`x + t\,n(x)` with :math:`0 \le t < r_+(x)` (or :math:`-r_-(x) < t \le 0`) has
   :math:`x` as its unique closest skin point. Two skin points moved by less than their own
   medial radius therefore never land on the same place, whatever the neighbour does: the
@@ -26,6 +28,8 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
+from itertools import chain
 from typing import Any, Literal
 
 import numpy as np
@@ -35,7 +39,7 @@ from scipy.spatial import cKDTree
 
 __all__ = ["Certified", "FoldGuard", "GuardResult", "certify", "fold_radii", "guard_amount",
            "guard_frame", "guard_wrinkles", "guarded", "medial_radii", "pull_terms",
-           "skin_scale", "soft_clamp"]
+           "skin_scale", "soft_clamp", "triangle_radii"]
 
 
 @dataclass(frozen=True)
@@ -147,6 +151,383 @@ def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | 
             active = active[shrink]
         out[:, col] = r
     return out
+
+
+def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``(k, 3)``: row-wise cross product (faster than :func:`numpy.cross` on short rows)."""
+    return np.stack([u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1],
+                     u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2],
+                     u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]], axis=1)
+
+
+def _closest_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray
+                          ) -> np.ndarray:
+    r"""``(k, 3)``: the point of each triangle ``a``, ``b``, ``c`` ``(k, 3)`` nearest to
+    ``p`` ``(k, 3)`` (its projection on the plane where that falls inside, else the nearest
+    point of the nearest edge; a triangle with no area: of its edges).
+    """
+    e1, e2 = b - a, c - a
+    d = p - a
+    N = _cross(e1, e2)
+    nn = np.einsum("ij,ij->i", N, N)
+    ok = nn > 0
+    safe = np.where(ok, nn, 1.0)
+    u = np.einsum("ij,ij->i", _cross(d, e2), N) / safe  # p's barycentrics (of b, c)
+    v = np.einsum("ij,ij->i", _cross(e1, d), N) / safe
+    inside = ok & (u >= 0) & (v >= 0) & (u + v <= 1)
+    best = a + u[:, None] * e1 + v[:, None] * e2
+    far = np.flatnonzero(~inside)
+    if len(far):
+        pf = p[far]
+        edges = []
+        for s, t in ((a, b), (b, c), (c, a)):
+            s, t = s[far], t[far]
+            e = t - s
+            ee = np.einsum("ij,ij->i", e, e)
+            w = np.clip(np.einsum("ij,ij->i", pf - s, e) / np.where(ee > 0, ee, 1.0), 0, 1)
+            edges.append(s + w[:, None] * e)
+        cand = np.stack(edges)  # (3, f, 3)
+        dist = np.einsum("kij,kij->ki", cand - pf, cand - pf)
+        best[far] = cand[np.argmin(dist, axis=0), np.arange(len(far))]
+    return best
+
+
+
+def _near_triangles(centres: np.ndarray, radii: np.ndarray, points: np.ndarray,
+                    tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(p,)`` twice: the pairs (ball, triangle) of balls ``centres`` ``(k, 3)``,
+    ``radii`` ``(k,)`` and triangles ``tri`` ``(m, 3)`` on ``points`` ``(n, 3)`` that may
+    meet (every pair that does, once). A point :math:`q = \sum_i \lambda_i v_i` of a
+    triangle has :math:`\sum_i \lambda_i |v_i - c|^2 = |q - c|^2 + \sum_i \lambda_i
+    |v_i - q|^2` and :math:`\sum_i \lambda_i |v_i - q|^2 \le \ell^2 / 3` (its corners lie
+    in a circle of radius :math:`\ell / \sqrt 3`, :math:`\ell` its longest edge), so a
+    triangle meeting the ball has a corner within :math:`\sqrt{r^2 + \ell^2 / 3}` of the
+    centre. The triangles are taken in classes of :math:`\ell` (doubling), each with its
+    own corners' ``cKDTree``, so a few long triangles do not widen every query.
+    """
+    e = points[tri] - points[np.roll(tri, 1, axis=1)]
+    longest = np.sqrt(np.einsum("ijk,ijk->ij", e, e).max(axis=1))
+    top = float(longest.max()) if len(tri) else 0.0
+    if not len(tri) or not len(centres) or top <= 0.0:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    level = np.ceil(np.log2(np.maximum(longest, top * 2.0 ** -12) / top)).astype(int)
+    owners, tris = [], []
+    for k in np.unique(level):
+        group = np.flatnonzero(level == k)
+        corners = np.unique(tri[group])
+        bound = top * 2.0 ** float(k)
+        tree = cKDTree(points[corners], balanced_tree=False)
+        near = tree.query_ball_point(centres, np.sqrt(radii * radii + bound * bound / 3.0))
+        counts = np.fromiter(map(len, near), np.intp, len(near))
+        if not counts.sum():
+            continue
+        verts = corners[np.fromiter(chain.from_iterable(near), np.intp, int(counts.sum()))]
+        owner = np.repeat(np.arange(len(centres)), counts)
+        inc = _incidence(tri[group], len(points))[verts]
+        owners.append(np.repeat(owner, np.diff(inc.indptr)))
+        tris.append(group[inc.indices])
+    if not owners:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    key = np.unique(np.concatenate(owners) * np.int64(len(tri)) + np.concatenate(tris))
+    return (key // len(tri)).astype(np.intp), (key % len(tri)).astype(np.intp)
+
+def _incidence(tri: np.ndarray, n: int) -> sp.csr_matrix:
+    """``(n, m)``: the vertex-triangle incidence of ``tri`` ``(m, 3)`` on ``n`` vertices."""
+    m = len(tri)
+    return sp.csr_matrix((np.ones(3 * m), (tri.ravel(), np.repeat(np.arange(m), 3))),
+                         shape=(n, m))
+
+
+def _enclosing_sq(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    r"""``(m,)``: an upper bound of :math:`\rho_t^2`, the squared radius of the smallest disc
+    holding the triangles ``tri`` ``(m, 3)`` on ``points`` ``(n, 3)``: half the longest edge
+    where the triangle is right or obtuse (:math:`c^2 \ge a^2 + b^2`), else its circumradius
+    :math:`a^2 b^2 c^2 / (16 A^2)`; never above :math:`\ell^2 / 3` (Jung), and raised by
+    :math:`10^{-9}` of itself against rounding.
+    """
+    a, b, c = points[tri[:, 0]], points[tri[:, 1]], points[tri[:, 2]]
+    a2 = np.einsum("ij,ij->i", b - c, b - c)
+    b2 = np.einsum("ij,ij->i", c - a, c - a)
+    c2 = np.einsum("ij,ij->i", a - b, a - b)
+    top = np.maximum(np.maximum(a2, b2), c2)  # the longest edge's square, and the rest:
+    rest = a2 + b2 + c2 - top  # the other two's sum (obtuse or right: top >= rest)
+    area16 = 2.0 * (a2 * b2 + b2 * c2 + c2 * a2) - (a2 * a2 + b2 * b2 + c2 * c2)
+    acute = (top < rest) & (area16 > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        circ = np.where(acute, a2 * b2 * c2 / np.where(acute, area16, 1.0), 0.0)
+    rho = np.where(acute, np.minimum(circ, top / 3.0), 0.25 * top)
+    return rho * (1.0 + 1e-9)
+
+
+def _lift(points: np.ndarray, tri: np.ndarray) -> dict:
+    r"""The triangles' reach, lifted to 4-D ``cKDTree`` s, for :func:`_suspects`: each vertex
+    :math:`v` of ``points`` ``(n, 3)`` carries :math:`\rho_v^2 = \max_{t \ni v} \rho_t^2`
+    over its triangles of ``tri`` ``(m, 3)`` (:func:`_enclosing_sq`). The vertices are taken
+    in classes of :math:`\rho_v^2` (by factors of 16, at most 6), each class with the
+    largest :math:`T` of its :math:`\rho_v^2` and its own tree of the vertices lifted to
+    :math:`(v, \sqrt{T - \rho_v^2})`: a centre :math:`c` lifted to :math:`(c, 0)` is
+    :math:`\sqrt{|v - c|^2 - \rho_v^2 + T}` from :math:`v`, so one nearest-point query, or one
+    ball query of radius :math:`\sqrt{r^2 + T}`, per class finds the vertices with
+    :math:`|v - c|^2 - \rho_v^2 \le r^2` exactly. (One tree for a skin whose triangles
+    differ much in size, a refined one, is slow to query: its fine vertices' lifts are all
+    near :math:`\sqrt T`.)
+    """
+    rho_t = _enclosing_sq(points, tri) if len(tri) else np.zeros(0)
+    rho = np.zeros(len(points))
+    np.maximum.at(rho, tri.ravel(), np.repeat(rho_t, 3))
+    top = float(rho.max()) if len(rho) else 0.0
+    if top > 0:
+        with np.errstate(divide="ignore"):
+            level = np.floor(np.log(top / np.maximum(rho, top * 1e-300)) / math.log(16.0))
+        level = np.clip(level, 0, 5).astype(np.intp)
+    else:
+        level = np.zeros(len(rho), np.intp)
+    classes, T = [], np.zeros(len(points))
+    for k in np.unique(level):
+        ids = np.flatnonzero(level == k)
+        Tk = float(rho[ids].max())
+        T[ids] = Tk
+        lifted = np.column_stack([points[ids], np.sqrt(np.maximum(Tk - rho[ids], 0.0))])
+        classes.append((cKDTree(lifted, balanced_tree=False), ids, Tk))
+    return {"classes": classes, "T": T, "rho_t": rho_t, "rho": rho, "tri": tri,
+            "n": len(points)}
+
+
+def _skin_lift(face) -> dict:
+    """:func:`_lift` of ``face``'s own rest skin, kept with its rest frame."""
+    rest = face._rest
+    got = getattr(rest, "fold_lift", None)
+    if got is None:
+        got = rest.fold_lift = _lift(np.asarray(face.skin.points, dtype=float),
+                                     np.asarray(face.skin.triangles, dtype=np.intp))
+    return got
+
+
+def _cleared(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray
+             ) -> np.ndarray:
+    r"""``(k,)`` bool: the balls ``centres`` ``(k, 3)``, ``radii`` ``(k,)`` that no triangle
+    not incident to vertex ``own`` ``(k,)`` can meet, and no vertex but ``own``, by one
+    2-nearest query per class of :func:`_lift`: a triangle :math:`t` with a point :math:`q =
+    \sum_i \lambda_i v_i` at :math:`|q - c| \le r` has :math:`\sum_i \lambda_i |v_i - c|^2 =
+    |q - c|^2 + \sum_i \lambda_i |v_i - q|^2 \le r^2 + \rho_t^2` (the weighted spread of
+    its corners about their mean :math:`q` is at most their spread about the centre of the
+    smallest disc holding them), so a corner :math:`v \ne` ``own`` has :math:`|v - c|^2 -
+    \rho_v^2 \le r^2`. Where, in every class, the nearest lifted vertex other than ``own``
+    is farther than :math:`\sqrt{(r^2 + T)(1 + 10^{-9})}`, no such corner exists.
+    """
+    out = np.ones(len(centres), bool)
+    if not len(centres):
+        return out
+    c4 = np.column_stack([centres, np.zeros(len(centres))])
+    # the largest class first (most balls fail there); each later one asks only for the
+    # balls still cleared
+    for tree, ids, Tk in sorted(lift["classes"], key=lambda c: -len(c[1])):
+        left = np.flatnonzero(out)
+        if not len(left):
+            break
+        k = min(2, len(ids))  # (a neighbour beyond every ball's bound is not needed)
+        bound = math.sqrt((float(radii[left].max()) ** 2 + Tk) * (1.0 + 1e-9)) * (1.0 + 1e-6)
+        d, i = tree.query(c4[left], k=k, distance_upper_bound=bound)
+        d, i = d.reshape(len(left), k), i.reshape(len(left), k)
+        first = np.where(i[:, 0] < len(ids), ids[np.minimum(i[:, 0], len(ids) - 1)], -1)
+        other = np.where(first == own[left], d[:, -1] if k == 2 else np.inf, d[:, 0])
+        out[left] = other * other > (radii[left] ** 2 + Tk) * (1.0 + 1e-9)
+    return out
+
+
+_SUSPECTS_K = 12  # the nearest lifted vertices a ball's candidates are first looked for in
+
+
+def _suspects(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray,
+              points: np.ndarray, tri: np.ndarray, clear: bool = True
+              ) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(p,)`` twice: the pairs (ball, triangle) of balls ``centres`` ``(k, 3)``,
+    ``radii`` ``(k,)`` tangent at vertices ``own`` ``(k,)`` and triangles ``tri`` ``(m, 3)``
+    on ``points`` ``(n, 3)`` not incident to ``own`` that may meet (every pair that does,
+    once): a triangle meeting the ball has a corner :math:`v` with :math:`|v - c|^2 \le r^2
+    + \rho_t^2 \le r^2 + \rho_v^2` (:func:`_cleared`). With ``clear``, the balls
+    :func:`_cleared` clears are skipped first; the others' vertices with :math:`|v - c|^2 -
+    \rho_v^2 \le r^2` are found by one ball query per class of lifted vertices
+    (:func:`_lift`), then each of their triangles is kept if a corner has :math:`|v - c|^2
+    \le (r^2 + \rho_t^2)(1 + 10^{-9})`, once: through the first of its corners with
+    :math:`|v - c|^2 - \rho_v^2 \le r^2 + 1.5 \cdot 10^{-9} (r^2 + T_v)` (the class's query,
+    at :math:`2 \cdot 10^{-9}`, finds it; a triangle kept has one, as :math:`\rho_t \le
+    \rho_v \le T_v`).
+    """
+    none = np.zeros(0, np.intp), np.zeros(0, np.intp)
+    if not len(centres) or not len(tri):
+        return none
+    left = np.flatnonzero(~_cleared(lift, centres, radii, own)) if clear \
+        else np.arange(len(centres))
+    if not len(left):
+        return none
+    c4 = np.column_stack([centres[left], np.zeros(len(left))])
+    balls, verts = [], []
+    for tree, ids, Tk in lift["classes"]:
+        bound = np.sqrt((radii[left] ** 2 + Tk) * (1.0 + 2e-9))
+        k = min(_SUSPECTS_K, len(ids))  # k nearest first (arrays); a full row: a ball query
+        d, i = tree.query(c4, k=k, distance_upper_bound=float(bound.max()))
+        d, i = d.reshape(len(c4), k), i.reshape(len(c4), k)
+        inside = d <= bound[:, None]
+        full = inside[:, -1].copy() if k == _SUSPECTS_K else np.zeros(len(c4), bool)
+        inside[full] = False
+        rows, cols = np.nonzero(inside)
+        verts.append(ids[i[rows, cols]])
+        balls.append(left[rows])
+        if full.any():
+            near = tree.query_ball_point(c4[full], bound[full])
+            counts = np.fromiter(map(len, near), np.intp, len(near))
+            verts.append(ids[np.fromiter(chain.from_iterable(near), np.intp,
+                                         int(counts.sum()))])
+            balls.append(np.repeat(left[full], counts))
+    if not sum(map(len, balls)):
+        return none
+    ball, t, vert = _expand(lift, np.concatenate(balls), np.concatenate(verts))
+    corners = tri[t]
+    keep = ~(corners == own[ball, None]).any(axis=1)  # not the ball's own vertex's
+    ball, t, vert, corners = ball[keep], t[keep], vert[keep], corners[keep]
+    diff = points[corners] - centres[ball, None]
+    dd = np.einsum("ijk,ijk->ij", diff, diff)  # (p, 3)
+    r2 = radii[ball, None] ** 2
+    found = dd - lift["rho"][corners] <= r2 + 1.5e-9 * (r2 + lift["T"][corners])
+    first = np.argmax(found, axis=1)
+    keep = (corners[np.arange(len(t)), first] == vert) \
+        & (dd.min(axis=1) <= (r2[:, 0] + lift["rho_t"][t]) * (1.0 + 1e-9))
+    return ball[keep], t[keep]
+
+
+def _expand(lift: dict, ball: np.ndarray, verts: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(p,)`` thrice: each pair of ``ball`` and ``verts`` ``(q,)`` repeated for every
+    triangle of that vertex (ball, triangle, vertex), from :func:`_lift`'s incidence.
+    """
+    if "ptr" not in lift:  # the vertex-triangle incidence, built on first need
+        tri = lift["tri"]
+        order = np.argsort(tri.ravel(), kind="stable")
+        lift["by_vertex"] = (order // 3).astype(np.intp)
+        lift["ptr"] = np.concatenate([[0], np.cumsum(np.bincount(tri.ravel(),
+                                                                 minlength=lift["n"]))])
+    ptr = lift["ptr"]
+    deg = ptr[verts + 1] - ptr[verts]
+    total = int(deg.sum())
+    starts = np.repeat(ptr[verts] - np.concatenate([[0], np.cumsum(deg)[:-1]]), deg)
+    t = lift["by_vertex"][starts + np.arange(total)]
+    return np.repeat(ball, deg), t, np.repeat(verts, deg)
+
+
+def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
+                   points: np.ndarray, triangles: np.ndarray, iterations: int = 60,
+                   lift: dict | None = None, clear: bool = True) -> np.ndarray:
+    r"""``(k, 2)``: the radii ``radii`` ``(k, 2)`` (:math:`r_\pm` of balls empty of the
+    vertices, :func:`medial_radii`, touching vertices ``ids`` ``(k,)`` of the skin
+    ``points`` ``(n, 3)``, ``triangles`` ``(m, 3)``, at unit ``normals`` ``(k, 3)``) lowered
+    to balls empty of the *triangles* not incident to the vertex (0: that side not wanted).
+
+    A ball of radius :math:`r` tangent at :math:`x` can hold part of a triangle whose
+    corners all lie outside it (a ball smaller than the triangle, or two sheets pressed
+    together): the shrinking-ball search is run again on the triangles, with :math:`q` the
+    point of a triangle nearest the centre: while one lies inside, shrink to the ball through
+    :math:`x` and :math:`q`, :math:`r = |q - x|^2 / (2 |n \cdot (q - x)|)`. The balls tangent
+    at :math:`x` on a side nest, so every step stays at or above the largest empty ball and
+    a triangle that meets a smaller ball meets the first one: the candidates are found once,
+    the triangles with a corner within :math:`\sqrt{r^2 + \rho_t^2}` of the first centre
+    (:func:`_suspects`, :math:`\rho_t \le \ell / \sqrt 3` the radius of the smallest disc
+    holding the triangle; ``lift``: :func:`_lift` of ``points`` and ``triangles``, when one
+    is at hand). With ``clear``, a ball whose nearest vertex but its own is farther than
+    :math:`\sqrt{r^2 + \max \rho_v^2}` in the lifted metric is cleared by one nearest-point
+    query first (:func:`_cleared`: most balls well below the medial radius; not those of a
+    finished vertex search, which end on a vertex). A search that does not
+    settle within ``iterations`` steps falls back to half the distance from :math:`x` to its
+    nearest candidate (a ball tangent at :math:`x` lies within its diameter of :math:`x`),
+    so the result is never above the largest empty ball's radius.
+    """
+    ids = np.asarray(ids, dtype=np.intp)
+    out = np.array(radii, dtype=float, copy=True)
+    if not len(ids) or not len(triangles):
+        return out
+    tri = np.asarray(triangles, dtype=np.intp)
+    rows, cols = np.nonzero(out > 0)  # every wanted ball, both sides in one search
+    if not len(rows):
+        return out
+    r = out[rows, cols]
+    sign = np.where(cols == 0, 1.0, -1.0)
+    x, n = points[ids[rows]], normals[rows] * sign[:, None]  # n: towards the ball
+    if lift is None:
+        lift = _lift(points, tri)
+    ball, t = _suspects(lift, x + r[:, None] * n, r, ids[rows], points, tri, clear)
+    if not len(ball):
+        return out
+    out[rows, cols] = _shrink_on_triangles(r, ball, x[ball], n[ball], points[tri[t]],
+                                           iterations)
+    return out
+
+
+def _shrink_on_triangles(r: np.ndarray, ball: np.ndarray, xb: np.ndarray, nb: np.ndarray,
+                         corners: np.ndarray, iterations: int) -> np.ndarray:
+    r"""``(k,)``: the shrinking-ball search of :func:`triangle_radii` on the balls' radii
+    ``r`` ``(k,)`` (lowered in place) over their candidate pairs: the ball ``ball`` ``(p,)``
+    tangent at ``xb`` ``(p, 3)`` along ``nb`` ``(p, 3)`` (towards the ball) and the
+    triangle ``corners`` ``(p, 3, 3)``.
+    """
+    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
+    live = np.ones(len(ball), bool)
+    for _ in range(iterations):
+        k = np.flatnonzero(live)
+        if not len(k):
+            break
+        centre = xb[k] + r[ball[k], None] * nb[k]
+        q = _closest_on_triangles(centre, a[k], b[k], c[k])
+        dq = q - centre
+        dd = np.einsum("ij,ij->i", dq, dq)
+        rk = r[ball[k]]
+        # a triangle outside this ball is outside every smaller one (they nest): only the
+        # triangles that reach inside are tried again, and only where their ball shrank
+        live[:] = False
+        live[k[dd < rk * rk]] = True
+        inside = dd < (rk * (1.0 - 1e-9)) ** 2
+        k, q = k[inside], q[inside]
+        if not len(k):
+            break
+        d = q - xb[k]
+        dd = np.einsum("ij,ij->i", d, d)
+        h = np.einsum("ij,ij->i", d, nb[k])
+        new = np.where(h > 0, dd / (2.0 * np.where(h > 0, h, 1.0)), 0.0)
+        np.minimum.at(r, ball[k], new)
+        live &= np.isin(ball, ball[k])  # a shrunk ball: its triangles that reached in
+    else:
+        k = np.flatnonzero(live)  # not settled: half the distance to the candidates
+        q = _closest_on_triangles(xb[k], a[k], b[k], c[k])
+        np.minimum.at(r, ball[k], 0.5 * np.linalg.norm(q - xb[k], axis=1))
+    return r
+
+
+
+def _triangle_seps(points: np.ndarray, tri: np.ndarray, near: np.ndarray,
+                   lift: dict | None = None, rows: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, float]:
+    r"""``(n,)`` and a float: each vertex's distance :math:`s_x` to the nearest other vertex
+    or triangle not incident to it, given ``near`` ``(n,)``, the distance to the nearest
+    other vertex, and the longest edge :math:`L` of ``tri`` ``(m, 3)`` on ``points``
+    ``(n, 3)``. Only the triangles that come within ``near`` of :math:`x` can lower it: the
+    candidates of the ball of radius ``near`` about :math:`x` (:func:`_suspects`, ``lift``:
+    :func:`_lift`). ``rows``: the vertices searched (default all; ``near`` at the others).
+    """
+    e = points[tri] - points[np.roll(tri, 1, axis=1)]
+    L = float(np.sqrt(np.einsum("ijk,ijk->ij", e, e).max())) if len(tri) else 0.0
+    if lift is None:
+        lift = _lift(points, tri)
+    sep = np.array(near, dtype=float, copy=True)
+    rows = np.arange(len(points)) if rows is None else np.asarray(rows, dtype=np.intp)
+    step = 4000
+    for lo in range(0, len(rows), step):
+        ids = rows[lo:lo + step]
+        ok = np.isfinite(sep[ids])
+        ids = ids[ok]
+        owner, t = _suspects(lift, points[ids], sep[ids], ids, points, tri, clear=False)
+        x = points[ids[owner]]
+        q = _closest_on_triangles(x, points[tri[t, 0]], points[tri[t, 1]], points[tri[t, 2]])
+        np.minimum.at(sep, ids[owner], np.linalg.norm(q - x, axis=1))
+    return sep, L
 
 
 def _row_terms(points: np.ndarray, corners: np.ndarray, normals_only: bool = False,
@@ -676,15 +1057,17 @@ def _rewrinkled(points: np.ndarray, d2: np.ndarray, W: np.ndarray, W2: np.ndarra
 
 def _clamped(W: np.ndarray, radii, certified: bool, d2: np.ndarray, tri: np.ndarray,
              terms: dict, guard: FoldGuard, deformed: bool, step: np.ndarray | None,
-             empty: np.ndarray | None = None) -> np.ndarray:
+             empty: np.ndarray | None = None, clear: np.ndarray | None = None
+             ) -> np.ndarray:
     r"""``(n,)``: :math:`W` ``(n,)`` clamped by :func:`guard_wrinkles` on the rest ``radii``
     ``(n, 2)`` (or a function giving them, called only when they are needed), lowered by
     the deformed skin ``d2``'s (:func:`_deformed_radii`) when ``deformed``; ``W`` itself
     where the clamp is ``certified`` (the identity on the rest radii) and no deformed ball
     shrank. ``step``: the frame's :math:`W n` when ``d2`` is its deformed skin; ``empty``
-    ``(n,)`` bool: the vertices whose deformed balls are certified empty (not searched).
+    ``(n,)`` bool: the vertices whose deformed balls are certified empty (not searched),
+    ``clear`` ``(n,)`` bool: those certified empty of triangles (:func:`_gaps_clear`).
     """
-    low = _deformed_lows(d2, tri, W, terms, guard, step, empty) if deformed else None
+    low = _deformed_lows(d2, tri, W, terms, guard, step, empty, clear) if deformed else None
     if certified and low is None:
         return W
     if callable(radii):
@@ -729,7 +1112,8 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
     2. :math:`W` is clamped by :func:`guard_wrinkles` (below :math:`\eta\, r_\pm`); with
        ``deformed_radii``, :math:`r_\pm` at each wrinkled vertex is the lesser of ``radii``
        and the medial radii of the guarded deformed skin itself (the surface :math:`W`
-       displaces; the pulls may have pressed it together).
+       displaces; the pulls may have pressed it together), its balls empty of its
+       triangles (:func:`triangle_radii`), not only of its vertices.
     3. The wrinkles' own step, :math:`x' \to x' + W' n'`, is held to the same rule as the
        pulls, against the guarded deformed skin: :math:`W'` is scaled by
        :func:`skin_scale` of that step (a steep furrow on small triangles would otherwise
@@ -758,9 +1142,10 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
         d2 = d2.copy()
         d2[moved] = rest[moved] + f[moved, None] * (d2[moved] - rest[moved])
         cert = Certified(False, False, False, False)  # certified for the unscaled pull only
-    W2 = _clamped(W, radii, cert.clamp, d2, tri, terms, guard,
-                  deformed_radii and not cert.balls, None if moved.any() else p2 - d2,
-                  cert.empty)
+    search = deformed_radii and not cert.balls
+    W2 = _clamped(W, radii, cert.clamp, d2, tri, terms, guard, search,
+                  None if moved.any() else p2 - d2, cert.empty,
+                  _gaps_clear(rest, d2, W, tri, terms, guard) if search else None)
     p2 = _rewrinkled(p2, d2, W, W2, moved, tri, terms)
     if not cert.step:
         p2, W2 = _held_wrinkles(rest, d2, p2, W2, tri, guard, terms)
@@ -799,7 +1184,8 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
                     ) -> np.ndarray:
     r"""``(n, 2)``: ``radii`` ``(n, 2)``, lowered at the vertices where ``W`` ``(n,)`` is not 0
     to :math:`\eta_d / \eta` times the medial radii of the skin ``deformed`` ``(n, 3)``
-    along its area-weighted normals (``eta_deformed``: the clamp then keeps
+    (balls empty of its vertices and of its triangles not incident to the vertex,
+    :func:`triangle_radii`) along its area-weighted normals (``eta_deformed``: the clamp then keeps
     :math:`|W| < \eta_d\, r^{\text{def}}_\pm`). The search starts at the radius where
     the clamp's knee would just reach :math:`|W|`, so it stops at once wherever the clamp
     would not act. ``step`` ``(n, 3)``: :math:`W n`, when the frame's normals are those of
@@ -821,16 +1207,17 @@ def _deformed_radii(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, radii:
 
 def _deformed_lows(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, terms: dict,
                    guard: FoldGuard, step: np.ndarray | None = None,
-                   empty: np.ndarray | None = None
+                   empty: np.ndarray | None = None, clear: np.ndarray | None = None
                    ) -> tuple[np.ndarray, np.ndarray] | None:
     r"""The search of :func:`_deformed_radii`: the vertices whose ball shrank ``(k,)`` and
     :math:`\eta_d / \eta` times their deformed radii ``(k, 2)`` (``inf`` on the side
     :math:`W` does not push to), or None where no ball shrank.
 
-    ``empty`` ``(n,)`` bool: vertices whose balls are certified empty (:func:`certify`,
-    :func:`_empty_balls`): they are not searched. The samples and their tree are those of
-    searching every wrinkled vertex (the box of all of them), so each searched ball's
-    result is the same bit for bit; with no ball left, nothing is built.
+    ``empty`` ``(n,)`` bool: balls certified empty (:func:`_empty_balls`), not searched;
+    ``clear``: balls certified empty of triangles (:func:`_gaps_clear`), searched for
+    vertices alone (a radius at most the start, whose ball no triangle enters). The
+    samples, triangles, lifts and tree are those of searching every wrinkled vertex (the
+    box of all), so each searched ball's result is the same bit for bit.
     """
     ratio = guard.eta_deformed / guard.eta
     ids = np.flatnonzero(W)
@@ -838,7 +1225,6 @@ def _deformed_lows(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, terms: 
         return None
     start = np.abs(W[ids]) / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6)
     reach = 2.0 * float(start.max())  # a ball of radius R tangent at x lies within 2 R of x
-    top = float(start.max())
     lo, hi = deformed[ids].min(axis=0) - reach, deformed[ids].max(axis=0) + reach
     if empty is not None:
         keep = ~empty[ids]
@@ -852,22 +1238,186 @@ def _deformed_lows(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, terms: 
         n = step[ids] / W[ids, None]
         n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
     side = np.where(W[ids, None] >= 0, [[1.0, 0.0]], [[0.0, 1.0]])  # the side W pushes to
-    samples = deformed[_in_box(deformed, lo, hi)]
-    tree = cKDTree(samples, balanced_tree=False)
-    # the search's first step for every ball at once: only a ball with a sample inside
-    # shrinks (medial_radii's result at the others is their start, exactly)
+    # a triangle meeting a ball has its corners within the ball's reach plus its edges
+    L = _longest_edge(deformed, tri, terms)
+    samples, local, t_loc = _local_skin(deformed, tri, lo - L, hi + L)
+    # the balls to search (_to_search): the vertices' search where a vertex lies inside
+    # (medial_radii), then the triangles' (a ball empty of vertices may hold a triangle)
     c = x + np.where(W[ids] >= 0, 1.0, -1.0)[:, None] * start[:, None] * n
-    dist, _ = tree.query(c, distance_upper_bound=top)
-    hit = np.flatnonzero(dist < start * (1.0 - 1e-9))
-    if not len(hit):
+    free = np.zeros(len(ids), bool) if clear is None else clear[ids]
+    todo, lift = _to_search(samples, t_loc, c, start, local[ids], free)
+    if not len(todo):
         return None
-    r = medial_radii(x[hit], n[hit], samples=samples, r_max=side[hit] * start[hit, None],
-                     tree=tree)
-    r = np.where(side[hit] > 0, r, np.inf)
-    low = np.flatnonzero(r.min(axis=1) < start[hit])  # the balls that shrank
+    ids, x, n, c, start, side = ids[todo], x[todo], n[todo], c[todo], start[todo], side[todo]
+    free = free[todo]
+    tree = cKDTree(samples, balanced_tree=False)  # the vertices' search, where needed
+    dist, _ = tree.query(c, distance_upper_bound=float(start.max()))
+    r = side * start[:, None]
+    hit = np.flatnonzero(dist < start * (1.0 - 1e-9))
+    if len(hit):
+        r[hit] = medial_radii(x[hit], n[hit], samples=samples, r_max=r[hit], tree=tree)
+    if lift is not None:  # the triangles' search, where not certified clear
+        o = np.flatnonzero(~free)
+        r[o] = triangle_radii(local[ids[o]], n[o], r[o], samples, t_loc, lift=lift, clear=False)
+    r = np.where(side > 0, r, np.inf)
+    low = np.flatnonzero(r.min(axis=1) < start)  # the balls that shrank
     if not len(low):
         return None
-    return ids[hit[low]], ratio * r[low]
+    return ids[low], ratio * r[low]
+
+
+def _to_search(samples: np.ndarray, t_loc: np.ndarray, c: np.ndarray, start: np.ndarray,
+               own: np.ndarray, free: np.ndarray) -> tuple[np.ndarray, dict | None]:
+    r"""The balls of :func:`_deformed_lows` to search ``(k,)`` (ascending) and the lifted
+    classes of the local skin ``samples`` ``(s, 3)``, ``t_loc`` ``(t, 3)`` (None where not
+    needed): those certified ``free`` ``(b,)`` of triangles (the vertices' search alone),
+    and of the others, centres ``c`` ``(b, 3)``, radii ``start`` ``(b,)`` at the local
+    vertices ``own`` ``(b,)``, those :func:`_cleared` does not clear (one nearest-point
+    query of the lifted vertices clears a ball no vertex and no triangle not incident to
+    its vertex can enter).
+    """
+    todo = np.flatnonzero(free)
+    if free.all():
+        return todo, None
+    lift = _lift(samples, t_loc)
+    rest = np.flatnonzero(~free)
+    return np.union1d(todo, rest[~_cleared(lift, c[rest], start[rest], own[rest])]), lift
+
+
+def _local_skin(points: np.ndarray, tri: np.ndarray, lo: np.ndarray, hi: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The skin ``points`` ``(n, 3)``, ``tri`` ``(m, 3)`` in the box ``lo``-``hi``: its
+    vertices ``(s, 3)`` (:func:`_in_box`), each vertex's row among them ``(n,)`` (-1
+    outside) and the triangles with every corner inside, on those rows ``(t, 3)``.
+    """
+    box = _in_box(points, lo, hi)
+    local = np.full(len(points), -1, dtype=np.intp)
+    local[box] = np.arange(len(box))
+    t_loc = local[tri]
+    return points[box], local, t_loc[t_loc.min(axis=1) >= 0]
+
+
+_GAP_CUTS = (0.25, 0.5, 0.75, 1.0)  # of the rest gaps' reach, 3 median edges
+_GAP_CORNERS = 160  # the corners a vertex keeps over its gaps' reach (more: no certificate)
+
+
+def _gaps_clear(rest: np.ndarray, deformed: np.ndarray, W: np.ndarray, tri: np.ndarray,
+                terms: dict, guard: FoldGuard) -> np.ndarray | None:
+    r"""``(n,)`` bool: the wrinkled vertices whose deformed ball (:func:`_deformed_lows`,
+    radius :math:`\rho = |W| / (\kappa\eta_d)(1 + 10^{-6})` tangent at :math:`x'`) no
+    triangle not incident to :math:`x` can enter, from the rest skin ``rest`` ``(n, 3)``,
+    ``tri`` ``(m, 3)`` and the frame's move :math:`u = x' - x` (``deformed``): with
+    :func:`_rest_gaps`' :math:`H_{x,l}` and corners, :math:`\delta_{x,l} = \max |u_w - u_x|`
+    over those corners, :math:`U = \max_v |u_v|` and :math:`\sigma = 2\rho(1 + 10^{-6}) +
+    \tau`, some cut :math:`c_l` with :math:`c_l - U - |u_x| \ge \sigma` and
+    :math:`H_{x,l} - \delta_{x,l} \ge \sigma` (``docs/model.md``, "The rest gaps"). None on
+    a skin's first frame (a refined frame's skin is new every frame: its gaps would cost
+    more than the search they spare).
+    """
+    terms["gap_frames"] = seen = terms.get("gap_frames", 0) + 1
+    ids = np.flatnonzero(W)
+    if seen < 2 or not len(ids):
+        return None
+    gaps = _rest_gaps(rest, tri, ids, terms)
+    u = deformed - rest
+    U = float(np.sqrt(np.einsum("ij,ij->i", u, u).max()))
+    tau = 1e-12 * (1.0 + float(np.abs(rest).max()) + U)
+    sigma = 2.0 * np.abs(W[ids]) / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6) \
+        * (1.0 + 1e-6) + tau
+    ux = u[ids]
+    span = gaps["cut"][None, :] - U - np.linalg.norm(ux, axis=1)[:, None]  # (k, c)
+    ok_far = span >= sigma[:, None]
+    level = np.argmax(ok_far, axis=1)  # the least cut far enough
+    count = gaps["count"][ids, level]
+    ok = ok_far.any(axis=1) & (count >= 0)
+    rows = np.flatnonzero(ok)
+    width = int(count[rows].max()) if len(rows) else 0
+    corners = gaps["corners"][ids[rows], :width]
+    inside = np.arange(width)[None, :] < count[rows, None]
+    move = u[np.where(inside, corners, ids[rows, None])] - ux[rows, None]
+    delta = np.sqrt(np.einsum("ijk,ijk->ij", move, move).max(axis=1)) if width \
+        else np.zeros(len(rows))
+    ok[rows] = gaps["H"][ids[rows], level[rows]] - delta >= sigma[rows]
+    out = np.zeros(len(W), bool)
+    out[ids] = ok
+    return out
+
+
+def _rest_gaps(rest: np.ndarray, tri: np.ndarray, ids: np.ndarray, terms: dict) -> dict:
+    r"""Per vertex of the rest skin ``rest`` ``(n, 3)``, ``tri`` ``(m, 3)``, found for the
+    vertices ``ids`` ``(k,)`` that have none yet and kept in ``terms``: over its triangles
+    not incident to it within each cut :math:`c_l` (:data:`_GAP_CUTS` of :math:`D`, 3 median
+    edges; :func:`_near_edges`), ``H`` ``(n, c)``: :math:`\min_t \max_k \min_i h_{ki}`
+    (the best of four directions' least corner height, at most the distance to the
+    triangle's points), ``corners`` ``(n, K)`` their distinct corners nearest cut first
+    and ``count`` ``(n, c)`` how many lie within each cut (-1: more than
+    :data:`_GAP_CORNERS`; -2: not found yet); ``cut`` ``(c,)``.
+    """
+    gaps = terms.get("gaps")
+    if gaps is None:
+        e = rest[tri] - rest[np.roll(tri, 1, axis=1)]
+        D = 3.0 * float(np.median(np.sqrt(np.einsum("ijk,ijk->ij", e, e))))
+        n, c = len(rest), len(_GAP_CUTS)
+        gaps = terms["gaps"] = {"cut": np.array(_GAP_CUTS) * D, "D": D,
+                                "H": np.full((n, c), -np.inf),
+                                "corners": np.zeros((n, _GAP_CORNERS), np.intp),
+                                "count": np.full((n, c), -2, np.intp)}
+    todo = ids[gaps["count"][ids, 0] == -2]
+    if len(todo):
+        _fill_gaps(gaps, rest, tri, todo)
+    return gaps
+
+
+def _fill_gaps(gaps: dict, rest: np.ndarray, tri: np.ndarray, todo: np.ndarray) -> None:
+    """:func:`_rest_gaps`' entries of the vertices ``todo`` ``(k,)``, in place."""
+    d, h, _, D, owner, t = _near_edges(rest, tri, todo, gaps["D"])
+    cut = gaps["cut"]
+    c = len(cut)
+    level = np.minimum(np.searchsorted(cut, d, side="left"), c - 1)
+    H = np.full((len(todo), c), np.inf)
+    np.minimum.at(H, (owner, level), h.min(axis=2).max(axis=1))
+    gaps["H"][todo] = np.minimum.accumulate(H, axis=1)
+    # each vertex's distinct corners, at the least cut they appear within
+    v = tri[t].ravel()
+    key = np.repeat(owner, 3) * np.int64(len(rest)) + v
+    lvl = np.repeat(level, 3)
+    order = np.lexsort((lvl, key))
+    key, lvl = key[order], lvl[order]
+    first = np.concatenate([[True], key[1:] != key[:-1]]) if len(key) else np.zeros(0, bool)
+    key, lvl = key[first], lvl[first]
+    own, v = key // len(rest), key % len(rest)
+    order = np.lexsort((lvl, own))
+    own, v, lvl = own[order], v[order], lvl[order]
+    per = np.zeros((len(todo), c), np.intp)
+    np.add.at(per, (own, lvl), 1)
+    count = np.cumsum(per, axis=1)
+    start = np.concatenate([[0], np.cumsum(count[:, -1])[:-1]]) if len(todo) else per[:, 0]
+    slot = np.arange(len(own)) - np.repeat(start, count[:, -1])
+    fits = slot < _GAP_CORNERS
+    gaps["corners"][todo[own[fits]], slot[fits]] = v[fits]
+    gaps["count"][todo] = np.where(count <= _GAP_CORNERS, count, -1)
+
+
+def _longest_edge(points: np.ndarray, tri: np.ndarray, terms: dict) -> float:
+    """The longest edge of the skin ``points`` ``(n, 3)``, ``tri`` ``(m, 3)``, its edges'
+    ends kept in ``terms`` as two contiguous arrays: each triangle's three sides on a
+    skin's first frame; from its second (the terms of a skin that is guarded again: an
+    unrefined face's), its unique edges (:func:`_terms_edges`), half as many, the same
+    lengths (a side's length does not depend on its direction).
+    """
+    ends, unique = terms.get("edge_ends", (None, False))
+    if ends is None or not unique:
+        unique = ends is not None or "edges" in terms  # (a second frame, or found already)
+        edges = _terms_edges(terms)[0] if unique else np.vstack(
+            [tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+        ends = (np.ascontiguousarray(edges[:, 0], dtype=np.intp),
+                np.ascontiguousarray(edges[:, 1], dtype=np.intp))
+        terms["edge_ends"] = (ends, unique)
+    if not len(ends[0]):
+        return 0.0
+    e = points[ends[0]]
+    e -= points[ends[1]]
+    return float(np.sqrt(np.einsum("ij,ij->i", e, e).max()))
 
 
 def _in_box(points: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -946,9 +1496,12 @@ def _rest_radii(face, need: np.ndarray, ids: np.ndarray | None = None) -> np.nda
         r_max = np.where(todo, need, 0.0)
         r = medial_radii(face.skin.points[rows], rest.normals[rows],
                          samples=face.skin.points, r_max=r_max, tree=face.skin.kdtree)
+        r = triangle_radii(rows, rest.normals[rows], r, face.skin.points, face.skin.triangles,
+                           lift=_skin_lift(face))
         known[rows] = np.where(todo, r, known[rows])
         rest.fold_radii_exact[rows] |= todo & (r < r_max)
     return known
+
 
 
 def fold_radii(face, skin_face=None, W: np.ndarray | None = None,
@@ -1073,7 +1626,8 @@ class Certified:
     step : bool
         No triangle can fall below ``min_area_wrinkles`` under the wrinkles' step.
     balls : bool
-        No deformed vertex lies in any ball :func:`_deformed_radii` tests.
+        No deformed vertex, and no deformed triangle not incident to the ball's vertex,
+        meets any ball :func:`_deformed_radii` tests.
     clamp : bool
         :math:`|W| \le \kappa\eta r` at every vertex with the rest radii: the clamp is
         the identity where the deformed skin's radii are not lower.
@@ -1102,8 +1656,13 @@ def _skin_bounds(face) -> dict | None:
     rest frame (None for a skin of more than :data:`_CERT_MAX_POINTS` vertices):
 
     * ``radii`` ``(n, 2)``: every rest radius in full, as lower bounds
-      (:func:`_verified_radii`; the exact checks keep their own, searched as a frame needs);
-    * ``sep`` ``(n,)``: each vertex's distance to the nearest other vertex, :math:`s_x`;
+      (:func:`_verified_radii`; the exact checks keep their own, searched as a frame needs),
+      at the vertices a muscle's wrinkles may reach (:func:`_may_wrinkle`), 0 (no bound)
+      elsewhere;
+    * ``sep`` ``(n,)``: each vertex's distance to the nearest other vertex or triangle not
+      incident to it, :math:`s_x` (:func:`_triangle_seps`, at the same vertices; elsewhere
+      the nearest vertex's), ``near`` ``(n,)``: to the nearest other vertex, and ``L`` the
+      longest edge;
     * ``K`` ``(m,)``: :math:`\|E_t^+\|_2 = 1/\sigma_{\min}(E_t)` of each triangle's rest
       edges :math:`E_t = [e_1\ e_2]`, and ``Einv`` ``(m, 2, 3)``: :math:`E_t^+`;
     * ``pairs`` ``(p, 2)`` and ``dist`` ``(p,)``: every pair of vertices at most
@@ -1120,7 +1679,10 @@ def _skin_bounds(face) -> dict | None:
     pts = np.asarray(skin.points, dtype=float)
     tri = np.asarray(skin.triangles, dtype=np.intp)
     d, _ = skin.kdtree.query(pts, k=2)
-    radii = _verified_radii(pts, rest.normals, skin.kdtree, d[:, 1])
+    lift = _skin_lift(face)
+    rows = _may_wrinkle(face)
+    sep, L = _triangle_seps(pts, tri, d[:, 1], lift, rows)  # vertex or triangle not its own
+    radii = _verified_radii(pts, rest.normals, skin.kdtree, sep, tri, lift, rows)
     E = np.stack([pts[tri[:, 1]] - pts[tri[:, 0]], pts[tri[:, 2]] - pts[tri[:, 0]]], axis=2)
     Einv = np.linalg.pinv(E)  # (m, 2, 3); 0 rows for a triangle with no area
     sv = np.linalg.svd(E, compute_uv=False)
@@ -1129,31 +1691,56 @@ def _skin_bounds(face) -> dict | None:
     reach = _CERT_REACH * float(np.median(skin.rest_edge_lengths))
     pairs = skin.kdtree.query_pairs(reach, output_type="ndarray").astype(np.int32)
     dist = np.linalg.norm(pts[pairs[:, 0]] - pts[pairs[:, 1]], axis=1)
-    rest.fold_bounds = got = {"radii": radii, "sep": d[:, 1], "K": K, "Einv": Einv,
-                              "pairs": pairs, "dist": dist, "reach": reach,
+    rest.fold_bounds = got = {"radii": radii, "sep": sep, "near": d[:, 1], "K": K, "Einv": Einv,
+                              "pairs": pairs, "dist": dist, "reach": reach, "L": L,
                               "size": float(np.abs(pts).max()), "assemblies": {}}
     return got
 
 
-def _verified_radii(pts: np.ndarray, normals: np.ndarray, tree: cKDTree, sep: np.ndarray
+def _may_wrinkle(face, rings: int = 2) -> np.ndarray:
+    """``(k,)``: the vertices of ``face``'s skin in any of its muscles' areas of influence
+    and ``rings`` rings of edges about them (a refined vertex takes the radii of its three
+    nearest skin vertices): where its frames' :math:`W` may be nonzero. A radius left 0
+    elsewhere only takes the clamp's certificate from a frame whose :math:`W` reaches there
+    (a muscle moved since): ``|W| <= 0`` fails and the exact check runs.
+    """
+    inside = np.zeros(face.skin.n_points, bool)
+    for m in face.muscles:
+        inside[face.muscle_data(m).aoi] = True
+    edges = np.asarray(face.skin.edges, dtype=np.intp)
+    for _ in range(rings):
+        grow = inside[edges[:, 0]] | inside[edges[:, 1]]
+        inside[edges[grow].ravel()] = True
+    return np.flatnonzero(inside)
+
+
+def _verified_radii(pts: np.ndarray, normals: np.ndarray, tree: cKDTree, sep: np.ndarray,
+                    tri: np.ndarray, lift: dict | None = None, rows: np.ndarray | None = None
                     ) -> np.ndarray:
     r"""``(n, 2)``: lower bounds of the rest radii that any search of :func:`fold_radii`
     cannot go below: the search in full (from twice the diagonal), each ball checked empty
-    (0 where the search stopped before it was: its iteration cap), times
+    of vertices (0 where the search stopped before it was: its iteration cap), then emptied
+    of the triangles (:func:`triangle_radii`, ``tri`` ``(m, 3)``), times
     :math:`1 - 4 \cdot 10^{-9} (r / s)^2` (``sep`` ``(n,)``: :math:`s`, the distance to the
-    nearest other vertex). A search stops at a ball with no vertex deeper than
+    nearest other vertex or triangle not the vertex's own). A search stops at a ball with no
+    vertex or triangle point deeper than
     :math:`10^{-9} r` inside; a vertex that deep in a ball of radius :math:`r` and at
     least :math:`s` from :math:`x` bounds a ball of radius at least
     :math:`r (1 - 2 \cdot 10^{-9} (r / s)^2)` (``docs/model.md``).
     """
+    rows = np.arange(len(pts)) if rows is None else np.asarray(rows, dtype=np.intp)
+    out = np.zeros((len(pts), 2))
     r_max = 2.0 * float(np.linalg.norm(np.ptp(pts, axis=0)))
-    r = medial_radii(pts, normals, r_max=r_max, tree=tree)
+    x, n = pts[rows], normals[rows]
+    r = medial_radii(x, n, samples=pts, r_max=r_max, tree=tree)
     for col, side in enumerate((1.0, -1.0)):
-        dist, _ = tree.query(pts + side * r[:, col, None] * normals)
+        dist, _ = tree.query(x + side * r[:, col, None] * n)
         r[dist < r[:, col] * (1.0 - 1e-9), col] = 0.0  # not converged: no bound
+    r = triangle_radii(rows, n, r, pts, tri, lift=lift, clear=False)
     with np.errstate(divide="ignore", invalid="ignore"):
-        loss = 4e-9 * (r / np.where(sep > 0, sep, 0.0)[:, None]) ** 2
-    return np.where(loss < 1.0, r * (1.0 - loss), 0.0)
+        loss = 4e-9 * (r / np.where(sep[rows] > 0, sep[rows], 0.0)[:, None]) ** 2
+    out[rows] = np.where(loss < 1.0, r * (1.0 - loss), 0.0)
+    return out
 
 
 def _assembly_bounds(face, asm, skin: dict) -> dict:
@@ -1217,12 +1804,17 @@ def _build_assembly_bounds(face, asm, skin: dict) -> dict:
         return float(values.max()) if len(values) else 0.0
 
     return {"G": np.array(G), "U": np.array(U), "Lip": np.array(Lip), "Gt": Gt,
+            # the triangles near the wrinkled vertices, found when a frame first asks
+            "L": partial(_near_edges, np.asarray(face.skin.points, dtype=float),
+                         np.asarray(face.skin.triangles, dtype=np.intp), asm.wrinkled,
+                         0.5 * skin["reach"]),
             "ULG": np.ascontiguousarray(np.stack([U, Lip, G], axis=1)),
             "Um": np.ascontiguousarray(Um.reshape(-1, len(asm.names))), "LipW": LipW,
             "moved": asm.moved, "wrinkled": asm.wrinkled, "clamp": {},
             "Kp": most(K[moved[tri].any(axis=1)]), "Kw": most(K[wrinkled[tri].any(axis=1)]),
             "S": most(frob),
-            "sep": float(skin["sep"][asm.wrinkled].min()) if len(asm.wrinkled) else np.inf}
+            # the vertices' separation (the triangles near x: "L", _near_edges)
+            "sep": float(skin["near"][asm.wrinkled].min()) if len(asm.wrinkled) else np.inf}
 
 
 def _muscle_bounds(face, data, skin: dict) -> tuple:
@@ -1270,6 +1862,120 @@ def _build_muscle_bounds(face, data, skin: dict) -> tuple:
             lip)
 
 
+def _near_edges(pts: np.ndarray, tri: np.ndarray, wrinkled: np.ndarray, D: float
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, np.ndarray, np.ndarray]:
+    r"""``(k,)``, ``(k, 4, 3)``, ``(k, 3)``, a float and ``(k,)`` twice: for every pair of a
+    ``wrinkled`` vertex :math:`x` of the skin ``pts`` ``(n, 3)``, ``tri`` ``(m, 3)`` and a
+    triangle :math:`t` not incident to it that comes within :math:`D` (the pairs' reach / 2)
+    of it, the distance :math:`d_{x,t}` from :math:`x` to :math:`t` (ascending), for each
+    corner :math:`v_i` of :math:`t` its heights :math:`h_{ki} = u_k \cdot (v_i - x)` along
+    four unit directions :math:`u_k` (to the closest point of :math:`t`, where
+    :math:`h_{0i} \ge d_{x,t}`, and to each corner; a zero vector where that point is
+    :math:`x`) and its distance :math:`m_i = |v_i - x|`; :math:`D`; the pair's vertex
+    (its row of ``wrinkled``) and its triangle. Any unit :math:`u` bounds every point
+    :math:`q = \sum_i \lambda_i v_i` of :math:`t`: :math:`|q - x| \ge u \cdot (q - x) =
+    \sum_i \lambda_i h_i`.
+    The balls' certificate asks for the triangles within :math:`2\rho + 2P` of a wrinkled
+    vertex only (:func:`_certificates`, :func:`_empty_balls`), and for them only once a
+    frame passes its other tests (kept per set of active muscles).
+    """
+    owner, t = _near_triangles(pts[wrinkled], np.full(len(wrinkled), D), pts, tri)
+    keep = ~(tri[t] == wrinkled[owner, None]).any(axis=1)  # not the vertex's own
+    owner, t = owner[keep], t[keep]
+    x = pts[wrinkled[owner]]
+    corners = pts[tri[t]] - x[:, None]  # (k, 3, 3): v_i - x
+    q = _closest_on_triangles(x, pts[tri[t, 0]], pts[tri[t, 1]], pts[tri[t, 2]]) - x
+    d = np.linalg.norm(q, axis=1)
+    m = np.linalg.norm(corners, axis=2)
+    # the directions u: to the closest point, and to each corner (0 where there is none)
+    u = np.concatenate([q[:, None], corners], axis=1)  # (k, 4, 3)
+    size = np.concatenate([d[:, None], m], axis=1)
+    u /= np.where(size > 0, size, np.inf)[:, :, None]
+    h = np.einsum("ikj,ilj->ikl", u, corners)  # (k, 4, 3): u_k . (v_l - x)
+    within = np.flatnonzero(d <= D)
+    order = within[np.argsort(d[within], kind="stable")]
+    return (d[order], np.ascontiguousarray(h[order]), np.ascontiguousarray(m[order]), D,
+            owner[order], t[order])
+
+
+def _near_of(bounds: dict, R: float) -> dict | None:
+    """:func:`_near_table` of the triangles near an active set's wrinkled vertices
+    (:func:`_near_edges`, ``bounds["L"]``), found on first use and kept; ``R``: the pairs'
+    reach. None for bounds that have none (a test's skin of vertices alone).
+    """
+    near = bounds.get("L")
+    if callable(near):
+        near = bounds["L"] = _near_table(near(), len(bounds["wrinkled"]), R)
+    return near
+
+
+_TABLE_STEPS = 32  # the near triangles' bounds are kept at Lambda = j / 32, j = 0..32
+_TABLE_CUTS = (0.125, 0.25, 0.5, 1.0)  # and over the triangles within these parts of D
+
+
+def _near_table(near: tuple, count: int, R: float) -> dict:
+    r"""The triangles near ``count`` wrinkled vertices (:func:`_near_edges` ``near``; ``R``
+    the pairs' reach) as a table the balls' certificates read in constant time:
+
+    * ``F`` ``(count, c, J + 1)``: per vertex :math:`x`, cut :math:`l` and step :math:`j`,
+      :math:`\min_t \max_k \min_i (h_{ki} - \Lambda_j m_i)` over :math:`x`'s triangles with
+      :math:`d_{x,t} \le` ``cut[l]`` (:data:`_TABLE_CUTS` of the near triangles' reach
+      :math:`D`), :math:`\Lambda_j = j / J` (:data:`_TABLE_STEPS`), ``inf`` where none;
+      ``G`` ``(c, J + 1)``: its least over the vertices;
+    * ``far`` ``(count,)`` bool: whether a corner of one of :math:`x`'s triangles lies
+      beyond the pairs (:math:`m_i > R (1 - 10^{-9})`, its move bounded by :math:`2P`
+      alone); ``cut`` ``(c,)``.
+
+    Each entry is non-increasing in :math:`\Lambda` (:math:`m_i \ge 0`) and in the cut
+    (a minimum over more triangles), so a frame's :math:`\Lambda` and reach read the entry
+    at the next step and cut above them: a lower bound of the one they ask for.
+    """
+    d, h, m, D, owner = near[:5]
+    J = _TABLE_STEPS
+    cut = np.array(_TABLE_CUTS) * D
+    steps = np.arange(J + 1) / J
+    level = np.minimum(np.searchsorted(cut, d, side="left"), len(cut) - 1)
+    key = owner * len(cut) + level
+    order = np.argsort(key, kind="stable")  # the rows by vertex and cut
+    g = np.empty((len(d), J + 1))
+    for lo in range(0, len(d), 8192):  # max_k min_i (h_ki - lam_j m_i), 8192 rows at a time
+        rows = order[lo:lo + 8192]
+        lm = [m[rows, i, None] * steps for i in range(3)]
+        for k in range(h.shape[1]):
+            hk = h[rows, k]
+            low = np.minimum(np.minimum(hk[:, 0, None] - lm[0], hk[:, 1, None] - lm[1]),
+                             hk[:, 2, None] - lm[2])
+            g[lo:lo + len(rows)] = low if k == 0 else np.maximum(g[lo:lo + len(rows)], low)
+    F = np.full((count * len(cut), J + 1), np.inf)
+    if len(d):
+        key = key[order]
+        starts = np.flatnonzero(np.concatenate([[True], key[1:] != key[:-1]]))
+        F[key[starts]] = np.minimum.reduceat(g, starts, axis=0)
+    F = np.minimum.accumulate(F.reshape(count, len(cut), J + 1), axis=1)
+    far = np.zeros(count, bool)
+    far[owner[(m > R * (1.0 - 1e-9)).any(axis=1)]] = True
+    return {"F": F, "G": F.min(axis=0) if count else np.full((len(cut), J + 1), np.inf),
+            "far": far, "cut": cut, "D": D}
+
+
+def _table_bounds(table: dict, lam: np.ndarray, far: np.ndarray,
+                  rows: np.ndarray | None = None) -> np.ndarray:
+    r"""``(k,)``: lower bounds of :math:`\min_t \max_k \min_i (h_{ki} - \Lambda m_i)` over
+    the triangles within ``far`` ``(k,)`` of each of the wrinkled vertices ``rows`` ``(k,)``
+    (their rows of the table; None: the least over all, :func:`_near_table`'s ``G``) at
+    :math:`\Lambda` = ``lam`` ``(k,)``: ``-inf`` where :math:`\Lambda > 1` or ``far``
+    exceeds the table's reach.
+    """
+    J = _TABLE_STEPS
+    j = np.ceil(lam * J * (1.0 + 1e-9)).astype(np.intp)  # the next step above lam
+    j = np.where(j / J >= lam, j, j + 1)
+    l = np.searchsorted(table["cut"], far, side="left")
+    ok = (j <= J) & (l < len(table["cut"])) & (lam >= 0)
+    j, l = np.where(ok, j, 0), np.where(ok, l, 0)
+    got = table["G"][l, j] if rows is None else table["F"][rows, l, j]
+    return np.where(ok, got, -np.inf)
+
+
 def _clamp_limit(skin: dict, bounds: dict, guard: FoldGuard) -> np.ndarray:
     r"""``(v,)``: :math:`(1 - 10^{-5})\,\kappa\,\eta \min(r_+, r_-)` on the rest radii in
     full at the wrinkled vertices of an active set (its ``bounds``), kept per guard:
@@ -1301,10 +2007,14 @@ def certify(face, state, guard: FoldGuard = FoldGuard()) -> Certified | None:
       :math:`\sigma_t(s) = \det(I + s P_t J_t) \ge (1 - s g)^2` on :math:`[0, 1/\kappa]`);
     * step: :math:`g_w = 2\sqrt2\,K_w \max|W|`, :math:`(1 - g - g_w/\kappa_w)^2 \ge
       \sigma_{\min,w}`;
-    * balls: :math:`\Lambda = \sum_m a_m \mathrm{Lip}_m < 1` and
-      :math:`2\rho(1 + 10^{-6}) + \tau \le \min(s(1 - \Lambda) - 2b_{\max}, D - 2P)`,
+    * balls: :math:`\Lambda' = \max(\sum_m a_m \mathrm{Lip}_m, 2P/D) < 1`,
+      :math:`2\rho + 2P \le D/2` and, with :math:`\delta = 2\rho(1 + 10^{-6}) + \tau`,
+      :math:`\delta + 2b_{\max} \le s(1 - \Lambda')` and :math:`\le \min_t \max_u \min_i
+      (h_i - \Lambda' m_i)` over the triangles within :math:`2\rho + 2P` of a wrinkled
+      vertex (:func:`_near_edges`, read off :func:`_near_table`),
       :math:`\rho = \max|W| / (\kappa \eta_d)\,(1 + 10^{-6})` (no deformed vertex but
-      :math:`x` within :math:`2\rho` of :math:`x`);
+      :math:`x`, and no triangle not its own, within :math:`2\rho` of :math:`x`); where it
+      fails, vertex by vertex (:func:`_balls_per_vertex`);
     * clamp: :math:`|W| \le` :func:`_clamp_limit` everywhere.
 
     ``docs/model.md`` ("Certified skips") has the proofs.
@@ -1349,34 +2059,61 @@ def _balls_per_vertex(n: int, a: np.ndarray, w: np.ndarray, b_max: float, d_max:
     from the activations ``a`` ``(M,)`` and :math:`|W|` ``w`` ``(v,)`` at the active set's
     wrinkled vertices: whether every ball is certified empty, else the ``(n,)`` bool mask of
     those that are (None when none is), with :math:`\Lambda_x = \sum_m a_m
-    \mathrm{Lip}_m(x)`.
+    \mathrm{Lip}_m(x)`, the vertices' separations and the triangles near each vertex
+    (:func:`_near_edges`).
     """
     lam_x = (bounds["LipW"] @ a) * (1.0 + 1e-9)
-    ok = _empty_balls(w, skin["sep"][bounds["wrinkled"]], lam_x, b_max, d_max, skin, guard)
+    wrinkled = bounds["wrinkled"]
+    ok = _empty_balls(w, skin["near"][wrinkled], lam_x, b_max, d_max, skin, guard,
+                      partial(_near_of, bounds, skin["reach"]))
     if ok.all():
         return True, None
     if not ok.any():
         return False, None
     empty = np.zeros(n, bool)
-    empty[bounds["wrinkled"][ok]] = True
+    empty[wrinkled[ok]] = True
     return False, empty
 
 
 def _empty_balls(w: np.ndarray, sep: np.ndarray, lam: np.ndarray, b_max: float,
-                 d_max: float, skin: dict, guard: FoldGuard) -> np.ndarray:
+                 d_max: float, skin: dict, guard: FoldGuard,
+                 near: dict | Callable[[], dict | None] | None) -> np.ndarray:
     r"""``(v,)`` bool: the balls' certificate of :func:`certify` per wrinkled vertex, from
-    its :math:`|W|` ``w`` ``(v,)``, rest separation :math:`s_x` ``sep`` ``(v,)`` and
-    Lipschitz bound :math:`\Lambda_x` ``lam`` ``(v,)`` (of the summed pull over the pairs
-    of :math:`x` at most :math:`D` apart): :math:`\Lambda_x < 1` and
-    :math:`2\rho_x(1 + 10^{-6}) + \tau \le \min(s_x(1 - \Lambda_x) - 2b_{\max}, D - 2P)`,
-    :math:`\rho_x = |W_x| / (\kappa\eta_d)(1 + 10^{-6})`: no deformed vertex but
-    :math:`x'` lies within :math:`2\rho_x` of :math:`x'`, so its ball holds none
-    (``docs/model.md``, "Certified skips").
+    its :math:`|W|` ``w`` ``(v,)``, rest separation from the other vertices :math:`s_x`
+    ``sep`` ``(v,)``, Lipschitz bound :math:`\Lambda_x` ``lam`` ``(v,)`` (of the summed
+    pull over the pairs of :math:`x` at most :math:`D` apart) and the triangles near it
+    ``near`` (:func:`_near_table`, or a function giving it, called only if a vertex passes
+    the other tests). With :math:`\rho_x = |W_x| / (\kappa\eta_d)(1 + 10^{-6})`,
+    :math:`\delta_x = 2\rho_x(1 + 10^{-6}) + \tau` and :math:`P = d_{\max} + b_{\max}`:
+
+    * vertices: :math:`\Lambda_x < 1`, :math:`\delta_x \le \min(s_x(1 - \Lambda_x) -
+      2b_{\max}, D - 2P)`;
+    * triangles not incident to :math:`x`: :math:`\delta_x + 2b_{\max} \le \min_t \max_k
+      \min_i (h_{ki} - \Lambda'_x m_i)` over those with :math:`d_{x,t} \le \delta_x + 2P`
+      (within the near triangles' reach), :math:`\Lambda'_x = \Lambda_x`, or
+      :math:`\max(\Lambda_x, 2P/D)` where a corner lies beyond the pairs; read off the
+      table (:func:`_table_bounds`).
+
+    Then no deformed vertex but :math:`x'`, and no point of a deformed triangle not
+    incident to :math:`x'`, lies within :math:`2\rho_x` of :math:`x'`, so its ball holds
+    none (``docs/model.md``, "Certified skips").
     """
     tau = 1e-12 * (1.0 + skin["size"])
     room = 2.0 * w / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6) * (1.0 + 1e-6) + tau
-    far = skin["reach"] - 2.0 * (d_max + b_max)
-    return (lam < 1.0) & (room <= sep * (1.0 - lam) - 2.0 * b_max) & (room <= far)
+    P = d_max + b_max
+    ok = (lam < 1.0) & (room <= sep * (1.0 - lam) - 2.0 * b_max) \
+        & (room <= skin["reach"] - 2.0 * P)
+    if not ok.any():
+        return ok
+    table = near() if callable(near) else near
+    if table is None:  # no triangles kept: no vertex is certified for them
+        return np.zeros(len(ok), bool)
+    far = room + 2.0 * P  # beyond it no point of the skin comes within room of x
+    lam_t = np.where(table["far"], np.maximum(lam, 2.0 * P / skin["reach"]), lam)
+    ask = np.flatnonzero(ok & (w > 0))  # (a vertex with W = 0 has no ball to search)
+    low = _table_bounds(table, lam_t[ask], far[ask], ask)
+    ok[ask] &= room[ask] + 2.0 * b_max <= low
+    return ok
 
 
 def _clamp_only(face, state, guard: FoldGuard) -> Certified | None:
@@ -1516,8 +2253,18 @@ def _certificates(g: float, d_max: float, b_max: float, lam: float, w_max: float
     step = x < 1.0 and (1.0 - x) ** 2 >= guard.min_area_wrinkles * (1.0 + 1e-9) + 1e-12
     room = 2.0 * w_max / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6) * (1.0 + 1e-6) \
         + 1e-12 * (1.0 + skin["size"])  # 2 rho (1 + 1e-6) + tau
-    balls = (lam < 1.0 and room <= bounds["sep"] * (1.0 - lam) - 2.0 * b_max
-             and room <= skin["reach"] - 2.0 * (d_max + b_max))
+    P = d_max + b_max
+    far = room + 2.0 * P  # beyond it no point of the skin comes within room of x
+    lam = max(lam, 2.0 * P / skin["reach"])  # (a corner beyond the pairs: |p - p'| <= 2P)
+    if lam >= 1.0 or far > 0.5 * skin["reach"]:  # (the near triangles' reach)
+        return pulls, step, False
+    need = room + 2.0 * b_max
+    balls = need <= bounds["sep"] * (1.0 - lam)
+    # the triangles near the wrinkled vertices (_near_edges, _near_table), found once, by
+    table = _near_of(bounds, skin["reach"]) if balls else None  # the first frame that
+    if balls and table is not None:  # gets this far: |q' - x'| >= min_i (h_i - lam m_i) - 2b
+        low = _table_bounds(table, np.array([lam]), np.array([far]))
+        balls = bool(low[0] >= need)
     return pulls, step, balls
 
 
