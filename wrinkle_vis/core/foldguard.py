@@ -36,8 +36,15 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 from scipy.spatial import cKDTree
 
+from .certificate import (
+    _corner_columns,
+    _irregular_vertices,
+    _narrow_phase,
+    _normals,
+)
+
 __all__ = ["Certified", "FoldGuard", "GuardResult", "certify", "fold_radii", "guard_amount",
-           "guard_frame", "guard_wrinkles", "guarded", "medial_radii", "pull_terms",
+           "guard_fans", "guard_frame", "guard_wrinkles", "guarded", "medial_radii", "pull_terms",
            "skin_scale", "soft_clamp", "triangle_radii"]
 
 
@@ -993,6 +1000,275 @@ def _held_wrinkles(rest: np.ndarray, d2: np.ndarray, p2: np.ndarray, W2: np.ndar
     return p2, W2
 
 
+# ---------------------------------------------------------------- the fans' guard
+#
+# The wrinkles' step x' -> x' + W n' moves each vertex along its own normal; where the skin
+# folds on itself (normals far apart over an edge) a vertex's fan can pass through the
+# triangles of its two rings, which no ball (empty of the triangles *not* incident to its
+# vertex) sees. :func:`guard_fans` certifies cheaply, per vertex, that its displaced fan
+# meets the triangles of its two rings only where it shares a vertex or an edge with them
+# (``docs/model.md``, "The fans"), tests the pairs of the few vertices it cannot certify
+# exactly, and scales their W back towards the deformed skin until none crosses.
+
+_FAN_MARGIN = 1e-10  # relative margin of the certificate's signs (far above rounding)
+_FAN_ROUNDS = 8  # the scale-back's rounds before it sets the W of a crossing pair to 0
+
+
+def _fan_structure(tri: np.ndarray, n: int, terms: dict) -> dict:
+    """The skin's fan structure, cached in ``terms``: ``across`` ``(m, 3)``, the third
+    vertex of the triangle across edge ``k`` (corner ``k`` to ``k + 1``) of each triangle
+    (-1 on a boundary), and ``open`` ``(n,)`` bool, vertices on an edge that is not shared
+    by exactly two triangles running it in opposite directions.
+    """
+    fans = terms.get("fans")
+    if fans is None:
+        a, b = tri.ravel(), tri[:, [1, 2, 0]].ravel()
+        key = a.astype(np.int64) * n + b
+        order = np.argsort(key, kind="stable")
+        twin = b.astype(np.int64) * n + a
+        at = np.minimum(np.searchsorted(key[order], twin), len(key) - 1)
+        found = key[order][at] == twin
+        third = tri[:, [2, 0, 1]].ravel()  # the corner opposite each edge
+        across = np.where(found, third[order][at], -1).reshape(-1, 3)
+        fans = terms["fans"] = {"across": across, "open": _irregular_vertices(tri, n)}
+    return fans
+
+
+def _grow(mask: np.ndarray, tri: np.ndarray, rings: int) -> np.ndarray:
+    """``(n,)`` bool: ``mask`` ``(n,)`` and every vertex within ``rings`` edges of it."""
+    mask = mask.copy()
+    for _ in range(rings):
+        mask[tri[mask[tri].any(axis=1)]] = True
+    return mask
+
+
+def _fan_terms(p: np.ndarray, tri: np.ndarray, sub: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""Per vertex of the triangles ``sub`` (indices into ``tri`` ``(m, 3)``, every
+    triangle of the fans asked about) on ``p`` ``(n, 3)``: ``m`` ``(n, 3)``, the unit sum of
+    the fans' area vectors :math:`A_t`; ``c`` ``(n,)``, :math:`\min_t m \cdot A_t / |A_t|`;
+    ``star`` ``(n,)`` bool, the fan seen along ``m`` is a star once around its vertex:
+    every :math:`m \cdot A_t > 0` (with margin) and the projected angles add up to less
+    than :math:`3\pi` (they add up to :math:`2\pi k`, :math:`k` the winding).
+    """
+    n, t = len(p), tri[sub]
+    c0, c1, c2 = (p[t[:, k]] for k in range(3))
+    A = np.cross(c1 - c0, c2 - c0)
+    la = np.maximum(np.linalg.norm(A, axis=1), 1e-300)
+    v = t.T.ravel()  # corner k of every triangle, k = 0, 1, 2
+    m = np.stack([np.bincount(v, np.tile(A[:, k], 3), n) for k in range(3)], axis=1)
+    m /= np.maximum(np.linalg.norm(m, axis=1), 1e-300)[:, None]
+    cos = np.einsum("ij,ij->i", np.tile(A, (3, 1)), m[v]) / np.tile(la, 3)
+    c = np.full(n, np.inf)
+    np.minimum.at(c, v, cos)
+    angle = np.empty(3 * len(t))
+    for k, (a, b, o) in enumerate(((c1, c2, c0), (c2, c0, c1), (c0, c1, c2))):
+        mv = m[t[:, k]]
+        e1, e2 = a - o, b - o
+        along = np.einsum("ij,ij->i", e1, e2) - (np.einsum("ij,ij->i", e1, mv)
+                                                  * np.einsum("ij,ij->i", e2, mv))
+        angle[k * len(t):(k + 1) * len(t)] = np.arctan2(cos[k * len(t):(k + 1) * len(t)]
+                                                        * la, along)
+    star = (c > _FAN_MARGIN) & (np.bincount(v, angle, n) < 3.0 * np.pi)
+    return m, c, star
+
+
+def _certified_fans(p: np.ndarray, tri: np.ndarray, ask: np.ndarray, fans: dict,
+                    terms: dict) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(k,)`` bool twice, for vertices ``ask`` ``(k,)`` on ``p`` ``(n, 3)``: whose fan is
+    a star (its triangles meet only in shared vertices and edges), and whose fan meets
+    the triangles of its two rings only in shared vertices and edges, certainly
+    (``docs/model.md``, "The fans"). Seen along the vertex's :math:`m_v`
+    (:func:`_fan_terms`): the vertex and its ring are closed (not ``open``), its fan is a
+    star once around it, its link turns left at every ring vertex :math:`u` (the
+    projected fan :math:`S_v` is convex), and every :math:`u`'s fan is a star once around
+    it (along :math:`m_u` with :math:`c_u > |m_v - m_u|`, which makes it one along
+    :math:`m_v`, or else checked along :math:`m_v`, :func:`_stars_along`).
+    """
+    n = len(p)
+    inc = _fan_incidence(tri, n, terms)
+    near = np.zeros(n, bool)
+    near[ask] = True
+    sub = np.unique(inc[np.flatnonzero(_grow(near, tri, 1))].indices)
+    m, c, star = _fan_terms(p, tri, sub)
+    t = tri[sub]
+    v, u, w = t.T.ravel(), t[:, [1, 2, 0]].T.ravel(), t[:, [2, 0, 1]].T.ravel()
+    before = fans["across"][sub].T.ravel()  # the ring vertex before u (across edge v-u)
+    star &= ~fans["open"]
+    e_in, e_out = p[u] - p[np.maximum(before, 0)], p[w] - p[u]
+    turn = np.einsum("ij,ij->i", np.cross(e_in, e_out), m[v])
+    left = turn > _FAN_MARGIN * np.linalg.norm(e_in, axis=1) * np.linalg.norm(e_out, axis=1)
+    ok = near & star
+    ok[v[~(star[u] & left)]] = False
+    along = c[u] > np.linalg.norm(m[v] - m[u], axis=1) + _FAN_MARGIN
+    rows = np.flatnonzero(ok[v] & ~along)  # u's star along m_v, checked
+    if len(rows):
+        ok[v[rows[~_stars_along(p, tri, inc, v[rows], u[rows], m)]]] = False
+    return star[ask], ok[ask]
+
+
+def _stars_along(p: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix, v: np.ndarray,
+                 u: np.ndarray, m: np.ndarray) -> np.ndarray:
+    r"""``(k,)`` bool: the fan of each ``u`` ``(k,)`` on ``p`` is a star once around it
+    seen along :math:`m_v` (``v`` ``(k,)``, ``m`` ``(n, 3)``): every
+    :math:`m_v \cdot A_t > 0` with margin, the projected angles adding up to below
+    :math:`3\pi`.
+    """
+    fan = inc[u]
+    row = np.repeat(np.arange(len(u)), np.diff(fan.indptr))
+    t = tri[fan.indices]
+    o = p[u[row]]
+    k = (t == u[row, None]).argmax(axis=1)  # u's corner: the other two follow it
+    a = p[t[np.arange(len(t)), (k + 1) % 3]] - o
+    b = p[t[np.arange(len(t)), (k + 2) % 3]] - o
+    mv = m[v[row]]
+    A = np.cross(a, b)
+    up = np.einsum("ij,ij->i", A, mv)
+    flat = np.einsum("ij,ij->i", a, b) - (np.einsum("ij,ij->i", a, mv)
+                                         * np.einsum("ij,ij->i", b, mv))
+    pos = up > _FAN_MARGIN * np.linalg.norm(A, axis=1)
+    good = np.bincount(row, ~pos, len(u)) == 0
+    return good & (np.bincount(row, np.arctan2(up, flat), len(u)) < 3.0 * np.pi)
+
+
+def _fan_incidence(tri: np.ndarray, n: int, terms: dict) -> sp.csr_matrix:
+    """``(n, m)``: :func:`_incidence` of ``tri``, cached in ``terms`` (as
+    :func:`_vertex_normals` caches it).
+    """
+    inc = terms.get("incidence")
+    if inc is None:
+        inc = terms["incidence"] = _incidence(tri, n)
+    return inc
+
+
+def _row_products(a: sp.csr_matrix, b: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray]:
+    """``(k,)`` int twice: every (column of row ``r`` of ``a``, column of row ``r`` of
+    ``b``), for every row ``r`` of the two CSR matrices (same number of rows).
+    """
+    rows = np.repeat(np.arange(a.shape[0]), np.diff(a.indptr))
+    count = np.diff(b.indptr)[rows]
+    start = np.repeat(b.indptr[rows] - np.cumsum(count) + count, count)
+    return np.repeat(a.indices, count), b.indices[start + np.arange(count.sum())]
+
+
+def _fan_pairs(tri: np.ndarray, inc: sp.csr_matrix, loose: np.ndarray, edges: np.ndarray
+               ) -> np.ndarray:
+    """``(k, 2)`` int, ``i < j``, unique: the pairs of triangles ``tri`` ``(m, 3)`` that no
+    certificate covers: two of the fan of a vertex in ``loose`` ``(a,)`` (not a star), and
+    one of each end's fan of ``edges`` ``(e, 2)`` (neither end certified) that share no
+    vertex.
+    """
+    a1, b1 = _row_products(inc[loose], inc[loose])
+    a2, b2 = _row_products(inc[edges[:, 0]], inc[edges[:, 1]])
+    apart = ~(tri[a2][:, :, None] == tri[b2][:, None, :]).any(axis=(1, 2))
+    a = np.concatenate([a1, a2[apart]])
+    b = np.concatenate([b1, b2[apart]])
+    keep = a != b
+    a, b = a[keep], b[keep]
+    key = np.unique(np.minimum(a, b).astype(np.int64) * len(tri) + np.maximum(a, b))
+    return np.stack([key // len(tri), key % len(tri)], axis=1).astype(np.intp)
+
+
+def _pairs_cross(p: np.ndarray, tri: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    """``(k,)`` bool: which ``pairs`` ``(k, 2)`` of triangles ``tri`` ``(m, 3)`` on ``p``
+    ``(n, 3)`` intersect other than in their shared vertices or edge, a contact included
+    (the certificate's exact narrow phase, :mod:`wrinkle_vis.core.certificate`).
+    """
+    if not len(pairs):
+        return np.zeros(0, bool)
+    ids, local = np.unique(pairs, return_inverse=True)
+    sub = tri[ids]
+    x = _corner_columns(p, sub)
+    corners = np.stack([np.stack(x[k], axis=1) for k in range(3)], axis=1)
+    normal, perm = _normals(x)
+    hit, _ = _narrow_phase(p, sub, corners, normal, perm, local.reshape(-1, 2))
+    return hit
+
+
+def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
+               triangles: np.ndarray, terms: dict | None = None
+               ) -> tuple[np.ndarray, np.ndarray]:
+    r"""The wrinkles' step ``deformed`` :math:`x'` to ``points`` :math:`x' + W n'`
+    (``(n, 3)``, ``W`` ``(n,)``) with no vertex's fan passing through the triangles of its
+    two rings (``docs/model.md``, "The fans"): returns the points and :math:`W`, scaled
+    by :math:`h_v \in [0, 1]` (:math:`x' + h_v (x - x')`), ``points`` and ``W``
+    themselves (bit for bit) where nothing would cross.
+
+    Each vertex within two rings of a moved one is certified by :func:`_certified_fans`
+    (a few products per fan corner); the pairs no certificate covers are tested exactly
+    (:func:`_loose_pairs`, :func:`_pairs_cross`); the :math:`W` of the corners of each
+    pair that crosses, and is apart on ``deformed``, is scaled back to just below where it
+    crosses (:func:`_scale_back`; the least factor where pairs share a corner; after
+    ``_FAN_ROUNDS`` rounds, to 0), and the vertices around those are certified and tested
+    again, until no pair crosses. A pair apart on ``deformed`` is apart once its corners'
+    :math:`W` is 0, so this ends. ``terms``: a cache (:func:`pull_terms`' dict).
+    """
+    tri = np.asarray(triangles, dtype=np.intp)
+    terms = {} if terms is None else terms
+    d, p0 = np.asarray(deformed, dtype=float), np.asarray(points, dtype=float)
+    changed = moved = np.any(p0 != d, axis=1)
+    if not moved.any():
+        return points, W
+    h = np.ones(len(d))
+    p, rounds = p0, 0
+    while True:
+        pairs = _loose_pairs(p, tri, changed, terms)
+        hit = pairs[_pairs_cross(p, tri, pairs)]
+        hit = hit[~_pairs_cross(d, tri, hit)]  # a pair the pulls crossed is not W's
+        if not len(hit):
+            break
+        rounds += 1
+        factor = np.ones(len(d))
+        np.minimum.at(factor, tri[hit].reshape(len(hit), 6),
+                      _scale_back(d, p, tri, hit)[:, None] if rounds < _FAN_ROUNDS else 0.0)
+        changed = (factor < 1.0) & moved
+        h[changed] *= factor[changed]
+        if p is p0:
+            p = p0.copy()
+        p[changed] = d[changed] + h[changed, None] * (p0[changed] - d[changed])
+    if p is p0:
+        return points, W
+    return p, np.asarray(W, dtype=float) * h
+
+
+def _loose_pairs(p: np.ndarray, tri: np.ndarray, changed: np.ndarray, terms: dict
+                 ) -> np.ndarray:
+    """``(k, 2)``: the pairs of triangles (:func:`_fan_pairs`) around the vertices within
+    two rings of ``changed`` ``(n,)`` bool on ``p`` ``(n, 3)`` that
+    :func:`_certified_fans` leaves to the exact test.
+    """
+    n = len(p)
+    ask = np.flatnonzero(_grow(changed, tri, 2))
+    star, sure = _certified_fans(p, tri, ask, _fan_structure(tri, n, terms), terms)
+    loose = np.zeros(n, bool)
+    loose[ask[~sure]] = True
+    e = tri[loose[tri].any(axis=1)][:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    e = np.unique(np.sort(e[loose[e].all(axis=1)], axis=1), axis=0)
+    return _fan_pairs(tri, _fan_incidence(tri, n, terms), ask[~star], e)
+
+
+def _scale_back(d: np.ndarray, p: np.ndarray, tri: np.ndarray, hit: np.ndarray
+                ) -> np.ndarray:
+    r"""``(k,)`` in ``[0, 1)``: for each pair ``hit`` ``(k, 2)`` of triangles ``tri`` that
+    crosses on ``p`` and not on ``d`` (``(n, 3)``), a factor :math:`\lambda` at which it
+    is apart on :math:`d + \lambda (p - d)` (its own corners scaled, the others'
+    ignored), within :math:`2^{-8}` of where it first crosses (bisection from
+    :math:`\lambda = 0`, apart, and 1, crossing).
+    """
+    k = len(hit)
+    key = np.repeat(np.arange(k, dtype=np.int64), 6) * len(p) + tri[hit].reshape(-1)
+    ids, local = np.unique(key, return_inverse=True)
+    rows, verts = ids // len(p), ids % len(p)
+    lo, hi = np.zeros(k), np.ones(k)
+    pairs = np.arange(2 * k).reshape(k, 2)
+    for _ in range(8):
+        mid = 0.5 * (lo + hi)
+        pts = d[verts] + mid[rows, None] * (p[verts] - d[verts])
+        cross = _pairs_cross(pts, local.reshape(2 * k, 3), pairs)
+        lo, hi = np.where(cross, lo, mid), np.where(cross, mid, hi)
+    return lo
+
+
 def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
                 triangles: np.ndarray, radii: np.ndarray | Callable[[], np.ndarray],
                 guard: FoldGuard = FoldGuard(),
@@ -1013,6 +1289,8 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
        pulls, against the guarded deformed skin: :math:`W'` is scaled by
        :func:`skin_scale` of that step (a steep furrow on small triangles would otherwise
        turn them over).
+    4. No vertex's displaced fan passes through the triangles of its two rings
+       (:func:`guard_fans`: :math:`W'` scaled back where a pair would cross).
 
     ``certified`` (:func:`certify`): the checks it certifies are skipped (each would have
     returned what skipping gives); a pull the exact check does scale voids the others.
@@ -1042,6 +1320,7 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
     p2 = _rewrinkled(p2, d2, W, W2, moved, tri, terms)
     if not cert.step:
         p2, W2 = _held_wrinkles(rest, d2, p2, W2, tri, guard, terms)
+    p2, W2 = guard_fans(d2, p2, W2, tri, terms)  # no fan through its two rings
     acted = moved | (W2 != W)
     if p2 is not points:
         acted |= np.any(p2 != points, axis=1)
