@@ -1053,23 +1053,20 @@ def _fan_terms(p: np.ndarray, tri: np.ndarray, sub: np.ndarray
     """
     n, t = len(p), tri[sub]
     c0, c1, c2 = (p[t[:, k]] for k in range(3))
-    A = np.cross(c1 - c0, c2 - c0)
-    la = np.maximum(np.linalg.norm(A, axis=1), 1e-300)
-    v = t.T.ravel()  # corner k of every triangle, k = 0, 1, 2
-    m = np.stack([np.bincount(v, np.tile(A[:, k], 3), n) for k in range(3)], axis=1)
-    m /= np.maximum(np.linalg.norm(m, axis=1), 1e-300)[:, None]
-    cos = np.einsum("ij,ij->i", np.tile(A, (3, 1)), m[v]) / np.tile(la, 3)
+    A = _rows_cross(c1 - c0, c2 - c0)
+    la = np.maximum(np.sqrt(_rows_dot(A, A)), 1e-300)
+    m = np.stack([np.bincount(t.ravel(), np.repeat(A[:, k], 3), n) for k in range(3)], axis=1)
+    m /= np.maximum(np.sqrt(_rows_dot(m, m)), 1e-300)[:, None]
     c = np.full(n, np.inf)
-    np.minimum.at(c, v, cos)
-    angle = np.empty(3 * len(t))
+    angle = np.zeros(n)
     for k, (a, b, o) in enumerate(((c1, c2, c0), (c2, c0, c1), (c0, c1, c2))):
         mv = m[t[:, k]]
+        up = _rows_dot(A, mv)
+        np.minimum.at(c, t[:, k], up / la)
         e1, e2 = a - o, b - o
-        along = np.einsum("ij,ij->i", e1, e2) - (np.einsum("ij,ij->i", e1, mv)
-                                                  * np.einsum("ij,ij->i", e2, mv))
-        angle[k * len(t):(k + 1) * len(t)] = np.arctan2(cos[k * len(t):(k + 1) * len(t)]
-                                                        * la, along)
-    star = (c > _FAN_MARGIN) & (np.bincount(v, angle, n) < 3.0 * np.pi)
+        flat = _rows_dot(e1, e2) - _rows_dot(e1, mv) * _rows_dot(e2, mv)
+        angle += np.bincount(t[:, k], np.arctan2(up, flat), n)
+    star = (c > _FAN_MARGIN) & (angle < 3.0 * np.pi)
     return m, c, star
 
 
@@ -1087,24 +1084,38 @@ def _certified_fans(p: np.ndarray, tri: np.ndarray, ask: np.ndarray, fans: dict,
     """
     n = len(p)
     inc = _fan_incidence(tri, n, terms)
-    near = np.zeros(n, bool)
-    near[ask] = True
-    sub = np.unique(inc[np.flatnonzero(_grow(near, tri, 1))].indices)
+    asked = np.zeros(n, bool)
+    asked[ask] = True
+    sub = np.flatnonzero(_grow(asked, tri, 1)[tri].any(axis=1))
     m, c, star = _fan_terms(p, tri, sub)
-    t = tri[sub]
-    v, u, w = t.T.ravel(), t[:, [1, 2, 0]].T.ravel(), t[:, [2, 0, 1]].T.ravel()
-    before = fans["across"][sub].T.ravel()  # the ring vertex before u (across edge v-u)
     star &= ~fans["open"]
+    t = tri[sub]
+    rows = np.flatnonzero(asked[t.T.ravel()])  # the asked vertices' corners
+    k, rows = rows // len(sub), rows % len(sub)
+    v, u, w = t[rows, k], t[rows, (k + 1) % 3], t[rows, (k + 2) % 3]
+    before = fans["across"][sub[rows], k]  # the ring vertex before u (across edge v-u)
     e_in, e_out = p[u] - p[np.maximum(before, 0)], p[w] - p[u]
-    turn = np.einsum("ij,ij->i", np.cross(e_in, e_out), m[v])
-    left = turn > _FAN_MARGIN * np.linalg.norm(e_in, axis=1) * np.linalg.norm(e_out, axis=1)
-    ok = near & star
+    turn = _rows_dot(_rows_cross(e_in, e_out), m[v])
+    left = turn > _FAN_MARGIN * np.sqrt(_rows_dot(e_in, e_in) * _rows_dot(e_out, e_out))
+    ok = asked & star
     ok[v[~(star[u] & left)]] = False
-    along = c[u] > np.linalg.norm(m[v] - m[u], axis=1) + _FAN_MARGIN
+    dm = m[v] - m[u]
+    along = c[u] > np.sqrt(_rows_dot(dm, dm)) + _FAN_MARGIN
     rows = np.flatnonzero(ok[v] & ~along)  # u's star along m_v, checked
     if len(rows):
         ok[v[rows[~_stars_along(p, tri, inc, v[rows], u[rows], m)]]] = False
     return star[ask], ok[ask]
+
+
+def _rows_dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(k,)``: the dot products of the rows of ``a`` and ``b`` ``(k, 3)``."""
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+
+
+def _rows_cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(k, 3)``: the cross products of the rows of ``a`` and ``b`` ``(k, 3)``."""
+    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
 
 
 def _stars_along(p: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix, v: np.ndarray,
@@ -1243,7 +1254,9 @@ def _loose_pairs(p: np.ndarray, tri: np.ndarray, changed: np.ndarray, terms: dic
     loose = np.zeros(n, bool)
     loose[ask[~sure]] = True
     e = tri[loose[tri].any(axis=1)][:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    e = np.unique(np.sort(e[loose[e].all(axis=1)], axis=1), axis=0)
+    e = np.sort(e[loose[e].all(axis=1)], axis=1)
+    key = np.unique(e[:, 0].astype(np.int64) * n + e[:, 1])
+    e = np.stack([key // n, key % n], axis=1).astype(np.intp)
     return _fan_pairs(tri, _fan_incidence(tri, n, terms), ask[~star], e)
 
 
