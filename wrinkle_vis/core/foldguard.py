@@ -1056,7 +1056,7 @@ def _fan_terms(p: np.ndarray, tri: np.ndarray, sub: np.ndarray
     A = _rows_cross(c1 - c0, c2 - c0)
     la = np.maximum(np.sqrt(_rows_dot(A, A)), 1e-300)
     m = np.stack([np.bincount(t.ravel(), np.repeat(A[:, k], 3), n) for k in range(3)], axis=1)
-    m /= np.maximum(np.sqrt(_rows_dot(m, m)), 1e-300)[:, None]
+    m = m / np.maximum(np.sqrt(_rows_dot(m, m)), 1e-300)[:, None]
     c = np.full(n, np.inf)
     angle = np.zeros(n)
     for k, (a, b, o) in enumerate(((c1, c2, c0), (c2, c0, c1), (c0, c1, c2))):
