@@ -1125,9 +1125,9 @@ def _stars_along(p: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix, v: np.ndarr
     :math:`m_v \cdot A_t > 0` with margin, the projected angles adding up to below
     :math:`3\pi`.
     """
-    fan = inc[u]
-    row = np.repeat(np.arange(len(u)), np.diff(fan.indptr))
-    t = tri[fan.indices]
+    indptr, indices = _sub_rows(inc, u)
+    row = np.repeat(np.arange(len(u)), np.diff(indptr))
+    t = tri[indices]
     o = p[u[row]]
     k = (t == u[row, None]).argmax(axis=1)  # u's corner: the other two follow it
     a = p[t[np.arange(len(t)), (k + 1) % 3]] - o
@@ -1152,14 +1152,25 @@ def _fan_incidence(tri: np.ndarray, n: int, terms: dict) -> sp.csr_matrix:
     return inc
 
 
-def _row_products(a: sp.csr_matrix, b: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray]:
-    """``(k,)`` int twice: every (column of row ``r`` of ``a``, column of row ``r`` of
-    ``b``), for every row ``r`` of the two CSR matrices (same number of rows).
+def _sub_rows(inc: sp.csr_matrix, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``rows`` ``(r,)`` of the CSR matrix ``inc`` as its ``indptr`` ``(r + 1,)`` and
+    ``indices`` (what ``inc[rows]`` holds, without building it).
     """
-    rows = np.repeat(np.arange(a.shape[0]), np.diff(a.indptr))
-    count = np.diff(b.indptr)[rows]
-    start = np.repeat(b.indptr[rows] - np.cumsum(count) + count, count)
-    return np.repeat(a.indices, count), b.indices[start + np.arange(count.sum())]
+    start, count = inc.indptr[rows], np.diff(inc.indptr)[rows]
+    indptr = np.concatenate([[0], np.cumsum(count)])
+    at = np.repeat(start - indptr[:-1], count) + np.arange(indptr[-1])
+    return indptr, inc.indices[at]
+
+
+def _row_products(a: tuple, b: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """``(k,)`` int twice: every (column of row ``r`` of ``a``, column of row ``r`` of
+    ``b``), for every row ``r`` of the two (``indptr``, ``indices``) of :func:`_sub_rows`
+    (same number of rows).
+    """
+    rows = np.repeat(np.arange(len(a[0]) - 1), np.diff(a[0]))
+    count = np.diff(b[0])[rows]
+    start = np.repeat(b[0][rows] - np.cumsum(count) + count, count)
+    return np.repeat(a[1], count), b[1][start + np.arange(count.sum())]
 
 
 def _fan_pairs(tri: np.ndarray, inc: sp.csr_matrix, loose: np.ndarray, edges: np.ndarray
@@ -1169,8 +1180,9 @@ def _fan_pairs(tri: np.ndarray, inc: sp.csr_matrix, loose: np.ndarray, edges: np
     one of each end's fan of ``edges`` ``(e, 2)`` (neither end certified) that share no
     vertex.
     """
-    a1, b1 = _row_products(inc[loose], inc[loose])
-    a2, b2 = _row_products(inc[edges[:, 0]], inc[edges[:, 1]])
+    fans = _sub_rows(inc, loose)
+    a1, b1 = _row_products(fans, fans)
+    a2, b2 = _row_products(_sub_rows(inc, edges[:, 0]), _sub_rows(inc, edges[:, 1]))
     apart = ~(tri[a2][:, :, None] == tri[b2][:, None, :]).any(axis=(1, 2))
     a = np.concatenate([a1, a2[apart]])
     b = np.concatenate([b1, b2[apart]])
