@@ -16,7 +16,9 @@ from hypothesis import strategies as st
 from wrinkle_vis.core.certificate import fold_report, intersecting_pairs
 from wrinkle_vis.core.foldguard import (
     _certified_fans,
+    _cleared_by_rest,
     _fan_structure,
+    _rest_fan_margins,
     _vertex_normals,
     guard_fans,
     guard_frame,
@@ -158,3 +160,57 @@ def test_a_step_that_moves_nothing_is_returned_as_it_is(n):
     W = np.zeros(len(pts))
     p, W2 = guard_fans(pts, pts.copy() if n else pts, W, tri)
     assert W2 is W
+
+
+def covered(tri: np.ndarray, n: int, v: int) -> set:
+    """The pairs of triangles whose being apart v's fan certificate stands for: two of
+    the fan of a vertex of v's closed ring, or one of v's fan and one with a corner on its
+    ring (docs/model.md, "The fans")."""
+    fan = [set(np.flatnonzero((tri == w).any(axis=1)).tolist()) for w in range(n)]
+    ring = set(tri[list(fan[v])].ravel().tolist()) - {v}
+    pairs = {(a, b) for w in ring | {v} for a in fan[w] for b in fan[w] if a < b}
+    around = set().union(*(fan[u] for u in ring))
+    return pairs | {(min(a, b), max(a, b)) for a in fan[v] for b in around if a != b}
+
+
+@settings(max_examples=60, deadline=None)
+@given(phi=st.floats(5.0, 180.0), small=st.floats(0.0, 0.4), big=st.floats(0.0, 1.5),
+       seed=st.integers(0, 2**16))
+def test_the_rest_margins_clear_only_fans_whose_two_rings_stay_apart(phi, small, big, seed):
+    """Every vertex moved a little, three a lot: the fans the book's margins clear have no
+    crossing pair among the pairs they stand for (the exact test on every pair)."""
+    pts, tri = book(phi_deg=phi, nx=8, rows=4)
+    rng = np.random.default_rng(seed)
+    p = pts + rng.uniform(-small, small, pts.shape)
+    p[rng.integers(0, len(pts), 3)] += rng.uniform(-big, big, (3, 3))
+    cleared = np.flatnonzero(_cleared_by_rest(p, pts, tri, np.arange(len(pts)), {}))
+    crossing = {tuple(sorted(ab)) for ab in intersecting_pairs(p, tri).tolist()}
+    for v in cleared:
+        assert not crossing & covered(tri, len(pts), v), v
+
+
+def test_the_rest_margins_clear_interior_fans_under_a_small_motion_and_not_a_large_one():
+    pts, tri = lattice(6)
+    terms: dict = {}
+    inner = np.array([14, 15, 20, 21])  # the vertices whose closed rings are interior
+    mu = _rest_fan_margins(pts, tri, terms)
+    assert np.all(mu[inner] > 0.3)  # about 0.34 of an edge: a hexagon, bent a little
+    assert np.count_nonzero(mu) == len(inner)  # a ring vertex on the boundary: open
+    rng = np.random.default_rng(1)
+    small = pts + rng.uniform(-0.05, 0.05, pts.shape)
+    assert _cleared_by_rest(small, pts, tri, np.arange(len(pts)), terms)[inner].all()
+    big = pts.copy()
+    big[14] += [0.0, 0.0, 3.0]  # a vertex lifted far over its neighbours
+    assert not _cleared_by_rest(big, pts, tri, np.arange(len(pts)), terms).any()
+
+
+def test_the_rest_filter_leaves_the_guarded_frame_as_the_exact_checks_give_it():
+    pts, tri = book(phi_deg=12.0, nx=6, rows=3)
+    rng = np.random.default_rng(3)
+    W = rng.uniform(-0.3, 0.3, len(pts))
+    raw = pushed(pts, tri, W)
+    p0, W0 = guard_fans(pts, raw, W, tri)  # no reference skin: the exact checks only
+    p1, W1 = guard_fans(pts, raw, W, tri, {}, rest=pts)
+    np.testing.assert_array_equal(p0, p1)
+    np.testing.assert_array_equal(W0, W1)
+    assert np.any(W1 != W)

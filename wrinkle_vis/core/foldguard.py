@@ -1034,11 +1034,161 @@ def _fan_structure(tri: np.ndarray, n: int, terms: dict) -> dict:
     return fans
 
 
+# The fans' rest margins (docs/model.md, "The fans", "A filter on the rest skin"): the
+# certificate of each vertex v taken along a fixed direction (v's rest normal) on a
+# reference skin r (the rest skin, cached per skin in ``terms``), with how far every edge
+# of its two rings may change, relative to its ends, before one of its signs could flip.
+
+
+def _fan_edges(tri: np.ndarray, n: int, terms: dict) -> dict:
+    """The skin's edges ``(e, 2)`` and, per vertex, its incident edges and neighbours in
+    one CSR layout (``start`` ``(n + 1,)``, ``edge`` and ``nbr`` ``(2e,)``), cached in
+    ``terms``.
+    """
+    graph = terms.get("fan_edges")
+    if graph is None:
+        edges = terms.get("edges")
+        if edges is None:
+            edges = np.unique(np.sort(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1),
+                              axis=0)
+        ends = np.concatenate([edges[:, 0], edges[:, 1]])
+        order = np.argsort(ends, kind="stable")
+        start = np.concatenate([[0], np.cumsum(np.bincount(ends, minlength=n))])
+        graph = terms["fan_edges"] = {
+            "edges": np.asarray(edges, dtype=np.intp), "start": start,
+            "edge": order % len(edges),
+            "nbr": np.concatenate([edges[:, 1], edges[:, 0]])[order]}
+    return graph
+
+
+def _csr_rows(start: np.ndarray, values: np.ndarray, rows: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """``rows`` ``(r,)`` of the CSR layout ``start`` ``(n + 1,)``, ``values``: their
+    ``indptr`` ``(r + 1,)`` and values, concatenated.
+    """
+    count = start[rows + 1] - start[rows]
+    indptr = np.concatenate([[0], np.cumsum(count)])
+    return indptr, values[np.repeat(start[rows] - indptr[:-1], count) + np.arange(indptr[-1])]
+
+
+def _segment_max(values: np.ndarray, indptr: np.ndarray) -> np.ndarray:
+    """``(r,)``: the largest of each segment ``indptr[i]:indptr[i + 1]`` of ``values``, 0
+    for an empty one.
+    """
+    if not len(values):
+        return np.zeros(len(indptr) - 1)
+    out = np.maximum.reduceat(values, np.minimum(indptr[:-1], len(values) - 1))
+    return np.where(indptr[1:] > indptr[:-1], out, 0.0)
+
+
+def _ring(rows: np.ndarray, graph: dict, n: int) -> np.ndarray:
+    """``(k,)`` sorted: ``rows`` ``(r,)`` and their neighbours in ``graph``
+    (:func:`_fan_edges`).
+    """
+    mask = np.zeros(n, bool)
+    mask[rows] = True
+    mask[_csr_rows(graph["start"], graph["nbr"], rows)[1]] = True
+    return np.flatnonzero(mask)
+
+
+def _margin(a: np.ndarray, s: np.ndarray) -> np.ndarray:
+    r"""``(k,)``: the :math:`\rho \ge 0` below which :math:`a > \rho s + \rho^2`
+    (:math:`a` ``(k,)`` the sign's value less its rounding margin, :math:`s` the sum of the
+    projected lengths of its two edge vectors), :math:`2a / (s + \sqrt{s^2 + 4a})`; 0 where
+    :math:`a \le 0`.
+    """
+    a = np.maximum(a, 0.0)
+    return 2.0 * a / np.maximum(s + np.sqrt(s * s + 4.0 * a), 1e-300)
+
+
+def _projected_length(e: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """``(k,)``: the lengths of the rows of ``e`` ``(k, 3)`` projected off the unit ``m``."""
+    along = _rows_dot(e, m)
+    return np.sqrt(np.maximum(_rows_dot(e, e) - along * along, 0.0))
+
+
+def _rest_fan_margins(r: np.ndarray, tri: np.ndarray, terms: dict) -> np.ndarray:
+    r"""``(n,)``: each vertex v's margin :math:`\mu_v` on the reference skin ``r``
+    ``(n, 3)``: if no edge with an end in v's closed ring changes by :math:`\rho < \mu_v`
+    (relative to its ends), v's fan certificate holds along v's reference normal
+    :math:`m_v` (docs/model.md, "The fans"). 0 where it fails on ``r`` itself: an open
+    vertex in v's closed ring, a fan there that does not wind once around its vertex
+    along :math:`m_v`.
+    """
+    n = len(r)
+    graph, fans = _fan_edges(tri, n, terms), _fan_structure(tri, n, terms)
+    A = _rows_cross(r[tri[:, 1]] - r[tri[:, 0]], r[tri[:, 2]] - r[tri[:, 0]])
+    m = np.stack([np.bincount(tri.ravel(), np.repeat(A[:, k], 3), n) for k in range(3)], 1)
+    m = m / np.maximum(np.sqrt(_rows_dot(m, m)), 1e-300)[:, None]
+    # the closed ring's (v, u) pairs, then every triangle t of u's fan: (v, u, t)
+    count = np.diff(graph["start"])
+    pv = np.concatenate([np.arange(n), np.repeat(np.arange(n), count)])
+    pu = np.concatenate([np.arange(n), graph["nbr"]])
+    indptr, t = _sub_rows(_fan_incidence(tri, n, terms), pu)
+    g = np.repeat(np.arange(len(pu)), np.diff(indptr))
+    v, u, mv = pv[g], pu[g], m[pv[g]]
+    k = (tri[t] == u[:, None]).argmax(axis=1)
+    e1 = r[tri[t, (k + 1) % 3]] - r[u]
+    e2 = r[tri[t, (k + 2) % 3]] - r[u]
+    up = _rows_dot(A[t], mv)
+    s = _projected_length(e1, mv) + _projected_length(e2, mv)  # the edges at u: in reach
+    mu = np.full(n, np.inf)
+    np.minimum.at(mu, v, _margin(up - _FAN_MARGIN * s * s, s))
+    flat = _rows_dot(e1, e2) - _rows_dot(e1, mv) * _rows_dot(e2, mv)
+    once = np.bincount(g, np.arctan2(up, flat), len(pu)) < 3.0 * np.pi
+    bad = np.bincount(pv, ~once | fans["open"][pu], n) > 0
+    np.minimum.at(mu, *_link_margins(r, tri, fans, m))
+    mu[bad | ~np.isfinite(mu)] = 0.0
+    return mu
+
+
+def _link_margins(r: np.ndarray, tri: np.ndarray, fans: dict, m: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(3m,)`` twice: for every corner (v, u, w) of ``tri`` on ``r``, v and the margin
+    of v's link turning left at u along :math:`m_v` (``m`` ``(n, 3)``):
+    :math:`m_v \cdot (u - u^-) \times (w - u) > 0`, :math:`u^-` across the edge v-u; 0
+    where that edge is a boundary.
+    """
+    rows = np.arange(3 * len(tri))
+    j, k = rows % len(tri), rows // len(tri)
+    v, u, w = tri[j, k], tri[j, (k + 1) % 3], tri[j, (k + 2) % 3]
+    before = fans["across"][j, k]
+    e_in, e_out = r[u] - r[np.maximum(before, 0)], r[w] - r[u]
+    mv = m[v]
+    s = _projected_length(e_in, mv) + _projected_length(e_out, mv)
+    turn = _rows_dot(_rows_cross(e_in, e_out), mv)
+    return v, np.where(before >= 0, _margin(turn - _FAN_MARGIN * s * s, s), 0.0)
+
+
+def _cleared_by_rest(p: np.ndarray, rest: np.ndarray, tri: np.ndarray, ask: np.ndarray,
+                     terms: dict) -> np.ndarray:
+    r"""``(k,)`` bool: which vertices ``ask`` ``(k,)`` have a fan certificate that holds on
+    ``p`` ``(n, 3)`` by the reference skin ``rest``'s margins alone (cached in ``terms``):
+    :math:`\rho_v < \mu_v`, :math:`\rho_v` the largest change
+    :math:`|\Delta_b - \Delta_a|` (:math:`\Delta = p - r`) of an edge with an end in v's
+    closed ring (the edges within three rings of ``ask`` only are looked at).
+    """
+    n = len(p)
+    mu = terms.get("fan_margins")
+    if mu is None:
+        mu = terms["fan_margins"] = _rest_fan_margins(rest, tri, terms)
+    graph = _fan_edges(tri, n, terms)
+    ring = _ring(ask, graph, n)
+    indptr, ids = _csr_rows(graph["start"], graph["edge"], ring)
+    e = graph["edges"][ids]
+    step = (p[e[:, 1]] - rest[e[:, 1]]) - (p[e[:, 0]] - rest[e[:, 0]])
+    near = np.zeros(n)
+    near[ring] = _segment_max(np.sqrt(_rows_dot(step, step)), indptr)
+    indptr, nbr = _csr_rows(graph["start"], graph["nbr"], ask)
+    rho = np.maximum(near[ask], _segment_max(near[nbr], indptr))
+    return rho < mu[ask]
+
+
 def _grow(mask: np.ndarray, tri: np.ndarray, rings: int) -> np.ndarray:
     """``(n,)`` bool: ``mask`` ``(n,)`` and every vertex within ``rings`` edges of it."""
     mask = mask.copy()
     for _ in range(rings):
-        mask[tri[mask[tri].any(axis=1)]] = True
+        mask[tri[mask[tri[:, 0]] | mask[tri[:, 1]] | mask[tri[:, 2]]]] = True
     return mask
 
 
@@ -1209,33 +1359,37 @@ def _pairs_cross(p: np.ndarray, tri: np.ndarray, pairs: np.ndarray) -> np.ndarra
 
 
 def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
-               triangles: np.ndarray, terms: dict | None = None
-               ) -> tuple[np.ndarray, np.ndarray]:
+               triangles: np.ndarray, terms: dict | None = None,
+               rest: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     r"""The wrinkles' step ``deformed`` :math:`x'` to ``points`` :math:`x' + W n'`
     (``(n, 3)``, ``W`` ``(n,)``) with no vertex's fan passing through the triangles of its
     two rings (``docs/model.md``, "The fans"): returns the points and :math:`W`, scaled
     by :math:`h_v \in [0, 1]` (:math:`x' + h_v (x - x')`), ``points`` and ``W``
     themselves (bit for bit) where nothing would cross.
 
-    Each vertex within two rings of a moved one is certified by :func:`_certified_fans`
-    (a few products per fan corner); the pairs no certificate covers are tested exactly
-    (:func:`_loose_pairs`, :func:`_pairs_cross`); the :math:`W` of the corners of each
-    pair that crosses, and is apart on ``deformed``, is scaled back to just below where it
-    crosses (:func:`_scale_back`; the least factor where pairs share a corner; after
-    ``_FAN_ROUNDS`` rounds, to 0), and the vertices around those are certified and tested
-    again, until no pair crosses. A pair apart on ``deformed`` is apart once its corners'
-    :math:`W` is 0, so this ends. ``terms``: a cache (:func:`pull_terms`' dict).
+    Each vertex within two rings of a moved one is cleared by the reference skin
+    ``rest``'s cached margins where its two rings' edges changed less than its margin
+    (:func:`_cleared_by_rest`, a few operations per edge), else certified by
+    :func:`_certified_fans` (a few products per fan corner); the pairs no certificate
+    covers are tested exactly (:func:`_loose_pairs`, :func:`_pairs_cross`); the
+    :math:`W` of the corners of each pair that crosses, and is apart on ``deformed``, is
+    scaled back to just below where it crosses (:func:`_scale_back`; the least factor
+    where pairs share a corner; after ``_FAN_ROUNDS`` rounds, to 0), and the vertices
+    around those are certified and tested again, until no pair crosses. A pair apart on
+    ``deformed`` is apart once its corners' :math:`W` is 0, so this ends. ``terms``: a
+    cache (:func:`pull_terms`' dict, of ``rest`` when it is given).
     """
     tri = np.asarray(triangles, dtype=np.intp)
     terms = {} if terms is None else terms
     d, p0 = np.asarray(deformed, dtype=float), np.asarray(points, dtype=float)
-    changed = moved = np.any(p0 != d, axis=1)
+    moved = p0 != d
+    changed = moved = moved[:, 0] | moved[:, 1] | moved[:, 2]
     if not moved.any():
         return points, W
     h = np.ones(len(d))
     p, rounds = p0, 0
     while True:
-        pairs = _loose_pairs(p, tri, changed, terms)
+        pairs = _loose_pairs(p, tri, changed, terms, rest)
         hit = pairs[_pairs_cross(p, tri, pairs)]
         hit = hit[~_pairs_cross(d, tri, hit)]  # a pair the pulls crossed is not W's
         if not len(hit):
@@ -1254,14 +1408,20 @@ def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
     return p, np.asarray(W, dtype=float) * h
 
 
-def _loose_pairs(p: np.ndarray, tri: np.ndarray, changed: np.ndarray, terms: dict
-                 ) -> np.ndarray:
+def _loose_pairs(p: np.ndarray, tri: np.ndarray, changed: np.ndarray, terms: dict,
+                 rest: np.ndarray | None = None) -> np.ndarray:
     """``(k, 2)``: the pairs of triangles (:func:`_fan_pairs`) around the vertices within
-    two rings of ``changed`` ``(n,)`` bool on ``p`` ``(n, 3)`` that
-    :func:`_certified_fans` leaves to the exact test.
+    two rings of ``changed`` ``(n,)`` bool on ``p`` ``(n, 3)`` that neither the reference
+    skin ``rest``'s margins (:func:`_cleared_by_rest`) nor :func:`_certified_fans` clear,
+    left to the exact test.
     """
     n = len(p)
-    ask = np.flatnonzero(_grow(changed, tri, 2))
+    graph = _fan_edges(tri, n, terms)
+    ask = _ring(_ring(np.flatnonzero(changed), graph, n), graph, n)
+    if rest is not None:
+        ask = ask[~_cleared_by_rest(p, rest, tri, ask, terms)]
+    if not len(ask):
+        return np.zeros((0, 2), np.intp)
     star, sure = _certified_fans(p, tri, ask, _fan_structure(tri, n, terms), terms)
     loose = np.zeros(n, bool)
     loose[ask[~sure]] = True
@@ -1345,7 +1505,7 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
     p2 = _rewrinkled(p2, d2, W, W2, moved, tri, terms)
     if not cert.step:
         p2, W2 = _held_wrinkles(rest, d2, p2, W2, tri, guard, terms)
-    p2, W2 = guard_fans(d2, p2, W2, tri, terms)  # no fan through its two rings
+    p2, W2 = guard_fans(d2, p2, W2, tri, terms, rest)  # no fan through its two rings
     acted = moved | (W2 != W)
     if p2 is not points:
         acted |= np.any(p2 != points, axis=1)
