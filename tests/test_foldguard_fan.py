@@ -173,7 +173,7 @@ def covered(tri: np.ndarray, n: int, v: int) -> set:
     return pairs | {(min(a, b), max(a, b)) for a in fan[v] for b in around if a != b}
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=100, deadline=None)
 @given(phi=st.floats(5.0, 180.0), small=st.floats(0.0, 0.4), big=st.floats(0.0, 1.5),
        seed=st.integers(0, 2**16))
 def test_the_rest_margins_clear_only_fans_whose_two_rings_stay_apart(phi, small, big, seed):
@@ -195,10 +195,12 @@ def test_the_rest_margins_clear_interior_fans_under_a_small_motion_and_not_a_lar
     inner = np.array([14, 15, 20, 21])  # the vertices whose closed rings are interior
     mu = _rest_fan_margins(pts, tri, terms)
     assert np.all(mu[inner] > 0.3)  # about 0.34 of an edge: a hexagon, bent a little
-    assert np.count_nonzero(mu) == len(inner)  # a ring vertex on the boundary: open
+    everyone = np.arange(len(pts))
+    at_rest = _cleared_by_rest(pts, pts, tri, everyone, terms)
+    assert np.flatnonzero(at_rest).tolist() == inner.tolist()  # the others: a ring vertex open
     rng = np.random.default_rng(1)
-    small = pts + rng.uniform(-0.05, 0.05, pts.shape)
-    assert _cleared_by_rest(small, pts, tri, np.arange(len(pts)), terms)[inner].all()
+    small = pts + rng.uniform(-0.05, 0.05, pts.shape)  # edges change by 0.17 at most
+    assert _cleared_by_rest(small, pts, tri, everyone, terms)[inner].all()
     big = pts.copy()
     big[14] += [0.0, 0.0, 3.0]  # a vertex lifted far over its neighbours
     assert not _cleared_by_rest(big, pts, tri, np.arange(len(pts)), terms).any()

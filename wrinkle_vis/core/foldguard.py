@@ -1108,12 +1108,14 @@ def _projected_length(e: np.ndarray, m: np.ndarray) -> np.ndarray:
 
 
 def _rest_fan_margins(r: np.ndarray, tri: np.ndarray, terms: dict) -> np.ndarray:
-    r"""``(n,)``: each vertex v's margin :math:`\mu_v` on the reference skin ``r``
-    ``(n, 3)``: if no edge with an end in v's closed ring changes by :math:`\rho < \mu_v`
-    (relative to its ends), v's fan certificate holds along v's reference normal
-    :math:`m_v` (docs/model.md, "The fans"). 0 where it fails on ``r`` itself: an open
-    vertex in v's closed ring, a fan there that does not wind once around its vertex
-    along :math:`m_v`.
+    r"""``(n + 2e,)``: the margins :math:`\mu_{vu}` on the reference skin ``r`` ``(n, 3)``
+    of each vertex v's fan certificate along v's reference normal :math:`m_v`, for every
+    u of v's closed ring: first u = v (``[:n]``), then v's neighbours in
+    :func:`_fan_edges`' CSR order (``[n:]``). If no edge at u changes by
+    :math:`\rho_u \ge \mu_{vu}` (relative to its ends) for any u, the certificate holds
+    (docs/model.md, "The fans"): :math:`\mu_{vu}` bounds the signs at u, u's fan's
+    triangles' along :math:`m_v` and the turn of v's link at u. 0 where one fails on ``r``
+    itself: u open, u's fan not winding once around u along :math:`m_v`.
     """
     n = len(r)
     graph, fans = _fan_edges(tri, n, terms), _fan_structure(tri, n, terms)
@@ -1126,26 +1128,29 @@ def _rest_fan_margins(r: np.ndarray, tri: np.ndarray, terms: dict) -> np.ndarray
     pu = np.concatenate([np.arange(n), graph["nbr"]])
     indptr, t = _sub_rows(_fan_incidence(tri, n, terms), pu)
     g = np.repeat(np.arange(len(pu)), np.diff(indptr))
-    v, u, mv = pv[g], pu[g], m[pv[g]]
+    u, mv = pu[g], m[pv[g]]
     k = (tri[t] == u[:, None]).argmax(axis=1)
     e1 = r[tri[t, (k + 1) % 3]] - r[u]
     e2 = r[tri[t, (k + 2) % 3]] - r[u]
     up = _rows_dot(A[t], mv)
-    s = _projected_length(e1, mv) + _projected_length(e2, mv)  # the edges at u: in reach
-    mu = np.full(n, np.inf)
-    np.minimum.at(mu, v, _margin(up - _FAN_MARGIN * s * s, s))
+    s = _projected_length(e1, mv) + _projected_length(e2, mv)  # the edges at u
+    mu = np.full(len(pu), np.inf)
+    np.minimum.at(mu, g, _margin(up - _FAN_MARGIN * s * s, s))
     flat = _rows_dot(e1, e2) - _rows_dot(e1, mv) * _rows_dot(e2, mv)
     once = np.bincount(g, np.arctan2(up, flat), len(pu)) < 3.0 * np.pi
-    bad = np.bincount(pv, ~once | fans["open"][pu], n) > 0
-    np.minimum.at(mu, *_link_margins(r, tri, fans, m))
-    mu[bad | ~np.isfinite(mu)] = 0.0
+    v, margin, u = _link_margins(r, tri, fans, m)
+    key = pv[n:].astype(np.int64) * n + pu[n:]
+    order = np.argsort(key)
+    np.minimum.at(mu, n + order[np.searchsorted(key[order], v.astype(np.int64) * n + u)],
+                  margin)
+    mu[~once | fans["open"][pu] | ~np.isfinite(mu)] = 0.0
     return mu
 
 
 def _link_margins(r: np.ndarray, tri: np.ndarray, fans: dict, m: np.ndarray
-                  ) -> tuple[np.ndarray, np.ndarray]:
-    r"""``(3m,)`` twice: for every corner (v, u, w) of ``tri`` on ``r``, v and the margin
-    of v's link turning left at u along :math:`m_v` (``m`` ``(n, 3)``):
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""``(3m,)`` three times: for every corner (v, u, w) of ``tri`` on ``r``, v, the margin
+    of v's link turning left at u along :math:`m_v` (``m`` ``(n, 3)``) and u:
     :math:`m_v \cdot (u - u^-) \times (w - u) > 0`, :math:`u^-` across the edge v-u; 0
     where that edge is a boundary.
     """
@@ -1157,16 +1162,17 @@ def _link_margins(r: np.ndarray, tri: np.ndarray, fans: dict, m: np.ndarray
     mv = m[v]
     s = _projected_length(e_in, mv) + _projected_length(e_out, mv)
     turn = _rows_dot(_rows_cross(e_in, e_out), mv)
-    return v, np.where(before >= 0, _margin(turn - _FAN_MARGIN * s * s, s), 0.0)
+    return v, np.where(before >= 0, _margin(turn - _FAN_MARGIN * s * s, s), 0.0), u
 
 
 def _cleared_by_rest(p: np.ndarray, rest: np.ndarray, tri: np.ndarray, ask: np.ndarray,
                      terms: dict) -> np.ndarray:
     r"""``(k,)`` bool: which vertices ``ask`` ``(k,)`` have a fan certificate that holds on
     ``p`` ``(n, 3)`` by the reference skin ``rest``'s margins alone (cached in ``terms``):
-    :math:`\rho_v < \mu_v`, :math:`\rho_v` the largest change
-    :math:`|\Delta_b - \Delta_a|` (:math:`\Delta = p - r`) of an edge with an end in v's
-    closed ring (the edges within three rings of ``ask`` only are looked at).
+    :math:`\rho_u < \mu_{vu}` (:func:`_rest_fan_margins`) for every u of v's closed
+    ring, :math:`\rho_u` the largest change :math:`|\Delta_b - \Delta_a|`
+    (:math:`\Delta = p - r`) of an edge at u (the edges within three rings of ``ask``
+    only are looked at).
     """
     n = len(p)
     mu = terms.get("fan_margins")
@@ -1179,9 +1185,10 @@ def _cleared_by_rest(p: np.ndarray, rest: np.ndarray, tri: np.ndarray, ask: np.n
     step = (p[e[:, 1]] - rest[e[:, 1]]) - (p[e[:, 0]] - rest[e[:, 0]])
     near = np.zeros(n)
     near[ring] = _segment_max(np.sqrt(_rows_dot(step, step)), indptr)
-    indptr, nbr = _csr_rows(graph["start"], graph["nbr"], ask)
-    rho = np.maximum(near[ask], _segment_max(near[nbr], indptr))
-    return rho < mu[ask]
+    indptr, at = _csr_rows(graph["start"], np.arange(len(graph["nbr"])), ask)
+    far = near[graph["nbr"][at]] >= mu[n + at]  # a sign at a neighbour in doubt
+    row = np.repeat(np.arange(len(ask)), np.diff(indptr))
+    return (near[ask] < mu[ask]) & (np.bincount(row, far, len(ask)) == 0)
 
 
 def _grow(mask: np.ndarray, tri: np.ndarray, rings: int) -> np.ndarray:
