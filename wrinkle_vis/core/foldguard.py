@@ -1191,14 +1191,6 @@ def _cleared_by_rest(p: np.ndarray, rest: np.ndarray, tri: np.ndarray, ask: np.n
     return (near[ask] < mu[ask]) & (np.bincount(row, far, len(ask)) == 0)
 
 
-def _grow(mask: np.ndarray, tri: np.ndarray, rings: int) -> np.ndarray:
-    """``(n,)`` bool: ``mask`` ``(n,)`` and every vertex within ``rings`` edges of it."""
-    mask = mask.copy()
-    for _ in range(rings):
-        mask[tri[mask[tri[:, 0]] | mask[tri[:, 1]] | mask[tri[:, 2]]]] = True
-    return mask
-
-
 def _fan_terms(p: np.ndarray, tri: np.ndarray, sub: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r"""Per vertex of the triangles ``sub`` (indices into ``tri`` ``(m, 3)``, every
@@ -1243,7 +1235,8 @@ def _certified_fans(p: np.ndarray, tri: np.ndarray, ask: np.ndarray, fans: dict,
     inc = _fan_incidence(tri, n, terms)
     asked = np.zeros(n, bool)
     asked[ask] = True
-    sub = np.flatnonzero(_grow(asked, tri, 1)[tri].any(axis=1))
+    ring = _ring(ask, _fan_edges(tri, n, terms), n)
+    sub = np.unique(_sub_rows(inc, ring)[1])  # the triangles at the asked ones' rings
     m, c, star = _fan_terms(p, tri, sub)
     star &= ~fans["open"]
     t = tri[sub]
@@ -1432,8 +1425,9 @@ def _loose_pairs(p: np.ndarray, tri: np.ndarray, changed: np.ndarray, terms: dic
     star, sure = _certified_fans(p, tri, ask, _fan_structure(tri, n, terms), terms)
     loose = np.zeros(n, bool)
     loose[ask[~sure]] = True
-    e = tri[loose[tri].any(axis=1)][:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    e = np.sort(e[loose[e].all(axis=1)], axis=1)
+    e = tri[loose[tri[:, 0]] | loose[tri[:, 1]] | loose[tri[:, 2]]]
+    e = e[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    e = np.sort(e[loose[e[:, 0]] & loose[e[:, 1]]], axis=1)
     key = np.unique(e[:, 0].astype(np.int64) * n + e[:, 1])
     e = np.stack([key // n, key % n], axis=1).astype(np.intp)
     return _fan_pairs(tri, _fan_incidence(tri, n, terms), ask[~star], e)
