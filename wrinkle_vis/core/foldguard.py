@@ -1236,7 +1236,9 @@ def _certified_fans(p: np.ndarray, tri: np.ndarray, ask: np.ndarray, fans: dict,
     asked = np.zeros(n, bool)
     asked[ask] = True
     ring = _ring(ask, _fan_edges(tri, n, terms), n)
-    sub = np.unique(_sub_rows(inc, ring)[1])  # the triangles at the asked ones' rings
+    at_ring = np.zeros(len(tri), bool)
+    at_ring[_sub_rows(inc, ring)[1]] = True
+    sub = np.flatnonzero(at_ring)  # the triangles at the asked ones' rings
     m, c, star = _fan_terms(p, tri, sub)
     star &= ~fans["open"]
     t = tri[sub]
