@@ -178,15 +178,19 @@ def covered(tri: np.ndarray, n: int, v: int) -> set:
        seed=st.integers(0, 2**16))
 def test_the_rest_margins_clear_only_fans_whose_two_rings_stay_apart(phi, small, big, seed):
     """Every vertex moved a little, three a lot: the fans the book's margins clear have no
-    crossing pair among the pairs they stand for (the exact test on every pair)."""
+    crossing pair among the pairs they stand for, nor the stars among their own (the exact
+    test on every pair)."""
     pts, tri = book(phi_deg=phi, nx=8, rows=4)
     rng = np.random.default_rng(seed)
     p = pts + rng.uniform(-small, small, pts.shape)
     p[rng.integers(0, len(pts), 3)] += rng.uniform(-big, big, (3, 3))
-    cleared = np.flatnonzero(_cleared_by_rest(p, pts, tri, np.arange(len(pts)), {}))
+    star, sure = _cleared_by_rest(p, pts, tri, np.arange(len(pts)), {})
     crossing = {tuple(sorted(ab)) for ab in intersecting_pairs(p, tri).tolist()}
-    for v in cleared:
+    for v in np.flatnonzero(sure):
         assert not crossing & covered(tri, len(pts), v), v
+    for v in np.flatnonzero(star):  # v's own fan: its pairs
+        fan = np.flatnonzero((tri == v).any(axis=1)).tolist()
+        assert not crossing & {(a, b) for a in fan for b in fan if a < b}, v
 
 
 def test_the_rest_margins_clear_interior_fans_under_a_small_motion_and_not_a_large_one():
@@ -196,14 +200,14 @@ def test_the_rest_margins_clear_interior_fans_under_a_small_motion_and_not_a_lar
     mu = _rest_fan_margins(pts, tri, terms)
     assert np.all(mu[inner] > 0.3)  # about 0.34 of an edge: a hexagon, bent a little
     everyone = np.arange(len(pts))
-    at_rest = _cleared_by_rest(pts, pts, tri, everyone, terms)
+    at_rest = _cleared_by_rest(pts, pts, tri, everyone, terms)[1]
     assert np.flatnonzero(at_rest).tolist() == inner.tolist()  # the others: a ring vertex open
     rng = np.random.default_rng(1)
     small = pts + rng.uniform(-0.05, 0.05, pts.shape)  # edges change by 0.17 at most
-    assert _cleared_by_rest(small, pts, tri, everyone, terms)[inner].all()
+    assert _cleared_by_rest(small, pts, tri, everyone, terms)[1][inner].all()
     big = pts.copy()
     big[14] += [0.0, 0.0, 3.0]  # a vertex lifted far over its neighbours
-    assert not _cleared_by_rest(big, pts, tri, np.arange(len(pts)), terms).any()
+    assert not _cleared_by_rest(big, pts, tri, everyone, terms)[1].any()
 
 
 def test_the_rest_filter_leaves_the_guarded_frame_as_the_exact_checks_give_it():

@@ -1166,9 +1166,10 @@ def _link_margins(r: np.ndarray, tri: np.ndarray, fans: dict, m: np.ndarray
 
 
 def _cleared_by_rest(p: np.ndarray, rest: np.ndarray, tri: np.ndarray, ask: np.ndarray,
-                     terms: dict) -> np.ndarray:
-    r"""``(k,)`` bool: which vertices ``ask`` ``(k,)`` have a fan certificate that holds on
-    ``p`` ``(n, 3)`` by the reference skin ``rest``'s margins alone (cached in ``terms``):
+                     terms: dict) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(k,)`` bool twice: which vertices ``ask`` ``(k,)`` have a fan that is a star on
+    ``p`` ``(n, 3)`` (:math:`\rho_v < \mu_{vv}`), and a fan certificate that holds on
+    ``p``, by the reference skin ``rest``'s margins alone (cached in ``terms``):
     :math:`\rho_u < \mu_{vu}` (:func:`_rest_fan_margins`) for every u of v's closed
     ring, :math:`\rho_u` the largest change :math:`|\Delta_b - \Delta_a|`
     (:math:`\Delta = p - r`) of an edge at u (the edges within three rings of ``ask``
@@ -1188,7 +1189,19 @@ def _cleared_by_rest(p: np.ndarray, rest: np.ndarray, tri: np.ndarray, ask: np.n
     indptr, at = _csr_rows(graph["start"], np.arange(len(graph["nbr"])), ask)
     far = near[graph["nbr"][at]] >= mu[n + at]  # a sign at a neighbour in doubt
     row = np.repeat(np.arange(len(ask)), np.diff(indptr))
-    return (near[ask] < mu[ask]) & (np.bincount(row, far, len(ask)) == 0)
+    star = near[ask] < mu[ask]
+    return star, star & (np.bincount(row, far, len(ask)) == 0)
+
+
+def _rest_sure(rest: np.ndarray, tri: np.ndarray, terms: dict) -> np.ndarray:
+    """``(n,)`` bool, cached in ``terms``: the vertices whose fan certificate fails on the
+    reference skin ``rest`` itself (:func:`_rest_fan_margins`: some margin 0), negated.
+    """
+    fails = terms.get("fan_rest_fails")
+    if fails is None:
+        fails = terms["fan_rest_fails"] = ~_cleared_by_rest(
+            rest, rest, tri, np.arange(len(rest)), terms)[1]
+    return ~fails
 
 
 def _fan_terms(p: np.ndarray, tri: np.ndarray, sub: np.ndarray
@@ -1420,11 +1433,19 @@ def _loose_pairs(p: np.ndarray, tri: np.ndarray, changed: np.ndarray, terms: dic
     n = len(p)
     graph = _fan_edges(tri, n, terms)
     ask = _ring(_ring(np.flatnonzero(changed), graph, n), graph, n)
+    star, sure = np.zeros(len(ask), bool), np.zeros(len(ask), bool)
+    check = np.ones(len(ask), bool)
     if rest is not None:
-        ask = ask[~_cleared_by_rest(p, rest, tri, ask, terms)]
-    if not len(ask):
-        return np.zeros((0, 2), np.intp)
-    star, sure = _certified_fans(p, tri, ask, _fan_structure(tri, n, terms), terms)
+        star, sure = _cleared_by_rest(p, rest, tri, ask, terms)
+        ask, star, sure = ask[~sure], star[~sure], sure[~sure]
+        if not len(ask):
+            return np.zeros((0, 2), np.intp)
+        # a star whose certificate fails on the rest skin itself (its link turns right
+        # there) is not certified again: its edges' pairs go to the exact test
+        check = ~(star & ~_rest_sure(rest, tri, terms)[ask])
+    if check.any():
+        star[check], sure[check] = _certified_fans(p, tri, ask[check],
+                                                   _fan_structure(tri, n, terms), terms)
     loose = np.zeros(n, bool)
     loose[ask[~sure]] = True
     e = tri[loose[tri[:, 0]] | loose[tri[:, 1]] | loose[tri[:, 2]]]
