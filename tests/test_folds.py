@@ -824,12 +824,12 @@ def test_stress_k0_five_times_refined_stays_clean(procedural):
 
 
 #: Crossing pairs that refined head frames with k0 at 5x its default still add (0 wherever
-#: not listed): the left eye's outer corner, where the rest skin folds on itself (vertex
-#: normals 100-140 degrees apart over 0.1 mm) and W's step folds a vertex's own fan over
-#: its neighbours, which no ball (empty of the triangles not incident to its vertex) sees
-#: (docs/benchmarks.md, stop 38). Main's guard (balls empty of vertices): 5-27 pairs in 17
-#: geometric and 5-10 pairs in 17 physical frames of these expressions.
-HEAD_STRESS_LEFT = {("geometric", "duchenne_smile", 1.0): 4, ("geometric", "squint", 1.0): 4}
+#: not listed). Stop 38 left 4 + 4 at the left eye's outer corner, where the rest skin folds
+#: on itself and W's step folded a vertex's own fan over its neighbours, which no ball sees;
+#: the fans' guard (foldguard.guard_fans, docs/benchmarks.md stop 39) removes them. Main's
+#: guard (balls empty of vertices): 5-27 pairs in 17 geometric and 5-10 pairs in 17
+#: physical frames of these expressions.
+HEAD_STRESS_LEFT: dict[tuple[str, str, float], int] = {}
 
 
 @pytest.mark.slow

@@ -1,0 +1,222 @@
+"""The wrinkle step's fan guard (``foldguard.guard_fans``, docs/model.md "The fans").
+
+The scene is a book nearly closed: two sheets hinged on a crease at an angle ``phi``, the
+skin's normals pointing into the book. W pushes the sheets' vertices along their own
+normals, which disagree across the crease, so a vertex's fan passes through the triangles
+of the opposite sheet's vertex two edges away, with no ball in the way (the guard is called
+on its own, or through ``guard_frame`` with infinite radii).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from wrinkle_vis.core.certificate import fold_report, intersecting_pairs
+from wrinkle_vis.core.foldguard import (
+    _certified_fans,
+    _cleared_by_rest,
+    _fan_structure,
+    _rest_fan_margins,
+    _vertex_normals,
+    guard_fans,
+    guard_frame,
+)
+
+
+def book(phi_deg: float = 10.0, nx: int = 5, rows: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """``(n, 3)`` points and ``(m, 3)`` triangles: a crease row on the x axis, sheet A in the
+    plane z = 0, sheet B folded up from it by ``phi_deg``, ``rows`` rows each, normals
+    inwards (A's along +z).
+    """
+    phi = np.radians(phi_deg)
+    xs = np.arange(nx) - (nx - 1) / 2
+    pts = [[x, 0.0, 0.0] for x in xs]
+    pts += [[x, r, 0.0] for r in range(1, rows + 1) for x in xs]
+    pts += [[x, r * np.cos(phi), r * np.sin(phi)] for r in range(1, rows + 1) for x in xs]
+
+    def idx(sheet: int, r: int, i: int) -> int:
+        return i if r == 0 else nx * (r + rows * sheet) + i
+
+    tri = []
+    for sheet in (0, 1):
+        for r in range(rows):
+            for i in range(nx - 1):
+                a, b = idx(sheet, r, i), idx(sheet, r, i + 1)
+                c, d = idx(sheet, r + 1, i), idx(sheet, r + 1, i + 1)
+                quad = [[a, b, d], [a, d, c]]
+                tri += [t[::-1] for t in quad] if sheet else quad
+    return np.array(pts, dtype=float), np.array(tri, dtype=np.intp)
+
+
+A1, B1, CREASE = 7, 17, 2  # sheet A's and B's first-row vertex at x = 0, and the crease's
+
+
+def pushed(pts: np.ndarray, tri: np.ndarray, W: np.ndarray) -> np.ndarray:
+    return pts + W[:, None] * _vertex_normals(pts, tri, np.arange(len(pts)), {})
+
+
+def neighbour_crossings(pts: np.ndarray, tri: np.ndarray, before: np.ndarray) -> set:
+    """The pairs of triangles within two rings of each other (sharing a vertex, or joined
+    by an edge) that cross on ``pts`` and not on ``before``.
+    """
+    n = len(pts)
+    adj = np.eye(n, dtype=bool)
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        adj[tri[:, i], tri[:, j]] = adj[tri[:, j], tri[:, i]] = True
+    old = {tuple(p) for p in intersecting_pairs(before, tri)}
+    return {(a, b) for a, b in map(tuple, intersecting_pairs(pts, tri))
+            if adj[np.ix_(tri[a], tri[b])].any() and (a, b) not in old}
+
+
+def test_the_book_is_clean_at_rest_and_its_normals_disagree_across_the_crease():
+    pts, tri = book()
+    assert len(intersecting_pairs(pts, tri)) == 0
+    n = _vertex_normals(pts, tri, np.array([A1, B1]), {})
+    np.testing.assert_allclose(n[0], [0, 0, 1], atol=1e-12)
+    assert n[0] @ n[1] < -0.98  # 170 degrees apart
+
+
+def test_a_fold_pushed_into_itself_crosses_and_the_fan_guard_stops_it_just_short():
+    pts, tri = book()
+    W = np.zeros(len(pts))
+    W[[A1, B1]] = 0.2  # each sheet towards the other; the sheets are 0.174 apart there
+    raw = pushed(pts, tri, W)
+    assert len(fold_report(pts, raw, tri).added) > 0
+    p, W2 = guard_fans(pts, raw, W, tri)
+    assert fold_report(pts, p, tri).ok
+    assert np.flatnonzero(W2 != W).tolist() == [A1, B1]
+    # the two vertices are 2 sin(phi / 2) = 0.1743 apart and meet head on at half of it
+    np.testing.assert_allclose(W2[[A1, B1]], np.sin(np.radians(5.0)), rtol=0.02)
+    assert np.all(W2[[A1, B1]] < np.sin(np.radians(5.0)))
+    np.testing.assert_array_equal(p[W2 == W], raw[W2 == W])
+
+
+def test_the_fan_guard_leaves_a_step_that_crosses_nothing_as_it_is():
+    pts, tri = book()
+    W = np.zeros(len(pts))
+    W[CREASE] = 0.8  # the crease's vertex into the book: its fan opens, nothing crosses
+    W[A1] = 0.05
+    raw = pushed(pts, tri, W)
+    assert fold_report(pts, raw, tri).ok
+    p, W2 = guard_fans(pts, raw, W, tri)
+    assert p is raw and W2 is W
+
+
+def test_guard_frame_calls_the_fan_guard_where_no_ball_and_no_area_acts():
+    pts, tri = book()
+    W = np.zeros(len(pts))
+    W[[A1, B1]] = 0.3
+    raw = pushed(pts, tri, W)
+    g = guard_frame(pts, pts, raw, W, tri, np.full((len(pts), 2), np.inf), pulls=False)
+    assert fold_report(pts, g.points, tri).ok
+    assert g.acted[A1] and g.acted[B1] and np.all(g.W[[A1, B1]] < 0.3)
+
+
+def lattice(k: int = 5) -> tuple[np.ndarray, np.ndarray]:
+    """A flat patch of equilateral triangles, ``k`` by ``k`` vertices (every interior
+    vertex's link a regular hexagon), bent into a cylinder of radius 3 about the x axis.
+    """
+    i, j = np.meshgrid(np.arange(k), np.arange(k), indexing="ij")
+    x, y = (i + 0.5 * j).ravel(), (np.sqrt(0.75) * j).ravel()
+    pts = np.stack([x, 3.0 * np.sin(y / 3.0), 3.0 * (1.0 - np.cos(y / 3.0))], axis=1)
+    a = (i[:-1, :-1] * k + j[:-1, :-1]).ravel()
+    tri = np.concatenate([np.stack([a, a + k, a + 1], 1), np.stack([a + 1, a + k, a + k + 1], 1)])
+    return pts, tri
+
+
+def test_convex_fans_are_certified_and_the_crease_is_not():
+    pts, tri = lattice()
+    terms: dict = {}
+    inner = np.array([6, 7, 8, 11, 12, 13, 16, 17, 18])  # the 3 x 3 interior vertices
+    star, sure = _certified_fans(pts, tri, inner, _fan_structure(tri, len(pts), terms), terms)
+    assert star[4] and sure[4]  # the middle one: its ring is interior too
+    assert star.all()
+    pts, tri = book(phi_deg=10.0, rows=3)
+    star, sure = _certified_fans(pts, tri, np.array([CREASE]),
+                                 _fan_structure(tri, len(pts), {}), {})
+    assert star.all() and not sure.any()  # its own fan is a star, its two rings fold over it
+
+
+@settings(max_examples=40, deadline=None)
+@given(phi=st.floats(3.0, 90.0),
+       w=st.lists(st.floats(-0.6, 0.6), min_size=8, max_size=8),
+       where=st.lists(st.integers(0, 24), min_size=8, max_size=8))
+def test_no_pair_within_two_rings_crosses_after_the_fan_guard(phi, w, where):
+    pts, tri = book(phi_deg=phi)
+    W = np.zeros(len(pts))
+    W[where] = w
+    raw = pushed(pts, tri, W)
+    p, W2 = guard_fans(pts, raw, W, tri)
+    assert not neighbour_crossings(p, tri, pts)
+    assert np.all(np.abs(W2) <= np.abs(W)) and np.all(W2 * W >= 0)
+    np.testing.assert_array_equal(p[W2 == W], raw[W2 == W])
+
+
+@pytest.mark.parametrize("n", [0, 3])
+def test_a_step_that_moves_nothing_is_returned_as_it_is(n):
+    pts, tri = book()
+    W = np.zeros(len(pts))
+    p, W2 = guard_fans(pts, pts.copy() if n else pts, W, tri)
+    assert W2 is W
+
+
+def covered(tri: np.ndarray, n: int, v: int) -> set:
+    """The pairs of triangles whose being apart v's fan certificate stands for: two of
+    the fan of a vertex of v's closed ring, or one of v's fan and one with a corner on its
+    ring (docs/model.md, "The fans")."""
+    fan = [set(np.flatnonzero((tri == w).any(axis=1)).tolist()) for w in range(n)]
+    ring = set(tri[list(fan[v])].ravel().tolist()) - {v}
+    pairs = {(a, b) for w in ring | {v} for a in fan[w] for b in fan[w] if a < b}
+    around = set().union(*(fan[u] for u in ring))
+    return pairs | {(min(a, b), max(a, b)) for a in fan[v] for b in around if a != b}
+
+
+@settings(max_examples=100, deadline=None)
+@given(phi=st.floats(5.0, 180.0), small=st.floats(0.0, 0.4), big=st.floats(0.0, 1.5),
+       seed=st.integers(0, 2**16))
+def test_the_rest_margins_clear_only_fans_whose_two_rings_stay_apart(phi, small, big, seed):
+    """Every vertex moved a little, three a lot: the fans the book's margins clear have no
+    crossing pair among the pairs they stand for, nor the stars among their own (the exact
+    test on every pair)."""
+    pts, tri = book(phi_deg=phi, nx=8, rows=4)
+    rng = np.random.default_rng(seed)
+    p = pts + rng.uniform(-small, small, pts.shape)
+    p[rng.integers(0, len(pts), 3)] += rng.uniform(-big, big, (3, 3))
+    star, sure = _cleared_by_rest(p, pts, tri, np.arange(len(pts)), {})
+    crossing = {tuple(sorted(ab)) for ab in intersecting_pairs(p, tri).tolist()}
+    for v in np.flatnonzero(sure):
+        assert not crossing & covered(tri, len(pts), v), v
+    for v in np.flatnonzero(star):  # v's own fan: its pairs
+        fan = np.flatnonzero((tri == v).any(axis=1)).tolist()
+        assert not crossing & {(a, b) for a in fan for b in fan if a < b}, v
+
+
+def test_the_rest_margins_clear_interior_fans_under_a_small_motion_and_not_a_large_one():
+    pts, tri = lattice(6)
+    terms: dict = {}
+    inner = np.array([14, 15, 20, 21])  # the vertices whose closed rings are interior
+    mu = _rest_fan_margins(pts, tri, terms)
+    assert np.all(mu[inner] > 0.3)  # about 0.34 of an edge: a hexagon, bent a little
+    everyone = np.arange(len(pts))
+    at_rest = _cleared_by_rest(pts, pts, tri, everyone, terms)[1]
+    assert np.flatnonzero(at_rest).tolist() == inner.tolist()  # the others: a ring vertex open
+    rng = np.random.default_rng(1)
+    small = pts + rng.uniform(-0.05, 0.05, pts.shape)  # edges change by 0.17 at most
+    assert _cleared_by_rest(small, pts, tri, everyone, terms)[1][inner].all()
+    big = pts.copy()
+    big[14] += [0.0, 0.0, 3.0]  # a vertex lifted far over its neighbours
+    assert not _cleared_by_rest(big, pts, tri, everyone, terms)[1].any()
+
+
+def test_the_rest_filter_leaves_the_guarded_frame_as_the_exact_checks_give_it():
+    pts, tri = book(phi_deg=12.0, nx=6, rows=3)
+    rng = np.random.default_rng(3)
+    W = rng.uniform(-0.3, 0.3, len(pts))
+    raw = pushed(pts, tri, W)
+    p0, W0 = guard_fans(pts, raw, W, tri)  # no reference skin: the exact checks only
+    p1, W1 = guard_fans(pts, raw, W, tri, {}, rest=pts)
+    np.testing.assert_array_equal(p0, p1)
+    np.testing.assert_array_equal(W0, W1)
+    assert np.any(W1 != W)
