@@ -88,7 +88,33 @@ def test_the_cold_pass_decides_as_the_exact_check_over_every_triangle(
     assert not foldguard._cold_pass(terms, pull_t, size, 0.2, 2.0)  # no rows yet: exact
     foldguard._terms_rows(terms)
     want = not _exact_any_bad(terms, pull_t, size, 0.2, 2.0)
-    assert foldguard._cold_pass(terms, pull_t, size, 0.2, 2.0) == want
+    got = foldguard._cold_pass(terms, pull_t, size, 0.2, 2.0)
+    assert want or not got  # never clears a pull the exact check scales
+    warm = np.count_nonzero(~(size <= foldguard._cold_limits(terms, 0.2, 2.0)))
+    moving = np.count_nonzero(size)
+    if 2 * moving > n and 2 * warm < moving:  # (mostly cold: it decides, as the exact check)
+        assert got == want
+    else:  # (a local pull: the exact check decides)
+        assert not got if warm else got
+
+
+def test_the_cold_pass_leaves_a_local_pull_to_the_exact_check():
+    # the pulled triangles of a local pull (the geometric skin's) are kept per moving set:
+    # where most moving vertices are warm, the exact check over them is as cheap
+    points, tri = _mesh(np.random.default_rng(1), 30, 50)
+    terms = pull_terms(points, tri)
+    foldguard._terms_rows(terms)
+    pull = np.zeros((30, 3))
+    pull[:4] = 10.0  # warm: far beyond any cold limit
+    pull_t, size = _pull(points, pull)
+    assert not foldguard._cold_pass(terms, pull_t, size, 0.2, 2.0)
+    pull[4:10] = 1e-13  # cold, but the pull moves a third of the skin only
+    pull_t, size = _pull(points, pull)
+    assert not foldguard._cold_pass(terms, pull_t, size, 0.2, 2.0)
+    pull[4:] = 1e-13  # the rest moved by a rounding: cold
+    pull_t, size = _pull(points, pull)
+    assert foldguard._cold_pass(terms, pull_t, size, 0.2, 2.0) == \
+        (not _exact_any_bad(terms, pull_t, size, 0.2, 2.0))
 
 
 def _reference_scale(monkeypatch, *args, **kwargs):

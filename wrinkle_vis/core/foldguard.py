@@ -609,13 +609,20 @@ def _cold_pass(terms: dict, pull_t: np.ndarray, size: np.ndarray, min_area: floa
     others alone (the same values, bit for bit, as on every triangle). False where that
     check finds one, and where ``terms`` has not yet computed every triangle's rows (an
     earlier frame pulled every triangle: the physical skin's, whose solve moves every
-    vertex by at least its rounding): then the exact check decides.
+    vertex by at least its rounding), or where the pull is local (it moves at most half the
+    skin's vertices, the geometric skin's, or fewer than half of those it moves are cold:
+    then the exact check over the pulled triangles, kept per moving set, is as cheap):
+    then the exact check decides.
     """
     if "N" not in terms:
         return False
     warm = ~(size <= _cold_limits(terms, min_area, top))  # (a NaN pull is warm)
-    if not warm.any():
+    count = np.count_nonzero(warm)
+    if not count:
         return True
+    moving = np.count_nonzero(size)
+    if 2 * moving <= len(size) or 2 * count >= moving:  # (a local pull)
+        return False
     c0, c1, c2 = terms["corners"]
     hot = np.flatnonzero(warm[c0] | warm[c1] | warm[c2])
     N, A1, A2 = terms["N"], terms["A1"], terms["A2"]
