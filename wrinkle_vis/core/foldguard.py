@@ -202,10 +202,13 @@ def _start_terms(Nt: np.ndarray, start: np.ndarray, corners: np.ndarray
     :math:`N_t = N / |N|^2` ``(3, k)`` and the edges :math:`e_1, e_2` of the triangles
     ``corners`` ``(3, k)`` on the skin ``start`` ``(n, 3)`` a step begins from.
     """
-    c = np.take(np.asarray(start, dtype=float), corners, axis=0)  # (3, k, 3): the corners
-    e1 = np.subtract(c[1], c[0]).T  # only (not the whole skin laid out as rows), the
-    e2 = np.subtract(c[2], c[0]).T  # edges as (3, k) views: the same values
-    del c
+    st = np.ascontiguousarray(np.asarray(start, dtype=float).T)  # rows x, y, z
+    r0 = np.take(st, corners[0], axis=1)
+    e1 = np.take(st, corners[1], axis=1)
+    e1 -= r0
+    e2 = np.take(st, corners[2], axis=1)
+    e2 -= r0
+    del r0
     k = corners.shape[1]
     t = np.empty(k)
     cross = np.empty((k, 3))  # laid out as before (the einsum's sums follow the layout):
@@ -614,14 +617,14 @@ def _cold_pass(terms: dict, pull_t: np.ndarray, size: np.ndarray, min_area: floa
     then the exact check over the pulled triangles, kept per moving set, is as cheap):
     then the exact check decides.
     """
-    if "N" not in terms:
+    moving = np.count_nonzero(size)
+    if "N" not in terms or 2 * moving <= len(size):  # (a local pull: no limits built)
         return False
     warm = ~(size <= _cold_limits(terms, min_area, top))  # (a NaN pull is warm)
     count = np.count_nonzero(warm)
     if not count:
         return True
-    moving = np.count_nonzero(size)
-    if 2 * moving <= len(size) or 2 * count >= moving:  # (a local pull)
+    if 2 * count >= moving:  # (mostly warm)
         return False
     c0, c1, c2 = terms["corners"]
     hot = np.flatnonzero(warm[c0] | warm[c1] | warm[c2])
