@@ -617,8 +617,10 @@ def _cold_pass(terms: dict, pull_t: np.ndarray, size: np.ndarray, min_area: floa
     then the exact check over the pulled triangles, kept per moving set, is as cheap):
     then the exact check decides.
     """
+    if "N" not in terms:
+        return False
     moving = np.count_nonzero(size)
-    if "N" not in terms or 2 * moving <= len(size):  # (a local pull: no limits built)
+    if 2 * moving <= len(size):  # (a local pull: no limits built)
         return False
     warm = ~(size <= _cold_limits(terms, min_area, top))  # (a NaN pull is warm)
     count = np.count_nonzero(warm)
