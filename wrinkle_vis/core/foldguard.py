@@ -916,14 +916,12 @@ def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
     bound grows fast where the pull fades: the guard stays where the pulls are), and the
     factor is :func:`soft_clamp` of 1 below :math:`F_v`. The step is repeated
     ``iterations`` times on the scaled pull (the factors only decrease). Only the
-    triangles with a pulled corner are looked at. ``terms``: :func:`pull_terms` of the
-    rest skin, when cached.
-
-    ``start`` ``(n, 3)``: a skin the step begins from (default ``rest``): the step is then
-    ``deformed - start``, and :math:`\sigma_t(s) = \sigma_t(0) + b s + c s^2` is still the
-    signed area along the *rest* normal, relative to the rest area (:math:`\sigma_t(0)`
-    that of ``start``): a chain of steps guarded so never turns a triangle over against the
-    rest skin.
+    triangles with a pulled corner are looked at, and of a pull from the rest skin first
+    only those that are not cold (:func:`_cold_pass`). ``terms``: :func:`pull_terms` of
+    the rest skin, when cached. ``start`` ``(n, 3)``: a skin the step begins from (default
+    ``rest``): the step is then ``deformed - start``, and :math:`\sigma_t(s) = \sigma_t(0)
+    + b s + c s^2` is still the signed area along the *rest* normal relative to the rest
+    area: a chain of steps guarded so never turns a triangle over against the rest skin.
     """
     rest = np.asarray(rest, dtype=float)
     if terms is None:
@@ -932,8 +930,10 @@ def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
     pull_t = np.ascontiguousarray((np.asarray(deformed, dtype=float) - base).T)
     f = np.ones(len(rest))
     size = np.sqrt((pull_t * pull_t).sum(axis=0))
-    rows, corners, Nt, a0, A1, A2 = _pulled_triangles(terms, size > 0, base, start)
     top = 1.0 / knee
+    if start is None and _cold_pass(terms, pull_t, size, min_area, top):
+        return f  # (the exact check below would find no triangle below min_area either)
+    rows, corners, Nt, a0, A1, A2 = _pulled_triangles(terms, size > 0, base, start)
     if not len(rows):
         return f
     b, c = _quadratic(pull_t, corners, Nt, A1, A2)
@@ -956,6 +956,71 @@ def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
         _update(b, c, low, pull_t, f, changed, corners, (Nt, A1, A2, a0), top)
         _reweigh(graph, changed, f * size)
     return f
+
+
+_COLD_MARGIN = 1e-9  # the cold bound's room for the exact check's rounding (docs/model.md)
+
+
+def _cold_limits(terms: dict, min_area: float, top: float) -> np.ndarray:
+    r"""``(n,)``: at each vertex the least :math:`\tau_t` of the triangles around it, of
+    :func:`pull_terms` ``terms`` (``inf`` on no triangle): where each corner's pull is at
+    most :math:`\tau_t` long, :math:`\sigma_t(s) \ge`
+    ``min_area`` :math:`+ \mu` on :math:`[0, top]` (``docs/model.md``, "The cold
+    triangles"). With :math:`d_i = p_i - p_0`, :math:`|d_i| \le 2\tau`, so
+    :math:`|b| \le 2\tau \alpha_t`, :math:`\alpha_t = |A_1| + |A_2|`, and
+    :math:`|c| \le 4\tau^2 \nu_t`, :math:`\nu_t = |N / |N|^2|`; :math:`\tau_t` is the
+    positive root of :math:`4\,top^2 \nu_t \tau^2 + 2\,top\,\alpha_t \tau =
+    1 - \sigma_{\min} - \mu`, lowered by :math:`10^{-6}` relative (``inf`` for a triangle
+    with no area: its :math:`b = c = 0`). Rest-only: kept in ``terms`` per
+    ``(min_area, top)``.
+    """
+    key = ("cold_limits", float(min_area), float(top))
+    got = terms.get(key)
+    if got is None:
+        N, A1, A2 = _terms_rows(terms)
+        alpha = np.sqrt((A1 * A1).sum(axis=0)) + np.sqrt((A2 * A2).sum(axis=0))
+        alpha *= 2.0 * top * (1.0 + 1e-9)
+        nu = np.sqrt((N * N).sum(axis=0))
+        nu *= 4.0 * top * top * (1.0 + 1e-9)
+        room = 1.0 - min_area - _COLD_MARGIN
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tau = 2.0 * room / (alpha + np.sqrt(alpha * alpha + 4.0 * nu * room))
+        tau = np.where(alpha > 0, tau * (1.0 - 1e-6), np.inf)
+        got = terms[key] = np.full(len(terms["rest"]), np.inf)  # per vertex: the least
+        np.minimum.at(got, terms["corners"].ravel(), np.tile(tau, 3))  # of its triangles'
+    return got
+
+
+def _cold_pass(terms: dict, pull_t: np.ndarray, size: np.ndarray, min_area: float,
+               top: float) -> bool:
+    r"""Whether :func:`skin_scale`'s exact check of the pull ``pull_t`` ``(3, n)`` (the
+    lengths ``size`` ``(n,)``) from the rest skin finds no triangle below ``min_area``,
+    shown without looking at the *cold* triangles, those whose corners' pulls are all at
+    most :func:`_cold_limits` long (they cannot be below it): the exact check runs on the
+    others alone (the same values, bit for bit, as on every triangle). False where that
+    check finds one, and where ``terms`` has not yet computed every triangle's rows (an
+    earlier frame pulled every triangle: the physical skin's, whose solve moves every
+    vertex by at least its rounding), or where the pull is local (it moves at most half the
+    skin's vertices, the geometric skin's, or fewer than half of those it moves are cold:
+    then the exact check over the pulled triangles, kept per moving set, is as cheap):
+    then the exact check decides.
+    """
+    if "N" not in terms:
+        return False
+    moving = np.count_nonzero(size)
+    if 2 * moving <= len(size):  # (a local pull: no limits built)
+        return False
+    warm = ~(size <= _cold_limits(terms, min_area, top))  # (a NaN pull is warm)
+    count = np.count_nonzero(warm)
+    if not count:
+        return True
+    if 2 * count >= moving:  # (mostly warm)
+        return False
+    c0, c1, c2 = terms["corners"]
+    hot = np.flatnonzero(warm[c0] | warm[c1] | warm[c2])
+    N, A1, A2 = terms["N"], terms["A1"], terms["A2"]
+    b, c = _quadratic(pull_t, terms["corners"][:, hot], N[:, hot], A1[:, hot], A2[:, hot])
+    return not bool((_lowest_sigma(b, c, top) < min_area).any())
 
 
 def _update(b: np.ndarray, c: np.ndarray, low: np.ndarray, pull_t: np.ndarray, f: np.ndarray,
