@@ -390,16 +390,39 @@ def _suspects(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarra
     if not sum(map(len, balls)):
         return none
     ball, t, vert = _expand(lift, np.concatenate(balls), np.concatenate(verts))
-    corners = tri[t]
-    keep = ~(corners == own[ball, None]).any(axis=1)  # not the ball's own vertex's
-    ball, t, vert, corners = ball[keep], t[keep], vert[keep], corners[keep]
-    diff = points[corners] - centres[ball, None]
-    dd = np.einsum("ijk,ijk->ij", diff, diff)  # (p, 3)
-    r2 = radii[ball, None] ** 2
-    found = dd - lift["rho"][corners] <= r2 + 1.5e-9 * (r2 + lift["T"][corners])
-    first = np.argmax(found, axis=1)
-    keep = (corners[np.arange(len(t)), first] == vert) \
-        & (dd.min(axis=1) <= (r2[:, 0] + lift["rho_t"][t]) * (1.0 + 1e-9))
+    return _first_found(lift, centres, radii, own, points, ball, t, vert)
+
+
+def _first_found(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray,
+                 points: np.ndarray, ball: np.ndarray, t: np.ndarray, vert: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    r"""The pairs of :func:`_suspects` kept from its found pairs ``ball``, ``t`` and
+    ``vert`` ``(q,)`` (a ball, a triangle of the vertex found for it, that vertex): the
+    triangles not incident to the ball's own vertex with a corner at :math:`|v - c|^2 \le
+    (r^2 + \rho_t^2)(1 + 10^{-9})`, each through the first of its corners with
+    :math:`|v - c|^2 - \rho_v^2 \le r^2 + 1.5 \cdot 10^{-9} (r^2 + T_v)` (the first
+    corner where none has it). Column by column: the corners' three rows apart, the
+    cheapest test first (reductions over rows of 3 are slow).
+    """
+    tri = lift["tri"]
+    keep = np.ones(len(t), bool)
+    o, cs, dd = own[ball], [], []
+    for j in range(3):
+        cj = np.take(tri[:, j], t)
+        keep &= cj != o  # not the ball's own vertex's
+        cs.append(cj)
+    ball, t, vert = ball[keep], t[keep], vert[keep]
+    cs = [cj[keep] for cj in cs]
+    c = centres[ball]
+    for cj in cs:
+        d = points[cj] - c
+        dd.append(np.einsum("ij,ij->i", d, d))
+    r2 = radii[ball] ** 2
+    near = np.minimum(np.minimum(dd[0], dd[1]), dd[2]) <= (r2 + lift["rho_t"][t]) * (1.0 + 1e-9)
+    rho, T = lift["rho"], lift["T"]
+    found = [dd[j] - rho[cs[j]] <= r2 + 1.5e-9 * (r2 + T[cs[j]]) for j in range(3)]
+    first = np.where(found[0] | ~(found[1] | found[2]), cs[0], np.where(found[1], cs[1], cs[2]))
+    keep = near & (first == vert)
     return ball[keep], t[keep]
 
 
@@ -477,7 +500,7 @@ def _shrink_on_triangles(r: np.ndarray, ball: np.ndarray, xb: np.ndarray, nb: np
     triangle ``corners`` ``(p, 3, 3)``.
     """
     a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
-    live = np.ones(len(ball), bool)
+    live = ~_apart(xb + r[ball, None] * nb, r[ball], a, b, c)
     for _ in range(iterations):
         k = np.flatnonzero(live)
         if not len(k):
@@ -507,6 +530,35 @@ def _shrink_on_triangles(r: np.ndarray, ball: np.ndarray, xb: np.ndarray, nb: np
         np.minimum.at(r, ball[k], 0.5 * np.linalg.norm(q - xb[k], axis=1))
     return r
 
+
+def _apart(centres: np.ndarray, radii: np.ndarray, a: np.ndarray, b: np.ndarray,
+           c: np.ndarray) -> np.ndarray:
+    r"""``(p,)`` bool: the pairs of balls ``centres`` ``(p, 3)``, ``radii`` ``(p,)`` and
+    triangles ``a``, ``b``, ``c`` ``(p, 3)`` that cannot meet, by two tests cheaper than the
+    nearest point (:func:`_closest_on_triangles`): the triangle's plane, normal :math:`N`,
+    is farther than :math:`r` from the centre, :math:`((o - a) \cdot N)^2 > r'^2 |N|^2`; or
+    its corners' ball about their mean :math:`g`, radius :math:`R = \max_i |v_i - g|`
+    (which holds the triangle, the corners' hull), is, :math:`|o - g| > r' + R(1 +
+    10^{-6}) + \tau`; with :math:`r' = r(1 + 10^{-6}) + \tau` and :math:`\tau = 10^{-12}(1
+    + \max |v|)` against rounding (far above that of the nearest point's distance, so a
+    pair found apart is never one the search's rounding puts inside).
+    """
+    if not len(a):
+        return np.zeros(0, bool)
+    tau = 1e-12 * (1.0 + max(float(np.abs(a).max()), float(np.abs(b).max()),
+                             float(np.abs(c).max()), float(np.abs(centres).max())))
+    lim = radii * (1.0 + 1e-6) + tau
+    N = _cross(b - a, c - a)
+    h = np.einsum("ij,ij->i", centres - a, N)
+    out = h * h > lim * lim * np.einsum("ij,ij->i", N, N)
+    g = (a + b + c) / 3.0
+    R2 = np.maximum(np.maximum(_sq(a - g), _sq(b - g)), _sq(c - g))
+    return out | (_sq(centres - g) > (lim + np.sqrt(R2) * (1.0 + 1e-6) + tau) ** 2)
+
+
+def _sq(d: np.ndarray) -> np.ndarray:
+    """``(p,)``: the rows' squared lengths of ``d`` ``(p, 3)``."""
+    return np.einsum("ij,ij->i", d, d)
 
 
 def _triangle_seps(points: np.ndarray, tri: np.ndarray, near: np.ndarray,

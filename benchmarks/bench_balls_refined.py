@@ -1,0 +1,127 @@
+"""The deformed balls' search (``foldguard._deformed_lows``) on refined animation frames,
+this tree against a baseline revision's, on the very same inputs.
+
+The frames' guard runs once (this tree's) over ramps of new activations (refined paper face,
+each skin model), and every call of the balls' search is kept with its inputs; then each
+call is timed with this tree's function and the baseline's, interleaved, and the results
+are checked equal bit for bit. The figures are the balls' share of a frame alone (the rest
+of the guard, the fans' above all, is timed by ``bench_folds.py --animation``).
+
+Usage: python benchmarks/bench_balls_refined.py [--baseline 574c064] [--frames 8]
+       [--rounds 5] [--cases surprise,pucker]
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def _module_at(ref: str):
+    """``wrinkle_vis.core.foldguard`` as of ``ref``, imported inside the package."""
+    root = Path(__file__).resolve().parents[1]
+    text = subprocess.run(["git", "-C", str(root), "show", f"{ref}:wrinkle_vis/core/foldguard.py"],
+                          check=True, capture_output=True, text=True).stdout
+    path = Path(tempfile.mkdtemp()) / "foldguard_balls_baseline.py"
+    path.write_text(text)
+    spec = importlib.util.spec_from_file_location("wrinkle_vis.core.foldguard_balls_baseline",
+                                                  path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def _captured(expr: str, skin: str, frames: int) -> list[tuple]:
+    """The balls' searches of a ramp of ``frames`` refined frames (intensity 0 to 1): each
+    call's arguments, its terms copied as they were when it was called."""
+    import wrinkle_vis as wv
+    from wrinkle_vis.core import foldguard
+
+    calls, own = [], foldguard._deformed_lows
+
+    def keep(deformed, tri, W, terms, guard, step=None, empty=None, clear=None):
+        calls.append((deformed.copy(), tri, W.copy(), dict(terms), guard, step, empty, clear))
+        return own(deformed, tri, W, terms, guard, step, empty, clear)
+
+    foldguard._deformed_lows = keep
+    try:
+        face = wv.datasets.load_face()
+        for i in np.linspace(0.0, 1.0, frames)[1:]:
+            face.evaluate(expr, float(i), refine=True, skin=skin, fold_guard=True)
+    finally:
+        foldguard._deformed_lows = own
+    return calls
+
+
+def _same(a, b) -> bool:
+    if a is None or b is None:
+        return a is None and b is None
+    return np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+
+
+def _timed(fn, call) -> tuple[float, float, object]:
+    args = (*call[:3], dict(call[3]), *call[4:])
+    w, c = time.perf_counter(), time.process_time()
+    out = fn(*args)
+    return time.perf_counter() - w, time.process_time() - c, out
+
+
+def case(expr: str, skin: str, frames: int, rounds: int, old) -> dict:
+    """One ramp's balls: per-frame medians over ``rounds`` (wall, CPU) for both trees."""
+    from wrinkle_vis.core import foldguard
+
+    calls = _captured(expr, skin, frames)
+    runs = {"new": foldguard._deformed_lows, "old": old._deformed_lows}
+    wall = {k: [] for k in runs}
+    cpu = {k: [] for k in runs}
+    same = True
+    for r in range(rounds):
+        tot = {k: [0.0, 0.0] for k in runs}
+        for call in calls:
+            outs = {}
+            for k in (("new", "old") if r % 2 == 0 else ("old", "new")):
+                w, c, outs[k] = _timed(runs[k], call)
+                tot[k][0] += w
+                tot[k][1] += c
+            same &= _same(outs["new"], outs["old"])
+        for k in runs:
+            wall[k].append(tot[k][0] / len(calls) * 1e3)
+            cpu[k].append(tot[k][1] / len(calls) * 1e3)
+    return {"calls": len(calls), "same": bool(same),
+            **{f"{k}_wall": statistics.median(v) for k, v in wall.items()},
+            **{f"{k}_cpu": statistics.median(v) for k, v in cpu.items()}}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--baseline", default="574c064")
+    ap.add_argument("--frames", type=int, default=8)
+    ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--cases", default="surprise,pucker")
+    ap.add_argument("--skin-model", default="both", choices=("geometric", "physical", "both"))
+    args = ap.parse_args()
+    old = _module_at(args.baseline)
+    skins = ("geometric", "physical") if args.skin_model == "both" else (args.skin_model,)
+    for skin in skins:
+        for expr in args.cases.split(","):
+            v = case(expr, skin, args.frames, args.rounds, old)
+            print(f"refined {expr:9s} ({skin:9s}) {v['calls']} searches: a frame's balls, wall "
+                  f"(CPU) this {v['new_wall']:6.2f} ({v['new_cpu']:6.2f}) ms, {args.baseline} "
+                  f"{v['old_wall']:6.2f} ({v['old_cpu']:6.2f}) ms, ratio "
+                  f"{v['new_cpu'] / max(v['old_cpu'], 1e-9):.2f}; bit for bit "
+                  f"{'equal' if v['same'] else 'DIFFERENT'} [load {os.getloadavg()[0]:.2f}]",
+                  flush=True)
+
+
+if __name__ == "__main__":
+    main()
