@@ -1561,6 +1561,37 @@ def _pairs_cross(p: np.ndarray, tri: np.ndarray, pairs: np.ndarray) -> np.ndarra
     return hit
 
 
+_PLANE_MARGIN = 1e-10  # relative margin of the planes' sides (far above rounding)
+
+
+def _apart_by_planes(p: np.ndarray, tri: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    r"""``(k,)`` bool: the ``pairs`` ``(k, 2)`` of triangles ``tri`` on ``p`` ``(n, 3)``
+    that certainly meet only in what they share: the corners of one that the other does
+    not share (at least one) lie strictly on one side of the other's plane,
+    :math:`|h| > \epsilon` with one sign for all, :math:`h = N \cdot (x - a)`,
+    :math:`N = (b - a) \times (c - a)` for the other = (a, b, c), :math:`\epsilon` =
+    ``_PLANE_MARGIN`` :math:`|b - a| |c - a| |x - a|` (``docs/model.md``, "The fans", "A
+    plane first"); the exact test would find them apart.
+    """
+    if not len(pairs):
+        return np.zeros(0, bool)
+    k = len(pairs)
+    t = tri[np.concatenate([pairs[:, 0], pairs[:, 1]])]  # each triangle's plane against
+    s = tri[np.concatenate([pairs[:, 1], pairs[:, 0]])]  # the other's corners, both ways
+    a = p[t[:, 0]]
+    e1, e2 = p[t[:, 1]] - a, p[t[:, 2]] - a
+    N = _rows_cross(e1, e2)
+    scale = _PLANE_MARGIN * _PLANE_MARGIN * _rows_dot(e1, e1) * _rows_dot(e2, e2)
+    free = (s[:, :, None] != t[:, None, :]).all(axis=2)  # (2k, 3): not a corner of t
+    x = p[s] - a[:, None, :]
+    h = np.einsum("ij,ikj->ik", N, x)
+    sure = h * h > scale[:, None] * np.einsum("ikj,ikj->ik", x, x)  # |h| > eps
+    pos = (~free | (sure & (h > 0))).all(axis=1)
+    neg = (~free | (sure & (h < 0))).all(axis=1)
+    one = (pos | neg) & free.any(axis=1)
+    return one[:k] | one[k:]
+
+
 def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
                triangles: np.ndarray, terms: dict | None = None,
                rest: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -1593,6 +1624,7 @@ def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
     p, rounds = p0, 0
     while True:
         pairs = _loose_pairs(p, tri, changed, terms, rest)
+        pairs = pairs[~_apart_by_planes(p, tri, pairs)]  # (the exact test's verdict)
         hit = pairs[_pairs_cross(p, tri, pairs)]
         hit = hit[~_pairs_cross(d, tri, hit)]  # a pair the pulls crossed is not W's
         if not len(hit):
