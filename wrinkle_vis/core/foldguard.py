@@ -1358,7 +1358,7 @@ def _fan_region(changed: np.ndarray, tri: np.ndarray, terms: dict,
     e = e[(e[:, 0] >= 0) & (e[:, 1] >= 0)]
     region = {"S": S, "rest": flag, "ask": ask, "e0": e[:, 0].copy(), "e1": e[:, 1].copy(),
               "pairs": {}}
-    if flag:
+    if rest is not None:
         region["rest_region"] = _rest_region(rest, tri, ask, terms)
         region["rest_fails"] = ~_rest_sure(rest, tri, terms)[ask]
     memo.append(region)
