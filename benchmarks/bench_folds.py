@@ -116,7 +116,8 @@ def _baseline_guard(ref: str):
                           check=True, capture_output=True, text=True).stdout
     path = Path(tempfile.mkdtemp()) / "foldguard_baseline.py"
     path.write_text(text)
-    spec = importlib.util.spec_from_file_location("foldguard_baseline", path)
+    # named inside the package, so that its relative imports resolve
+    spec = importlib.util.spec_from_file_location("wrinkle_vis.core._foldguard_baseline", path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module
     spec.loader.exec_module(module)
