@@ -1300,8 +1300,12 @@ def _rest_region(rest: np.ndarray, tri: np.ndarray, ask: np.ndarray, terms: dict
     graph = _fan_edges(tri, n, terms)
     ring = _ring(ask, graph, n)
     indptr, ids = _csr_rows(graph["start"], graph["edge"], ring)
-    verts, local = np.unique(graph["edges"][ids], return_inverse=True)
-    local = local.reshape(-1, 2)
+    e = graph["edges"][ids]
+    inside = np.zeros(n, np.intp)
+    inside[e.ravel()] = 1
+    verts = np.flatnonzero(inside)
+    inside[verts] = np.arange(len(verts))
+    local = inside[e]
     at_ptr, at = _csr_rows(graph["start"], np.arange(len(graph["nbr"])), ask)
     return {"verts": verts, "rest": rest[verts], "e0": local[:, 0].copy(),
             "e1": local[:, 1].copy(), "indptr": indptr,
