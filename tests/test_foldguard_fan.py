@@ -212,13 +212,28 @@ def test_the_rest_margins_clear_interior_fans_under_a_small_motion_and_not_a_lar
     assert not _cleared_by_rest(big, pts, tri, everyone, terms)[1].any()
 
 
+def test_a_skin_first_frame_skips_the_rest_filter_and_its_second_builds_it():
+    pts, tri = book(phi_deg=12.0, nx=6, rows=3)
+    W = np.random.default_rng(3).uniform(-0.3, 0.3, len(pts))
+    raw = pushed(pts, tri, W)
+    terms: dict = {}
+    first = guard_fans(pts, raw, W, tri, terms, rest=pts)
+    assert "fan_margins" not in terms  # a refined frame's skin, new each frame, never pays
+    second = guard_fans(pts, raw, W, tri, terms, rest=pts)
+    assert "fan_margins" in terms
+    for a, b in zip(first, second, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
 def test_the_rest_filter_leaves_the_guarded_frame_as_the_exact_checks_give_it():
     pts, tri = book(phi_deg=12.0, nx=6, rows=3)
     rng = np.random.default_rng(3)
     W = rng.uniform(-0.3, 0.3, len(pts))
     raw = pushed(pts, tri, W)
     p0, W0 = guard_fans(pts, raw, W, tri)  # no reference skin: the exact checks only
-    p1, W1 = guard_fans(pts, raw, W, tri, {}, rest=pts)
+    seen = {"fans_seen": True}  # a skin seen before: the rest filter runs
+    p1, W1 = guard_fans(pts, raw, W, tri, seen, rest=pts)
+    assert "fan_margins" in seen
     np.testing.assert_array_equal(p0, p1)
     np.testing.assert_array_equal(W0, W1)
     assert np.any(W1 != W)
@@ -272,9 +287,10 @@ def test_a_ramp_through_the_kept_regions_guards_each_frame_as_a_fresh_skin_would
         W = np.zeros(len(pts))
         W[where] = scale * W0[where]
         raw = pushed(pts, tri, W)
-        p0, W_0 = guard_fans(pts, raw, W, tri, {}, rest=pts)
+        p0, W_0 = guard_fans(pts, raw, W, tri, {})  # the exact checks only
         p1, W_1 = guard_fans(pts, raw, W, tri, terms, rest=pts)
         np.testing.assert_array_equal(p0, p1)
         np.testing.assert_array_equal(W_0, W_1)
-    # the first region widened twice (overlaps), the fourth frame's its own: two kept
-    assert len(terms["fan_regions"]) == 2
+    # (the first frame without the rest filter: a skin's first) the second region widened
+    # twice (overlaps), the fourth frame's its own: two with the filter, one without
+    assert [r["rest"] for r in terms["fan_regions"]] == [False, True, True]

@@ -1624,6 +1624,12 @@ def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
     changed = moved = moved[:, 0] | moved[:, 1] | moved[:, 2]
     if not moved.any():
         return points, W
+    if rest is not None and not terms.get("fans_seen"):
+        # a skin's first frame is guarded without the rest filter: its margins cost a
+        # pass over the whole skin (three times the frame's exact checks on a refined
+        # frame's skin, new on each frame); a skin seen again pays for them once
+        terms["fans_seen"] = True
+        rest = None
     h = np.ones(len(d))
     p, rounds = p0, 0
     while True:
