@@ -15,9 +15,11 @@ from hypothesis import strategies as st
 
 from wrinkle_vis.core.certificate import fold_report, intersecting_pairs
 from wrinkle_vis.core.foldguard import (
+    _apart_by_planes,
     _certified_fans,
     _cleared_by_rest,
     _fan_structure,
+    _pairs_cross,
     _rest_fan_margins,
     _vertex_normals,
     guard_fans,
@@ -210,13 +212,85 @@ def test_the_rest_margins_clear_interior_fans_under_a_small_motion_and_not_a_lar
     assert not _cleared_by_rest(big, pts, tri, everyone, terms)[1].any()
 
 
+def test_a_skin_first_frame_skips_the_rest_filter_and_its_second_builds_it():
+    pts, tri = book(phi_deg=12.0, nx=6, rows=3)
+    W = np.random.default_rng(3).uniform(-0.3, 0.3, len(pts))
+    raw = pushed(pts, tri, W)
+    terms: dict = {}
+    first = guard_fans(pts, raw, W, tri, terms, rest=pts)
+    assert "fan_margins" not in terms  # a refined frame's skin, new each frame, never pays
+    second = guard_fans(pts, raw, W, tri, terms, rest=pts)
+    assert "fan_margins" in terms
+    for a, b in zip(first, second, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
 def test_the_rest_filter_leaves_the_guarded_frame_as_the_exact_checks_give_it():
     pts, tri = book(phi_deg=12.0, nx=6, rows=3)
     rng = np.random.default_rng(3)
     W = rng.uniform(-0.3, 0.3, len(pts))
     raw = pushed(pts, tri, W)
     p0, W0 = guard_fans(pts, raw, W, tri)  # no reference skin: the exact checks only
-    p1, W1 = guard_fans(pts, raw, W, tri, {}, rest=pts)
+    seen = {"fans_seen": True}  # a skin seen before: the rest filter runs
+    p1, W1 = guard_fans(pts, raw, W, tri, seen, rest=pts)
+    assert "fan_margins" in seen
     np.testing.assert_array_equal(p0, p1)
     np.testing.assert_array_equal(W0, W1)
     assert np.any(W1 != W)
+
+
+def neighbour_pairs(tri: np.ndarray, n: int) -> np.ndarray:
+    """``(k, 2)``: every pair of distinct triangles sharing a vertex or joined by an edge."""
+    adj = np.eye(n, dtype=bool)
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        adj[tri[:, i], tri[:, j]] = adj[tri[:, j], tri[:, i]] = True
+    a, b = np.triu_indices(len(tri), 1)
+    near = adj[tri[a][:, :, None], tri[b][:, None, :]].any(axis=(1, 2))
+    return np.stack([a[near], b[near]], axis=1)
+
+
+@settings(max_examples=100, deadline=None)
+@given(phi=st.floats(3.0, 180.0), small=st.floats(0.0, 0.5), big=st.floats(0.0, 1.5),
+       seed=st.integers(0, 2**16))
+def test_the_planes_clear_only_pairs_the_exact_test_finds_apart(phi, small, big, seed):
+    """A book jittered everywhere and pushed hard at three vertices: every neighbour pair
+    the planes clear is apart by the exact test (pairs sharing a vertex, an edge or
+    none)."""
+    pts, tri = book(phi_deg=phi, nx=6, rows=3)
+    rng = np.random.default_rng(seed)
+    p = pts + rng.uniform(-small, small, pts.shape)
+    p[rng.integers(0, len(pts), 3)] += rng.uniform(-big, big, (3, 3))
+    pairs = neighbour_pairs(tri, len(pts))
+    apart = _apart_by_planes(p, tri, pairs)
+    assert not (apart & _pairs_cross(p, tri, pairs)).any()
+
+
+def test_the_planes_clear_a_bent_patch_and_leave_coplanar_pairs_to_the_exact_test():
+    pts, tri = lattice(6)  # on a cylinder: only a strip's triangles share a plane
+    pairs = neighbour_pairs(tri, len(pts))
+    assert _apart_by_planes(pts, tri, pairs).mean() > 0.4
+    flat = pts.copy()
+    flat[:, 2] = 0.0  # every corner in every plane: none certain
+    assert not _apart_by_planes(flat, tri, pairs).any()
+
+
+def test_a_ramp_through_the_kept_regions_guards_each_frame_as_a_fresh_skin_would():
+    """Frames whose moved sets shrink, grow, overlap and part, through one skin's kept
+    regions and pairs, against each frame guarded with nothing kept: bit for bit."""
+    pts, tri = book(phi_deg=12.0, nx=8, rows=3)
+    rng = np.random.default_rng(5)
+    W0 = rng.uniform(-0.3, 0.3, len(pts))
+    terms: dict = {}
+    supports = [np.arange(0, 30), np.arange(5, 25), np.arange(20, 40), np.arange(45, len(pts)),
+                np.arange(5, 25), np.arange(len(pts)), np.arange(50, 56)]
+    for scale, where in zip((1.0, 0.5, 1.0, 0.8, 0.3, 1.0, 0.9), supports, strict=True):
+        W = np.zeros(len(pts))
+        W[where] = scale * W0[where]
+        raw = pushed(pts, tri, W)
+        p0, W_0 = guard_fans(pts, raw, W, tri, {})  # the exact checks only
+        p1, W_1 = guard_fans(pts, raw, W, tri, terms, rest=pts)
+        np.testing.assert_array_equal(p0, p1)
+        np.testing.assert_array_equal(W_0, W_1)
+    # (the first frame without the rest filter: a skin's first) the second region widened
+    # twice (overlaps), the fourth frame's its own: two with the filter, one without
+    assert [r["rest"] for r in terms["fan_regions"]] == [False, True, True]

@@ -1397,7 +1397,20 @@ def _cleared_by_rest(p: np.ndarray, rest: np.ndarray, tri: np.ndarray, ask: np.n
     (:math:`\Delta = p - r`) of an edge at u (the edges within three rings of ``ask``
     only are looked at).
     """
-    n = len(p)
+    return _rest_filter(p, _rest_region(rest, tri, ask, terms))
+
+
+def _rest_region(rest: np.ndarray, tri: np.ndarray, ask: np.ndarray, terms: dict) -> dict:
+    r"""What :func:`_rest_filter` needs to clear the vertices ``ask`` ``(k,)`` on any
+    frame, gathered once (a moved set's region is kept with it, :func:`_fan_region`):
+    ``verts`` ``(q,)`` (the ends of the edges at ``ask``'s closed rings' vertices, the
+    ``ring`` ``(r,)``) and their rest points; those edges ``e0``, ``e1`` ``(f,)`` (as
+    indices into ``verts``) by ring vertex (``indptr`` ``(r + 1,)``); the margins
+    :math:`\mu_{vv}` (``mu_own`` ``(k,)``, ``own``: v's place in the ring) and
+    :math:`\mu_{vu}` of each (v, u) (``mu_nbr``, ``nbr``: u's place in the ring, ``row``:
+    v's place in ``ask``).
+    """
+    n = len(rest)
     mu = terms.get("fan_margins")
     if mu is None:
         mu = terms["fan_margins"] = _rest_fan_margins(rest, tri, terms)
@@ -1405,14 +1418,88 @@ def _cleared_by_rest(p: np.ndarray, rest: np.ndarray, tri: np.ndarray, ask: np.n
     ring = _ring(ask, graph, n)
     indptr, ids = _csr_rows(graph["start"], graph["edge"], ring)
     e = graph["edges"][ids]
-    step = (p[e[:, 1]] - rest[e[:, 1]]) - (p[e[:, 0]] - rest[e[:, 0]])
-    near = np.zeros(n)
-    near[ring] = _segment_max(np.sqrt(_rows_dot(step, step)), indptr)
-    indptr, at = _csr_rows(graph["start"], np.arange(len(graph["nbr"])), ask)
-    far = near[graph["nbr"][at]] >= mu[n + at]  # a sign at a neighbour in doubt
-    row = np.repeat(np.arange(len(ask)), np.diff(indptr))
-    star = near[ask] < mu[ask]
-    return star, star & (np.bincount(row, far, len(ask)) == 0)
+    inside = np.zeros(n, np.intp)
+    inside[e.ravel()] = 1
+    verts = np.flatnonzero(inside)
+    inside[verts] = np.arange(len(verts))
+    local = inside[e]
+    at_ptr, at = _csr_rows(graph["start"], np.arange(len(graph["nbr"])), ask)
+    return {"verts": verts, "rest": rest[verts], "e0": local[:, 0].copy(),
+            "e1": local[:, 1].copy(), "indptr": indptr,
+            "own": np.searchsorted(ring, ask), "mu_own": mu[ask],
+            "nbr": np.searchsorted(ring, graph["nbr"][at]), "mu_nbr": mu[n + at],
+            "row": np.repeat(np.arange(len(ask)), np.diff(at_ptr)), "k": len(ask)}
+
+
+def _rest_filter(p: np.ndarray, region: dict) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_cleared_by_rest` on the region :func:`_rest_region` gathered: the frame's
+    arithmetic only (the same values, so the same decisions).
+    """
+    D = p[region["verts"]] - region["rest"]
+    step = D[region["e1"]] - D[region["e0"]]
+    near = _segment_max(np.sqrt(_rows_dot(step, step)), region["indptr"])
+    far = near[region["nbr"]] >= region["mu_nbr"]  # a sign at a neighbour in doubt
+    star = near[region["own"]] < region["mu_own"]
+    return star, star & (np.bincount(region["row"], far, region["k"]) == 0)
+
+
+_FAN_REGIONS = 8  # the pulled regions whose fan work a skin's terms remember
+_FAN_PAIRS = 4  # and, per region, the sets of loose vertices whose pairs it remembers
+
+
+def _fan_region(changed: np.ndarray, tri: np.ndarray, terms: dict,
+                rest: np.ndarray | None) -> tuple[dict, np.ndarray]:
+    """A region of the skin around a set ``S`` of vertices holding ``changed`` ``(n,)``
+    bool, kept in ``terms`` (the last :data:`_FAN_REGIONS`, the least recently used dropped
+    first), and which of its vertices are within two rings of ``changed`` ``(k,)`` bool.
+
+    The region: ``ask`` ``(k,)``, the vertices within two rings of ``S``; ``e0``, ``e1``,
+    the edges among them (indices into ``ask``); given a reference skin ``rest``,
+    :func:`_rest_region` of ``ask`` and which fail their certificate on it
+    (``rest_fails``). A frame whose moved vertices lie in a kept ``S`` (the frames of an
+    expression's ramp: W's support shrinks or stays as it grows) finds it; one that
+    overlaps the latest ``S`` widens it to the union; any other starts a region of its own.
+    """
+    flag = rest is not None
+    memo = terms.setdefault("fan_regions", [])
+    for i in range(len(memo) - 1, -1, -1):
+        region = memo[i]
+        if region["rest"] == flag and not (changed & ~region["S"]).any():
+            memo.append(memo.pop(i))  # the most recent last
+            return region, _two_rings(changed[region["ask"]], region)
+    S = changed
+    if memo and memo[-1]["rest"] == flag and (changed & memo[-1]["S"]).any():
+        S = changed | memo.pop()["S"]
+    n = len(changed)
+    graph = _fan_edges(tri, n, terms)
+    ask = _ring(_ring(np.flatnonzero(S), graph, n), graph, n)
+    inside = np.full(n, -1)
+    inside[ask] = np.arange(len(ask))
+    e = inside[graph["edges"]]
+    e = e[(e[:, 0] >= 0) & (e[:, 1] >= 0)]
+    region = {"S": S, "rest": flag, "ask": ask, "e0": e[:, 0].copy(), "e1": e[:, 1].copy(),
+              "pairs": {}}
+    if rest is not None:
+        region["rest_region"] = _rest_region(rest, tri, ask, terms)
+        region["rest_fails"] = ~_rest_sure(rest, tri, terms)[ask]
+    memo.append(region)
+    while len(memo) > _FAN_REGIONS:
+        memo.pop(0)
+    return region, _two_rings(changed[ask], region)
+
+
+def _two_rings(mark: np.ndarray, region: dict) -> np.ndarray:
+    """``(k,)`` bool: the vertices of the region's ``ask`` within two rings of ``mark``
+    ``(k,)`` (a part of the region's ``S``), along the region's edges (every edge at a
+    vertex within one ring of ``S`` is among them).
+    """
+    e0, e1 = region["e0"], region["e1"]
+    mark = mark.copy()
+    for _ in range(2):
+        a, b = e0[mark[e1]], e1[mark[e0]]
+        mark[a] = True
+        mark[b] = True
+    return mark
 
 
 def _rest_sure(rest: np.ndarray, tri: np.ndarray, terms: dict) -> np.ndarray:
@@ -1595,6 +1682,37 @@ def _pairs_cross(p: np.ndarray, tri: np.ndarray, pairs: np.ndarray) -> np.ndarra
     return hit
 
 
+_PLANE_MARGIN = 1e-10  # relative margin of the planes' sides (far above rounding)
+
+
+def _apart_by_planes(p: np.ndarray, tri: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    r"""``(k,)`` bool: the ``pairs`` ``(k, 2)`` of triangles ``tri`` on ``p`` ``(n, 3)``
+    that certainly meet only in what they share: the corners of one that the other does
+    not share (at least one) lie strictly on one side of the other's plane,
+    :math:`|h| > \epsilon` with one sign for all, :math:`h = N \cdot (x - a)`,
+    :math:`N = (b - a) \times (c - a)` for the other = (a, b, c), :math:`\epsilon` =
+    ``_PLANE_MARGIN`` :math:`|b - a| |c - a| |x - a|` (``docs/model.md``, "The fans", "A
+    plane first"); the exact test would find them apart.
+    """
+    if not len(pairs):
+        return np.zeros(0, bool)
+    k = len(pairs)
+    t = tri[np.concatenate([pairs[:, 0], pairs[:, 1]])]  # each triangle's plane against
+    s = tri[np.concatenate([pairs[:, 1], pairs[:, 0]])]  # the other's corners, both ways
+    a = p[t[:, 0]]
+    e1, e2 = p[t[:, 1]] - a, p[t[:, 2]] - a
+    N = _rows_cross(e1, e2)
+    scale = _PLANE_MARGIN * _PLANE_MARGIN * _rows_dot(e1, e1) * _rows_dot(e2, e2)
+    free = (s[:, :, None] != t[:, None, :]).all(axis=2)  # (2k, 3): not a corner of t
+    x = p[s] - a[:, None, :]
+    h = np.einsum("ij,ikj->ik", N, x)
+    sure = h * h > scale[:, None] * np.einsum("ikj,ikj->ik", x, x)  # |h| > eps
+    pos = (~free | (sure & (h > 0))).all(axis=1)
+    neg = (~free | (sure & (h < 0))).all(axis=1)
+    one = (pos | neg) & free.any(axis=1)
+    return one[:k] | one[k:]
+
+
 def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
                triangles: np.ndarray, terms: dict | None = None,
                rest: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -1623,10 +1741,17 @@ def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
     changed = moved = moved[:, 0] | moved[:, 1] | moved[:, 2]
     if not moved.any():
         return points, W
+    if rest is not None and not terms.get("fans_seen"):
+        # a skin's first frame is guarded without the rest filter: its margins cost a
+        # pass over the whole skin (three times the frame's exact checks on a refined
+        # frame's skin, new on each frame); a skin seen again pays for them once
+        terms["fans_seen"] = True
+        rest = None
     h = np.ones(len(d))
     p, rounds = p0, 0
     while True:
         pairs = _loose_pairs(p, tri, changed, terms, rest)
+        pairs = pairs[~_apart_by_planes(p, tri, pairs)]  # (the exact test's verdict)
         hit = pairs[_pairs_cross(p, tri, pairs)]
         hit = hit[~_pairs_cross(d, tri, hit)]  # a pair the pulls crossed is not W's
         if not len(hit):
@@ -1650,32 +1775,53 @@ def _loose_pairs(p: np.ndarray, tri: np.ndarray, changed: np.ndarray, terms: dic
     """``(k, 2)``: the pairs of triangles (:func:`_fan_pairs`) around the vertices within
     two rings of ``changed`` ``(n,)`` bool on ``p`` ``(n, 3)`` that neither the reference
     skin ``rest``'s margins (:func:`_cleared_by_rest`) nor :func:`_certified_fans` clear,
-    left to the exact test.
+    left to the exact test. The region's index work is kept per moved set
+    (:func:`_fan_region`), the pairs per set of vertices left.
     """
     n = len(p)
-    graph = _fan_edges(tri, n, terms)
-    ask = _ring(_ring(np.flatnonzero(changed), graph, n), graph, n)
-    star, sure = np.zeros(len(ask), bool), np.zeros(len(ask), bool)
-    check = np.ones(len(ask), bool)
+    region, asked = _fan_region(changed, tri, terms, rest)
     if rest is not None:
-        star, sure = _cleared_by_rest(p, rest, tri, ask, terms)
-        ask, star, sure = ask[~sure], star[~sure], sure[~sure]
-        if not len(ask):
+        star, sure = _rest_filter(p, region["rest_region"])
+        left = asked & ~sure
+        if not left.any():
             return np.zeros((0, 2), np.intp)
+        ask, star, sure = region["ask"][left], star[left], sure[left]
         # a star whose certificate fails on the rest skin itself (its link turns right
         # there) is not certified again: its edges' pairs go to the exact test
-        check = ~(star & ~_rest_sure(rest, tri, terms)[ask])
+        check = ~(star & region["rest_fails"][left])
+    else:
+        ask = region["ask"][asked]
+        star, sure = np.zeros(len(ask), bool), np.zeros(len(ask), bool)
+        check = np.ones(len(ask), bool)
     if check.any():
         star[check], sure[check] = _certified_fans(p, tri, ask[check],
                                                    _fan_structure(tri, n, terms), terms)
-    loose = np.zeros(n, bool)
-    loose[ask[~sure]] = True
-    e = tri[loose[tri[:, 0]] | loose[tri[:, 1]] | loose[tri[:, 2]]]
-    e = e[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    e = np.sort(e[loose[e[:, 0]] & loose[e[:, 1]]], axis=1)
-    key = np.unique(e[:, 0].astype(np.int64) * n + e[:, 1])
-    e = np.stack([key // n, key % n], axis=1).astype(np.intp)
-    return _fan_pairs(tri, _fan_incidence(tri, n, terms), ask[~star], e)
+    return _pairs_of(tri, n, terms, region, ask[~sure], ask[~star])
+
+
+def _pairs_of(tri: np.ndarray, n: int, terms: dict, region: dict, loose: np.ndarray,
+              open_fans: np.ndarray) -> np.ndarray:
+    """:func:`_fan_pairs` of the vertices ``loose`` ``(a,)`` (sorted; certificate not
+    holding) and ``open_fans`` (their fans not stars): the edges with both ends loose
+    found through the skin's edge lists, the pairs kept in the ``region``
+    (:func:`_fan_region`) for the last :data:`_FAN_PAIRS` such sets.
+    """
+    key = (loose.tobytes(), open_fans.tobytes())
+    memo = region["pairs"]
+    pairs = memo.pop(key, None)
+    if pairs is None:
+        graph = _fan_edges(tri, n, terms)
+        mark = np.zeros(n, bool)
+        mark[loose] = True
+        indptr, nbr = _csr_rows(graph["start"], graph["nbr"], loose)
+        src = np.repeat(loose, np.diff(indptr))
+        both = mark[nbr] & (src < nbr)
+        e = np.stack([src[both], nbr[both]], axis=1)
+        pairs = _fan_pairs(tri, _fan_incidence(tri, n, terms), open_fans, e)
+    memo[key] = pairs
+    while len(memo) > _FAN_PAIRS:
+        memo.pop(next(iter(memo)))
+    return pairs
 
 
 def _scale_back(d: np.ndarray, p: np.ndarray, tri: np.ndarray, hit: np.ndarray
