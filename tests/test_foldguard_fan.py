@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 from wrinkle_vis.core.certificate import fold_report, intersecting_pairs
 from wrinkle_vis.core.foldguard import (
+    FoldGuard,
     _apart_by_planes,
     _certified_fans,
     _cleared_by_rest,
@@ -107,13 +108,19 @@ def test_the_fan_guard_leaves_a_step_that_crosses_nothing_as_it_is():
 
 
 def test_guard_frame_calls_the_fan_guard_where_no_ball_and_no_area_acts():
+    """With ``FoldGuard(fans=True)`` the book pushed into itself is guarded where neither
+    the balls (radii without bound here) nor the areas act; the default guard leaves the
+    fans alone (opt-in: its cost, docs/benchmarks.md stop 39), and the book crosses."""
     pts, tri = book()
     W = np.zeros(len(pts))
     W[[A1, B1]] = 0.3
     raw = pushed(pts, tri, W)
-    g = guard_frame(pts, pts, raw, W, tri, np.full((len(pts), 2), np.inf), pulls=False)
+    radii = np.full((len(pts), 2), np.inf)
+    g = guard_frame(pts, pts, raw, W, tri, radii, FoldGuard(fans=True), pulls=False)
     assert fold_report(pts, g.points, tri).ok
     assert g.acted[A1] and g.acted[B1] and np.all(g.W[[A1, B1]] < 0.3)
+    off = guard_frame(pts, pts, raw, W, tri, radii, pulls=False)
+    assert not FoldGuard().fans and not fold_report(pts, off.points, tri).ok
 
 
 def lattice(k: int = 5) -> tuple[np.ndarray, np.ndarray]:
@@ -176,8 +183,8 @@ def covered(tri: np.ndarray, n: int, v: int) -> set:
 
 
 @settings(max_examples=100, deadline=None)
-@given(phi=st.floats(5.0, 180.0), small=st.floats(0.0, 0.4), big=st.floats(0.0, 1.5),
-       seed=st.integers(0, 2**16))
+@given(phi=st.floats(5.0, 180.0), small=st.floats(0.0, 0.4, allow_subnormal=False),
+       big=st.floats(0.0, 1.5, allow_subnormal=False), seed=st.integers(0, 2**16))
 def test_the_rest_margins_clear_only_fans_whose_two_rings_stay_apart(phi, small, big, seed):
     """Every vertex moved a little, three a lot: the fans the book's margins clear have no
     crossing pair among the pairs they stand for, nor the stars among their own (the exact
@@ -193,6 +200,17 @@ def test_the_rest_margins_clear_only_fans_whose_two_rings_stay_apart(phi, small,
     for v in np.flatnonzero(star):  # v's own fan: its pairs
         fan = np.flatnonzero((tri == v).any(axis=1)).tolist()
         assert not crossing & {(a, b) for a in fan for b in fan if a < b}, v
+
+
+@pytest.mark.xfail(strict=True, reason="certificate.intersecting_pairs reports pairs of the "
+                   "book's crease as crossing when its coordinates are jittered by a "
+                   "subnormal (5e-324); found by hypothesis at stop 39, not yet fixed")
+def test_a_subnormal_jitter_adds_no_crossing_to_the_book():
+    pts, tri = book(phi_deg=91.0, nx=8, rows=4)
+    assert len(intersecting_pairs(pts, tri)) == 0
+    p = pts + np.random.default_rng(194).uniform(-5e-324, 5e-324, pts.shape)
+    assert np.any(p != pts)
+    assert len(intersecting_pairs(p, tri)) == 0
 
 
 def test_the_rest_margins_clear_interior_fans_under_a_small_motion_and_not_a_large_one():

@@ -71,6 +71,12 @@ class FoldGuard:
     knee_wrinkles : float
         The knee of that step's clamp, in ``(0, 1)`` (it acts only where :math:`W` would
         bring a triangle to ``min_area_wrinkles`` at ``1 / knee_wrinkles`` times itself).
+    fans : bool
+        Also keep each vertex's displaced fan off the triangles of its two rings
+        (:func:`guard_fans`; ``docs/model.md``, "The fans"). Off by default: it acts on no
+        built-in frame at default parameters, and on refined frames it costs several
+        times the frame (``docs/benchmarks.md``, stop 39); turn it on for stiff muscles
+        (k0 raised several times) on a refined scan whose rest skin folds on itself.
     """
 
     eta: float = 0.5
@@ -79,6 +85,7 @@ class FoldGuard:
     min_area_wrinkles: float = 0.05
     knee_wrinkles: float = 0.8
     eta_deformed: float = 0.7
+    fans: bool = False
 
     def __post_init__(self):
         for name in ("eta", "knee", "min_area", "min_area_wrinkles", "knee_wrinkles",
@@ -1866,8 +1873,8 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
        pulls, against the guarded deformed skin: :math:`W'` is scaled by
        :func:`skin_scale` of that step (a steep furrow on small triangles would otherwise
        turn them over).
-    4. No vertex's displaced fan passes through the triangles of its two rings
-       (:func:`guard_fans`: :math:`W'` scaled back where a pair would cross).
+    4. With ``guard.fans``: no vertex's displaced fan passes through the triangles of its
+       two rings (:func:`guard_fans`: :math:`W'` scaled back where a pair would cross).
 
     ``certified`` (:func:`certify`): the checks it certifies are skipped (each would have
     returned what skipping gives); a pull the exact check does scale voids the others.
@@ -1899,7 +1906,8 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
     p2 = _rewrinkled(p2, d2, W, W2, moved, tri, terms)
     if not cert.step:
         p2, W2 = _held_wrinkles(rest, d2, p2, W2, tri, guard, terms)
-    p2, W2 = guard_fans(d2, p2, W2, tri, terms, rest)  # no fan through its two rings
+    if guard.fans:  # no fan through its two rings
+        p2, W2 = guard_fans(d2, p2, W2, tri, terms, rest)
     acted = moved | (W2 != W)
     if p2 is not points:  # (ors of the columns: a reduction over rows of 3 is slow)
         differ = p2 != points
