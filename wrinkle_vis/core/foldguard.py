@@ -43,6 +43,7 @@ from .certificate import (
     _narrow_phase,
     _normals,
 )
+from .mesh import _closest_on_triangles as _mesh_closest
 
 __all__ = ["Certified", "FoldGuard", "GuardResult", "certify", "fold_radii", "guard_amount",
            "guard_fans", "guard_frame", "guard_wrinkles", "guarded", "medial_radii", "pull_terms",
@@ -177,34 +178,9 @@ def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 def _closest_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray
                           ) -> np.ndarray:
     r"""``(k, 3)``: the point of each triangle ``a``, ``b``, ``c`` ``(k, 3)`` nearest to
-    ``p`` ``(k, 3)`` (its projection on the plane where that falls inside, else the nearest
-    point of the nearest edge; a triangle with no area: of its edges).
+    ``p`` ``(k, 3)`` (:func:`~wrinkle_vis.core.mesh._closest_on_triangles`, Ericson 5.1.5).
     """
-    e1, e2 = b - a, c - a
-    d = p - a
-    N = _cross(e1, e2)
-    nn = np.einsum("ij,ij->i", N, N)
-    ok = nn > 0
-    safe = np.where(ok, nn, 1.0)
-    u = np.einsum("ij,ij->i", _cross(d, e2), N) / safe  # p's barycentrics (of b, c)
-    v = np.einsum("ij,ij->i", _cross(e1, d), N) / safe
-    inside = ok & (u >= 0) & (v >= 0) & (u + v <= 1)
-    best = a + u[:, None] * e1 + v[:, None] * e2
-    far = np.flatnonzero(~inside)
-    if len(far):
-        pf = p[far]
-        edges = []
-        for s, t in ((a, b), (b, c), (c, a)):
-            s, t = s[far], t[far]
-            e = t - s
-            ee = np.einsum("ij,ij->i", e, e)
-            w = np.clip(np.einsum("ij,ij->i", pf - s, e) / np.where(ee > 0, ee, 1.0), 0, 1)
-            edges.append(s + w[:, None] * e)
-        cand = np.stack(edges)  # (3, f, 3)
-        dist = np.einsum("kij,kij->ki", cand - pf, cand - pf)
-        best[far] = cand[np.argmin(dist, axis=0), np.arange(len(far))]
-    return best
-
+    return _mesh_closest(p, np.stack([a, b, c], axis=1))
 
 
 def _near_triangles(centres: np.ndarray, radii: np.ndarray, points: np.ndarray,
@@ -1348,7 +1324,7 @@ def _rest_fan_margins(r: np.ndarray, tri: np.ndarray, terms: dict) -> np.ndarray
     """
     n = len(r)
     graph, fans = _fan_edges(tri, n, terms), _fan_structure(tri, n, terms)
-    A = _rows_cross(r[tri[:, 1]] - r[tri[:, 0]], r[tri[:, 2]] - r[tri[:, 0]])
+    A = _cross(r[tri[:, 1]] - r[tri[:, 0]], r[tri[:, 2]] - r[tri[:, 0]])
     m = np.stack([np.bincount(tri.ravel(), np.repeat(A[:, k], 3), n) for k in range(3)], 1)
     m = m / np.maximum(np.sqrt(_rows_dot(m, m)), 1e-300)[:, None]
     # the closed ring's (v, u) pairs, then every triangle t of u's fan: (v, u, t)
@@ -1390,7 +1366,7 @@ def _link_margins(r: np.ndarray, tri: np.ndarray, fans: dict, m: np.ndarray
     e_in, e_out = r[u] - r[np.maximum(before, 0)], r[w] - r[u]
     mv = m[v]
     s = _projected_length(e_in, mv) + _projected_length(e_out, mv)
-    turn = _rows_dot(_rows_cross(e_in, e_out), mv)
+    turn = _rows_dot(_cross(e_in, e_out), mv)
     return v, np.where(before >= 0, _margin(turn - _FAN_MARGIN * s * s, s), 0.0), u
 
 
@@ -1531,7 +1507,7 @@ def _fan_terms(p: np.ndarray, tri: np.ndarray, sub: np.ndarray
     """
     n, t = len(p), tri[sub]
     c0, c1, c2 = (p[t[:, k]] for k in range(3))
-    A = _rows_cross(c1 - c0, c2 - c0)
+    A = _cross(c1 - c0, c2 - c0)
     la = np.maximum(np.sqrt(_rows_dot(A, A)), 1e-300)
     m = np.stack([np.bincount(t.ravel(), np.repeat(A[:, k], 3), n) for k in range(3)], axis=1)
     m = m / np.maximum(np.sqrt(_rows_dot(m, m)), 1e-300)[:, None]
@@ -1576,7 +1552,7 @@ def _certified_fans(p: np.ndarray, tri: np.ndarray, ask: np.ndarray, fans: dict,
     v, u, w = t[rows, k], t[rows, (k + 1) % 3], t[rows, (k + 2) % 3]
     before = fans["across"][sub[rows], k]  # the ring vertex before u (across edge v-u)
     e_in, e_out = p[u] - p[np.maximum(before, 0)], p[w] - p[u]
-    turn = _rows_dot(_rows_cross(e_in, e_out), m[v])
+    turn = _rows_dot(_cross(e_in, e_out), m[v])
     left = turn > _FAN_MARGIN * np.sqrt(_rows_dot(e_in, e_in) * _rows_dot(e_out, e_out))
     ok = asked & star
     ok[v[~(star[u] & left)]] = False
@@ -1591,12 +1567,6 @@ def _certified_fans(p: np.ndarray, tri: np.ndarray, ask: np.ndarray, fans: dict,
 def _rows_dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``(k,)``: the dot products of the rows of ``a`` and ``b`` ``(k, 3)``."""
     return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
-
-
-def _rows_cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``(k, 3)``: the cross products of the rows of ``a`` and ``b`` ``(k, 3)``."""
-    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
-                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
 
 
 def _stars_along(p: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix, v: np.ndarray,
@@ -1708,7 +1678,7 @@ def _apart_by_planes(p: np.ndarray, tri: np.ndarray, pairs: np.ndarray) -> np.nd
     s = tri[np.concatenate([pairs[:, 1], pairs[:, 0]])]  # the other's corners, both ways
     a = p[t[:, 0]]
     e1, e2 = p[t[:, 1]] - a, p[t[:, 2]] - a
-    N = _rows_cross(e1, e2)
+    N = _cross(e1, e2)
     scale = _PLANE_MARGIN * _PLANE_MARGIN * _rows_dot(e1, e1) * _rows_dot(e2, e2)
     free = (s[:, :, None] != t[:, None, :]).all(axis=2)  # (2k, 3): not a corner of t
     x = p[s] - a[:, None, :]
