@@ -244,3 +244,20 @@ def test_exact_surface_coordinates_are_the_closest_point_of_the_whole_surface(se
         t, b = closest_on_triangles(bumps, every, p)
         want.append(np.linalg.norm(b @ bumps.points[bumps.triangles[t]] - p))
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
+
+
+def test_the_closest_point_of_a_triangle_with_no_area_is_on_its_edges():
+    """A collinear triangle (c between a and b, in floats nearly so) and points off its
+    line: the closest point is that of the segment a-b; Ericson's regions alone returned a
+    farther point (found at stop 39 when the fold guard's balls took this function)."""
+    from wrinkle_vis.core.mesh import _closest_on_triangles
+
+    rng = np.random.default_rng(3)
+    a, b, p = rng.normal(size=(3, 500, 3))
+    c = a + 0.3 * (b - a)
+    got = _closest_on_triangles(p, np.stack([a, c, b], axis=1))
+    e = b - a
+    w = np.clip(np.einsum("ij,ij->i", p - a, e) / np.einsum("ij,ij->i", e, e), 0, 1)
+    want = a + w[:, None] * e
+    np.testing.assert_allclose(np.linalg.norm(got - p, axis=1),
+                               np.linalg.norm(want - p, axis=1), rtol=1e-9, atol=1e-12)

@@ -740,7 +740,33 @@ def _closest_on_triangles(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
               b + t_bc[:, None] * (c - b)]
     for case, value in zip(cases[::-1], values[::-1], strict=True):
         out = np.where(case[:, None], value, out)
-    return np.where((cases[0])[:, None], a, out)
+    out = np.where((cases[0])[:, None], a, out)
+    # nearly no area (|ab x ac|^2 = denom below 1e-12 |ab|^2 |ac|^2): Ericson's regions
+    # may miss p's nearest point; the nearer of it and the edges' nearest
+    thin = np.flatnonzero(denom <= 1e-12 * np.einsum("ij,ij->i", ab, ab)
+                          * np.einsum("ij,ij->i", ac, ac))
+    if len(thin):
+        q = np.broadcast_to(p, out.shape)[thin]
+        edge = _closest_on_edges(q, tri[thin])
+        nearer = np.einsum("ij,ij->i", edge - q, edge - q) \
+            < np.einsum("ij,ij->i", out[thin] - q, out[thin] - q)
+        out[thin[nearer]] = edge[nearer]
+    return out
+
+
+def _closest_on_edges(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """``(t, 3)``: the point of the three edges of each triangle ``(t, 3, 3)`` nearest to
+    ``p`` ``(t, 3)`` (the closest point of a triangle with no area).
+    """
+    cand = []
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        s, e = tri[:, i], tri[:, j] - tri[:, i]
+        ee = np.einsum("ij,ij->i", e, e)
+        w = np.clip(np.einsum("ij,ij->i", p - s, e) / np.where(ee > 0, ee, 1.0), 0.0, 1.0)
+        cand.append(s + w[:, None] * e)
+    c = np.stack(cand)  # (3, t, 3)
+    best = np.argmin(np.einsum("kij,kij->ki", c - p, c - p), axis=0)
+    return c[best, np.arange(len(p))]
 
 
 def triangle_normals(p: np.ndarray, corners: np.ndarray) -> np.ndarray:
