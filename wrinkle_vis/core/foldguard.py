@@ -2016,21 +2016,34 @@ def _deformed_lows(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, terms: 
     if len(hit):
         r[hit] = medial_radii(x[hit], n[hit], samples=samples, r_max=r[hit], tree=tree)
     if lift is not None:  # the triangles' search, where not certified clear
-        o = np.flatnonzero(~free)
-        shrunk = np.zeros(len(ids), bool)
-        shrunk[hit] = True
-        plain = o[~shrunk[o]]  # at their start: the pairs found by _to_search's queries
-        pick = np.isin(near[0], plain)
-        found = (np.searchsorted(plain, near[0][pick]), near[1][pick])
-        r[plain] = triangle_radii(local[ids[plain]], n[plain], r[plain], samples, t_loc,
-                                  lift=lift, clear=False, found=found)
-        o = o[shrunk[o]]
-        r[o] = triangle_radii(local[ids[o]], n[o], r[o], samples, t_loc, lift=lift, clear=False)
+        _triangles_search(r, hit, free, near, local[ids], n, samples, t_loc, lift)
     r = np.where(side > 0, r, np.inf)
     low = np.flatnonzero(r.min(axis=1) < start)  # the balls that shrank
     if not len(low):
         return None
     return ids[low], ratio * r[low]
+
+
+def _triangles_search(r: np.ndarray, hit: np.ndarray, free: np.ndarray,
+                      near: tuple[np.ndarray, np.ndarray], own: np.ndarray, n: np.ndarray,
+                      samples: np.ndarray, t_loc: np.ndarray, lift: dict) -> None:
+    r"""The triangles' search of :func:`_deformed_lows` on its balls' radii ``r`` ``(k, 2)``
+    (one wanted side a row, lowered in place) at the local vertices ``own`` ``(k,)`` along
+    ``n`` ``(k, 3)`` (:func:`triangle_radii` on ``samples``, ``t_loc``, ``lift``), those not
+    ``free`` ``(k,)``: the balls at their start (not in ``hit``, the vertices' search's)
+    from the pairs ``near`` :func:`_to_search` found for them at that radius, the others
+    (shrunk by a vertex) by a search of their own.
+    """
+    o = np.flatnonzero(~free)
+    shrunk = np.zeros(len(r), bool)
+    shrunk[hit] = True
+    plain = o[~shrunk[o]]
+    pick = np.isin(near[0], plain)
+    found = (np.searchsorted(plain, near[0][pick]), near[1][pick])
+    r[plain] = triangle_radii(own[plain], n[plain], r[plain], samples, t_loc, lift=lift,
+                              clear=False, found=found)
+    o = o[shrunk[o]]
+    r[o] = triangle_radii(own[o], n[o], r[o], samples, t_loc, lift=lift, clear=False)
 
 
 def _to_search(samples: np.ndarray, t_loc: np.ndarray, c: np.ndarray, start: np.ndarray,
