@@ -538,7 +538,9 @@ def _shrink_on_triangles(r: np.ndarray, ball: np.ndarray, xb: np.ndarray, nb: np
         h = np.einsum("ij,ij->i", d, nb[k])
         new = np.where(h > 0, dd / (2.0 * np.where(h > 0, h, 1.0)), 0.0)
         np.minimum.at(r, ball[k], new)
-        live &= np.isin(ball, ball[k])  # a shrunk ball: its triangles that reached in
+        shrunk = np.zeros(len(r), bool)
+        shrunk[ball[k]] = True
+        live &= shrunk[ball]  # a shrunk ball: its triangles that reached in
     else:
         k = np.flatnonzero(live)  # not settled: half the distance to the candidates
         q = _closest_on_triangles(xb[k], a[k], b[k], c[k])
@@ -2034,15 +2036,14 @@ def _triangles_search(r: np.ndarray, hit: np.ndarray, free: np.ndarray,
     from the pairs ``near`` :func:`_to_search` found for them at that radius, the others
     (shrunk by a vertex) by a search of their own.
     """
-    o = np.flatnonzero(~free)
-    shrunk = np.zeros(len(r), bool)
-    shrunk[hit] = True
-    plain = o[~shrunk[o]]
-    pick = np.isin(near[0], plain)
-    found = (np.searchsorted(plain, near[0][pick]), near[1][pick])
+    at_start = ~free
+    at_start[hit] = False
+    plain = np.flatnonzero(at_start)
+    pick = at_start[near[0]]
+    found = ((np.cumsum(at_start) - 1)[near[0][pick]], near[1][pick])  # rows of plain
     r[plain] = triangle_radii(own[plain], n[plain], r[plain], samples, t_loc, lift=lift,
                               clear=False, found=found)
-    o = o[shrunk[o]]
+    o = hit[~free[hit]]
     r[o] = triangle_radii(own[o], n[o], r[o], samples, t_loc, lift=lift, clear=False)
 
 
@@ -2058,15 +2059,16 @@ def _to_search(samples: np.ndarray, t_loc: np.ndarray, c: np.ndarray, start: np.
     nearest-point query of the lifted vertices clears a ball no vertex and no triangle not
     incident to its vertex can enter; the same queries find the others' candidates).
     """
-    todo = np.flatnonzero(free)
-    none = np.zeros(0, np.intp)
     if free.all():
-        return todo, None, (none, none)
+        none = np.zeros(0, np.intp)
+        return np.flatnonzero(free), None, (none, none)
     lift = _lift(samples, t_loc)
     rest = np.flatnonzero(~free)
     cleared, ball, vert = _lifted_near(lift, c[rest], start[rest], own[rest])
-    todo = np.union1d(todo, rest[~cleared])
-    return todo, lift, (np.searchsorted(todo, rest[ball]), vert)
+    ask = free.copy()
+    ask[rest[~cleared]] = True
+    row = np.cumsum(ask) - 1  # each ball's row among those asked
+    return np.flatnonzero(ask), lift, (row[rest[ball]], vert)
 
 
 def _vertex_hits(samples: np.ndarray, c: np.ndarray, start: np.ndarray, own: np.ndarray,
