@@ -303,7 +303,8 @@ def _cleared(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray
     its corners about their mean :math:`q` is at most their spread about the centre of the
     smallest disc holding them), so a corner :math:`v \ne` ``own`` has :math:`|v - c|^2 -
     \rho_v^2 \le r^2`. Where, in every class, the nearest lifted vertex other than ``own``
-    is farther than :math:`\sqrt{(r^2 + T)(1 + 10^{-9})}`, no such corner exists.
+    is farther than :math:`\sqrt{(r^2 + T)(1 + 10^{-9})}`, no such corner exists. (The
+    searches decide it from :func:`_lifted_near`'s query, which also finds the candidates.)
     """
     out = np.ones(len(centres), bool)
     if not len(centres):
