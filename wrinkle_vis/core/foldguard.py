@@ -303,7 +303,8 @@ def _cleared(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray
     its corners about their mean :math:`q` is at most their spread about the centre of the
     smallest disc holding them), so a corner :math:`v \ne` ``own`` has :math:`|v - c|^2 -
     \rho_v^2 \le r^2`. Where, in every class, the nearest lifted vertex other than ``own``
-    is farther than :math:`\sqrt{(r^2 + T)(1 + 10^{-9})}`, no such corner exists.
+    is farther than :math:`\sqrt{(r^2 + T)(1 + 10^{-9})}`, no such corner exists. (The
+    searches decide it from :func:`_lifted_near`'s query, which also finds the candidates.)
     """
     out = np.ones(len(centres), bool)
     if not len(centres):
@@ -325,7 +326,7 @@ def _cleared(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray
     return out
 
 
-_SUSPECTS_K = 12  # the nearest lifted vertices a ball's candidates are first looked for in
+_SUSPECTS_K = 6  # the nearest lifted vertices a ball's candidates are first looked for in
 
 
 def _suspects(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray,
@@ -336,9 +337,9 @@ def _suspects(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarra
     on ``points`` ``(n, 3)`` not incident to ``own`` that may meet (every pair that does,
     once): a triangle meeting the ball has a corner :math:`v` with :math:`|v - c|^2 \le r^2
     + \rho_t^2 \le r^2 + \rho_v^2` (:func:`_cleared`). With ``clear``, the balls
-    :func:`_cleared` clears are skipped first; the others' vertices with :math:`|v - c|^2 -
-    \rho_v^2 \le r^2` are found by one ball query per class of lifted vertices
-    (:func:`_lift`), then each of their triangles is kept if a corner has :math:`|v - c|^2
+    :func:`_cleared` clears are skipped; the others' vertices with :math:`|v - c|^2 -
+    \rho_v^2 \le r^2` are found by :func:`_lifted_near` (the same queries clear the balls),
+    then each of their triangles is kept if a corner has :math:`|v - c|^2
     \le (r^2 + \rho_t^2)(1 + 10^{-9})`, once: through the first of its corners with
     :math:`|v - c|^2 - \rho_v^2 \le r^2 + 1.5 \cdot 10^{-9} (r^2 + T_v)` (the class's query,
     at :math:`2 \cdot 10^{-9}`, finds it; a triangle kept has one, as :math:`\rho_t \le
@@ -347,33 +348,57 @@ def _suspects(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarra
     none = np.zeros(0, np.intp), np.zeros(0, np.intp)
     if not len(centres) or not len(tri):
         return none
-    left = np.flatnonzero(~_cleared(lift, centres, radii, own)) if clear \
-        else np.arange(len(centres))
-    if not len(left):
+    _, ball, vert = _lifted_near(lift, centres, radii, own, clear)
+    if not len(ball):
         return none
-    c4 = np.column_stack([centres[left], np.zeros(len(left))])
-    balls, verts = [], []
+    return _first_found(lift, centres, radii, own, points, *_expand(lift, ball, vert))
+
+
+def _lifted_near(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray,
+                 clear: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""``(k,)`` bool: the balls ``centres`` ``(k, 3)``, ``radii`` ``(k,)`` tangent at
+    vertices ``own`` ``(k,)`` that :func:`_cleared` clears (none without ``clear``); and
+    ``(q,)`` twice: the pairs (ball, vertex) of the other balls and every lifted vertex
+    (:func:`_lift`) within :math:`\sqrt{(r^2 + T)(1 + 2 \cdot 10^{-9})}` of the lifted
+    centre, each once. One :data:`_SUSPECTS_K`-nearest query per class serves both:
+    :func:`_cleared`'s two nearest are its first two columns (its test's bound,
+    :math:`\sqrt{(r^2 + T)(1 + 10^{-9})}`, lies inside the query's: a vertex beyond the
+    query's bound clears either way); a ball whose :math:`K`-th nearest is within its bound
+    asks a ball query for the rest (after every class, only where not cleared).
+    """
+    c4 = np.column_stack([centres, np.zeros(len(centres))])
+    cleared = np.ones(len(centres), bool) if clear else np.zeros(len(centres), bool)
+    balls, verts, fulls = [], [], []
     for tree, ids, Tk in lift["classes"]:
-        bound = np.sqrt((radii[left] ** 2 + Tk) * (1.0 + 2e-9))
+        r2T = radii * radii + Tk
+        bound = np.sqrt(r2T * (1.0 + 2e-9))
         k = min(_SUSPECTS_K, len(ids))  # k nearest first (arrays); a full row: a ball query
         d, i = tree.query(c4, k=k, distance_upper_bound=float(bound.max()))
         d, i = d.reshape(len(c4), k), i.reshape(len(c4), k)
+        if clear:  # (_cleared's test, on its two nearest)
+            first = np.where(i[:, 0] < len(ids), ids[np.minimum(i[:, 0], len(ids) - 1)], -1)
+            other = np.where(first == own, d[:, 1] if k >= 2 else np.inf, d[:, 0])
+            cleared &= other * other > r2T * (1.0 + 1e-9)
         inside = d <= bound[:, None]
-        full = inside[:, -1].copy() if k == _SUSPECTS_K else np.zeros(len(c4), bool)
+        full = np.flatnonzero(inside[:, -1]) if k == _SUSPECTS_K else np.zeros(0, np.intp)
         inside[full] = False
         rows, cols = np.nonzero(inside)
         verts.append(ids[i[rows, cols]])
-        balls.append(left[rows])
-        if full.any():
-            near = tree.query_ball_point(c4[full], bound[full])
+        balls.append(rows)
+        fulls.append((tree, ids, full, bound[full]))
+    for tree, ids, full, bound in fulls:
+        keep = ~cleared[full]
+        if keep.any():
+            near = tree.query_ball_point(c4[full[keep]], bound[keep])
             counts = np.fromiter(map(len, near), np.intp, len(near))
             verts.append(ids[np.fromiter(chain.from_iterable(near), np.intp,
                                          int(counts.sum()))])
-            balls.append(np.repeat(left[full], counts))
-    if not sum(map(len, balls)):
-        return none
-    ball, t, vert = _expand(lift, np.concatenate(balls), np.concatenate(verts))
-    return _first_found(lift, centres, radii, own, points, ball, t, vert)
+            balls.append(np.repeat(full[keep], counts))
+    ball, vert = np.concatenate(balls), np.concatenate(verts)
+    if clear:
+        keep = ~cleared[ball]
+        ball, vert = ball[keep], vert[keep]
+    return cleared, ball, vert
 
 
 def _first_found(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray,
@@ -387,13 +412,12 @@ def _first_found(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.nda
     corner where none has it). Column by column: the corners' three rows apart, the
     cheapest test first (reductions over rows of 3 are slow).
     """
-    tri = lift["tri"]
-    keep = np.ones(len(t), bool)
-    o, cs, dd = own[ball], [], []
-    for j in range(3):
-        cj = np.take(tri[:, j], t)
-        keep &= cj != o  # not the ball's own vertex's
-        cs.append(cj)
+    cols = lift.get("columns")
+    if cols is None:  # the corners' columns, contiguous (a take from each is faster)
+        cols = lift["columns"] = tuple(np.ascontiguousarray(lift["tri"][:, j]) for j in range(3))
+    o, dd = own[ball], []
+    cs = [cj.take(t) for cj in cols]
+    keep = np.flatnonzero((cs[0] != o) & (cs[1] != o) & (cs[2] != o))  # not own's
     ball, t, vert = ball[keep], t[keep], vert[keep]
     cs = [cj[keep] for cj in cs]
     c = centres[ball]
@@ -414,12 +438,13 @@ def _expand(lift: dict, ball: np.ndarray, verts: np.ndarray
     """``(p,)`` thrice: each pair of ``ball`` and ``verts`` ``(q,)`` repeated for every
     triangle of that vertex (ball, triangle, vertex), from :func:`_lift`'s incidence.
     """
-    if "ptr" not in lift:  # the vertex-triangle incidence, built on first need
-        tri = lift["tri"]
-        order = np.argsort(tri.ravel(), kind="stable")
-        lift["by_vertex"] = (order // 3).astype(np.intp)
-        lift["ptr"] = np.concatenate([[0], np.cumsum(np.bincount(tri.ravel(),
-                                                                 minlength=lift["n"]))])
+    if "ptr" not in lift:  # the vertex-triangle incidence, built on first need (a
+        tri = lift["tri"]  # counting sort: each vertex's triangles in ascending order)
+        m = len(tri)
+        inc = sp.coo_matrix((np.ones(3 * m, np.int8), (tri.ravel(), np.repeat(np.arange(m), 3))),
+                            shape=(lift["n"], m)).tocsr()
+        lift["by_vertex"] = inc.indices.astype(np.intp, copy=False)
+        lift["ptr"] = inc.indptr.astype(np.intp, copy=False)
     ptr = lift["ptr"]
     deg = ptr[verts + 1] - ptr[verts]
     total = int(deg.sum())
@@ -430,7 +455,8 @@ def _expand(lift: dict, ball: np.ndarray, verts: np.ndarray
 
 def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
                    points: np.ndarray, triangles: np.ndarray, iterations: int = 60,
-                   lift: dict | None = None, clear: bool = True) -> np.ndarray:
+                   lift: dict | None = None, clear: bool = True,
+                   found: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     r"""``(k, 2)``: the radii ``radii`` ``(k, 2)`` (:math:`r_\pm` of balls empty of the
     vertices, :func:`medial_radii`, touching vertices ``ids`` ``(k,)`` of the skin
     ``points`` ``(n, 3)``, ``triangles`` ``(m, 3)``, at unit ``normals`` ``(k, 3)``) lowered
@@ -449,7 +475,9 @@ def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
     is at hand). With ``clear``, a ball whose nearest vertex but its own is farther than
     :math:`\sqrt{r^2 + \max \rho_v^2}` in the lifted metric is cleared by one nearest-point
     query first (:func:`_cleared`: most balls well below the medial radius; not those of a
-    finished vertex search, which end on a vertex). A search that does not
+    finished vertex search, which end on a vertex). ``found``: the pairs (row of ``ids``,
+    vertex) :func:`_lifted_near` found for these very balls (one wanted side a row), when
+    they are at hand (the candidates are then taken from them). A search that does not
     settle within ``iterations`` steps falls back to half the distance from :math:`x` to its
     nearest candidate (a ball tangent at :math:`x` lies within its diameter of :math:`x`),
     so the result is never above the largest empty ball's radius.
@@ -467,7 +495,11 @@ def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
     x, n = points[ids[rows]], normals[rows] * sign[:, None]  # n: towards the ball
     if lift is None:
         lift = _lift(points, tri)
-    ball, t = _suspects(lift, x + r[:, None] * n, r, ids[rows], points, tri, clear)
+    if found is None:
+        ball, t = _suspects(lift, x + r[:, None] * n, r, ids[rows], points, tri, clear)
+    else:  # the balls are the rows (one side each): the found vertices' triangles
+        ball, t = _first_found(lift, x + r[:, None] * n, r, ids[rows], points,
+                               *_expand(lift, *found))
     if not len(ball):
         return out
     out[rows, cols] = _shrink_on_triangles(r, ball, x[ball], n[ball], points[tri[t]],
@@ -506,7 +538,9 @@ def _shrink_on_triangles(r: np.ndarray, ball: np.ndarray, xb: np.ndarray, nb: np
         h = np.einsum("ij,ij->i", d, nb[k])
         new = np.where(h > 0, dd / (2.0 * np.where(h > 0, h, 1.0)), 0.0)
         np.minimum.at(r, ball[k], new)
-        live &= np.isin(ball, ball[k])  # a shrunk ball: its triangles that reached in
+        shrunk = np.zeros(len(r), bool)
+        shrunk[ball[k]] = True
+        live &= shrunk[ball]  # a shrunk ball: its triangles that reached in
     else:
         k = np.flatnonzero(live)  # not settled: half the distance to the candidates
         q = _closest_on_triangles(xb[k], a[k], b[k], c[k])
@@ -1974,20 +2008,17 @@ def _deformed_lows(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, terms: 
     # (medial_radii), then the triangles' (a ball empty of vertices may hold a triangle)
     c = x + np.where(W[ids] >= 0, 1.0, -1.0)[:, None] * start[:, None] * n
     free = np.zeros(len(ids), bool) if clear is None else clear[ids]
-    todo, lift = _to_search(samples, t_loc, c, start, local[ids], free)
+    todo, lift, near = _to_search(samples, t_loc, c, start, local[ids], free)
     if not len(todo):
         return None
     ids, x, n, c, start, side = ids[todo], x[todo], n[todo], c[todo], start[todo], side[todo]
     free = free[todo]
-    tree = cKDTree(samples, balanced_tree=False)  # the vertices' search, where needed
-    dist, _ = tree.query(c, distance_upper_bound=float(start.max()))
     r = side * start[:, None]
-    hit = np.flatnonzero(dist < start * (1.0 - 1e-9))
+    hit, tree = _vertex_hits(samples, c, start, local[ids], free, near)
     if len(hit):
         r[hit] = medial_radii(x[hit], n[hit], samples=samples, r_max=r[hit], tree=tree)
     if lift is not None:  # the triangles' search, where not certified clear
-        o = np.flatnonzero(~free)
-        r[o] = triangle_radii(local[ids[o]], n[o], r[o], samples, t_loc, lift=lift, clear=False)
+        _triangles_search(r, hit, free, near, local[ids], n, samples, t_loc, lift)
     r = np.where(side > 0, r, np.inf)
     low = np.flatnonzero(r.min(axis=1) < start)  # the balls that shrank
     if not len(low):
@@ -1995,22 +2026,74 @@ def _deformed_lows(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, terms: 
     return ids[low], ratio * r[low]
 
 
-def _to_search(samples: np.ndarray, t_loc: np.ndarray, c: np.ndarray, start: np.ndarray,
-               own: np.ndarray, free: np.ndarray) -> tuple[np.ndarray, dict | None]:
-    r"""The balls of :func:`_deformed_lows` to search ``(k,)`` (ascending) and the lifted
-    classes of the local skin ``samples`` ``(s, 3)``, ``t_loc`` ``(t, 3)`` (None where not
-    needed): those certified ``free`` ``(b,)`` of triangles (the vertices' search alone),
-    and of the others, centres ``c`` ``(b, 3)``, radii ``start`` ``(b,)`` at the local
-    vertices ``own`` ``(b,)``, those :func:`_cleared` does not clear (one nearest-point
-    query of the lifted vertices clears a ball no vertex and no triangle not incident to
-    its vertex can enter).
+def _triangles_search(r: np.ndarray, hit: np.ndarray, free: np.ndarray,
+                      near: tuple[np.ndarray, np.ndarray], own: np.ndarray, n: np.ndarray,
+                      samples: np.ndarray, t_loc: np.ndarray, lift: dict) -> None:
+    r"""The triangles' search of :func:`_deformed_lows` on its balls' radii ``r`` ``(k, 2)``
+    (one wanted side a row, lowered in place) at the local vertices ``own`` ``(k,)`` along
+    ``n`` ``(k, 3)`` (:func:`triangle_radii` on ``samples``, ``t_loc``, ``lift``), those not
+    ``free`` ``(k,)``: the balls at their start (not in ``hit``, the vertices' search's)
+    from the pairs ``near`` :func:`_to_search` found for them at that radius, the others
+    (shrunk by a vertex) by a search of their own.
     """
-    todo = np.flatnonzero(free)
+    at_start = ~free
+    at_start[hit] = False
+    plain = np.flatnonzero(at_start)
+    pick = at_start[near[0]]
+    found = ((np.cumsum(at_start) - 1)[near[0][pick]], near[1][pick])  # rows of plain
+    r[plain] = triangle_radii(own[plain], n[plain], r[plain], samples, t_loc, lift=lift,
+                              clear=False, found=found)
+    o = hit[~free[hit]]
+    r[o] = triangle_radii(own[o], n[o], r[o], samples, t_loc, lift=lift, clear=False)
+
+
+def _to_search(samples: np.ndarray, t_loc: np.ndarray, c: np.ndarray, start: np.ndarray,
+               own: np.ndarray, free: np.ndarray
+               ) -> tuple[np.ndarray, dict | None, tuple[np.ndarray, np.ndarray]]:
+    r"""The balls of :func:`_deformed_lows` to search ``(k,)`` (ascending), the lifted
+    classes of the local skin ``samples`` ``(s, 3)``, ``t_loc`` ``(t, 3)`` (None where not
+    needed) and the pairs (ball, vertex) ``(q,)`` twice of :func:`_lifted_near`, the balls
+    as rows of the result: those certified ``free`` ``(b,)`` of triangles (the vertices'
+    search alone), and of the others, centres ``c`` ``(b, 3)``, radii ``start`` ``(b,)``
+    at the local vertices ``own`` ``(b,)``, those :func:`_cleared` does not clear (one
+    nearest-point query of the lifted vertices clears a ball no vertex and no triangle not
+    incident to its vertex can enter; the same queries find the others' candidates).
+    """
     if free.all():
-        return todo, None
+        none = np.zeros(0, np.intp)
+        return np.flatnonzero(free), None, (none, none)
     lift = _lift(samples, t_loc)
     rest = np.flatnonzero(~free)
-    return np.union1d(todo, rest[~_cleared(lift, c[rest], start[rest], own[rest])]), lift
+    cleared, ball, vert = _lifted_near(lift, c[rest], start[rest], own[rest])
+    ask = free.copy()
+    ask[rest[~cleared]] = True
+    row = np.cumsum(ask) - 1  # each ball's row among those asked
+    return np.flatnonzero(ask), lift, (row[rest[ball]], vert)
+
+
+def _vertex_hits(samples: np.ndarray, c: np.ndarray, start: np.ndarray, own: np.ndarray,
+                 free: np.ndarray, near: tuple[np.ndarray, np.ndarray]
+                 ) -> tuple[np.ndarray, cKDTree | None]:
+    r"""``(h,)``: the balls of :func:`_deformed_lows`, centres ``c`` ``(k, 3)``, radii
+    ``start`` ``(k,)`` at the vertices ``own`` ``(k,)`` of ``samples`` ``(s, 3)``, that hold
+    a vertex, nearest at :math:`d < R(1 - 10^{-9})` (``cKDTree``, as
+    :func:`medial_radii`'s), and that tree (None where not built). The tree asks only the
+    balls ``free`` ``(k,)`` and those with a vertex :math:`v \ne` ``own`` of their pairs
+    ``near`` (:func:`_to_search`) at :math:`|v - c|^2 \le R^2`: the lifted query found
+    every vertex with :math:`|v - c|^2 - \rho_v^2 \le R^2`, so any other ball's nearest is
+    its own vertex, at :math:`R` (the tangent point).
+    """
+    ball, vert = near
+    d = samples[vert] - c[ball]
+    inside = (np.einsum("ij,ij->i", d, d) <= start[ball] ** 2) & (vert != own[ball])
+    ask = free.copy()
+    ask[ball[inside]] = True
+    ask = np.flatnonzero(ask)
+    if not len(ask):
+        return ask, None
+    tree = cKDTree(samples, balanced_tree=False)
+    dist, _ = tree.query(c[ask], distance_upper_bound=float(start[ask].max()))
+    return ask[dist < start[ask] * (1.0 - 1e-9)], tree
 
 
 def _local_skin(points: np.ndarray, tri: np.ndarray, lo: np.ndarray, hi: np.ndarray
