@@ -19,6 +19,7 @@ from wrinkle_vis.core.foldguard import (
     _apart_by_planes,
     _certified_fans,
     _cleared_by_rest,
+    _fan_edges,
     _fan_structure,
     _pairs_cross,
     _rest_fan_margins,
@@ -311,3 +312,18 @@ def test_a_ramp_through_the_kept_regions_guards_each_frame_as_a_fresh_skin_would
     # (the first frame without the rest filter: a skin's first) the second region widened
     # twice (overlaps), the fourth frame's its own: two with the filter, one without
     assert [r["rest"] for r in terms["fan_regions"]] == [False, True, True]
+
+
+def test_the_fans_edge_lists_hold_each_edge_once_in_order():
+    """``_fan_edges`` (one int64 key per edge, stop 40) gives the edges that sorting the
+    rows and ``np.unique`` over them give, and each vertex's CSR row its incident edges."""
+    pts, tri = book(phi_deg=40.0, nx=7, rows=3)
+    tri = tri[np.random.default_rng(5).permutation(len(tri))]
+    g = _fan_edges(tri, len(pts), {})
+    want = np.unique(np.sort(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
+    np.testing.assert_array_equal(g["edges"], want)
+    for v in range(len(pts)):
+        at = g["edge"][g["start"][v]:g["start"][v + 1]]
+        assert set(at.tolist()) == set(np.flatnonzero((want == v).any(axis=1)).tolist())
+        nbr = g["nbr"][g["start"][v]:g["start"][v + 1]]
+        assert sorted(nbr.tolist()) == sorted(want[at].ravel()[want[at].ravel() != v].tolist())

@@ -159,8 +159,10 @@ def orient(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> np.nda
                      + np.abs(y1)) + au[2] * (np.abs(x2) + np.abs(y2)))
     sign = np.sign(det).astype(np.int8)
     unsure = np.flatnonzero(np.abs(det) <= bound + _floor(au))
-    for k in unsure[~_zero_terms(a[unsure] - d[unsure], b[unsure] - d[unsure],
-                                 c[unsure] - d[unsure])]:
+    if len(unsure):
+        unsure = unsure[~_zero_terms(a[unsure] - d[unsure], b[unsure] - d[unsure],
+                                     c[unsure] - d[unsure])]
+    for k in unsure:
         sign[k] = _exact_orient(a[k], b[k], c[k], d[k])
     return sign
 
@@ -184,9 +186,10 @@ def orient2(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     bound = _ERR2 * (np.abs(left) + np.abs(right))
     sign = np.sign(det).astype(np.int8)
     unsure = np.flatnonzero(np.abs(det) <= bound + _TINY)  # two products: 2 eta beyond
-    u, v = a[unsure] - c[unsure], b[unsure] - c[unsure]
-    zero = ((u[:, 0] == 0) | (v[:, 1] == 0)) & ((u[:, 1] == 0) | (v[:, 0] == 0))
-    for k in unsure[~zero]:
+    if len(unsure):
+        u, v = a[unsure] - c[unsure], b[unsure] - c[unsure]
+        unsure = unsure[~(((u[:, 0] == 0) | (v[:, 1] == 0)) & ((u[:, 1] == 0) | (v[:, 0] == 0)))]
+    for k in unsure:
         sign[k] = _exact_orient2(a[k], b[k], c[k])
     return sign
 
@@ -355,9 +358,10 @@ def _side(p, t0, n, pm, corners, tri_idx) -> np.ndarray:
     bound = _ERR3 * np.einsum("ij,ij->i", au, pm)
     sign = np.sign(det).astype(np.int8)
     unsure = np.flatnonzero(np.abs(det) <= bound + _floor(list(au.T)))
-    tcs = corners[tri_idx[unsure]]
-    zero = _zero_terms(u[unsure], tcs[:, 1] - tcs[:, 0], tcs[:, 2] - tcs[:, 0])
-    for k in unsure[~zero]:
+    if len(unsure):
+        tcs = corners[tri_idx[unsure]]
+        unsure = unsure[~_zero_terms(u[unsure], tcs[:, 1] - tcs[:, 0], tcs[:, 2] - tcs[:, 0])]
+    for k in unsure:
         tc = corners[tri_idx[k]]
         sign[k] = _exact_orient(p[k], tc[1], tc[2], tc[0])
     return sign
@@ -800,9 +804,12 @@ def _certain_sides(pts, tv, other, corners, det, bound) -> np.ndarray:
     """
     sign = np.sign(det).astype(np.int8)
     ii, kk = np.nonzero(np.abs(det) <= bound)
-    tcs = corners[other[kk]]
-    zero = _zero_terms(pts[tv[kk, ii]] - tcs[:, 0], tcs[:, 1] - tcs[:, 0], tcs[:, 2] - tcs[:, 0])
-    for i, k in zip(ii[~zero], kk[~zero], strict=True):
+    if len(ii):
+        tcs = corners[other[kk]]
+        keep = ~_zero_terms(pts[tv[kk, ii]] - tcs[:, 0], tcs[:, 1] - tcs[:, 0],
+                            tcs[:, 2] - tcs[:, 0])
+        ii, kk = ii[keep], kk[keep]
+    for i, k in zip(ii, kk, strict=True):
         tc = corners[other[k]]
         sign[i, k] = _exact_orient(pts[tv[k, i]], tc[1], tc[2], tc[0])
     return sign

@@ -1253,9 +1253,10 @@ def _fan_edges(tri: np.ndarray, n: int, terms: dict) -> dict:
     graph = terms.get("fan_edges")
     if graph is None:
         edges = terms.get("edges")
-        if edges is None:
-            edges = np.unique(np.sort(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1),
-                              axis=0)
+        if edges is None:  # (sorted by first end, then second: one key each, unique)
+            a, b = tri.ravel(), tri[:, [1, 2, 0]].ravel()
+            key = np.unique(np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b))
+            edges = np.stack([key // n, key % n], axis=1)
         ends = np.concatenate([edges[:, 0], edges[:, 1]])
         order = np.argsort(ends, kind="stable")
         start = np.concatenate([[0], np.cumsum(np.bincount(ends, minlength=n))])
