@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 from wrinkle_vis.core.certificate import fold_report, intersecting_pairs
 from wrinkle_vis.core.foldguard import (
     FoldGuard,
+    _across,
     _apart_by_planes,
     _certified_fans,
     _cleared_by_rest,
@@ -327,3 +328,15 @@ def test_the_fans_edge_lists_hold_each_edge_once_in_order():
         assert set(at.tolist()) == set(np.flatnonzero((want == v).any(axis=1)).tolist())
         nbr = g["nbr"][g["start"][v]:g["start"][v + 1]]
         assert sorted(nbr.tolist()) == sorted(want[at].ravel()[want[at].ravel() != v].tolist())
+
+
+@settings(max_examples=200, deadline=None)
+@given(n=st.integers(1, 7), rows=st.lists(st.tuples(*[st.integers(0, 6)] * 3), min_size=1,
+                                           max_size=12))
+def test_the_triangle_across_each_edge_is_the_first_that_runs_it_the_other_way(n, rows):
+    """``_across`` (one sort, stop 40) against a search of every directed edge, on any
+    triangles: boundaries, edges run twice the same way, corners repeated."""
+    tri = np.array(rows, dtype=np.intp) % n
+    edges = [(t[k], t[(k + 1) % 3], t[(k + 2) % 3]) for t in tri.tolist() for k in range(3)]
+    want = [next((c for a2, b2, c in edges if (a2, b2) == (b, a)), -1) for a, b, _ in edges]
+    assert _across(tri, n).ravel().tolist() == want

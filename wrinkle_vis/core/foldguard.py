@@ -1228,16 +1228,39 @@ def _fan_structure(tri: np.ndarray, n: int, terms: dict) -> dict:
     """
     fans = terms.get("fans")
     if fans is None:
-        a, b = tri.ravel(), tri[:, [1, 2, 0]].ravel()
-        key = a.astype(np.int64) * n + b
-        order = np.argsort(key, kind="stable")
-        twin = b.astype(np.int64) * n + a
-        at = np.minimum(np.searchsorted(key[order], twin), len(key) - 1)
-        found = key[order][at] == twin
-        third = tri[:, [2, 0, 1]].ravel()  # the corner opposite each edge
-        across = np.where(found, third[order][at], -1).reshape(-1, 3)
-        fans = terms["fans"] = {"across": across, "open": _irregular_vertices(tri, n)}
+        fans = terms["fans"] = {"across": _across(tri, n), "open": _irregular_vertices(tri, n)}
     return fans
+
+
+def _across(tri: np.ndarray, n: int) -> np.ndarray:
+    """``(m, 3)``: the third vertex of the triangle across edge ``k`` (corner ``k`` to
+    ``k + 1``) of each triangle ``tri`` ``(m, 3)`` on ``n`` vertices: of the first triangle
+    (in ``tri``'s order) that runs the edge the other way, -1 where none does.
+
+    One stable sort of the directed edges by (undirected edge, direction): an edge's twins
+    are the run of the same undirected edge and the other direction, next to its own (an
+    edge from a vertex to itself is its own twin).
+    """
+    a, b = tri.ravel(), tri[:, [1, 2, 0]].ravel()
+    key = (np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b)) * 2 + (a > b)
+    order = np.argsort(key, kind="stable")
+    s = key[order]
+    new = np.empty(len(s), bool)
+    new[:1], new[1:] = True, s[1:] != s[:-1]
+    starts = np.flatnonzero(new)
+    val = s[starts]
+    twin = np.full(len(starts), -1, np.intp)
+    # runs r (forward: even) and r + 1 (backward) of one undirected edge
+    up = np.flatnonzero((val[1:] == val[:-1] + 1) & (val[:-1] % 2 == 0))
+    twin[up], twin[up + 1] = starts[up + 1], starts[up]
+    half = val // 2
+    own = (val % 2 == 0) & (half // n == half % n)
+    twin[own] = starts[own]
+    at = twin[np.cumsum(new) - 1]
+    third = tri[:, [2, 0, 1]].ravel()  # the corner opposite each edge
+    across = np.empty(len(s), np.intp)
+    across[order] = np.where(at >= 0, third[order[np.maximum(at, 0)]], -1)
+    return across.reshape(-1, 3)
 
 
 # The fans' rest margins (docs/model.md, "The fans", "A filter on the rest skin"): the
