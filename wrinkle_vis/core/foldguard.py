@@ -1228,18 +1228,16 @@ def _fan_structure(tri: np.ndarray, n: int, terms: dict) -> dict:
     """
     fans = terms.get("fans")
     if fans is None:
-        fans = terms["fans"] = {"across": _across(tri, n), "open": _irregular_vertices(tri, n)}
+        fans = terms["fans"] = {"across": _across(tri, n, terms.pop("fan_runs", None)),
+                                "open": _irregular_vertices(tri, n)}
     return fans
 
 
-def _across(tri: np.ndarray, n: int) -> np.ndarray:
-    """``(m, 3)``: the third vertex of the triangle across edge ``k`` (corner ``k`` to
-    ``k + 1``) of each triangle ``tri`` ``(m, 3)`` on ``n`` vertices: of the first triangle
-    (in ``tri``'s order) that runs the edge the other way, -1 where none does.
-
-    One stable sort of the directed edges by (undirected edge, direction): an edge's twins
-    are the run of the same undirected edge and the other direction, next to its own (an
-    edge from a vertex to itself is its own twin).
+def _edge_runs(tri: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""The directed edges of ``tri`` ``(m, 3)`` (edge ``k`` of triangle ``t`` at ``3t + k``)
+    sorted (stably) by the key :math:`2(n \min(a, b) + \max(a, b)) + [a > b]` of each edge ``a b``:
+    the order ``(3m,)``, the sorted keys, and where a run of equal keys starts ``(3m,)``
+    bool.
     """
     a, b = tri.ravel(), tri[:, [1, 2, 0]].ravel()
     key = (np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b)) * 2 + (a > b)
@@ -1247,6 +1245,21 @@ def _across(tri: np.ndarray, n: int) -> np.ndarray:
     s = key[order]
     new = np.empty(len(s), bool)
     new[:1], new[1:] = True, s[1:] != s[:-1]
+    return order, s, new
+
+
+def _across(tri: np.ndarray, n: int,
+            runs: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """``(m, 3)``: the third vertex of the triangle across edge ``k`` (corner ``k`` to
+    ``k + 1``) of each triangle ``tri`` ``(m, 3)`` on ``n`` vertices: of the first triangle
+    (in ``tri``'s order) that runs the edge the other way, -1 where none does.
+
+    One stable sort of the directed edges by (undirected edge, direction): an edge's twins
+    are the run of the same undirected edge and the other direction, next to its own (an
+    edge from a vertex to itself is its own twin). ``runs``: :func:`_edge_runs`, when
+    known.
+    """
+    order, s, new = _edge_runs(tri, n) if runs is None else runs
     starts = np.flatnonzero(new)
     val = s[starts]
     twin = np.full(len(starts), -1, np.intp)
@@ -1278,8 +1291,11 @@ def _fan_edges(tri: np.ndarray, n: int, terms: dict) -> dict:
     if graph is None:
         edges = terms.get("edges")
         if edges is None:  # (sorted by first end, then second: one key each, unique)
-            a, b = tri.ravel(), tri[:, [1, 2, 0]].ravel()
-            key = np.unique(np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b))
+            runs = _edge_runs(tri, n)  # (kept for the fans' structure, which follows)
+            if "fans" not in terms:
+                terms["fan_runs"] = runs
+            half = runs[1][runs[2]] // 2
+            key = half[np.r_[True, half[1:] != half[:-1]]]
             edges = np.stack([key // n, key % n], axis=1)
         ends = np.concatenate([edges[:, 0], edges[:, 1]])
         order = np.argsort(ends, kind="stable")
