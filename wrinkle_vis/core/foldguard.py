@@ -75,7 +75,7 @@ class FoldGuard:
     fans : bool
         Also keep each vertex's displaced fan off the triangles of its two rings
         (:func:`guard_fans`; ``docs/model.md``, "The fans"). Off by default: it acts on no
-        built-in frame at default parameters, and it adds 46-119 % to the default guard's
+        built-in frame at default parameters, and it adds 36-119 % to the default guard's
         refined frames and the geometric skin's unrefined ones (``docs/benchmarks.md``,
         stop 40); turn it on (the command line's ``--fold-guard fans``) for stiff muscles
         (k0 raised several times) on a refined scan whose rest skin folds on itself.
