@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from wrinkle_vis.core.certificate import fold_report, intersecting_pairs
+from wrinkle_vis.core.certificate import _irregular_vertices, fold_report, intersecting_pairs
 from wrinkle_vis.core.foldguard import (
     FoldGuard,
     _across,
@@ -330,13 +330,52 @@ def test_the_fans_edge_lists_hold_each_edge_once_in_order():
         assert sorted(nbr.tolist()) == sorted(want[at].ravel()[want[at].ravel() != v].tolist())
 
 
-@settings(max_examples=200, deadline=None)
-@given(n=st.integers(1, 7), rows=st.lists(st.tuples(*[st.integers(0, 6)] * 3), min_size=1,
-                                           max_size=12))
-def test_the_triangle_across_each_edge_is_the_first_that_runs_it_the_other_way(n, rows):
-    """``_across`` (one sort, stop 40) against a search of every directed edge, on any
-    triangles: boundaries, edges run twice the same way, corners repeated."""
-    tri = np.array(rows, dtype=np.intp) % n
+OCTAHEDRON = [[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5],
+              [0, 3, 5]]  # closed, every edge run once each way
+
+
+@st.composite
+def nearly_closed(draw) -> tuple[int, np.ndarray]:
+    """``(n, (m, 3))``: an octahedron with a few triangles duplicated, turned, dropped or
+    added with a repeated corner, its vertices relabelled (most vertices stay regular)."""
+    tri = [list(t) for t in OCTAHEDRON]
+    for op, i in draw(st.lists(st.tuples(st.integers(0, 3), st.integers(0, 7)), max_size=3)):
+        i %= len(tri)
+        if op == 0:
+            tri.append(list(tri[i]))
+        elif op == 1:
+            tri[i] = tri[i][::-1]
+        elif op == 2 and len(tri) > 1:
+            tri.pop(i)
+        else:
+            tri.append([tri[i][0], tri[i][0], tri[i][1]])
+    perm = np.array(draw(st.permutations(range(6))))
+    return 6, perm[np.array(tri, dtype=np.intp)]
+
+
+soup = st.tuples(st.integers(1, 7), st.lists(st.tuples(*[st.integers(0, 6)] * 3), min_size=1,
+                                              max_size=12)).map(
+    lambda a: (a[0], np.array(a[1], dtype=np.intp) % a[0]))
+
+
+@settings(max_examples=300, deadline=None)
+@given(mesh=st.one_of(nearly_closed(), soup))
+def test_the_fans_open_vertices_are_the_certificates_irregular_ones(mesh):
+    """``_fan_structure``'s ``open`` (from the sort of the directed edges, stop 40) is
+    ``certificate._irregular_vertices``, on a closed mesh with a few faults and on any
+    triangles."""
+    n, tri = mesh
+    got = _fan_structure(tri, n, {})["open"]
+    np.testing.assert_array_equal(got, _irregular_vertices(tri, n))
+
+
+@settings(max_examples=300, deadline=None)
+@given(mesh=st.one_of(nearly_closed(), soup))
+def test_the_triangle_across_each_edge_is_the_first_that_runs_it_the_other_way(mesh):
+    """``_across`` (one sort, stop 40) against a search of every directed edge, on a closed
+    mesh with a few faults and on any triangles: boundaries, edges run twice the same way,
+    corners repeated."""
+    n, tri = mesh
     edges = [(t[k], t[(k + 1) % 3], t[(k + 2) % 3]) for t in tri.tolist() for k in range(3)]
     want = [next((c for a2, b2, c in edges if (a2, b2) == (b, a)), -1) for a, b, _ in edges]
     assert _across(tri, n).ravel().tolist() == want

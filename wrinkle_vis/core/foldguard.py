@@ -39,7 +39,6 @@ from scipy.spatial import cKDTree
 
 from .certificate import (
     _corner_columns,
-    _irregular_vertices,
     _narrow_phase,
     _normals,
 )
@@ -1228,9 +1227,33 @@ def _fan_structure(tri: np.ndarray, n: int, terms: dict) -> dict:
     """
     fans = terms.get("fans")
     if fans is None:
-        fans = terms["fans"] = {"across": _across(tri, n, terms.pop("fan_runs", None)),
-                                "open": _irregular_vertices(tri, n)}
+        runs = terms.pop("fan_runs", None)
+        runs = _edge_runs(tri, n) if runs is None else runs
+        fans = terms["fans"] = {"across": _across(tri, n, runs), "open": _open(n, runs)}
     return fans
+
+
+def _open(n: int, runs: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+    """``(n,)`` bool: the vertices on an edge that is not run exactly once each way (by
+    the triangles whose directed edges :func:`_edge_runs` sorted into ``runs``: a boundary,
+    non-manifold or misoriented edge, or one from a vertex to itself), as
+    :func:`~wrinkle_vis.core.certificate._irregular_vertices` finds them.
+    """
+    _, s, new = runs
+    starts = np.flatnonzero(new)
+    val, count = s[starts], np.diff(np.append(starts, len(s)))
+    half = val // 2
+    edge = np.empty(len(half), bool)  # where an undirected edge's runs start
+    edge[:1], edge[1:] = True, half[1:] != half[:-1]
+    first = np.flatnonzero(edge)
+    runs_of = np.diff(np.append(first, len(half)))  # 1 or 2: one direction or both
+    once = count == 1
+    regular = (runs_of == 2) & once[first] & once[np.minimum(first + 1, len(once) - 1)]
+    ends = half[first[~regular]]
+    out = np.zeros(n, bool)
+    out[ends // n] = True
+    out[ends % n] = True
+    return out
 
 
 def _edge_runs(tri: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
