@@ -1806,6 +1806,7 @@ def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
         if p is p0:
             p = p0.copy()
         p[changed] = d[changed] + h[changed, None] * (p0[changed] - d[changed])
+    terms.pop("fan_runs", None)  # (the edges' sort, if the fans' structure did not take it)
     if p is p0:
         return points, W
     return p, np.asarray(W, dtype=float) * h
