@@ -265,11 +265,12 @@ def _timed_ramps(runs: dict, n: int, passes: int, rounds: int) -> dict:
 def animation(rounds: int, frames: int, baseline: str | None = None,
               faces: tuple[str, ...] = ("paper", "head"),
               skins: tuple[str, ...] = ("geometric", "physical"),
-              only: tuple[str, ...] = ()) -> dict:
+              only: tuple[str, ...] = (), fans: bool = False) -> dict:
     """The guard's share of animation frames (module notes, ``--animation``): per face,
     refinement, expression, skin and (physical) warm start, the mean frame of a ramp of
     ``frames`` intensities with the guard off, on and (``baseline``) that revision's;
-    ``only``: the cases whose name (refined/unrefined, expression) holds all of these words."""
+    ``only``: the cases whose name (refined/unrefined, expression) holds all of these words;
+    ``fans``: also this tree's guard with ``FoldGuard(fans=True)``."""
     from wrinkle_vis.core import foldguard
 
     old = _baseline_guard(baseline) if baseline else None
@@ -281,14 +282,14 @@ def animation(rounds: int, frames: int, baseline: str | None = None,
                 continue
             for warm in ((False, True) if skin == "physical" else (False,)):
                 def ramp(levels, module, e=expr, r=refine, f=face, k=skin, w=warm,
-                         h=host, own=host.guarded):
+                         h=host, own=host.guarded, g=True):
                     if module is None:
                         return [f.evaluate(e, float(i), refine=r, skin=k, warm_start=w,
                                            fold_guard=False) for i in levels]
                     h.guarded = module.guarded
                     try:
                         return [f.evaluate(e, float(i), refine=r, skin=k, warm_start=w,
-                                           fold_guard=True) for i in levels]
+                                           fold_guard=g) for i in levels]
                     finally:
                         h.guarded = own
 
@@ -296,6 +297,9 @@ def animation(rounds: int, frames: int, baseline: str | None = None,
                         "on": lambda v, ramp=ramp: ramp(v, foldguard)}
                 if old is not None:
                     runs["baseline"] = lambda v, ramp=ramp, t=twin: ramp(v, old, f=t)
+                if fans:
+                    runs["fans"] = lambda v, ramp=ramp: ramp(
+                        v, foldguard, g=foldguard.FoldGuard(fans=True))
                 out.update(_animation_case(face, refine, expr, skin, warm, runs, frames,
                                            rounds))
     return out
@@ -337,6 +341,8 @@ def _animation_line(key: str, v: dict) -> str:
             f"{' FRAMES DIFFER' if v['same_as_baseline'] is False else ''}"
             ) if "baseline_s" in v else ""
     idle = " IDLE FRAMES DIFFER FROM UNGUARDED" if v["idle_same_as_off"] is False else ""
+    if "fans_s" in v:
+        base += f", fans {v['fans_s'] * 1e3:7.2f} ({v['fans_cpu_s'] * 1e3:7.2f}) ms"
     return (f"animation {key:46s} {v['acting_frames']:2d}/{v['frames']} acting: a frame, "
             f"wall (CPU) off {v['off_s'] * 1e3:7.2f} ({v['off_cpu_s'] * 1e3:7.2f}), "
             f"on {v['on_s'] * 1e3:7.2f} ({v['on_cpu_s'] * 1e3:7.2f}) ms "
@@ -362,6 +368,8 @@ def main() -> None:
                          "(refined or unrefined, an expression: refined,pucker)")
     ap.add_argument("--animation", type=int, default=0, metavar="N",
                     help="time ramps of N frames (intensity 0 to 1) instead of repeats")
+    ap.add_argument("--fans", action="store_true",
+                    help="--animation: also time the guard with FoldGuard(fans=True)")
     args = ap.parse_args()
     levels = tuple(float(v) for v in args.intensities.split(","))
     faces = tuple(args.faces.split(","))
@@ -371,7 +379,8 @@ def main() -> None:
             ap.error(f"--animation {args.animation}: a ramp needs at least 2 frames")
         print(f"load average {os.getloadavg()[0]:.2f}")
         res = {"animation": animation(args.rounds, args.animation, args.baseline, faces,
-                                      skins, tuple(filter(None, args.cases.split(","))))}
+                                      skins, tuple(filter(None, args.cases.split(","))),
+                                      args.fans)}
         if args.json:
             args.json.write_text(json.dumps(res, indent=1))
         print(f"load average {os.getloadavg()[0]:.2f}")

@@ -369,3 +369,30 @@ def test_undersampled_wrinkles_of_several_muscles_are_one_line(capsys):
     for name in ("corrugator_L", "corrugator_R", "orbicularis_oculi_L", "orbicularis_oris"):
         assert repr(name) in err[0]
     assert "n_w 1 fits" in err[0] and "refine the skin (about" in err[0]
+
+
+@pytest.mark.parametrize("flag", ["on", "fans"])
+def test_fold_guard_fans_reaches_the_wrinkle_step(flag, tmp_path, monkeypatch):
+    """``--fold-guard fans`` guards the frame with ``FoldGuard(fans=True)``: the fans'
+    guard runs on the export's frame (``on``: the default guard, without it)."""
+    from wrinkle_vis.core import foldguard
+
+    calls = []
+
+    def guard_fans(*args, **kwargs):
+        calls.append(len(args[0]))
+        return original(*args, **kwargs)
+
+    original = foldguard.guard_fans
+    monkeypatch.setattr(foldguard, "guard_fans", guard_fans)
+    out = tmp_path / "surprise.vtp"
+    assert main(["export", "-e", "surprise", "--fold-guard", flag, "-o", str(out)]) == 0
+    assert out.is_file() and (len(calls) > 0) == (flag == "fans")
+
+
+def test_a_bad_fold_guard_is_one_line(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["export", "-o", "x.vtp", "--fold-guard", "maybe"])
+    err = capsys.readouterr().err
+    assert info.value.code == 2 and err.count("\n") == 1, err
+    assert "--fold-guard: invalid choice: 'maybe' (choose from 'on', 'off', 'fans')" in err

@@ -826,8 +826,10 @@ def test_stress_k0_five_times_refined_stays_clean(procedural):
 #: Crossing pairs that refined head frames with k0 at 5x its default still add (0 wherever
 #: not listed). Stop 38 left 4 + 4 at the left eye's outer corner, where the rest skin folds
 #: on itself and W's step folded a vertex's own fan over its neighbours, which no ball sees;
-#: the fans' guard (``FoldGuard(fans=True)``, opt-in for its cost, docs/benchmarks.md stop
-#: 39) removes them (``test_stress_k0_five_times_the_fans_guard_clears_the_eye_corner``).
+#: the fans' guard (``FoldGuard(fans=True)``, ``--fold-guard fans``, opt-in for its cost,
+#: docs/benchmarks.md stops 39 and 40: 36-119 % of the default guard's refined and geometric
+#: unrefined frames) removes them
+#: (``test_stress_k0_five_times_the_fans_guard_clears_the_eye_corner``).
 #: The guard of balls empty of vertices (stop 37): 5-27 pairs in 17 geometric and 5-10
 #: pairs in 17 physical frames of these expressions.
 HEAD_STRESS_LEFT = {("geometric", "duchenne_smile", 1.0): 4, ("geometric", "squint", 1.0): 4}

@@ -138,10 +138,12 @@ def _common(p: argparse.ArgumentParser, *, expression_many: bool = False,
                         "wrinkling region (C1), removing the seam the paper's Eq. 5 leaves "
                         "there (e.g. across the top of the forehead's wrinkles in surprise "
                         "and fear); default: the paper's model, or the layout's choice")
-    p.add_argument("--fold-guard", choices=("on", "off"), default="on",
+    p.add_argument("--fold-guard", choices=("on", "off", "fans"), default="on",
                    help="keep the skin from passing through itself: limit the pulls where "
                         "a triangle would turn over and |W| below half the empty-ball "
-                        "radius on its side (default on; off: the paper's model as is)")
+                        "radius on its side (default on; off: the paper's model as is; "
+                        "fans: also keep each vertex's wrinkled fan off its two rings, "
+                        "for stiff muscles on a refined scan that folds on itself)")
 
 
 def _refine_options(p: argparse.ArgumentParser, what: str = "evaluate with adaptive "
@@ -557,10 +559,19 @@ def _load(args, *, refine: bool = False):
     notice = default_skin_notice(face.skin.n_points)
     if notice is not None and model is None and (layout is None or layout.skin_model is None):
         print(f"wrinkle-vis {args.command}: note: {notice}", file=sys.stderr)
-    face.fold_guard = getattr(args, "fold_guard", "on") == "on"
+    face.fold_guard = _fold_guard(getattr(args, "fold_guard", "on"))
     if face.skin.n_triangles >= LARGE_SKIN_TRIANGLES:
         _prepare_muscles(args, face)
     return face
+
+
+def _fold_guard(choice: str):
+    """The face's :attr:`~wrinkle_vis.core.face.FaceModel.fold_guard` for ``--fold-guard``'s
+    ``choice``: True (on), False (off) or ``FoldGuard(fans=True)`` (fans).
+    """
+    from wrinkle_vis.core.foldguard import FoldGuard
+
+    return FoldGuard(fans=True) if choice == "fans" else choice == "on"
 
 
 def _checked_layout(args):

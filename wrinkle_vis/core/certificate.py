@@ -9,9 +9,12 @@ orientation determinant
     o(a, b, c, d) = (a - d) \cdot \big((b - d) \times (c - d)\big),
 
 computed in floating point and accepted when it exceeds Shewchuk's static error bound
-:math:`(7 + 56\epsilon)\,\epsilon` times its permanent (:math:`\epsilon = 2^{-53}`); the few
-signs it cannot certify are recomputed in rational arithmetic (:class:`fractions.Fraction`
-holds every double exactly), so a sign is never wrong.
+:math:`(7 + 56\epsilon)\,\epsilon` times its permanent (:math:`\epsilon = 2^{-53}`) plus a
+floor for products that underflow (:func:`_floor`: a subnormal result errs by up to
+:math:`2^{-1075}`, which no relative bound covers); the few signs it cannot certify are
+recomputed in rational arithmetic (:class:`fractions.Fraction` holds every double exactly),
+but for determinants each of whose products has a factor that is exactly zero
+(:func:`_zero_terms`), so a sign is never wrong.
 
 * Broad phase, in two parts (:func:`intersecting_pairs` runs these steps once each, on
   coordinate columns of the triangles' corners gathered once).
@@ -81,6 +84,39 @@ __all__ = ["FoldReport", "fold_report", "intersecting_pairs", "turned_over"]
 
 _EPS = 2.0 ** -53
 _ERR3 = (7.0 + 56.0 * _EPS) * _EPS
+_TINY = 2.0 ** -1069  # 32 times the largest error of a product that underflows (2^-1075)
+_SMALL = 2.0 ** -300  # a length below it may come from products that underflow
+
+
+def _floor(au: list[np.ndarray]) -> np.ndarray:
+    r"""``(k,)``: the error a determinant :math:`\sum_i u_i\,n_i` can carry beyond its
+    static bound when products underflow, from :math:`|u_i|` ``(k,)`` three times:
+    :math:`2^{-1069}\,(1 + \sum_i |u_i|)`.
+
+    A product whose result is subnormal is rounded to a multiple of :math:`2^{-1074}`: its
+    error is at most :math:`\eta = 2^{-1075}` in absolute value, not :math:`\epsilon`
+    times it (a sum or difference is exact there). :math:`n_i` (a cross product's entry:
+    two products) then errs by at most :math:`2\eta` beyond its relative error, and
+    :math:`u_i n_i` by :math:`|u_i|\,2\eta + \eta`; the three together by
+    :math:`2\eta \sum_i |u_i| + 3\eta` (times :math:`1 + O(\epsilon)`), well within
+    the floor. Without it, products of subnormal coordinates' differences round to zero
+    and a nonzero determinant reads as zero with a zero bound, taken as certain.
+    """
+    return _TINY * (1.0 + au[0] + au[1] + au[2])
+
+
+def _zero_terms(u: np.ndarray, e1: np.ndarray, e2: np.ndarray) -> np.ndarray:
+    r"""``(k,) bool``: every term :math:`u_i\,(e_1 \times e_2)_i` is zero because a factor
+    of each of its products is (rows ``(k, 3)``, computed differences: a difference of
+    doubles is zero exactly when they are equal), so :math:`u \cdot (e_1 \times e_2) = 0`
+    exactly.
+    """
+    z, y, x = u == 0, e1 == 0, e2 == 0
+    out = np.ones(len(u), bool)
+    for i in range(3):
+        j, k = (i + 1) % 3, (i + 2) % 3
+        out &= z[:, i] | ((y[:, j] | x[:, k]) & (y[:, k] | x[:, j]))
+    return out
 
 
 def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -118,10 +154,14 @@ def orient(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> np.nda
     x0, x1, x2 = v1 * w2, v2 * w0, v0 * w1
     y0, y1, y2 = v2 * w1, v0 * w2, v1 * w0
     det = u0 * (x0 - y0) + u1 * (x1 - y1) + u2 * (x2 - y2)
-    bound = _ERR3 * (np.abs(u0) * (np.abs(x0) + np.abs(y0)) + np.abs(u1) * (np.abs(x1)
-                     + np.abs(y1)) + np.abs(u2) * (np.abs(x2) + np.abs(y2)))
+    au = [np.abs(u0), np.abs(u1), np.abs(u2)]
+    bound = _ERR3 * (au[0] * (np.abs(x0) + np.abs(y0)) + au[1] * (np.abs(x1)
+                     + np.abs(y1)) + au[2] * (np.abs(x2) + np.abs(y2)))
     sign = np.sign(det).astype(np.int8)
-    unsure = np.flatnonzero((np.abs(det) <= bound) & (bound > 0))
+    unsure = np.flatnonzero(np.abs(det) <= bound + _floor(au))
+    if len(unsure):
+        unsure = unsure[~_zero_terms(a[unsure] - d[unsure], b[unsure] - d[unsure],
+                                     c[unsure] - d[unsure])]
     for k in unsure:
         sign[k] = _exact_orient(a[k], b[k], c[k], d[k])
     return sign
@@ -145,7 +185,11 @@ def orient2(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     det = left - right
     bound = _ERR2 * (np.abs(left) + np.abs(right))
     sign = np.sign(det).astype(np.int8)
-    for k in np.flatnonzero((np.abs(det) <= bound) & (bound > 0)):
+    unsure = np.flatnonzero(np.abs(det) <= bound + _TINY)  # two products: 2 eta beyond
+    if len(unsure):
+        u, v = a[unsure] - c[unsure], b[unsure] - c[unsure]
+        unsure = unsure[~(((u[:, 0] == 0) | (v[:, 1] == 0)) & ((u[:, 1] == 0) | (v[:, 0] == 0)))]
+    for k in unsure:
         sign[k] = _exact_orient2(a[k], b[k], c[k])
     return sign
 
@@ -154,9 +198,20 @@ def _drop_axis(tc: np.ndarray) -> np.ndarray:
     """``(k, 2)`` int: the coordinates kept when projecting the plane of triangles
     ``(k, 3, 3)`` onto the coordinate plane its normal is least parallel to.
     """
-    n = _cross(tc[:, 1] - tc[:, 0], tc[:, 2] - tc[:, 0])
-    axis = np.abs(n).argmax(axis=1)
+    n = np.abs(_cross(tc[:, 1] - tc[:, 0], tc[:, 2] - tc[:, 0]))
+    axis = n.argmax(axis=1)
+    for k in np.flatnonzero(n.max(axis=1) < _SMALL):  # products may underflow: exact
+        axis[k] = _exact_normal_axis(tc[k])
     return np.array([[1, 2], [0, 2], [0, 1]])[axis]
+
+
+def _exact_normal_axis(tc: np.ndarray) -> int:
+    """The axis of the largest entry of the normal of triangle ``tc`` ``(3, 3)`` (exact)."""
+    a, b, c = ([Fraction(float(x)) for x in p] for p in tc)
+    u, v = [b[i] - a[i] for i in range(3)], [c[i] - a[i] for i in range(3)]
+    n = [abs(u[(i + 1) % 3] * v[(i + 2) % 3] - u[(i + 2) % 3] * v[(i + 1) % 3])
+         for i in range(3)]
+    return max(range(3), key=lambda i: n[i])
 
 
 def _flat(x: np.ndarray, keep: np.ndarray) -> np.ndarray:
@@ -299,9 +354,13 @@ def _side(p, t0, n, pm, corners, tri_idx) -> np.ndarray:
     """
     u = p - t0
     det = np.einsum("ij,ij->i", u, n)
-    bound = _ERR3 * np.einsum("ij,ij->i", np.abs(u), pm)
+    au = np.abs(u)
+    bound = _ERR3 * np.einsum("ij,ij->i", au, pm)
     sign = np.sign(det).astype(np.int8)
-    unsure = np.flatnonzero((np.abs(det) <= bound) & (bound > 0))
+    unsure = np.flatnonzero(np.abs(det) <= bound + _floor(list(au.T)))
+    if len(unsure):
+        tcs = corners[tri_idx[unsure]]
+        unsure = unsure[~_zero_terms(u[unsure], tcs[:, 1] - tcs[:, 0], tcs[:, 2] - tcs[:, 0])]
     for k in unsure:
         tc = corners[tri_idx[k]]
         sign[k] = _exact_orient(p[k], tc[1], tc[2], tc[0])
@@ -388,6 +447,11 @@ def _normals(x: list[list[np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
     return normal, perm
 
 
+def _unless_small(length: np.ndarray) -> np.ndarray:
+    """``(k,)``: ``length`` ``(k,)``, infinite where it is below ``_SMALL``."""
+    return np.where(length < _SMALL, np.inf, length)
+
+
 _AHEAD = np.array([[0.5257311, 0.6881910, 0.5000000], [-0.8090170, 0.2628656, 0.5257311]])
 
 
@@ -412,7 +476,13 @@ def _clear_stars(pts: np.ndarray, tri: np.ndarray, normal: np.ndarray, perm: np.
     product of the lengths (of :math:`N` and the permanent of :math:`n_t`, or of the
     edge and :math:`g`), far above its rounding (a few :math:`\epsilon` of that, the
     rounding of the differences and of :math:`n_t` included); any doubt leaves the vertex
-    to the exact pairwise test.
+    to the exact pairwise test. That holds where no length involved (of :math:`N`,
+    :math:`g`, the edges and the permanent of :math:`n_t`) is below :math:`2^{-300}`: a
+    product that underflows errs by :math:`2^{-1075}` at most, so the errors beyond the
+    relative ones are a few :math:`2^{-1075}` times the lengths and the degree, far below
+    :math:`10^{-10}` times the products of two lengths of at least :math:`2^{-300}`, and
+    the lengths themselves (square roots of sums of squares of at least :math:`2^{-600}`)
+    are accurate. A star with a shorter one is a doubt.
     """
     n_points = len(pts)
     v = tri.ravel()
@@ -421,14 +491,18 @@ def _clear_stars(pts: np.ndarray, tri: np.ndarray, normal: np.ndarray, perm: np.
     d = _AHEAD[(np.abs(_AHEAD[0] @ nv) > 0.8 * ln).astype(np.intp)]
     g = _cross_cols([d[:, 0], d[:, 1], d[:, 2]], nv)
     lg = np.sqrt(_dot(g, g))
-    lperm = _STAR_MARGIN * np.sqrt(np.einsum("ij,ij->i", perm, perm))
+    lperm = np.sqrt(np.einsum("ij,ij->i", perm, perm))
     nt = [np.ascontiguousarray(normal[:, k]) for k in range(3)]
     # per triangle, edge k runs from corner k to corner k + 1: a - v at corner k is edge k,
     # and b - v is minus edge k + 2
     corner = [np.ascontiguousarray(tri[:, k]) for k in range(3)]
     x = _corner_columns(pts, tri) if x is None else x
     edge = [_sub(x[(k + 1) % 3], x[k]) for k in range(3)]
-    ledge = [np.sqrt(_dot(e, e)) for e in edge]
+    # a length below _SMALL: products may underflow and the margins not hold; an infinite
+    # threshold makes every test it enters a doubt
+    ledge = [_unless_small(np.sqrt(_dot(e, e))) for e in edge]
+    lperm = _STAR_MARGIN * _unless_small(lperm)
+    ln, lg = _unless_small(ln), _unless_small(lg)
     weight = np.empty((len(tri), 3))
     for k in range(3):
         vk = corner[k]
@@ -729,7 +803,13 @@ def _certain_sides(pts, tv, other, corners, det, bound) -> np.ndarray:
     certify the sign).
     """
     sign = np.sign(det).astype(np.int8)
-    for i, k in zip(*np.nonzero((np.abs(det) <= bound) & (bound > 0)), strict=True):
+    ii, kk = np.nonzero(np.abs(det) <= bound)
+    if len(ii):
+        tcs = corners[other[kk]]
+        keep = ~_zero_terms(pts[tv[kk, ii]] - tcs[:, 0], tcs[:, 1] - tcs[:, 0],
+                            tcs[:, 2] - tcs[:, 0])
+        ii, kk = ii[keep], kk[keep]
+    for i, k in zip(ii, kk, strict=True):
         tc = corners[other[k]]
         sign[i, k] = _exact_orient(pts[tv[k, i]], tc[1], tc[2], tc[0])
     return sign
@@ -749,8 +829,8 @@ def _apart_separated(x: list[list[np.ndarray]], planes: list[np.ndarray], tv: np
     for i in range(3):
         u = [c.take(tv) - t for c, t in zip(x[i], t0, strict=True)]
         dets[i] = u[0] * n[0] + u[1] * n[1] + u[2] * n[2]
-        bounds[i] = _ERR3 * (np.abs(u[0]) * pm[0] + np.abs(u[1]) * pm[1]
-                             + np.abs(u[2]) * pm[2])
+        au = [np.abs(c) for c in u]
+        bounds[i] = _ERR3 * (au[0] * pm[0] + au[1] * pm[1] + au[2] * pm[2]) + _floor(au)
     sure = np.asarray((dets > bounds).all(axis=0) | (dets < -bounds).all(axis=0))
     return sure, dets, bounds
 
@@ -769,7 +849,8 @@ def _separated(pts, tv, other, is_shared, corners, normal, perm) -> np.ndarray:
         p = pts[tv[:, i]]
         u = [p[:, c] - t0[c] for c in range(3)]
         det = u[0] * n[0] + u[1] * n[1] + u[2] * n[2]
-        bound = _ERR3 * (np.abs(u[0]) * pm[0] + np.abs(u[1]) * pm[1] + np.abs(u[2]) * pm[2])
+        au = [np.abs(c) for c in u]
+        bound = _ERR3 * (au[0] * pm[0] + au[1] * pm[1] + au[2] * pm[2]) + _floor(au)
         free = ~is_shared[:, i]
         pos &= ~free | (det > bound)
         neg &= ~free | (det < -bound)

@@ -24,7 +24,7 @@ import numpy as np
 
 from .expressions import Expression, paper_expressions
 from .fields import FIELD_NAMES
-from .foldguard import guarded
+from .foldguard import FoldGuard, guarded
 from .hierarchy import canonical_order
 from .mesh import MeshError, TriangleSurface
 from .muscle import Muscle, check_activation
@@ -107,10 +107,13 @@ class FaceModel:
     The model is immutable. :meth:`with_muscle` and :meth:`without_muscle` return a new
     model that shares the per-muscle caches of the unchanged muscles. One setting is not
     part of the model: :attr:`fold_guard` (default True), the default of :meth:`evaluate`'s
-    ``fold_guard`` for this object (the command line's ``--fold-guard``).
+    ``fold_guard`` for this object (the command line's ``--fold-guard``): True for the
+    default :class:`~wrinkle_vis.core.foldguard.FoldGuard`, False for none, or a
+    :class:`~wrinkle_vis.core.foldguard.FoldGuard` (``FoldGuard(fans=True)``: ``--fold-guard
+    fans``).
     """
 
-    fold_guard: bool = True
+    fold_guard: bool | FoldGuard = True
 
     def __init__(self, skin: TriangleSurface, skull: TriangleSurface | None = None,
                  muscles: Iterable[Muscle] = (),
@@ -452,7 +455,8 @@ class FaceModel:
                  refine: bool = False,
                  refine_angle_deg: float = 3.0, refine_levels: int = 3,
                  skin: str | None = None, material: SkinMaterial | None = None,
-                 fold_guard: bool | None = None, warm_start: bool = False) -> FaceState:
+                 fold_guard: bool | FoldGuard | None = None,
+                 warm_start: bool = False) -> FaceState:
         r"""One frame of the wrinkle model.
 
         Parameters
@@ -485,8 +489,10 @@ class FaceModel:
             ``benchmarks/bench_refine_fidelity.py``).
         refine_levels : int, default 3
             At most this many levels.
-        fold_guard : bool, optional
-            Default: the face's :attr:`fold_guard` (True). Keep the skin from passing
+        fold_guard : bool or FoldGuard, optional
+            Default: the face's :attr:`fold_guard` (True; a
+            :class:`~wrinkle_vis.core.foldguard.FoldGuard`: that guard's parameters, e.g.
+            ``FoldGuard(fans=True)``). Keep the skin from passing
             through itself (:mod:`wrinkle_vis.core.foldguard`): on an unrefined frame each
             pull is limited where a triangle would keep less than a fifth of its rest
             signed area; on every frame :math:`|W|` is kept below half the radius of the
@@ -537,15 +543,17 @@ class FaceModel:
             state = self._refined_frame(state, acts, refine_angle_deg, int(refine_levels))
         return self.guarded(state, fold_guard)
 
-    def guarded(self, state: FaceState, fold_guard: bool | None = None) -> FaceState:
+    def guarded(self, state: FaceState, fold_guard: bool | FoldGuard | None = None
+                ) -> FaceState:
         """``state`` through the fold guard (:func:`~wrinkle_vis.core.foldguard.guarded`)
-        when ``fold_guard`` (None: the face's :attr:`fold_guard`) says so, on either skin.
+        when ``fold_guard`` (None: the face's :attr:`fold_guard`) says so, on either skin
+        (a :class:`~wrinkle_vis.core.foldguard.FoldGuard`: with its parameters).
         """
         on = self.fold_guard if fold_guard is None else fold_guard
         if not on:
             return state
         solved = state.deformed_points  # on the physical skin: out of the skull already
-        state = guarded(self, state)
+        state = guarded(self, state, on if isinstance(on, FoldGuard) else FoldGuard())
         if (state.deformed_points is not solved and state.skin_model == "physical"
                 and state.face is self and self.skull is not None):
             _keep_out_of_skull(self._skull_contact(), state)

@@ -39,7 +39,6 @@ from scipy.spatial import cKDTree
 
 from .certificate import (
     _corner_columns,
-    _irregular_vertices,
     _narrow_phase,
     _normals,
 )
@@ -75,8 +74,9 @@ class FoldGuard:
     fans : bool
         Also keep each vertex's displaced fan off the triangles of its two rings
         (:func:`guard_fans`; ``docs/model.md``, "The fans"). Off by default: it acts on no
-        built-in frame at default parameters, and on refined frames it costs several
-        times the frame (``docs/benchmarks.md``, stop 39); turn it on for stiff muscles
+        built-in frame at default parameters, and it adds 36-119 % to the default guard's
+        refined frames and the geometric skin's unrefined ones (``docs/benchmarks.md``,
+        stop 40); turn it on (the command line's ``--fold-guard fans``) for stiff muscles
         (k0 raised several times) on a refined scan whose rest skin folds on itself.
     """
 
@@ -1261,16 +1261,76 @@ def _fan_structure(tri: np.ndarray, n: int, terms: dict) -> dict:
     """
     fans = terms.get("fans")
     if fans is None:
-        a, b = tri.ravel(), tri[:, [1, 2, 0]].ravel()
-        key = a.astype(np.int64) * n + b
-        order = np.argsort(key, kind="stable")
-        twin = b.astype(np.int64) * n + a
-        at = np.minimum(np.searchsorted(key[order], twin), len(key) - 1)
-        found = key[order][at] == twin
-        third = tri[:, [2, 0, 1]].ravel()  # the corner opposite each edge
-        across = np.where(found, third[order][at], -1).reshape(-1, 3)
-        fans = terms["fans"] = {"across": across, "open": _irregular_vertices(tri, n)}
+        runs = terms.pop("fan_runs", None)
+        runs = _edge_runs(tri, n) if runs is None else runs
+        fans = terms["fans"] = {"across": _across(tri, n, runs), "open": _open(n, runs)}
     return fans
+
+
+def _open(n: int, runs: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+    """``(n,)`` bool: the vertices on an edge that is not run exactly once each way (by
+    the triangles whose directed edges :func:`_edge_runs` sorted into ``runs``: a boundary,
+    non-manifold or misoriented edge, or one from a vertex to itself), as
+    :func:`~wrinkle_vis.core.certificate._irregular_vertices` finds them.
+    """
+    _, s, new = runs
+    starts = np.flatnonzero(new)
+    val, count = s[starts], np.diff(np.append(starts, len(s)))
+    half = val // 2
+    edge = np.empty(len(half), bool)  # where an undirected edge's runs start
+    edge[:1], edge[1:] = True, half[1:] != half[:-1]
+    first = np.flatnonzero(edge)
+    runs_of = np.diff(np.append(first, len(half)))  # 1 or 2: one direction or both
+    once = count == 1
+    regular = (runs_of == 2) & once[first] & once[np.minimum(first + 1, len(once) - 1)]
+    ends = half[first[~regular]]
+    out = np.zeros(n, bool)
+    out[ends // n] = True
+    out[ends % n] = True
+    return out
+
+
+def _edge_runs(tri: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""The directed edges of ``tri`` ``(m, 3)`` (edge ``k`` of triangle ``t`` at ``3t + k``)
+    sorted (stably) by the key :math:`2(n \min(a, b) + \max(a, b)) + [a > b]` of each edge ``a b``:
+    the order ``(3m,)``, the sorted keys, and where a run of equal keys starts ``(3m,)``
+    bool.
+    """
+    a, b = tri.ravel(), tri[:, [1, 2, 0]].ravel()
+    key = (np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b)) * 2 + (a > b)
+    order = np.argsort(key, kind="stable")
+    s = key[order]
+    new = np.empty(len(s), bool)
+    new[:1], new[1:] = True, s[1:] != s[:-1]
+    return order, s, new
+
+
+def _across(tri: np.ndarray, n: int,
+            runs: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """``(m, 3)``: the third vertex of the triangle across edge ``k`` (corner ``k`` to
+    ``k + 1``) of each triangle ``tri`` ``(m, 3)`` on ``n`` vertices: of the first triangle
+    (in ``tri``'s order) that runs the edge the other way, -1 where none does.
+
+    One stable sort of the directed edges by (undirected edge, direction): an edge's twins
+    are the run of the same undirected edge and the other direction, next to its own (an
+    edge from a vertex to itself is its own twin). ``runs``: :func:`_edge_runs`, when
+    known.
+    """
+    order, s, new = _edge_runs(tri, n) if runs is None else runs
+    starts = np.flatnonzero(new)
+    val = s[starts]
+    twin = np.full(len(starts), -1, np.intp)
+    # runs r (forward: even) and r + 1 (backward) of one undirected edge
+    up = np.flatnonzero((val[1:] == val[:-1] + 1) & (val[:-1] % 2 == 0))
+    twin[up], twin[up + 1] = starts[up + 1], starts[up]
+    half = val // 2
+    own = (val % 2 == 0) & (half // n == half % n)
+    twin[own] = starts[own]
+    at = twin[np.cumsum(new) - 1]
+    third = tri[:, [2, 0, 1]].ravel()  # the corner opposite each edge
+    across = np.empty(len(s), np.intp)
+    across[order] = np.where(at >= 0, third[order[np.maximum(at, 0)]], -1)
+    return across.reshape(-1, 3)
 
 
 # The fans' rest margins (docs/model.md, "The fans", "A filter on the rest skin"): the
@@ -1287,9 +1347,13 @@ def _fan_edges(tri: np.ndarray, n: int, terms: dict) -> dict:
     graph = terms.get("fan_edges")
     if graph is None:
         edges = terms.get("edges")
-        if edges is None:
-            edges = np.unique(np.sort(tri[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1),
-                              axis=0)
+        if edges is None:  # (sorted by first end, then second: one key each, unique)
+            runs = _edge_runs(tri, n)  # (kept for the fans' structure, which follows)
+            if "fans" not in terms:
+                terms["fan_runs"] = runs
+            half = runs[1][runs[2]] // 2
+            key = half[np.r_[True, half[1:] != half[:-1]]]
+            edges = np.stack([key // n, key % n], axis=1)
         ends = np.concatenate([edges[:, 0], edges[:, 1]])
         order = np.argsort(ends, kind="stable")
         start = np.concatenate([[0], np.cumsum(np.bincount(ends, minlength=n))])
@@ -1776,6 +1840,7 @@ def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
         if p is p0:
             p = p0.copy()
         p[changed] = d[changed] + h[changed, None] * (p0[changed] - d[changed])
+    terms.pop("fan_runs", None)  # (the edges' sort, if the fans' structure did not take it)
     if p is p0:
         return points, W
     return p, np.asarray(W, dtype=float) * h
