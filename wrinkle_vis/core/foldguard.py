@@ -1870,9 +1870,10 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
         d2[moved] = rest[moved] + f[moved, None] * (d2[moved] - rest[moved])
         cert = Certified(False, False, False, False)  # certified for the unscaled pull only
     search = deformed_radii and not cert.balls
+    clear = _gaps_clear(rest, d2, W, tri, terms, guard) if search else None
     W2 = _clamped(W, radii, cert.clamp, d2, tri, terms, guard, search,
-                  None if moved.any() else p2 - d2, cert.empty,
-                  _gaps_clear(rest, d2, W, tri, terms, guard) if search else None)
+                  None if moved.any() else p2 - d2, _gaps_empty(cert.empty, clear, tri, terms),
+                  clear)
     p2 = _rewrinkled(p2, d2, W, W2, moved, tri, terms)
     if not cert.step:
         p2, W2 = _held_wrinkles(rest, d2, p2, W2, tri, guard, terms)
@@ -2022,8 +2023,9 @@ def _local_skin(points: np.ndarray, tri: np.ndarray, lo: np.ndarray, hi: np.ndar
     box = _in_box(points, lo, hi)
     local = np.full(len(points), -1, dtype=np.intp)
     local[box] = np.arange(len(box))
-    t_loc = local[tri]
-    return points[box], local, t_loc[t_loc.min(axis=1) >= 0]
+    t_loc = np.take(local, tri)  # (takes, not fancy indexing, and three compares and two
+    keep = np.flatnonzero((t_loc[:, 0] >= 0) & (t_loc[:, 1] >= 0) & (t_loc[:, 2] >= 0))
+    return np.take(points, box, axis=0), local, np.take(t_loc, keep, axis=0)  # ands: faster)
 
 
 _GAP_CUTS = (0.25, 0.5, 0.75, 1.0)  # of the rest gaps' reach, 3 median edges
@@ -2060,16 +2062,75 @@ def _gaps_clear(rest: np.ndarray, deformed: np.ndarray, W: np.ndarray, tri: np.n
     count = gaps["count"][ids, level]
     ok = ok_far.any(axis=1) & (count >= 0)
     rows = np.flatnonzero(ok)
-    width = int(count[rows].max()) if len(rows) else 0
-    corners = gaps["corners"][ids[rows], :width]
-    inside = np.arange(width)[None, :] < count[rows, None]
-    move = u[np.where(inside, corners, ids[rows, None])] - ux[rows, None]
-    delta = np.sqrt(np.einsum("ijk,ijk->ij", move, move).max(axis=1)) if width \
-        else np.zeros(len(rows))
-    ok[rows] = gaps["H"][ids[rows], level[rows]] - delta >= sigma[rows]
+    ok[rows] = gaps["H"][ids[rows], level[rows]] - _gap_moves(u, gaps, ids[rows], count[rows]) \
+        >= sigma[rows]
     out = np.zeros(len(W), bool)
     out[ids] = ok
     return out
+
+
+def _gaps_empty(empty: np.ndarray | None, clear: np.ndarray | None, tri: np.ndarray,
+                terms: dict) -> np.ndarray | None:
+    r"""``(n,)`` bool: the balls :func:`_deformed_lows` need not search, ``empty``
+    (:func:`_empty_balls`) and those of ``clear`` (:func:`_gaps_clear`) at a vertex
+    :math:`x` with no *lone neighbour* (:func:`_lone_neighbours`; either may be None).
+
+    Every vertex :math:`w \ne x` but a lone neighbour of :math:`x` is a corner of a
+    triangle not incident to :math:`x`, which :func:`_gaps_clear` keeps more than
+    :math:`2\rho` from :math:`x'`: no deformed vertex but :math:`x'` is in the ball, so the
+    vertices' search keeps its start too (``docs/model.md``, "The rest gaps, vertices").
+    """
+    if clear is None:
+        return empty
+    out = clear & ~_lone_neighbours(tri, len(clear), terms)
+    return out if empty is None else out | empty
+
+
+def _lone_neighbours(tri: np.ndarray, n: int, terms: dict) -> np.ndarray:
+    r"""``(n,)`` bool, kept in ``terms``: the vertices :math:`x` of the skin ``tri``
+    ``(m, 3)`` on ``n`` vertices with a lone neighbour, another vertex :math:`w` every one
+    of whose triangles has :math:`x` as a corner (every vertex where some vertex is in no
+    triangle). Per directed corner pair :math:`(w, v)` of a triangle, the count of such
+    pairs is at least :math:`w`'s triangle count where :math:`v` is in all of them (each of
+    :math:`w`'s corners counts one at least), so marking where it is reached marks every
+    such :math:`x` (and, on triangles with a repeated corner, perhaps more).
+    """
+    got = terms.get("lone_neighbours")
+    if got is None:
+        deg = np.bincount(tri.ravel(), minlength=n)
+        got = np.ones(n, bool)
+        if not (deg == 0).any():
+            a, b, c = (tri[:, k].astype(np.int64) for k in range(3))
+            key = np.concatenate([a * n + b, a * n + c, b * n + a, b * n + c, c * n + a,
+                                  c * n + b])
+            key, count = np.unique(key, return_counts=True)
+            got[:] = False
+            got[key[count >= deg[key // n]] % n] = True
+        terms["lone_neighbours"] = got
+    return got
+
+
+def _gap_moves(u: np.ndarray, gaps: dict, own: np.ndarray, count: np.ndarray) -> np.ndarray:
+    r"""``(k,)``: :math:`\delta_x = \max_w |u_w - u_x|` over the first ``count`` ``(k,)`` of
+    :func:`_rest_gaps`' corners of each vertex ``own`` ``(k,)``, for the move ``u``
+    ``(n, 3)`` (0 where there are none); the corners taken coordinate by coordinate from
+    the move's columns (a take of rows of 3 is several times slower). Only an upper bound
+    matters (:func:`_gaps_clear`'s margin :math:`\tau` holds its rounding).
+    """
+    width = int(count.max()) if len(count) else 0
+    if not width:
+        return np.zeros(len(own))
+    at = np.where(np.arange(width)[None, :] < count[:, None], gaps["corners"][own, :width],
+                  own[:, None])  # (k, width): beyond a vertex's count, itself
+    ut = np.ascontiguousarray(u.T)
+    uo = np.take(ut, own, axis=1)
+    sq = np.zeros(at.shape)
+    for k in range(3):
+        d = np.take(ut[k], at)
+        d -= uo[k][:, None]
+        d *= d
+        sq += d
+    return np.sqrt(sq.max(axis=1))
 
 
 def _rest_gaps(rest: np.ndarray, tri: np.ndarray, ids: np.ndarray, terms: dict) -> dict:
@@ -2078,7 +2139,7 @@ def _rest_gaps(rest: np.ndarray, tri: np.ndarray, ids: np.ndarray, terms: dict) 
     not incident to it within each cut :math:`c_l` (:data:`_GAP_CUTS` of :math:`D`, 3 median
     edges; :func:`_near_edges`), ``H`` ``(n, c)``: :math:`\min_t \max_k \min_i h_{ki}`
     (the best of four directions' least corner height, at most the distance to the
-    triangle's points), ``corners`` ``(n, K)`` their distinct corners nearest cut first
+    triangle's points), ``corners`` ``(n, K)`` (int32) their distinct corners nearest cut first
     and ``count`` ``(n, c)`` how many lie within each cut (-1: more than
     :data:`_GAP_CORNERS`; -2: not found yet); ``cut`` ``(c,)``.
     """
@@ -2089,7 +2150,7 @@ def _rest_gaps(rest: np.ndarray, tri: np.ndarray, ids: np.ndarray, terms: dict) 
         n, c = len(rest), len(_GAP_CUTS)
         gaps = terms["gaps"] = {"cut": np.array(_GAP_CUTS) * D, "D": D,
                                 "H": np.full((n, c), -np.inf),
-                                "corners": np.zeros((n, _GAP_CORNERS), np.intp),
+                                "corners": np.zeros((n, _GAP_CORNERS), np.int32),
                                 "count": np.full((n, c), -2, np.intp)}
     todo = ids[gaps["count"][ids, 0] == -2]
     if len(todo):
@@ -2144,8 +2205,8 @@ def _longest_edge(points: np.ndarray, tri: np.ndarray, terms: dict) -> float:
         terms["edge_ends"] = (ends, unique)
     if not len(ends[0]):
         return 0.0
-    e = points[ends[0]]
-    e -= points[ends[1]]
+    e = np.take(points, ends[0], axis=0)  # (a take: several times faster than points[ends])
+    e -= np.take(points, ends[1], axis=0)
     return float(np.sqrt(np.einsum("ij,ij->i", e, e).max()))
 
 
