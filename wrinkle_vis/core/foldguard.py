@@ -1871,9 +1871,8 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
         cert = Certified(False, False, False, False)  # certified for the unscaled pull only
     search = deformed_radii and not cert.balls
     clear = _gaps_clear(rest, d2, W, tri, terms, guard) if search else None
-    W2 = _clamped(W, radii, cert.clamp, d2, tri, terms, guard, search,
-                  None if moved.any() else p2 - d2, _gaps_empty(cert.empty, clear, tri, terms),
-                  clear)
+    W2 = _clamped(W, radii, cert.clamp, d2, tri, terms, guard, search, None if moved.any()
+                  else p2 - d2, _gaps_empty(cert.empty, clear, tri, terms), clear)
     p2 = _rewrinkled(p2, d2, W, W2, moved, tri, terms)
     if not cert.step:
         p2, W2 = _held_wrinkles(rest, d2, p2, W2, tri, guard, terms)
