@@ -114,7 +114,8 @@ def test_a_ball_the_gaps_skip_is_one_the_exact_search_keeps(bump, gap, shift, am
                                                             fins, seed):
     """Two bumpy sheets (with a few fins: lone vertices) moved by a random smooth field: no
     ball ``_gaps_empty`` skips is lowered by the exact search (vertices and triangles), and
-    the search skipping them returns the exact one's result bit for bit."""
+    the search skipping them returns the exact one's result bit for bit; ``_gaps_clear``
+    told to skip balls certified already clears the others as before."""
     rng = np.random.default_rng(seed)
     rest, tri = _sheets(10, bump, gap, shift)
     at = 100 + rng.choice(100, fins, replace=False)  # on the upper sheet, up: often inside
@@ -135,6 +136,9 @@ def test_a_ball_the_gaps_skip_is_one_the_exact_search_keeps(bump, gap, shift, am
     exact = _deformed_lows(deformed, tri, W, terms, guard)
     if exact is not None:
         assert not empty[exact[0]].any()
+    skip = rng.uniform(size=len(W)) < 0.5  # balls certified already: left out, the rest
+    part = _gaps_clear(rest, deformed, W, tri, terms, guard, skip)  # the same
+    assert np.array_equal(np.zeros(len(W), bool) if part is None else part, clear & ~skip)
     assert _same_lows(_deformed_lows(deformed, tri, W, terms, guard, empty=empty, clear=clear),
                       exact)
 

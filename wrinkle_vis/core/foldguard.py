@@ -1870,7 +1870,7 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
         d2[moved] = rest[moved] + f[moved, None] * (d2[moved] - rest[moved])
         cert = Certified(False, False, False, False)  # certified for the unscaled pull only
     search = deformed_radii and not cert.balls
-    clear = _gaps_clear(rest, d2, W, tri, terms, guard) if search else None
+    clear = _gaps_clear(rest, d2, W, tri, terms, guard, cert.empty) if search else None
     W2 = _clamped(W, radii, cert.clamp, d2, tri, terms, guard, search, None if moved.any()
                   else p2 - d2, _gaps_empty(cert.empty, clear, tri, terms), clear)
     p2 = _rewrinkled(p2, d2, W, W2, moved, tri, terms)
@@ -2032,7 +2032,8 @@ _GAP_CORNERS = 160  # the corners a vertex keeps over its gaps' reach (more: no 
 
 
 def _gaps_clear(rest: np.ndarray, deformed: np.ndarray, W: np.ndarray, tri: np.ndarray,
-                terms: dict, guard: FoldGuard) -> np.ndarray | None:
+                terms: dict, guard: FoldGuard, skip: np.ndarray | None = None
+                ) -> np.ndarray | None:
     r"""``(n,)`` bool: the wrinkled vertices whose deformed ball (:func:`_deformed_lows`,
     radius :math:`\rho = |W| / (\kappa\eta_d)(1 + 10^{-6})` tangent at :math:`x'`) no
     triangle not incident to :math:`x` can enter, from the rest skin ``rest`` ``(n, 3)``,
@@ -2042,10 +2043,11 @@ def _gaps_clear(rest: np.ndarray, deformed: np.ndarray, W: np.ndarray, tri: np.n
     \tau`, some cut :math:`c_l` with :math:`c_l - U - |u_x| \ge \sigma` and
     :math:`H_{x,l} - \delta_{x,l} \ge \sigma` (``docs/model.md``, "The rest gaps"). None on
     a skin's first frame (a refined frame's skin is new every frame: its gaps would cost
-    more than the search they spare).
+    more than the search they spare). ``skip`` ``(n,)`` bool: balls certified empty
+    already (:func:`_empty_balls`: never searched), left False and not looked at.
     """
     terms["gap_frames"] = seen = terms.get("gap_frames", 0) + 1
-    ids = np.flatnonzero(W)
+    ids = np.flatnonzero(W if skip is None else (W != 0) & ~skip)
     if seen < 2 or not len(ids):
         return None
     gaps = _rest_gaps(rest, tri, ids, terms)
