@@ -229,3 +229,21 @@ def test_unrefined_frames_with_the_gaps_skip_are_those_without_it(twins, name, s
             for k in ("points", "W", "deformed_points", "fold_guard", "W_raw"):
                 assert np.array_equal(getattr(a, k), getattr(b, k)), f"{expression} {k}"
     assert sum(skipped) > 0
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**31), scale=st.floats(1e-6, 10.0))
+def test_the_hot_triangles_terms_by_takes_are_the_gathers_bit_for_bit(seed, scale):
+    """``_cold_pass`` takes its hot triangles' rows (column-major gathers before): the
+    quadratic's b and c are the same bit for bit."""
+    rng = np.random.default_rng(seed)
+    rest, tri = _sheets(8, 0.5, 0.7, 0.3)
+    terms = pull_terms(rest, tri)
+    N, A1, A2 = foldguard._terms_rows(terms)
+    pull_t = np.ascontiguousarray(rng.normal(scale=scale, size=rest.shape).T)
+    hot = np.flatnonzero(rng.uniform(size=len(tri)) < rng.uniform())
+    old = foldguard._quadratic(pull_t, terms["corners"][:, hot], N[:, hot], A1[:, hot],
+                               A2[:, hot])
+    new = foldguard._quadratic(pull_t, *(np.take(a, hot, axis=1)
+                                         for a in (terms["corners"], N, A1, A2)))
+    assert all(np.array_equal(a, b) for a, b in zip(old, new, strict=True))

@@ -1053,8 +1053,8 @@ def _cold_pass(terms: dict, pull_t: np.ndarray, size: np.ndarray, min_area: floa
         return False
     c0, c1, c2 = terms["corners"]
     hot = np.flatnonzero(warm[c0] | warm[c1] | warm[c2])
-    N, A1, A2 = terms["N"], terms["A1"], terms["A2"]
-    b, c = _quadratic(pull_t, terms["corners"][:, hot], N[:, hot], A1[:, hot], A2[:, hot])
+    N, A1, A2 = (np.take(terms[k], hot, axis=1) for k in ("N", "A1", "A2"))  # (takes: the
+    b, c = _quadratic(pull_t, np.take(terms["corners"], hot, axis=1), N, A1, A2)  # same bits)
     return not bool((_lowest_sigma(b, c, top) < min_area).any())
 
 
