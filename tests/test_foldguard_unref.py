@@ -109,13 +109,26 @@ def test_a_fins_vertex_inside_a_ball_the_gaps_clear_keeps_the_ball_searched():
 @settings(max_examples=40, deadline=None)
 @given(bump=st.floats(0.0, 1.0), gap=st.floats(0.2, 1.5), shift=st.sampled_from([0.0, 0.5]),
        amp=st.floats(0.0, 1.0), k=st.floats(0.3, 2.0), w=st.floats(0.02, 0.5),
-       fins=st.integers(0, 6), seed=st.integers(0, 2**16))
+       fins=st.integers(0, 6), seed=st.integers(0, 2**16), stepped=st.booleans(),
+       near=st.sampled_from([1, 3, foldguard._GAP_NEAR]))
 def test_a_ball_the_gaps_skip_is_one_the_exact_search_keeps(bump, gap, shift, amp, k, w,
-                                                            fins, seed):
+                                                            fins, seed, stepped, near):
     """Two bumpy sheets (with a few fins: lone vertices) moved by a random smooth field: no
-    ball ``_gaps_empty`` skips is lowered by the exact search (vertices and triangles), and
-    the search skipping them returns the exact one's result bit for bit; ``_gaps_clear``
-    told to skip balls certified already clears the others as before."""
+    ball ``_gaps_skip`` skips (cleared by the gaps, or its near triangles kept out exactly
+    by ``_gaps_apart``) is lowered by the exact search (vertices and triangles), and the
+    search skipping them returns the exact one's result bit for bit; ``_gaps_clear``
+    told to skip balls certified already clears the others as before. ``stepped``: the
+    normals from the frame's step W n (else the deformed skin's own); ``near``: the near
+    triangles kept per vertex (few: those left out decide)."""
+    own = foldguard._GAP_NEAR
+    foldguard._GAP_NEAR = near
+    try:
+        _check_the_gaps_skip(bump, gap, shift, amp, k, w, fins, seed, stepped)
+    finally:
+        foldguard._GAP_NEAR = own
+
+
+def _check_the_gaps_skip(bump, gap, shift, amp, k, w, fins, seed, stepped):
     rng = np.random.default_rng(seed)
     rest, tri = _sheets(10, bump, gap, shift)
     at = 100 + rng.choice(100, fins, replace=False)  # on the upper sheet, up: often inside
@@ -131,15 +144,20 @@ def test_a_ball_the_gaps_skip_is_one_the_exact_search_keeps(bump, gap, shift, am
     guard = FoldGuard()
     terms = pull_terms(rest, tri)
     _gaps_clear(rest, deformed, W, tri, terms, guard)
-    clear = _gaps_clear(rest, deformed, W, tri, terms, guard)
-    empty = _gaps_empty(None, clear, tri, terms)
-    exact = _deformed_lows(deformed, tri, W, terms, guard)
+    step = None
+    if stepped:
+        ids = np.flatnonzero(W)
+        step = np.zeros_like(rest)
+        step[ids] = W[ids, None] * foldguard._vertex_normals(deformed, tri, ids, terms)
+    empty, clear = foldguard._gaps_skip(rest, deformed, W, tri, terms, guard, None, step)
+    assert np.array_equal(clear, _gaps_clear(rest, deformed, W, tri, terms, guard))
+    exact = _deformed_lows(deformed, tri, W, terms, guard, step)
     if exact is not None:
         assert not empty[exact[0]].any()
     skip = rng.uniform(size=len(W)) < 0.5  # balls certified already: left out, the rest
     part = _gaps_clear(rest, deformed, W, tri, terms, guard, skip)  # the same
     assert np.array_equal(np.zeros(len(W), bool) if part is None else part, clear & ~skip)
-    assert _same_lows(_deformed_lows(deformed, tri, W, terms, guard, empty=empty, clear=clear),
+    assert _same_lows(_deformed_lows(deformed, tri, W, terms, guard, step, empty, clear),
                       exact)
 
 
@@ -202,33 +220,43 @@ def twins():
     ("head", "geometric", ("smile", "pucker"))])
 def test_unrefined_frames_with_the_gaps_skip_are_those_without_it(twins, name, skin,
                                                                   expressions):
-    """Frames of animation ramps guarded with the skip and (a twin face) without it
-    (``_gaps_empty`` giving only the certified empty balls): bit for bit the same, and
-    the skip did skip balls."""
+    """Frames of animation ramps guarded with the skips and (a twin face) without them
+    (c0ffd06's: the certified empty balls alone skipped, every wrinkled ball's gaps looked
+    at): bit for bit the same, and the skips did skip balls, some by the exact test."""
     fast, slow = (f.with_skin_model(skin) for f in twins[name])
-    own, skipped = foldguard._gaps_empty, []
+    own, own_apart, skipped, apart = foldguard._gaps_skip, foldguard._gaps_apart, [], []
 
-    def counted(empty, clear, tri, terms):
-        out = own(empty, clear, tri, terms)
-        if out is not None and clear is not None:
+    def counted(rest, d2, W, tri, terms, guard, empty, step):
+        out, clear = own(rest, d2, W, tri, terms, guard, empty, step)
+        if clear is not None:
             skipped.append(int(np.count_nonzero(out & (True if empty is None else ~empty))))
-        return out
+        return out, clear
+
+    def counted_apart(*args):
+        ok = own_apart(*args)
+        apart.append(int(ok.sum()))
+        return ok
+
+    def without(rest, d2, W, tri, terms, guard, empty, step):
+        return empty, _gaps_clear(rest, d2, W, tri, terms, guard)
 
     for expression in expressions:
         for intensity in (0.0, 0.3, 0.6, 0.8, 1.0):
-            foldguard._gaps_empty = counted
+            foldguard._gaps_skip, foldguard._gaps_apart = counted, counted_apart
             try:
                 a = fast.evaluate(expression, intensity, fold_guard=True)
             finally:
-                foldguard._gaps_empty = own
-            foldguard._gaps_empty = lambda empty, *args: empty
+                foldguard._gaps_skip, foldguard._gaps_apart = own, own_apart
+            foldguard._gaps_skip = without
             try:
                 b = slow.evaluate(expression, intensity, fold_guard=True)
             finally:
-                foldguard._gaps_empty = own
+                foldguard._gaps_skip = own
             for k in ("points", "W", "deformed_points", "fold_guard", "W_raw"):
                 assert np.array_equal(getattr(a, k), getattr(b, k)), f"{expression} {k}"
     assert sum(skipped) > 0
+    if name == "procedural" and skin == "geometric":
+        assert sum(apart) > 0
 
 
 @settings(max_examples=30, deadline=None)

@@ -1869,10 +1869,10 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
         d2 = d2.copy()
         d2[moved] = rest[moved] + f[moved, None] * (d2[moved] - rest[moved])
         cert = Certified(False, False, False, False)  # certified for the unscaled pull only
-    search = deformed_radii and not cert.balls
-    clear = _gaps_clear(rest, d2, W, tri, terms, guard, cert.empty) if search else None
-    W2 = _clamped(W, radii, cert.clamp, d2, tri, terms, guard, search, None if moved.any()
-                  else p2 - d2, _gaps_empty(cert.empty, clear, tri, terms), clear)
+    search, step = deformed_radii and not cert.balls, None if moved.any() else p2 - d2
+    empty, clear = _gaps_skip(rest, d2, W, tri, terms, guard, cert.empty, step) if search \
+        else (cert.empty, None)
+    W2 = _clamped(W, radii, cert.clamp, d2, tri, terms, guard, search, step, empty, clear)
     p2 = _rewrinkled(p2, d2, W, W2, moved, tri, terms)
     if not cert.step:
         p2, W2 = _held_wrinkles(rest, d2, p2, W2, tri, guard, terms)
@@ -2029,6 +2029,7 @@ def _local_skin(points: np.ndarray, tri: np.ndarray, lo: np.ndarray, hi: np.ndar
 
 _GAP_CUTS = (0.25, 0.5, 0.75, 1.0)  # of the rest gaps' reach, 3 median edges
 _GAP_CORNERS = 160  # the corners a vertex keeps over its gaps' reach (more: no certificate)
+_GAP_NEAR = 32  # the near triangles a vertex keeps, least rest bound first (_gaps_apart)
 
 
 def _gaps_clear(rest: np.ndarray, deformed: np.ndarray, W: np.ndarray, tri: np.ndarray,
@@ -2046,6 +2047,29 @@ def _gaps_clear(rest: np.ndarray, deformed: np.ndarray, W: np.ndarray, tri: np.n
     more than the search they spare). ``skip`` ``(n,)`` bool: balls certified empty
     already (:func:`_empty_balls`: never searched), left False and not looked at.
     """
+    b = _gap_bounds(rest, deformed, W, tri, terms, guard, skip)
+    return None if b is None else _gap_cleared(b, len(W))
+
+
+def _gap_cleared(b: dict, n: int) -> np.ndarray:
+    r"""``(n,)`` bool: :func:`_gaps_clear` from its numbers ``b`` (:func:`_gap_bounds`):
+    :math:`H_{x,l} - \delta_{x,l} \ge \sigma` where :math:`\delta_{x,l}` is known."""
+    ids, known = b["ids"], np.flatnonzero(np.isfinite(b["delta"]))
+    out = np.zeros(n, bool)
+    out[ids[known]] = b["gaps"]["H"][ids[known], b["level"][known]] - b["delta"][known] \
+        >= b["sigma"][known]
+    return out
+
+
+def _gap_bounds(rest: np.ndarray, deformed: np.ndarray, W: np.ndarray, tri: np.ndarray,
+                terms: dict, guard: FoldGuard, skip: np.ndarray | None = None
+                ) -> dict | None:
+    r""":func:`_gaps_clear`'s numbers at the wrinkled vertices ``ids`` ``(k,)`` not in
+    ``skip``: the least cut ``level`` ``(k,)`` with :math:`c_l - U - |u_x| \ge \sigma`,
+    ``delta`` :math:`\delta_{x,l}` there (``inf`` where no cut is far enough or a cut has
+    more corners than kept), ``sigma`` ``(k,)``, ``tau`` and the rest ``gaps``; None on a
+    skin's first frame or with no vertex to look at.
+    """
     terms["gap_frames"] = seen = terms.get("gap_frames", 0) + 1
     ids = np.flatnonzero(W if skip is None else (W != 0) & ~skip)
     if seen < 2 or not len(ids):
@@ -2056,18 +2080,74 @@ def _gaps_clear(rest: np.ndarray, deformed: np.ndarray, W: np.ndarray, tri: np.n
     tau = 1e-12 * (1.0 + float(np.abs(rest).max()) + U)
     sigma = 2.0 * np.abs(W[ids]) / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6) \
         * (1.0 + 1e-6) + tau
-    ux = u[ids]
-    span = gaps["cut"][None, :] - U - np.linalg.norm(ux, axis=1)[:, None]  # (k, c)
+    span = gaps["cut"][None, :] - U - np.linalg.norm(u[ids], axis=1)[:, None]  # (k, c)
     ok_far = span >= sigma[:, None]
     level = np.argmax(ok_far, axis=1)  # the least cut far enough
     count = gaps["count"][ids, level]
-    ok = ok_far.any(axis=1) & (count >= 0)
-    rows = np.flatnonzero(ok)
-    ok[rows] = gaps["H"][ids[rows], level[rows]] - _gap_moves(u, gaps, ids[rows], count[rows]) \
-        >= sigma[rows]
-    out = np.zeros(len(W), bool)
-    out[ids] = ok
-    return out
+    rows = np.flatnonzero(ok_far.any(axis=1) & (count >= 0))
+    delta = np.full(len(ids), np.inf)
+    delta[rows] = _gap_moves(u, gaps, ids[rows], count[rows])
+    return {"ids": ids, "level": level, "delta": delta, "sigma": sigma, "tau": tau,
+            "gaps": gaps}
+
+
+def _gaps_skip(rest: np.ndarray, deformed: np.ndarray, W: np.ndarray, tri: np.ndarray,
+               terms: dict, guard: FoldGuard, empty: np.ndarray | None,
+               step: np.ndarray | None) -> tuple[np.ndarray | None, np.ndarray | None]:
+    r"""The balls :func:`_deformed_lows` need not search ``(n,)`` bool and those it searches
+    for vertices alone (:func:`_gaps_clear`), or ``empty`` and None on a skin's first
+    frame: ``empty`` (:func:`_empty_balls`), the balls the gaps clear at a vertex with no
+    lone neighbour (:func:`_gaps_empty`), and of the others at such a vertex those whose
+    near triangles :func:`_gaps_apart` keeps out of the ball exactly. ``step``: the
+    frame's :math:`W n` (:func:`_deformed_lows`).
+    """
+    b = _gap_bounds(rest, deformed, W, tri, terms, guard, empty)
+    if b is None:
+        return empty, None
+    ids, clear = b["ids"], _gap_cleared(b, len(W))
+    skip = _gaps_empty(empty, clear, tri, terms)
+    rows = np.flatnonzero(~clear[ids] & ~_lone_neighbours(tri, len(W), terms)[ids]
+                          & np.isfinite(b["delta"]))
+    if len(rows):
+        skip[ids[rows]] |= _gaps_apart(deformed, W, tri, terms, guard, b, rows, step)
+    return skip, clear
+
+
+def _gaps_apart(deformed: np.ndarray, W: np.ndarray, tri: np.ndarray, terms: dict,
+                guard: FoldGuard, b: dict, rows: np.ndarray, step: np.ndarray | None
+                ) -> np.ndarray:
+    r"""``(k,)`` bool: of the balls at :func:`_gap_bounds` ``b``'s vertices ``rows``
+    ``(k,)``, those no near triangle enters: each triangle not incident to :math:`x`
+    within the cut :math:`c_l` with :math:`h_t - \delta_{x,l} < \sigma` (:math:`h_t` its
+    rest bound :math:`\max_k \min_i h_{ki}`, kept for the :data:`_GAP_NEAR` least per
+    vertex: none certified where more could be) has :math:`\min_i u \cdot (v'_i - c)
+    \ge \rho(1 + 10^{-6}) + \tau` along the unit :math:`u` from the centre :math:`c`
+    (computed as :func:`_deformed_lows` does) to the triangle's nearest point
+    (``docs/model.md``, "The rest gaps, exactly").
+    """
+    gaps, ids = b["gaps"], b["ids"][rows]
+    need = b["sigma"][rows] + b["delta"][rows]  # h_t below it: tested exactly
+    ok = gaps["near_top"][ids] >= need
+    cand = (gaps["near_h"][ids] < need[:, None]) & (gaps["near_lvl"][ids]
+                                                    <= b["level"][rows, None]) & ok[:, None]
+    r, slot = np.nonzero(cand)
+    if not len(r):
+        return ok
+    w = W[ids]
+    if step is None:
+        n = _vertex_normals(deformed, tri, ids, terms)
+    else:
+        n = step[ids] / w[:, None]
+        n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+    start = np.abs(w) / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6)
+    c = (deformed[ids] + np.where(w >= 0, 1.0, -1.0)[:, None] * start[:, None] * n)[r]
+    corners = np.take(deformed, tri[gaps["near_t"][ids[r], slot]], axis=0)  # (p, 3, 3)
+    d = _mesh_closest(c, corners) - c
+    dn = np.sqrt(np.einsum("ij,ij->i", d, d))
+    d /= np.where(dn > 0, dn, 1.0)[:, None]
+    h = np.min(np.einsum("ij,ikj->ik", d, corners - c[:, None]), axis=1)
+    ok[r[~((dn > 0) & (h >= start[r] * (1.0 + 1e-6) + b["tau"]))]] = False
+    return ok
 
 
 def _gaps_empty(empty: np.ndarray | None, clear: np.ndarray | None, tri: np.ndarray,
@@ -2152,7 +2232,11 @@ def _rest_gaps(rest: np.ndarray, tri: np.ndarray, ids: np.ndarray, terms: dict) 
         gaps = terms["gaps"] = {"cut": np.array(_GAP_CUTS) * D, "D": D,
                                 "H": np.full((n, c), -np.inf),
                                 "corners": np.zeros((n, _GAP_CORNERS), np.int32),
-                                "count": np.full((n, c), -2, np.intp)}
+                                "count": np.full((n, c), -2, np.intp),
+                                "near_t": np.zeros((n, _GAP_NEAR), np.int32),
+                                "near_h": np.full((n, _GAP_NEAR), np.inf),
+                                "near_lvl": np.zeros((n, _GAP_NEAR), np.int8),
+                                "near_top": np.full(n, -np.inf)}
     todo = ids[gaps["count"][ids, 0] == -2]
     if len(todo):
         _fill_gaps(gaps, rest, tri, todo)
@@ -2166,8 +2250,10 @@ def _fill_gaps(gaps: dict, rest: np.ndarray, tri: np.ndarray, todo: np.ndarray) 
     c = len(cut)
     level = np.minimum(np.searchsorted(cut, d, side="left"), c - 1)
     H = np.full((len(todo), c), np.inf)
-    np.minimum.at(H, (owner, level), h.min(axis=2).max(axis=1))
+    hp = h.min(axis=2).max(axis=1)  # each pair's bound
+    np.minimum.at(H, (owner, level), hp)
     gaps["H"][todo] = np.minimum.accumulate(H, axis=1)
+    _fill_near(gaps, todo, owner, t, hp, level)
     # each vertex's distinct corners, at the least cut they appear within
     v = tri[t].ravel()
     key = np.repeat(owner, 3) * np.int64(len(rest)) + v
@@ -2187,6 +2273,27 @@ def _fill_gaps(gaps: dict, rest: np.ndarray, tri: np.ndarray, todo: np.ndarray) 
     fits = slot < _GAP_CORNERS
     gaps["corners"][todo[own[fits]], slot[fits]] = v[fits]
     gaps["count"][todo] = np.where(count <= _GAP_CORNERS, count, -1)
+
+
+def _fill_near(gaps: dict, todo: np.ndarray, owner: np.ndarray, t: np.ndarray,
+               hp: np.ndarray, level: np.ndarray) -> None:
+    """:func:`_rest_gaps`' near triangles of the vertices ``todo`` ``(k,)``, in place, from
+    the pairs (row ``owner``, triangle ``t``, bound ``hp``, cut ``level``) ``(p,)``: each
+    vertex's :data:`_GAP_NEAR` least ``hp`` in ascending order and ``near_top``, the next
+    one's bound (``inf`` where none is left out).
+    """
+    order = np.lexsort((hp, owner))
+    o = owner[order]
+    count = np.bincount(o, minlength=len(todo))
+    slot = np.arange(len(o)) - np.repeat(np.cumsum(count) - count, count)
+    keep = slot < _GAP_NEAR
+    at = (todo[o[keep]], slot[keep])
+    gaps["near_t"][at] = t[order][keep]
+    gaps["near_h"][at] = hp[order][keep]
+    gaps["near_lvl"][at] = level[order][keep]
+    top = np.full(len(todo), np.inf)
+    top[o[slot == _GAP_NEAR]] = hp[order][slot == _GAP_NEAR]
+    gaps["near_top"][todo] = top
 
 
 def _longest_edge(points: np.ndarray, tri: np.ndarray, terms: dict) -> float:
