@@ -2053,7 +2053,8 @@ def _gaps_clear(rest: np.ndarray, deformed: np.ndarray, W: np.ndarray, tri: np.n
 
 def _gap_cleared(b: dict, n: int) -> np.ndarray:
     r"""``(n,)`` bool: :func:`_gaps_clear` from its numbers ``b`` (:func:`_gap_bounds`):
-    :math:`H_{x,l} - \delta_{x,l} \ge \sigma` where :math:`\delta_{x,l}` is known."""
+    :math:`H_{x,l} - \delta_{x,l} \ge \sigma` where :math:`\delta_{x,l}` is known.
+    """
     ids, known = b["ids"], np.flatnonzero(np.isfinite(b["delta"]))
     out = np.zeros(n, bool)
     out[ids[known]] = b["gaps"]["H"][ids[known], b["level"][known]] - b["delta"][known] \
