@@ -2077,11 +2077,12 @@ def _gap_bounds(rest: np.ndarray, deformed: np.ndarray, W: np.ndarray, tri: np.n
         return None
     gaps = _rest_gaps(rest, tri, ids, terms)
     u = deformed - rest
-    U = float(np.sqrt(np.einsum("ij,ij->i", u, u).max()))
-    tau = 1e-12 * (1.0 + float(np.abs(rest).max()) + U)
+    uu = np.einsum("ij,ij->i", u, u)  # |u|^2 of every vertex: U, and |u_x| (tau holds the
+    U = float(np.sqrt(uu.max()))  # rounding of either way of summing them)
+    tau = 1e-12 * (1.0 + gaps["size"] + U)
     sigma = 2.0 * np.abs(W[ids]) / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6) \
         * (1.0 + 1e-6) + tau
-    span = gaps["cut"][None, :] - U - np.linalg.norm(u[ids], axis=1)[:, None]  # (k, c)
+    span = gaps["cut"][None, :] - U - np.sqrt(np.take(uu, ids))[:, None]  # (k, c)
     ok_far = span >= sigma[:, None]
     level = np.argmax(ok_far, axis=1)  # the least cut far enough
     count = gaps["count"][ids, level]
@@ -2221,9 +2222,11 @@ def _rest_gaps(rest: np.ndarray, tri: np.ndarray, ids: np.ndarray, terms: dict) 
     not incident to it within each cut :math:`c_l` (:data:`_GAP_CUTS` of :math:`D`, 3 median
     edges; :func:`_near_edges`), ``H`` ``(n, c)``: :math:`\min_t \max_k \min_i h_{ki}`
     (the best of four directions' least corner height, at most the distance to the
-    triangle's points), ``corners`` ``(n, K)`` (int32) their distinct corners nearest cut first
-    and ``count`` ``(n, c)`` how many lie within each cut (-1: more than
-    :data:`_GAP_CORNERS`; -2: not found yet); ``cut`` ``(c,)``.
+    triangle's points), ``corners`` ``(n, K)`` (int32) their distinct corners nearest cut
+    first and ``count`` ``(n, c)`` how many lie within each cut (-1: more than
+    :data:`_GAP_CORNERS`; -2: not found yet); ``cut`` ``(c,)``; ``size``, the rest skin's
+    largest coordinate; and the near triangles of :func:`_fill_near` (``near_t``,
+    ``near_h``, ``near_lvl`` ``(n, J)``, ``near_top`` ``(n,)``).
     """
     gaps = terms.get("gaps")
     if gaps is None:
@@ -2231,6 +2234,7 @@ def _rest_gaps(rest: np.ndarray, tri: np.ndarray, ids: np.ndarray, terms: dict) 
         D = 3.0 * float(np.median(np.sqrt(np.einsum("ijk,ijk->ij", e, e))))
         n, c = len(rest), len(_GAP_CUTS)
         gaps = terms["gaps"] = {"cut": np.array(_GAP_CUTS) * D, "D": D,
+                                "size": float(np.abs(rest).max()),
                                 "H": np.full((n, c), -np.inf),
                                 "corners": np.zeros((n, _GAP_CORNERS), np.int32),
                                 "count": np.full((n, c), -2, np.intp),
