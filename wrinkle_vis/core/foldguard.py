@@ -2152,19 +2152,17 @@ def _gaps_apart(deformed: np.ndarray, W: np.ndarray, tri: np.ndarray, terms: dic
     return ok
 
 
-def _gaps_empty(empty: np.ndarray | None, clear: np.ndarray | None, tri: np.ndarray,
-                terms: dict) -> np.ndarray | None:
+def _gaps_empty(empty: np.ndarray | None, clear: np.ndarray, tri: np.ndarray,
+                terms: dict) -> np.ndarray:
     r"""``(n,)`` bool: the balls :func:`_deformed_lows` need not search, ``empty``
     (:func:`_empty_balls`) and those of ``clear`` (:func:`_gaps_clear`) at a vertex
-    :math:`x` with no *lone neighbour* (:func:`_lone_neighbours`; either may be None).
+    :math:`x` with no *lone neighbour* (:func:`_lone_neighbours`; ``empty`` may be None).
 
     Every vertex :math:`w \ne x` but a lone neighbour of :math:`x` is a corner of a
     triangle not incident to :math:`x`, which :func:`_gaps_clear` keeps more than
     :math:`2\rho` from :math:`x'`: no deformed vertex but :math:`x'` is in the ball, so the
     vertices' search keeps its start too (``docs/model.md``, "The rest gaps, vertices").
     """
-    if clear is None:
-        return empty
     out = clear & ~_lone_neighbours(tri, len(clear), terms)
     return out if empty is None else out | empty
 
