@@ -275,3 +275,28 @@ def test_the_hot_triangles_terms_by_takes_are_the_gathers_bit_for_bit(seed, scal
     new = foldguard._quadratic(pull_t, *(np.take(a, hot, axis=1)
                                          for a in (terms["corners"], N, A1, A2)))
     assert all(np.array_equal(a, b) for a, b in zip(old, new, strict=True))
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**31), flat=st.booleans(), scale=st.floats(1e-3, 1e3))
+def test_the_heights_bound_the_distance_to_the_triangle_from_below(seed, flat, scale):
+    """``_heights``: at most the distance from each point to its triangle (the nearest
+    point's, checked also on a fine sampling of the triangle), and equal to it where the
+    nearest point's direction is taken (``need`` above every distance); ``flat``: some
+    triangles with (nearly) collinear corners."""
+    rng = np.random.default_rng(seed)
+    corners = rng.normal(scale=scale, size=(200, 3, 3))
+    if flat:
+        corners[::3, 2] = corners[::3, 0] + rng.uniform(-2, 3, (67, 1)) * (
+            corners[::3, 1] - corners[::3, 0])
+    c = rng.normal(scale=scale, size=(200, 3))
+    got = foldguard._heights(corners, c, np.zeros(200))
+    lam = rng.dirichlet(np.ones(3), size=400)
+    pts = np.einsum("sk,pkj->psj", lam, corners)  # (200, 400, 3) points of each triangle
+    sampled = np.linalg.norm(pts - c[:, None], axis=2).min(axis=1)
+    nearest = np.linalg.norm(foldguard._mesh_closest(c, corners) - c, axis=1)
+    slack = 1e-9 * scale
+    assert np.all(got <= np.minimum(sampled, nearest) + slack)
+    full = foldguard._heights(corners, c, np.full(200, np.inf))
+    assert np.all(full <= np.minimum(sampled, nearest) + slack)
+    assert np.allclose(full, nearest, rtol=1e-9, atol=slack)

@@ -2144,12 +2144,44 @@ def _gaps_apart(deformed: np.ndarray, W: np.ndarray, tri: np.ndarray, terms: dic
     start = np.abs(w) / (guard.knee * guard.eta_deformed) * (1.0 + 1e-6)
     c = (deformed[ids] + np.where(w >= 0, 1.0, -1.0)[:, None] * start[:, None] * n)[r]
     corners = np.take(deformed, tri[gaps["near_t"][ids[r], slot]], axis=0)  # (p, 3, 3)
-    d = _mesh_closest(c, corners) - c
-    dn = np.sqrt(np.einsum("ij,ij->i", d, d))
-    d /= np.where(dn > 0, dn, 1.0)[:, None]
-    h = np.min(np.einsum("ij,ikj->ik", d, corners - c[:, None]), axis=1)
-    ok[r[~((dn > 0) & (h >= start[r] * (1.0 + 1e-6) + b["tau"]))]] = False
+    h = _heights(corners, c, start[r] * (1.0 + 1e-6) + b["tau"])
+    ok[r[~(h >= start[r] * (1.0 + 1e-6) + b["tau"])]] = False
     return ok
+
+
+def _heights(corners: np.ndarray, c: np.ndarray, need: np.ndarray) -> np.ndarray:
+    r"""``(p,)``: lower bounds :math:`\min_i u \cdot (v_i - c)` of the distance from the
+    points ``c`` ``(p, 3)`` to the triangles ``corners`` ``(p, 3, 3)``, for unit :math:`u`
+    (any gives one: :math:`|q - c| \ge u \cdot (q - c)` for every point :math:`q` of the
+    triangle): the best of the plane's normal (towards the triangle) and the direction to
+    the corners' mean, and where neither reaches ``need`` ``(p,)``, the direction to the
+    triangle's nearest point (:func:`_closest_on_triangles`, where the bound is the
+    distance). 0 where a direction is undefined (a point on the triangle).
+    """
+    a = corners - c[:, None]  # v_i - c
+    h = np.zeros(len(c))
+    N = _cross(a[:, 1] - a[:, 0], a[:, 2] - a[:, 0])
+    N *= np.where(np.einsum("ij,ij->i", N, a[:, 0]) >= 0, 1.0, -1.0)[:, None]
+    for u in (N, a.mean(axis=1)):
+        h = np.maximum(h, _least_height(u, a))
+    hard = np.flatnonzero(~(h >= need))
+    if len(hard):
+        u = _mesh_closest(c[hard], corners[hard]) - c[hard]
+        h[hard] = np.maximum(h[hard], _least_height(u, a[hard]))
+    return h
+
+
+def _least_height(u: np.ndarray, a: np.ndarray) -> np.ndarray:
+    r"""``(p,)``: :math:`\min_i \hat u \cdot a_i` for the directions ``u`` ``(p, 3)``
+    (normalized here; 0 where ``u`` is 0 or not finite) and ``a`` ``(p, 3, 3)``.
+    """
+    un = np.sqrt(np.einsum("ij,ij->i", u, u))
+    good = (un > 0) & np.isfinite(un)
+    u = u / np.where(good, un, 1.0)[:, None]
+    h = np.minimum(np.minimum(np.einsum("ij,ij->i", u, a[:, 0]),
+                              np.einsum("ij,ij->i", u, a[:, 1])),
+                   np.einsum("ij,ij->i", u, a[:, 2]))
+    return np.where(good, h, 0.0)
 
 
 def _gaps_empty(empty: np.ndarray | None, clear: np.ndarray, tri: np.ndarray,
