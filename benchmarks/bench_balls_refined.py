@@ -14,31 +14,18 @@ Usage: python benchmarks/bench_balls_refined.py [--baseline 574c064] [--frames 8
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import os
 import statistics
-import subprocess
-import sys
-import tempfile
 import time
-from pathlib import Path
 
 import numpy as np
 
 
 def _module_at(ref: str):
     """``wrinkle_vis.core.foldguard`` as of ``ref``, imported inside the package."""
-    root = Path(__file__).resolve().parents[1]
-    text = subprocess.run(["git", "-C", str(root), "show", f"{ref}:wrinkle_vis/core/foldguard.py"],
-                          check=True, capture_output=True, text=True).stdout
-    path = Path(tempfile.mkdtemp()) / "foldguard_balls_baseline.py"
-    path.write_text(text)
-    spec = importlib.util.spec_from_file_location("wrinkle_vis.core.foldguard_balls_baseline",
-                                                  path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    from _foldguard_at import foldguard_at
+
+    return foldguard_at(ref, "foldguard_balls_baseline")
 
 
 def _captured(expr: str, skin: str, frames: int) -> list[tuple]:
@@ -47,19 +34,19 @@ def _captured(expr: str, skin: str, frames: int) -> list[tuple]:
     import wrinkle_vis as wv
     from wrinkle_vis.core import foldguard
 
-    calls, own = [], foldguard._deformed_lows
+    calls, own = [], foldguard._deformed_lows  # (the wrinkle step's search, foldguard.frame)
 
     def keep(deformed, tri, W, terms, guard, step=None, empty=None, clear=None):
         calls.append((deformed.copy(), tri, W.copy(), dict(terms), guard, step, empty, clear))
         return own(deformed, tri, W, terms, guard, step, empty, clear)
 
-    foldguard._deformed_lows = keep
+    foldguard.frame._deformed_lows = keep
     try:
         face = wv.datasets.load_face()
         for i in np.linspace(0.0, 1.0, frames)[1:]:
             face.evaluate(expr, float(i), refine=True, skin=skin, fold_guard=True)
     finally:
-        foldguard._deformed_lows = own
+        foldguard.frame._deformed_lows = own
     return calls
 
 

@@ -6,8 +6,9 @@ Run:  .venv/bin/python benchmarks/bench_folds.py [--rounds 3] [--json out.json]
       [--baseline main] [--guard-only] [--intensities 0.25,0.5,1] [--faces paper,head]
       [--skin-model geometric|physical|both] [--animation 12]
 
-``--baseline REV``: that revision's ``core/foldguard.py`` guards the same frames, taking turns
-call by call with this tree's and with no guard (wall and CPU time; the frames compared).
+``--baseline REV``: that revision's fold guard (``core/foldguard``) guards the same frames,
+taking turns call by call with this tree's and with no guard (wall and CPU time; the frames
+compared).
 ``--intensities``: the guard's frames at each of these intensities (the certified skips of
 ``foldguard.certify`` hold at the lower ones); ``--faces``: the procedural face, the head or
 both; ``--skin-model``: the skin the guard's frames are evaluated on (default the geometric;
@@ -106,22 +107,10 @@ GUARD_CASES = (  # (face, refine, expressions): idle frames and frames the guard
 
 def _baseline_guard(ref: str):
     """``wrinkle_vis.core.foldguard`` as of the git revision ``ref``, imported as its own
-    module (its ``guarded`` takes the same face and state)."""
-    import importlib.util
-    import subprocess
-    import tempfile
+    module (its ``guarded`` takes the same face and state; :mod:`_foldguard_at`)."""
+    from _foldguard_at import foldguard_at
 
-    root = Path(__file__).resolve().parents[1]
-    text = subprocess.run(["git", "-C", str(root), "show", f"{ref}:wrinkle_vis/core/foldguard.py"],
-                          check=True, capture_output=True, text=True).stdout
-    path = Path(tempfile.mkdtemp()) / "foldguard_baseline.py"
-    path.write_text(text)
-    # in the package, for its relative imports (a later foldguard imports .certificate)
-    spec = importlib.util.spec_from_file_location("wrinkle_vis.core.foldguard_baseline", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    return foldguard_at(ref)
 
 
 def _cases(cases: tuple, faces: tuple[str, ...]):

@@ -384,7 +384,7 @@ def test_fold_guard_fans_reaches_the_wrinkle_step(flag, tmp_path, monkeypatch):
         return original(*args, **kwargs)
 
     original = foldguard.guard_fans
-    monkeypatch.setattr(foldguard, "guard_fans", guard_fans)
+    monkeypatch.setattr(foldguard.frame, "guard_fans", guard_fans)
     out = tmp_path / "surprise.vtp"
     assert main(["export", "-e", "surprise", "--fold-guard", flag, "-o", str(out)]) == 0
     assert out.is_file() and (len(calls) > 0) == (flag == "fans")

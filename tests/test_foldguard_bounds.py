@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from scipy.spatial import cKDTree
 
 import wrinkle_vis as wv
 import wrinkle_vis.core.face as face_module
@@ -44,11 +45,11 @@ def faces():
 def _exact(face, expression, intensity, refine=False):
     """The frame guarded by the exact checks only (``certify`` answering None)."""
     own = foldguard.certify
-    foldguard.certify = lambda *args, **kwargs: None
+    foldguard.frame.certify = lambda *args, **kwargs: None
     try:
         return face.evaluate(expression, intensity, refine=refine, fold_guard=True)
     finally:
-        foldguard.certify = own
+        foldguard.frame.certify = own
 
 
 def _assert_same(a, b, label):
@@ -94,11 +95,11 @@ def test_physical_frames_are_the_exact_guards_bit_for_bit(faces):
     for expression in ("frown", "smile"):
         s = fast.evaluate(expression, 0.5, skin="physical", fold_guard=True)
         own = foldguard.certify
-        foldguard.certify = lambda *args, **kwargs: None
+        foldguard.frame.certify = lambda *args, **kwargs: None
         try:
             e = exact.evaluate(expression, 0.5, skin="physical", fold_guard=True)
         finally:
-            foldguard.certify = own
+            foldguard.frame.certify = own
         _assert_same(s, e, f"physical {expression}")
         c = certify(fast, fast.evaluate(expression, 0.5, skin="physical", fold_guard=False))
         assert c is not None and not (c.pulls or c.step or c.balls)
@@ -274,9 +275,10 @@ def test_only_unrefined_geometric_frames_are_certified_beyond_the_clamp(faces):
 
 
 def test_the_guard_is_found_where_the_face_looks_for_it():
-    """The face module calls foldguard.guarded, which asks ``certify`` through the module
-    (so that ``_exact`` above does turn the certificates off)."""
+    """The face module calls foldguard.guarded, which asks ``certify`` through its own
+    module, ``foldguard.frame`` (so that ``_exact`` above does turn the certificates off)."""
     assert face_module.guarded is foldguard.guarded
+    assert foldguard.frame.certify is foldguard.certify
 
 
 @pytest.mark.parametrize("over", [1e-4, -2e-5])
@@ -437,7 +439,7 @@ def test_the_per_vertex_balls_certificate_is_sound_on_random_pulls(bump, gap, la
     W = np.where(rng.uniform(size=len(rest)) < 0.5, 1.0, -1.0) * rng.uniform(0, w, len(rest))
     W[rng.uniform(size=len(rest)) < 0.2] = 0.0
     reach = 6.0
-    tree = foldguard.cKDTree(rest)
+    tree = cKDTree(rest)
     sep = tree.query(rest, k=2)[0][:, 1]
     pairs = tree.query_pairs(reach, output_type="ndarray")
     ratio = (np.linalg.norm(u[pairs[:, 0]] - u[pairs[:, 1]], axis=1)

@@ -120,7 +120,7 @@ def test_the_cold_pass_leaves_a_local_pull_to_the_exact_check():
 def _reference_scale(monkeypatch, *args, **kwargs):
     """``skin_scale`` as before stop 39b: the exact check over every pulled triangle."""
     with monkeypatch.context() as m:
-        m.setattr(foldguard, "_cold_pass", lambda *a: False)
+        m.setattr(foldguard.pulls, "_cold_pass", lambda *a: False)
         return skin_scale(*args, **kwargs)
 
 
@@ -170,14 +170,14 @@ def test_physical_frames_are_those_of_the_exact_check(monkeypatch, guard, expr):
         seen.append(cold_pass(*args))
         return seen[-1]
 
-    monkeypatch.setattr(foldguard, "_cold_pass", spy)
+    monkeypatch.setattr(foldguard.pulls, "_cold_pass", spy)
     for name in (expr, "surprise"):
         for level in (0.3, 0.7, 1.0):
             s = face.evaluate(name, level, skin="physical", fold_guard=False)
             r = ref.evaluate(name, level, skin="physical", fold_guard=False)
             got = foldguard.guarded(face, s, guard)
             with monkeypatch.context() as m:
-                m.setattr(foldguard, "_cold_pass", lambda *a: False)
+                m.setattr(foldguard.pulls, "_cold_pass", lambda *a: False)
                 want = foldguard.guarded(ref, r, guard)
             for k in ("points", "W", "deformed_points", "fold_guard"):
                 a, b = getattr(got, k), getattr(want, k)

@@ -22,6 +22,7 @@ from wrinkle_vis.core.foldguard import (
     _longest_edge,
     pull_terms,
 )
+from wrinkle_vis.core.mesh import _closest_on_triangles
 
 
 def _same_lows(a, b) -> bool:
@@ -120,12 +121,12 @@ def test_a_ball_the_gaps_skip_is_one_the_exact_search_keeps(bump, gap, shift, am
     told to skip balls certified already clears the others as before. ``stepped``: the
     normals from the frame's step W n (else the deformed skin's own); ``near``: the near
     triangles kept per vertex (few: those left out decide)."""
-    own = foldguard._GAP_NEAR
-    foldguard._GAP_NEAR = near
+    own = foldguard.balls._GAP_NEAR
+    foldguard.balls._GAP_NEAR = near  # (read by the balls' module)
     try:
         _check_the_gaps_skip(bump, gap, shift, amp, k, w, fins, seed, stepped)
     finally:
-        foldguard._GAP_NEAR = own
+        foldguard.balls._GAP_NEAR = own
 
 
 def _check_the_gaps_skip(bump, gap, shift, amp, k, w, fins, seed, stepped):
@@ -242,16 +243,16 @@ def test_unrefined_frames_with_the_gaps_skip_are_those_without_it(twins, name, s
 
     for expression in expressions:
         for intensity in (0.0, 0.3, 0.6, 0.8, 1.0):
-            foldguard._gaps_skip, foldguard._gaps_apart = counted, counted_apart
+            foldguard.frame._gaps_skip, foldguard.balls._gaps_apart = counted, counted_apart
             try:
                 a = fast.evaluate(expression, intensity, fold_guard=True)
             finally:
-                foldguard._gaps_skip, foldguard._gaps_apart = own, own_apart
-            foldguard._gaps_skip = without
+                foldguard.frame._gaps_skip, foldguard.balls._gaps_apart = own, own_apart
+            foldguard.frame._gaps_skip = without
             try:
                 b = slow.evaluate(expression, intensity, fold_guard=True)
             finally:
-                foldguard._gaps_skip = own
+                foldguard.frame._gaps_skip = own
             for k in ("points", "W", "deformed_points", "fold_guard", "W_raw"):
                 assert np.array_equal(getattr(a, k), getattr(b, k)), f"{expression} {k}"
     assert sum(skipped) > 0
@@ -294,7 +295,7 @@ def test_the_heights_bound_the_distance_to_the_triangle_from_below(seed, flat, s
     lam = rng.dirichlet(np.ones(3), size=400)
     pts = np.einsum("sk,pkj->psj", lam, corners)  # (200, 400, 3) points of each triangle
     sampled = np.linalg.norm(pts - c[:, None], axis=2).min(axis=1)
-    nearest = np.linalg.norm(foldguard._mesh_closest(c, corners) - c, axis=1)
+    nearest = np.linalg.norm(_closest_on_triangles(c, corners) - c, axis=1)
     slack = 1e-9 * scale
     assert np.all(got <= np.minimum(sampled, nearest) + slack)
     full = foldguard._heights(corners, c, np.full(200, np.inf))

@@ -956,14 +956,14 @@ def test_rest_radii_are_searched_as_far_as_a_frame_needs():
     assert np.all(got[~below] >= need[~below] * (1 - 1e-12))
     calls = []
     real = foldguard.medial_radii
-    foldguard.medial_radii = lambda *a, **k: calls.append(len(a[0])) or real(*a, **k)
+    foldguard.balls.medial_radii = lambda *a, **k: calls.append(len(a[0])) or real(*a, **k)
     try:
         foldguard._rest_radii(face, 0.5 * need)
         assert calls == []  # known far enough already
         more = foldguard._rest_radii(face, 2.0 * need).copy()
         assert calls and calls[0] < len(pts)  # only the vertices not yet known that far
     finally:
-        foldguard.medial_radii = real
+        foldguard.balls.medial_radii = real
     below = full < 2.0 * need
     np.testing.assert_allclose(more[below], full[below], rtol=1e-7)
 
@@ -985,9 +985,9 @@ def test_the_guard_on_needed_radii_gives_the_frame_of_the_true_radii(monkeypatch
             pts, nrm = face.skin.points, face._rest.normals
             full = triangle_radii(np.arange(len(pts)), nrm, medial_radii(pts, nrm), pts,
                                   face.skin.triangles)
-            monkeypatch.setattr(foldguard, "fold_radii", lambda *a, **k: full.copy())
+            monkeypatch.setattr(foldguard.frame, "fold_radii", lambda *a, **k: full.copy())
         elif how == "short":  # half as far as needed: the clamp sees smaller radii
-            monkeypatch.setattr(foldguard, "fold_radii", lambda f, s, W, g: true_radii(
+            monkeypatch.setattr(foldguard.frame, "fold_radii", lambda f, s, W, g: true_radii(
                 f, s, 0.25 * np.asarray(W), g))
         s = face.evaluate("pucker", 1.0)
         monkeypatch.undo()
@@ -1028,13 +1028,14 @@ def test_an_idle_frame_builds_no_path_graph_and_searches_no_deformed_ball(proced
     before = {n: procedural.evaluate(n) for n in names}  # rest radii and terms: cached
     searched = []
     real = foldguard.medial_radii
-    monkeypatch.setattr(foldguard, "medial_radii",
-                        lambda *a, **k: searched.append(len(a[0])) or real(*a, **k))
+    for module in (foldguard.balls, foldguard.certified):  # (the modules that search balls)
+        monkeypatch.setattr(module, "medial_radii",
+                            lambda *a, **k: searched.append(len(a[0])) or real(*a, **k))
 
     def no_graph(*a, **k):
         raise AssertionError("an idle frame built the pull guard's graph")
 
-    monkeypatch.setattr(foldguard, "_edge_graph", no_graph)
+    monkeypatch.setattr(foldguard.pulls, "_edge_graph", no_graph)
     for name in names:
         s = procedural.evaluate(name)
         assert not np.any(s.fold_guard), name
@@ -1091,10 +1092,10 @@ def test_the_search_graph_updated_in_place_matches_one_built_from_scratch(seed):
     terms = pull_terms(pts, tri)
     cap = foldguard._GRAPH_CACHE_EDGES
     try:  # a skin's structure kept (every edge), or built for the frame (pulled edges only)
-        for foldguard._GRAPH_CACHE_EDGES in (cap, 0):
+        for foldguard.pulls._GRAPH_CACHE_EDGES in (cap, 0):
             _reweigh_and_search(foldguard, rng, pts, tri, size, terms)
     finally:
-        foldguard._GRAPH_CACHE_EDGES = cap
+        foldguard.pulls._GRAPH_CACHE_EDGES = cap
 
 
 def _reweigh_and_search(foldguard, rng, pts, tri, size, terms):

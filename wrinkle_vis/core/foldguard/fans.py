@@ -1,0 +1,693 @@
+"""The fans' guard: each vertex's displaced fan kept off its two rings (docs/model.md)."""
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..certificate import (
+    _corner_columns,
+    _narrow_phase,
+    _normals,
+)
+from ._base import (  # noqa: F401
+    _cross,
+    _incidence,
+    _rows_dot,
+)
+
+# ---------------------------------------------------------------- the fans' guard
+#
+# The wrinkles' step x' -> x' + W n' moves each vertex along its own normal; where the skin
+# folds on itself (normals far apart over an edge) a vertex's fan can pass through the
+# triangles of its two rings, which no ball (empty of the triangles *not* incident to its
+# vertex) sees. :func:`guard_fans` certifies cheaply, per vertex, that its displaced fan
+# meets the triangles of its two rings only where it shares a vertex or an edge with them
+# (``docs/model.md``, "The fans"), tests the pairs of the few vertices it cannot certify
+# exactly, and scales their W back towards the deformed skin until none crosses.
+
+_FAN_MARGIN = 1e-10  # relative margin of the certificate's signs (far above rounding)
+_FAN_ROUNDS = 8  # the scale-back's rounds before it sets the W of a crossing pair to 0
+
+
+def _fan_structure(tri: np.ndarray, n: int, terms: dict) -> dict:
+    """The skin's fan structure, cached in ``terms``: ``across`` ``(m, 3)``, the third
+    vertex of the triangle across edge ``k`` (corner ``k`` to ``k + 1``) of each triangle
+    (-1 on a boundary), and ``open`` ``(n,)`` bool, vertices on an edge that is not shared
+    by exactly two triangles running it in opposite directions.
+    """
+    fans = terms.get("fans")
+    if fans is None:
+        runs = terms.pop("fan_runs", None)
+        runs = _edge_runs(tri, n) if runs is None else runs
+        fans = terms["fans"] = {"across": _across(tri, n, runs), "open": _open(n, runs)}
+    return fans
+
+
+def _open(n: int, runs: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+    """``(n,)`` bool: the vertices on an edge that is not run exactly once each way (by
+    the triangles whose directed edges :func:`_edge_runs` sorted into ``runs``: a boundary,
+    non-manifold or misoriented edge, or one from a vertex to itself), as
+    :func:`~wrinkle_vis.core.certificate._irregular_vertices` finds them.
+    """
+    _, s, new = runs
+    starts = np.flatnonzero(new)
+    val, count = s[starts], np.diff(np.append(starts, len(s)))
+    half = val // 2
+    edge = np.empty(len(half), bool)  # where an undirected edge's runs start
+    edge[:1], edge[1:] = True, half[1:] != half[:-1]
+    first = np.flatnonzero(edge)
+    runs_of = np.diff(np.append(first, len(half)))  # 1 or 2: one direction or both
+    once = count == 1
+    regular = (runs_of == 2) & once[first] & once[np.minimum(first + 1, len(once) - 1)]
+    ends = half[first[~regular]]
+    out = np.zeros(n, bool)
+    out[ends // n] = True
+    out[ends % n] = True
+    return out
+
+
+def _edge_runs(tri: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""The directed edges of ``tri`` ``(m, 3)`` (edge ``k`` of triangle ``t`` at ``3t + k``)
+    sorted (stably) by the key :math:`2(n \min(a, b) + \max(a, b)) + [a > b]` of each edge ``a b``:
+    the order ``(3m,)``, the sorted keys, and where a run of equal keys starts ``(3m,)``
+    bool.
+    """
+    a, b = tri.ravel(), tri[:, [1, 2, 0]].ravel()
+    key = (np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b)) * 2 + (a > b)
+    order = np.argsort(key, kind="stable")
+    s = key[order]
+    new = np.empty(len(s), bool)
+    new[:1], new[1:] = True, s[1:] != s[:-1]
+    return order, s, new
+
+
+def _across(tri: np.ndarray, n: int,
+            runs: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """``(m, 3)``: the third vertex of the triangle across edge ``k`` (corner ``k`` to
+    ``k + 1``) of each triangle ``tri`` ``(m, 3)`` on ``n`` vertices: of the first triangle
+    (in ``tri``'s order) that runs the edge the other way, -1 where none does.
+
+    One stable sort of the directed edges by (undirected edge, direction): an edge's twins
+    are the run of the same undirected edge and the other direction, next to its own (an
+    edge from a vertex to itself is its own twin). ``runs``: :func:`_edge_runs`, when
+    known.
+    """
+    order, s, new = _edge_runs(tri, n) if runs is None else runs
+    starts = np.flatnonzero(new)
+    val = s[starts]
+    twin = np.full(len(starts), -1, np.intp)
+    # runs r (forward: even) and r + 1 (backward) of one undirected edge
+    up = np.flatnonzero((val[1:] == val[:-1] + 1) & (val[:-1] % 2 == 0))
+    twin[up], twin[up + 1] = starts[up + 1], starts[up]
+    half = val // 2
+    own = (val % 2 == 0) & (half // n == half % n)
+    twin[own] = starts[own]
+    at = twin[np.cumsum(new) - 1]
+    third = tri[:, [2, 0, 1]].ravel()  # the corner opposite each edge
+    across = np.empty(len(s), np.intp)
+    across[order] = np.where(at >= 0, third[order[np.maximum(at, 0)]], -1)
+    return across.reshape(-1, 3)
+
+
+# The fans' rest margins (docs/model.md, "The fans", "A filter on the rest skin"): the
+# certificate of each vertex v taken along a fixed direction (v's rest normal) on a
+# reference skin r (the rest skin, cached per skin in ``terms``), with how far every edge
+# of its two rings may change, relative to its ends, before one of its signs could flip.
+
+
+def _fan_edges(tri: np.ndarray, n: int, terms: dict) -> dict:
+    """The skin's edges ``(e, 2)`` and, per vertex, its incident edges and neighbours in
+    one CSR layout (``start`` ``(n + 1,)``, ``edge`` and ``nbr`` ``(2e,)``), cached in
+    ``terms``.
+    """
+    graph = terms.get("fan_edges")
+    if graph is None:
+        edges = terms.get("edges")
+        if edges is None:  # (sorted by first end, then second: one key each, unique)
+            runs = _edge_runs(tri, n)  # (kept for the fans' structure, which follows)
+            if "fans" not in terms:
+                terms["fan_runs"] = runs
+            half = runs[1][runs[2]] // 2
+            key = half[np.r_[True, half[1:] != half[:-1]]]
+            edges = np.stack([key // n, key % n], axis=1)
+        ends = np.concatenate([edges[:, 0], edges[:, 1]])
+        order = np.argsort(ends, kind="stable")
+        start = np.concatenate([[0], np.cumsum(np.bincount(ends, minlength=n))])
+        graph = terms["fan_edges"] = {
+            "edges": np.asarray(edges, dtype=np.intp), "start": start,
+            "edge": order % len(edges),
+            "nbr": np.concatenate([edges[:, 1], edges[:, 0]])[order]}
+    return graph
+
+
+def _csr_rows(start: np.ndarray, values: np.ndarray, rows: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """``rows`` ``(r,)`` of the CSR layout ``start`` ``(n + 1,)``, ``values``: their
+    ``indptr`` ``(r + 1,)`` and values, concatenated.
+    """
+    count = start[rows + 1] - start[rows]
+    indptr = np.concatenate([[0], np.cumsum(count)])
+    return indptr, values[np.repeat(start[rows] - indptr[:-1], count) + np.arange(indptr[-1])]
+
+
+def _segment_max(values: np.ndarray, indptr: np.ndarray) -> np.ndarray:
+    """``(r,)``: the largest of each segment ``indptr[i]:indptr[i + 1]`` of ``values``, 0
+    for an empty one.
+    """
+    if not len(values):
+        return np.zeros(len(indptr) - 1)
+    out = np.maximum.reduceat(values, np.minimum(indptr[:-1], len(values) - 1))
+    return np.where(indptr[1:] > indptr[:-1], out, 0.0)
+
+
+def _ring(rows: np.ndarray, graph: dict, n: int) -> np.ndarray:
+    """``(k,)`` sorted: ``rows`` ``(r,)`` and their neighbours in ``graph``
+    (:func:`_fan_edges`).
+    """
+    mask = np.zeros(n, bool)
+    mask[rows] = True
+    mask[_csr_rows(graph["start"], graph["nbr"], rows)[1]] = True
+    return np.flatnonzero(mask)
+
+
+def _margin(a: np.ndarray, s: np.ndarray) -> np.ndarray:
+    r"""``(k,)``: the :math:`\rho \ge 0` below which :math:`a > \rho s + \rho^2`
+    (:math:`a` ``(k,)`` the sign's value less its rounding margin, :math:`s` the sum of the
+    projected lengths of its two edge vectors), :math:`2a / (s + \sqrt{s^2 + 4a})`; 0 where
+    :math:`a \le 0`.
+    """
+    a = np.maximum(a, 0.0)
+    return 2.0 * a / np.maximum(s + np.sqrt(s * s + 4.0 * a), 1e-300)
+
+
+def _projected_length(e: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """``(k,)``: the lengths of the rows of ``e`` ``(k, 3)`` projected off the unit ``m``."""
+    along = _rows_dot(e, m)
+    return np.sqrt(np.maximum(_rows_dot(e, e) - along * along, 0.0))
+
+
+def _rest_fan_margins(r: np.ndarray, tri: np.ndarray, terms: dict) -> np.ndarray:
+    r"""``(n + 2e,)``: the margins :math:`\mu_{vu}` on the reference skin ``r`` ``(n, 3)``
+    of each vertex v's fan certificate along v's reference normal :math:`m_v`, for every
+    u of v's closed ring: first u = v (``[:n]``), then v's neighbours in
+    :func:`_fan_edges`' CSR order (``[n:]``). If no edge at u changes by
+    :math:`\rho_u \ge \mu_{vu}` (relative to its ends) for any u, the certificate holds
+    (docs/model.md, "The fans"): :math:`\mu_{vu}` bounds the signs at u, u's fan's
+    triangles' along :math:`m_v` and the turn of v's link at u. 0 where one fails on ``r``
+    itself: u open, u's fan not winding once around u along :math:`m_v`.
+    """
+    n = len(r)
+    graph, fans = _fan_edges(tri, n, terms), _fan_structure(tri, n, terms)
+    A = _cross(r[tri[:, 1]] - r[tri[:, 0]], r[tri[:, 2]] - r[tri[:, 0]])
+    m = np.stack([np.bincount(tri.ravel(), np.repeat(A[:, k], 3), n) for k in range(3)], 1)
+    m = m / np.maximum(np.sqrt(_rows_dot(m, m)), 1e-300)[:, None]
+    # the closed ring's (v, u) pairs, then every triangle t of u's fan: (v, u, t)
+    count = np.diff(graph["start"])
+    pv = np.concatenate([np.arange(n), np.repeat(np.arange(n), count)])
+    pu = np.concatenate([np.arange(n), graph["nbr"]])
+    indptr, t = _sub_rows(_fan_incidence(tri, n, terms), pu)
+    g = np.repeat(np.arange(len(pu)), np.diff(indptr))
+    u, mv = pu[g], m[pv[g]]
+    k = (tri[t] == u[:, None]).argmax(axis=1)
+    e1 = r[tri[t, (k + 1) % 3]] - r[u]
+    e2 = r[tri[t, (k + 2) % 3]] - r[u]
+    up = _rows_dot(A[t], mv)
+    s = _projected_length(e1, mv) + _projected_length(e2, mv)  # the edges at u
+    mu = np.full(len(pu), np.inf)
+    np.minimum.at(mu, g, _margin(up - _FAN_MARGIN * s * s, s))
+    flat = _rows_dot(e1, e2) - _rows_dot(e1, mv) * _rows_dot(e2, mv)
+    once = np.bincount(g, np.arctan2(up, flat), len(pu)) < 3.0 * np.pi
+    v, margin, u = _link_margins(r, tri, fans, m)
+    key = pv[n:].astype(np.int64) * n + pu[n:]
+    order = np.argsort(key)
+    np.minimum.at(mu, n + order[np.searchsorted(key[order], v.astype(np.int64) * n + u)],
+                  margin)
+    mu[~once | fans["open"][pu] | ~np.isfinite(mu)] = 0.0
+    return mu
+
+
+def _link_margins(r: np.ndarray, tri: np.ndarray, fans: dict, m: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""``(3m,)`` three times: for every corner (v, u, w) of ``tri`` on ``r``, v, the margin
+    of v's link turning left at u along :math:`m_v` (``m`` ``(n, 3)``) and u:
+    :math:`m_v \cdot (u - u^-) \times (w - u) > 0`, :math:`u^-` across the edge v-u; 0
+    where that edge is a boundary.
+    """
+    rows = np.arange(3 * len(tri))
+    j, k = rows % len(tri), rows // len(tri)
+    v, u, w = tri[j, k], tri[j, (k + 1) % 3], tri[j, (k + 2) % 3]
+    before = fans["across"][j, k]
+    e_in, e_out = r[u] - r[np.maximum(before, 0)], r[w] - r[u]
+    mv = m[v]
+    s = _projected_length(e_in, mv) + _projected_length(e_out, mv)
+    turn = _rows_dot(_cross(e_in, e_out), mv)
+    return v, np.where(before >= 0, _margin(turn - _FAN_MARGIN * s * s, s), 0.0), u
+
+
+def _cleared_by_rest(p: np.ndarray, rest: np.ndarray, tri: np.ndarray, ask: np.ndarray,
+                     terms: dict) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(k,)`` bool twice: which vertices ``ask`` ``(k,)`` have a fan that is a star on
+    ``p`` ``(n, 3)`` (:math:`\rho_v < \mu_{vv}`), and a fan certificate that holds on
+    ``p``, by the reference skin ``rest``'s margins alone (cached in ``terms``):
+    :math:`\rho_u < \mu_{vu}` (:func:`_rest_fan_margins`) for every u of v's closed
+    ring, :math:`\rho_u` the largest change :math:`|\Delta_b - \Delta_a|`
+    (:math:`\Delta = p - r`) of an edge at u (the edges within three rings of ``ask``
+    only are looked at).
+    """
+    return _rest_filter(p, _rest_region(rest, tri, ask, terms))
+
+
+def _rest_region(rest: np.ndarray, tri: np.ndarray, ask: np.ndarray, terms: dict) -> dict:
+    r"""What :func:`_rest_filter` needs to clear the vertices ``ask`` ``(k,)`` on any
+    frame, gathered once (a moved set's region is kept with it, :func:`_fan_region`):
+    ``verts`` ``(q,)`` (the ends of the edges at ``ask``'s closed rings' vertices, the
+    ``ring`` ``(r,)``) and their rest points; those edges ``e0``, ``e1`` ``(f,)`` (as
+    indices into ``verts``) by ring vertex (``indptr`` ``(r + 1,)``); the margins
+    :math:`\mu_{vv}` (``mu_own`` ``(k,)``, ``own``: v's place in the ring) and
+    :math:`\mu_{vu}` of each (v, u) (``mu_nbr``, ``nbr``: u's place in the ring, ``row``:
+    v's place in ``ask``).
+    """
+    n = len(rest)
+    mu = terms.get("fan_margins")
+    if mu is None:
+        mu = terms["fan_margins"] = _rest_fan_margins(rest, tri, terms)
+    graph = _fan_edges(tri, n, terms)
+    ring = _ring(ask, graph, n)
+    indptr, ids = _csr_rows(graph["start"], graph["edge"], ring)
+    e = graph["edges"][ids]
+    inside = np.zeros(n, np.intp)
+    inside[e.ravel()] = 1
+    verts = np.flatnonzero(inside)
+    inside[verts] = np.arange(len(verts))
+    local = inside[e]
+    at_ptr, at = _csr_rows(graph["start"], np.arange(len(graph["nbr"])), ask)
+    return {"verts": verts, "rest": rest[verts], "e0": local[:, 0].copy(),
+            "e1": local[:, 1].copy(), "indptr": indptr,
+            "own": np.searchsorted(ring, ask), "mu_own": mu[ask],
+            "nbr": np.searchsorted(ring, graph["nbr"][at]), "mu_nbr": mu[n + at],
+            "row": np.repeat(np.arange(len(ask)), np.diff(at_ptr)), "k": len(ask)}
+
+
+def _rest_filter(p: np.ndarray, region: dict) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_cleared_by_rest` on the region :func:`_rest_region` gathered: the frame's
+    arithmetic only (the same values, so the same decisions).
+    """
+    D = p[region["verts"]] - region["rest"]
+    step = D[region["e1"]] - D[region["e0"]]
+    near = _segment_max(np.sqrt(_rows_dot(step, step)), region["indptr"])
+    far = near[region["nbr"]] >= region["mu_nbr"]  # a sign at a neighbour in doubt
+    star = near[region["own"]] < region["mu_own"]
+    return star, star & (np.bincount(region["row"], far, region["k"]) == 0)
+
+
+_FAN_REGIONS = 8  # the pulled regions whose fan work a skin's terms remember
+_FAN_PAIRS = 4  # and, per region, the sets of loose vertices whose pairs it remembers
+
+
+def _fan_region(changed: np.ndarray, tri: np.ndarray, terms: dict,
+                rest: np.ndarray | None) -> tuple[dict, np.ndarray]:
+    """A region of the skin around a set ``S`` of vertices holding ``changed`` ``(n,)``
+    bool, kept in ``terms`` (the last :data:`_FAN_REGIONS`, the least recently used dropped
+    first), and which of its vertices are within two rings of ``changed`` ``(k,)`` bool.
+
+    The region: ``ask`` ``(k,)``, the vertices within two rings of ``S``; ``e0``, ``e1``,
+    the edges among them (indices into ``ask``); given a reference skin ``rest``,
+    :func:`_rest_region` of ``ask`` and which fail their certificate on it
+    (``rest_fails``). A frame whose moved vertices lie in a kept ``S`` (the frames of an
+    expression's ramp: W's support shrinks or stays as it grows) finds it; one that
+    overlaps the latest ``S`` widens it to the union; any other starts a region of its own.
+    """
+    flag = rest is not None
+    memo = terms.setdefault("fan_regions", [])
+    for i in range(len(memo) - 1, -1, -1):
+        region = memo[i]
+        if region["rest"] == flag and not (changed & ~region["S"]).any():
+            memo.append(memo.pop(i))  # the most recent last
+            return region, _two_rings(changed[region["ask"]], region)
+    S = changed
+    if memo and memo[-1]["rest"] == flag and (changed & memo[-1]["S"]).any():
+        S = changed | memo.pop()["S"]
+    n = len(changed)
+    graph = _fan_edges(tri, n, terms)
+    ask = _ring(_ring(np.flatnonzero(S), graph, n), graph, n)
+    inside = np.full(n, -1)
+    inside[ask] = np.arange(len(ask))
+    e = inside[graph["edges"]]
+    e = e[(e[:, 0] >= 0) & (e[:, 1] >= 0)]
+    region = {"S": S, "rest": flag, "ask": ask, "e0": e[:, 0].copy(), "e1": e[:, 1].copy(),
+              "pairs": {}}
+    if rest is not None:
+        region["rest_region"] = _rest_region(rest, tri, ask, terms)
+        region["rest_fails"] = ~_rest_sure(rest, tri, terms)[ask]
+    memo.append(region)
+    while len(memo) > _FAN_REGIONS:
+        memo.pop(0)
+    return region, _two_rings(changed[ask], region)
+
+
+def _two_rings(mark: np.ndarray, region: dict) -> np.ndarray:
+    """``(k,)`` bool: the vertices of the region's ``ask`` within two rings of ``mark``
+    ``(k,)`` (a part of the region's ``S``), along the region's edges (every edge at a
+    vertex within one ring of ``S`` is among them).
+    """
+    e0, e1 = region["e0"], region["e1"]
+    mark = mark.copy()
+    for _ in range(2):
+        a, b = e0[mark[e1]], e1[mark[e0]]
+        mark[a] = True
+        mark[b] = True
+    return mark
+
+
+def _rest_sure(rest: np.ndarray, tri: np.ndarray, terms: dict) -> np.ndarray:
+    """``(n,)`` bool, cached in ``terms``: the vertices whose fan certificate fails on the
+    reference skin ``rest`` itself (:func:`_rest_fan_margins`: some margin 0), negated.
+    """
+    fails = terms.get("fan_rest_fails")
+    if fails is None:
+        fails = terms["fan_rest_fails"] = ~_cleared_by_rest(
+            rest, rest, tri, np.arange(len(rest)), terms)[1]
+    return ~fails
+
+
+def _fan_terms(p: np.ndarray, tri: np.ndarray, sub: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""Per vertex of the triangles ``sub`` (indices into ``tri`` ``(m, 3)``, every
+    triangle of the fans asked about) on ``p`` ``(n, 3)``: ``m`` ``(n, 3)``, the unit sum of
+    the fans' area vectors :math:`A_t`; ``c`` ``(n,)``, :math:`\min_t m \cdot A_t / |A_t|`;
+    ``star`` ``(n,)`` bool, the fan seen along ``m`` is a star once around its vertex:
+    every :math:`m \cdot A_t > 0` (with margin) and the projected angles add up to less
+    than :math:`3\pi` (they add up to :math:`2\pi k`, :math:`k` the winding).
+    """
+    n, t = len(p), tri[sub]
+    c0, c1, c2 = (p[t[:, k]] for k in range(3))
+    A = _cross(c1 - c0, c2 - c0)
+    la = np.maximum(np.sqrt(_rows_dot(A, A)), 1e-300)
+    m = np.stack([np.bincount(t.ravel(), np.repeat(A[:, k], 3), n) for k in range(3)], axis=1)
+    m = m / np.maximum(np.sqrt(_rows_dot(m, m)), 1e-300)[:, None]
+    c = np.full(n, np.inf)
+    angle = np.zeros(n)
+    for k, (a, b, o) in enumerate(((c1, c2, c0), (c2, c0, c1), (c0, c1, c2))):
+        mv = m[t[:, k]]
+        up = _rows_dot(A, mv)
+        np.minimum.at(c, t[:, k], up / la)
+        e1, e2 = a - o, b - o
+        flat = _rows_dot(e1, e2) - _rows_dot(e1, mv) * _rows_dot(e2, mv)
+        angle += np.bincount(t[:, k], np.arctan2(up, flat), n)
+    star = (c > _FAN_MARGIN) & (angle < 3.0 * np.pi)
+    return m, c, star
+
+
+def _certified_fans(p: np.ndarray, tri: np.ndarray, ask: np.ndarray, fans: dict,
+                    terms: dict) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(k,)`` bool twice, for vertices ``ask`` ``(k,)`` on ``p`` ``(n, 3)``: whose fan is
+    a star (its triangles meet only in shared vertices and edges), and whose fan meets
+    the triangles of its two rings only in shared vertices and edges, certainly
+    (``docs/model.md``, "The fans"). Seen along the vertex's :math:`m_v`
+    (:func:`_fan_terms`): the vertex and its ring are closed (not ``open``), its fan is a
+    star once around it, its link turns left at every ring vertex :math:`u` (the
+    projected fan :math:`S_v` is convex), and every :math:`u`'s fan is a star once around
+    it (along :math:`m_u` with :math:`c_u > |m_v - m_u|`, which makes it one along
+    :math:`m_v`, or else checked along :math:`m_v`, :func:`_stars_along`).
+    """
+    n = len(p)
+    inc = _fan_incidence(tri, n, terms)
+    asked = np.zeros(n, bool)
+    asked[ask] = True
+    ring = _ring(ask, _fan_edges(tri, n, terms), n)
+    at_ring = np.zeros(len(tri), bool)
+    at_ring[_sub_rows(inc, ring)[1]] = True
+    sub = np.flatnonzero(at_ring)  # the triangles at the asked ones' rings
+    m, c, star = _fan_terms(p, tri, sub)
+    star &= ~fans["open"]
+    t = tri[sub]
+    rows = np.flatnonzero(asked[t.T.ravel()])  # the asked vertices' corners
+    k, rows = rows // len(sub), rows % len(sub)
+    v, u, w = t[rows, k], t[rows, (k + 1) % 3], t[rows, (k + 2) % 3]
+    before = fans["across"][sub[rows], k]  # the ring vertex before u (across edge v-u)
+    e_in, e_out = p[u] - p[np.maximum(before, 0)], p[w] - p[u]
+    turn = _rows_dot(_cross(e_in, e_out), m[v])
+    left = turn > _FAN_MARGIN * np.sqrt(_rows_dot(e_in, e_in) * _rows_dot(e_out, e_out))
+    ok = asked & star
+    ok[v[~(star[u] & left)]] = False
+    dm = m[v] - m[u]
+    along = c[u] > np.sqrt(_rows_dot(dm, dm)) + _FAN_MARGIN
+    rows = np.flatnonzero(ok[v] & ~along)  # u's star along m_v, checked
+    if len(rows):
+        ok[v[rows[~_stars_along(p, tri, inc, v[rows], u[rows], m)]]] = False
+    return star[ask], ok[ask]
+
+
+def _stars_along(p: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix, v: np.ndarray,
+                 u: np.ndarray, m: np.ndarray) -> np.ndarray:
+    r"""``(k,)`` bool: the fan of each ``u`` ``(k,)`` on ``p`` is a star once around it
+    seen along :math:`m_v` (``v`` ``(k,)``, ``m`` ``(n, 3)``): every
+    :math:`m_v \cdot A_t > 0` with margin, the projected angles adding up to below
+    :math:`3\pi`.
+    """
+    indptr, indices = _sub_rows(inc, u)
+    row = np.repeat(np.arange(len(u)), np.diff(indptr))
+    t = tri[indices]
+    o = p[u[row]]
+    k = (t == u[row, None]).argmax(axis=1)  # u's corner: the other two follow it
+    a = p[t[np.arange(len(t)), (k + 1) % 3]] - o
+    b = p[t[np.arange(len(t)), (k + 2) % 3]] - o
+    mv = m[v[row]]
+    A = np.cross(a, b)
+    up = np.einsum("ij,ij->i", A, mv)
+    flat = np.einsum("ij,ij->i", a, b) - (np.einsum("ij,ij->i", a, mv)
+                                         * np.einsum("ij,ij->i", b, mv))
+    pos = up > _FAN_MARGIN * np.linalg.norm(A, axis=1)
+    good = np.bincount(row, ~pos, len(u)) == 0
+    return good & (np.bincount(row, np.arctan2(up, flat), len(u)) < 3.0 * np.pi)
+
+
+def _fan_incidence(tri: np.ndarray, n: int, terms: dict) -> sp.csr_matrix:
+    """``(n, m)``: :func:`_incidence` of ``tri``, cached in ``terms`` (as
+    :func:`_vertex_normals` caches it).
+    """
+    inc = terms.get("incidence")
+    if inc is None:
+        inc = terms["incidence"] = _incidence(tri, n)
+    return inc
+
+
+def _sub_rows(inc: sp.csr_matrix, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``rows`` ``(r,)`` of the CSR matrix ``inc`` as its ``indptr`` ``(r + 1,)`` and
+    ``indices`` (what ``inc[rows]`` holds, without building it).
+    """
+    start, count = inc.indptr[rows], np.diff(inc.indptr)[rows]
+    indptr = np.concatenate([[0], np.cumsum(count)])
+    at = np.repeat(start - indptr[:-1], count) + np.arange(indptr[-1])
+    return indptr, inc.indices[at]
+
+
+def _row_products(a: tuple, b: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """``(k,)`` int twice: every (column of row ``r`` of ``a``, column of row ``r`` of
+    ``b``), for every row ``r`` of the two (``indptr``, ``indices``) of :func:`_sub_rows`
+    (same number of rows).
+    """
+    rows = np.repeat(np.arange(len(a[0]) - 1), np.diff(a[0]))
+    count = np.diff(b[0])[rows]
+    start = np.repeat(b[0][rows] - np.cumsum(count) + count, count)
+    return np.repeat(a[1], count), b[1][start + np.arange(count.sum())]
+
+
+def _fan_pairs(tri: np.ndarray, inc: sp.csr_matrix, loose: np.ndarray, edges: np.ndarray
+               ) -> np.ndarray:
+    """``(k, 2)`` int, ``i < j``, unique: the pairs of triangles ``tri`` ``(m, 3)`` that no
+    certificate covers: two of the fan of a vertex in ``loose`` ``(a,)`` (not a star), and
+    one of each end's fan of ``edges`` ``(e, 2)`` (neither end certified) that share no
+    vertex.
+    """
+    fans = _sub_rows(inc, loose)
+    a1, b1 = _row_products(fans, fans)
+    a2, b2 = _row_products(_sub_rows(inc, edges[:, 0]), _sub_rows(inc, edges[:, 1]))
+    apart = ~(tri[a2][:, :, None] == tri[b2][:, None, :]).any(axis=(1, 2))
+    a = np.concatenate([a1, a2[apart]])
+    b = np.concatenate([b1, b2[apart]])
+    keep = a != b
+    a, b = a[keep], b[keep]
+    key = np.unique(np.minimum(a, b).astype(np.int64) * len(tri) + np.maximum(a, b))
+    return np.stack([key // len(tri), key % len(tri)], axis=1).astype(np.intp)
+
+
+def _pairs_cross(p: np.ndarray, tri: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    """``(k,)`` bool: which ``pairs`` ``(k, 2)`` of triangles ``tri`` ``(m, 3)`` on ``p``
+    ``(n, 3)`` intersect other than in their shared vertices or edge, a contact included
+    (the certificate's exact narrow phase, :mod:`wrinkle_vis.core.certificate`).
+    """
+    if not len(pairs):
+        return np.zeros(0, bool)
+    ids, local = np.unique(pairs, return_inverse=True)
+    sub = tri[ids]
+    x = _corner_columns(p, sub)
+    corners = np.stack([np.stack(x[k], axis=1) for k in range(3)], axis=1)
+    normal, perm = _normals(x)
+    hit, _ = _narrow_phase(p, sub, corners, normal, perm, local.reshape(-1, 2))
+    return hit
+
+
+_PLANE_MARGIN = 1e-10  # relative margin of the planes' sides (far above rounding)
+
+
+def _apart_by_planes(p: np.ndarray, tri: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    r"""``(k,)`` bool: the ``pairs`` ``(k, 2)`` of triangles ``tri`` on ``p`` ``(n, 3)``
+    that certainly meet only in what they share: the corners of one that the other does
+    not share (at least one) lie strictly on one side of the other's plane,
+    :math:`|h| > \epsilon` with one sign for all, :math:`h = N \cdot (x - a)`,
+    :math:`N = (b - a) \times (c - a)` for the other = (a, b, c), :math:`\epsilon` =
+    ``_PLANE_MARGIN`` :math:`|b - a| |c - a| |x - a|` (``docs/model.md``, "The fans", "A
+    plane first"); the exact test would find them apart.
+    """
+    if not len(pairs):
+        return np.zeros(0, bool)
+    k = len(pairs)
+    t = tri[np.concatenate([pairs[:, 0], pairs[:, 1]])]  # each triangle's plane against
+    s = tri[np.concatenate([pairs[:, 1], pairs[:, 0]])]  # the other's corners, both ways
+    a = p[t[:, 0]]
+    e1, e2 = p[t[:, 1]] - a, p[t[:, 2]] - a
+    N = _cross(e1, e2)
+    scale = _PLANE_MARGIN * _PLANE_MARGIN * _rows_dot(e1, e1) * _rows_dot(e2, e2)
+    free = (s[:, :, None] != t[:, None, :]).all(axis=2)  # (2k, 3): not a corner of t
+    x = p[s] - a[:, None, :]
+    h = np.einsum("ij,ikj->ik", N, x)
+    sure = h * h > scale[:, None] * np.einsum("ikj,ikj->ik", x, x)  # |h| > eps
+    pos = (~free | (sure & (h > 0))).all(axis=1)
+    neg = (~free | (sure & (h < 0))).all(axis=1)
+    one = (pos | neg) & free.any(axis=1)
+    return one[:k] | one[k:]
+
+
+def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
+               triangles: np.ndarray, terms: dict | None = None,
+               rest: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    r"""The wrinkles' step ``deformed`` :math:`x'` to ``points`` :math:`x' + W n'`
+    (``(n, 3)``, ``W`` ``(n,)``) with no vertex's fan passing through the triangles of its
+    two rings (``docs/model.md``, "The fans"): returns the points and :math:`W`, scaled
+    by :math:`h_v \in [0, 1]` (:math:`x' + h_v (x - x')`), ``points`` and ``W``
+    themselves (bit for bit) where nothing would cross.
+
+    Each vertex within two rings of a moved one is cleared by the reference skin
+    ``rest``'s cached margins where its two rings' edges changed less than its margin
+    (:func:`_cleared_by_rest`, a few operations per edge), else certified by
+    :func:`_certified_fans` (a few products per fan corner); the pairs no certificate
+    covers are tested exactly (:func:`_loose_pairs`, :func:`_pairs_cross`); the
+    :math:`W` of the corners of each pair that crosses, and is apart on ``deformed``, is
+    scaled back to just below where it crosses (:func:`_scale_back`; the least factor
+    where pairs share a corner; after ``_FAN_ROUNDS`` rounds, to 0), and the vertices
+    around those are certified and tested again, until no pair crosses. A pair apart on
+    ``deformed`` is apart once its corners' :math:`W` is 0, so this ends. ``terms``: a
+    cache (:func:`pull_terms`' dict, of ``rest`` when it is given).
+    """
+    tri = np.asarray(triangles, dtype=np.intp)
+    terms = {} if terms is None else terms
+    d, p0 = np.asarray(deformed, dtype=float), np.asarray(points, dtype=float)
+    moved = p0 != d
+    changed = moved = moved[:, 0] | moved[:, 1] | moved[:, 2]
+    if not moved.any():
+        return points, W
+    if rest is not None and not terms.get("fans_seen"):
+        # a skin's first frame is guarded without the rest filter: its margins cost a
+        # pass over the whole skin (three times the frame's exact checks on a refined
+        # frame's skin, new on each frame); a skin seen again pays for them once
+        terms["fans_seen"] = True
+        rest = None
+    h = np.ones(len(d))
+    p, rounds = p0, 0
+    while True:
+        pairs = _loose_pairs(p, tri, changed, terms, rest)
+        pairs = pairs[~_apart_by_planes(p, tri, pairs)]  # (the exact test's verdict)
+        hit = pairs[_pairs_cross(p, tri, pairs)]
+        hit = hit[~_pairs_cross(d, tri, hit)]  # a pair the pulls crossed is not W's
+        if not len(hit):
+            break
+        rounds += 1
+        factor = np.ones(len(d))
+        np.minimum.at(factor, tri[hit].reshape(len(hit), 6),
+                      _scale_back(d, p, tri, hit)[:, None] if rounds < _FAN_ROUNDS else 0.0)
+        changed = (factor < 1.0) & moved
+        h[changed] *= factor[changed]
+        if p is p0:
+            p = p0.copy()
+        p[changed] = d[changed] + h[changed, None] * (p0[changed] - d[changed])
+    terms.pop("fan_runs", None)  # (the edges' sort, if the fans' structure did not take it)
+    if p is p0:
+        return points, W
+    return p, np.asarray(W, dtype=float) * h
+
+
+def _loose_pairs(p: np.ndarray, tri: np.ndarray, changed: np.ndarray, terms: dict,
+                 rest: np.ndarray | None = None) -> np.ndarray:
+    """``(k, 2)``: the pairs of triangles (:func:`_fan_pairs`) around the vertices within
+    two rings of ``changed`` ``(n,)`` bool on ``p`` ``(n, 3)`` that neither the reference
+    skin ``rest``'s margins (:func:`_cleared_by_rest`) nor :func:`_certified_fans` clear,
+    left to the exact test. The region's index work is kept per moved set
+    (:func:`_fan_region`), the pairs per set of vertices left.
+    """
+    n = len(p)
+    region, asked = _fan_region(changed, tri, terms, rest)
+    if rest is not None:
+        star, sure = _rest_filter(p, region["rest_region"])
+        left = asked & ~sure
+        if not left.any():
+            return np.zeros((0, 2), np.intp)
+        ask, star, sure = region["ask"][left], star[left], sure[left]
+        # a star whose certificate fails on the rest skin itself (its link turns right
+        # there) is not certified again: its edges' pairs go to the exact test
+        check = ~(star & region["rest_fails"][left])
+    else:
+        ask = region["ask"][asked]
+        star, sure = np.zeros(len(ask), bool), np.zeros(len(ask), bool)
+        check = np.ones(len(ask), bool)
+    if check.any():
+        star[check], sure[check] = _certified_fans(p, tri, ask[check],
+                                                   _fan_structure(tri, n, terms), terms)
+    return _pairs_of(tri, n, terms, region, ask[~sure], ask[~star])
+
+
+def _pairs_of(tri: np.ndarray, n: int, terms: dict, region: dict, loose: np.ndarray,
+              open_fans: np.ndarray) -> np.ndarray:
+    """:func:`_fan_pairs` of the vertices ``loose`` ``(a,)`` (sorted; certificate not
+    holding) and ``open_fans`` (their fans not stars): the edges with both ends loose
+    found through the skin's edge lists, the pairs kept in the ``region``
+    (:func:`_fan_region`) for the last :data:`_FAN_PAIRS` such sets.
+    """
+    key = (loose.tobytes(), open_fans.tobytes())
+    memo = region["pairs"]
+    pairs = memo.pop(key, None)
+    if pairs is None:
+        graph = _fan_edges(tri, n, terms)
+        mark = np.zeros(n, bool)
+        mark[loose] = True
+        indptr, nbr = _csr_rows(graph["start"], graph["nbr"], loose)
+        src = np.repeat(loose, np.diff(indptr))
+        both = mark[nbr] & (src < nbr)
+        e = np.stack([src[both], nbr[both]], axis=1)
+        pairs = _fan_pairs(tri, _fan_incidence(tri, n, terms), open_fans, e)
+    memo[key] = pairs
+    while len(memo) > _FAN_PAIRS:
+        memo.pop(next(iter(memo)))
+    return pairs
+
+
+def _scale_back(d: np.ndarray, p: np.ndarray, tri: np.ndarray, hit: np.ndarray
+                ) -> np.ndarray:
+    r"""``(k,)`` in ``[0, 1)``: for each pair ``hit`` ``(k, 2)`` of triangles ``tri`` that
+    crosses on ``p`` and not on ``d`` (``(n, 3)``), a factor :math:`\lambda` at which it
+    is apart on :math:`d + \lambda (p - d)` (its own corners scaled, the others'
+    ignored), within :math:`2^{-8}` of where it first crosses (bisection from
+    :math:`\lambda = 0`, apart, and 1, crossing).
+    """
+    k = len(hit)
+    key = np.repeat(np.arange(k, dtype=np.int64), 6) * len(p) + tri[hit].reshape(-1)
+    ids, local = np.unique(key, return_inverse=True)
+    rows, verts = ids // len(p), ids % len(p)
+    lo, hi = np.zeros(k), np.ones(k)
+    pairs = np.arange(2 * k).reshape(k, 2)
+    for _ in range(8):
+        mid = 0.5 * (lo + hi)
+        pts = d[verts] + mid[rows, None] * (p[verts] - d[verts])
+        cross = _pairs_cross(pts, local.reshape(2 * k, 3), pairs)
+        lo, hi = np.where(cross, lo, mid), np.where(cross, mid, hi)
+    return lo
