@@ -28,8 +28,9 @@ def foldguard_at(ref: str, name: str = "foldguard_baseline"):
     """The fold guard module (or package) of revision ``ref``, imported as
     ``wrinkle_vis.core.<name>``."""
     tmp = Path(tempfile.mkdtemp())
+    core = _git("ls-tree", "--name-only", f"{ref}:wrinkle_vis/core/").split()
     files = _git("ls-tree", "--name-only", f"{ref}:{_PATH}/").split() \
-        if _git("cat-file", "-t", f"{ref}:{_PATH}").strip() == "tree" else []
+        if "foldguard" in core else []
     if files:  # a package: its modules in a folder named after it
         folder = tmp / name
         folder.mkdir()
