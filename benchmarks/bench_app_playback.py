@@ -3,7 +3,8 @@ or Xvfb).
 
 Run:  xvfb-run -a .venv/bin/python benchmarks/bench_app_playback.py [--triangles 4500]
       [--runs 5] [--seconds 3] [--expression surprise] [--modes off,on]
-      [--skin-model geometric,physical] [--track ../shared/tracks/openface_test.csv]
+      [--skin-model geometric,physical] [--fold-guard on,off]
+      [--track ../shared/tracks/openface_test.csv]
 
 A main window on the built-in face (three views, 1500x800, software rendering under Xvfb)
 plays the expression's timeline with the real Play button, in Qt's event loop, for
@@ -28,6 +29,9 @@ simulation keeps up with the clock; what it falls short by is the lag a tick dro
 its cap of steps; printed as "dropped", ``PhysicalPlayback.dropped_s``), the lag still
 waiting at the end (less than a step) and the time Play took to start. The targets on the
 physical skin are 20 frames a second and a real time of 0.95.
+
+``--fold-guard on,off``: each mode played with the face's fold guard on (the default) and
+off, in the same window and run (the guard's share of a frame the user meets).
 
 ``--track PATH``: after the expression, in the same window and run, import the recorded
 track with File > Import performance... (the menu's action, the file dialog answered with
@@ -178,6 +182,9 @@ def main() -> int:
                         help="refinement modes to play, comma-separated (off, on)")
     parser.add_argument("--skin-model", default="geometric",
                         help="skin models to play, comma-separated (geometric, physical)")
+    parser.add_argument("--fold-guard", default="on",
+                        help="the fold guard's settings to play, comma-separated (on, off): "
+                             "the face's fold_guard, as the command line's --fold-guard")
     parser.add_argument("--track", default=None,
                         help="also import this recorded track (File > Import performance) "
                              "and play it, unrefined, on the geometric skin")
@@ -197,7 +204,13 @@ def main() -> int:
         if window.session.face.skin_model != skin:
             parser.error(f"unknown skin model {skin!r}; choose geometric or physical")
         for mode in args.modes.split(","):
-            met &= _play_mode(app, window, clock, args, skin, mode)
+            for guard in args.fold_guard.split(","):
+                if guard not in ("on", "off"):
+                    parser.error(f"unknown fold guard setting {guard!r}; choose on or off")
+                window.session.face.fold_guard = guard == "on"
+                met &= _play_mode(app, window, clock, args, skin, mode,
+                                  label=f"{skin} skin, fold guard {guard}")
+            window.session.face.fold_guard = True
     if args.track:
         met &= _play_track(app, window, clock, args)
     window.session.dirty = False
