@@ -301,3 +301,17 @@ def test_the_heights_bound_the_distance_to_the_triangle_from_below(seed, flat, s
     full = foldguard._heights(corners, c, np.full(200, np.inf))
     assert np.all(full <= np.minimum(sampled, nearest) + slack)
     assert np.allclose(full, nearest, rtol=1e-9, atol=slack)
+
+
+def test_a_refined_skin_met_again_builds_no_rest_gaps(wv_face):
+    """A timeline's plateau (the app's Play): the peak of surprise's timeline refines to the
+    same split set frame after frame, so one refined skin is guarded again and again. Its
+    rest gaps cost seconds a time (4 s on the paper face, a hitch in the playback) and are
+    never built; the frames are those of the search, as on a skin met once."""
+    face = wv_face.with_skin_model("geometric")
+    timeline = face.expressions["surprise"]
+    states = [face.evaluate(timeline.at(t, 1.0), refine=True) for t in (1.0, 1.1)]
+    assert states[0].face is states[1].face  # one refined skin, guarded twice
+    terms = states[1].face._rest.pull_terms
+    assert terms["refined"] and terms["gap_frames"] >= 2
+    assert "gaps" not in terms

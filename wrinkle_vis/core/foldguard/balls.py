@@ -653,11 +653,15 @@ def _gap_bounds(rest: np.ndarray, deformed: np.ndarray, W: np.ndarray, tri: np.n
     ``skip``: the least cut ``level`` ``(k,)`` with :math:`c_l - U - |u_x| \ge \sigma`,
     ``delta`` :math:`\delta_{x,l}` there (``inf`` where no cut is far enough or a cut has
     more corners than kept), ``sigma`` ``(k,)``, ``tau`` and the rest ``gaps``; None on a
-    skin's first frame or with no vertex to look at.
+    skin's first frame, on a refined frame's skin (``terms["refined"]``) or with no vertex
+    to look at. A refined skin is met again only while its split set stays (a timeline's
+    plateau), and its gaps cost seconds (the paper face's refined peak surprise: 4 s) for
+    balls that distances clear few of (``docs/model.md``, "No certificate per hierarchy
+    row").
     """
     terms["gap_frames"] = seen = terms.get("gap_frames", 0) + 1
     ids = np.flatnonzero(W if skip is None else (W != 0) & ~skip)
-    if seen < 2 or not len(ids):
+    if seen < 2 or not len(ids) or terms.get("refined", False):
         return None
     gaps = _rest_gaps(rest, tri, ids, terms)
     u = deformed - rest

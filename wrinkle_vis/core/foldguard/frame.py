@@ -250,6 +250,7 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
         surface = skin.skin  # (its edges found only where a pull is limited, when the
         terms = skin._rest.pull_terms = pull_terms(  # surface has not found them already)
             surface.points, surface.triangles, vars(surface).get("edges"))
+        terms["refined"] = skin is not face  # (no rest gaps on a refined skin: _gap_bounds)
     g = guard_frame(state.rest_points, state.deformed_points, state.points, state.W,
                     state.triangles, radii, guard, terms=terms,
                     deformed_radii=True, certified=cert)
