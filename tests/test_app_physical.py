@@ -222,6 +222,27 @@ def test_play_on_the_physical_skin_follows_the_wall_clock(clocked):
     np.testing.assert_allclose(skin_mesh(w).point_data["W"], state.W, rtol=0, atol=1e-9)
 
 
+def test_play_refined_guards_the_refined_skin_as_simulate_does(clocked):
+    """Play on the physical skin with refinement on: the frame shown is the simulation's
+    state refined and then guarded on its refined skin (``face.expression_states`` and
+    ``simulate`` with ``refine``), not the coarse skin's guarded state refined, which the
+    guard never saw: pucker at 1 s, where the guard acts on the refined skin."""
+    w = clocked
+    _physical(w)
+    w.expression_box.setCurrentText("pucker")
+    w.refine_box.setChecked(True)
+    w.time_slider.setValue(0)
+    _play(w, 1.0, ticks=30)
+    s = w.session
+    state = s.state()
+    expected = next(s.face.expression_states(s.current_expression(), [s.physics.time],
+                                             refine=True))
+    assert np.count_nonzero(expected.fold_guard) > 0  # the refined skin's guard acts
+    assert len(state.points) == len(expected.points) > len(s.face.skin.points)
+    np.testing.assert_allclose(state.points, expected.points, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(state.fold_guard, expected.fold_guard)
+
+
 def test_play_follows_the_wall_clock_from_when_the_simulation_is_ready(clocked):
     """Play on the physical skin, ticked at 45 ms (a frame's time at paper size) across the
     end of the timeline: the simulated seconds (the steps taken, counted) are the

@@ -118,11 +118,13 @@ class PhysicalPlayback:
         """The simulated time in seconds (None without a simulation)."""
         return None if self.simulation is None else self.simulation.time
 
-    def state(self) -> FaceState:
-        """The simulation's current :class:`~wrinkle_vis.core.face.FaceState`."""
+    def state(self, guard: bool = True) -> FaceState:
+        """The simulation's current :class:`~wrinkle_vis.core.face.FaceState`, through the
+        face's fold guard unless ``guard`` is False (a refined frame is guarded on its
+        refined skin, after the refinement)."""
         if self.simulation is None:
             raise RuntimeError("no simulation: show the still frame (face.evaluate)")
-        return self.simulation.state()
+        return self.simulation.state(guard)
 
     # ------------------------------------------------------------------ control
     def play(self, face: FaceModel, t: float, now: float) -> None:
