@@ -121,7 +121,8 @@ class PhysicalPlayback:
     def state(self, guard: bool = True) -> FaceState:
         """The simulation's current :class:`~wrinkle_vis.core.face.FaceState`, through the
         face's fold guard unless ``guard`` is False (a refined frame is guarded on its
-        refined skin, after the refinement)."""
+        refined skin, after the refinement).
+        """
         if self.simulation is None:
             raise RuntimeError("no simulation: show the still frame (face.evaluate)")
         return self.simulation.state(guard)
