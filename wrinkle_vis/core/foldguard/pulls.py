@@ -206,7 +206,7 @@ def _edge_structure(edges: np.ndarray, n: int) -> dict:
     the edge of each stored entry, and ``slots`` ``(2, e)``, the two entries of each edge.
     Row v holds the edges ending at v (columns below v, in the order of a stable sort of the
     second ends) and then those starting there (columns above v, already in order): one
-    sort of ``e`` keys.
+    counting sort of ``e`` keys (:func:`_by_second_end`).
     """
     a, b = edges[:, 0], edges[:, 1]
     m = len(a)
@@ -214,7 +214,7 @@ def _edge_structure(edges: np.ndarray, n: int) -> dict:
     into, out_ = np.bincount(b, minlength=n), np.bincount(a, minlength=n)
     indptr = np.concatenate([[0], np.cumsum(into + out_), [2 * m + n]])
     ids = np.arange(m)
-    by_b = np.argsort(b, kind="stable")  # ends at v: grouped by v, then by first end
+    by_b = _by_second_end(a, b, out_, n)  # ends at v: grouped by v, then by first end
     first_in = np.cumsum(into) - into
     rev = np.empty(m, dtype=np.intp)
     rev[by_b] = indptr[b[by_b]] + ids - first_in[b[by_b]]
@@ -225,6 +225,49 @@ def _edge_structure(edges: np.ndarray, n: int) -> dict:
     slot[rev], slot[fwd] = ids, ids
     return {"indices": indices, "indptr": indptr.astype(index), "slot": slot,
             "slots": np.stack([fwd, rev]).astype(index)}
+
+
+def _by_second_end(a: np.ndarray, b: np.ndarray, out_: np.ndarray, n: int) -> np.ndarray:
+    """``(e,)``: the edges ``a``, ``b`` ``(e,)`` (sorted by first end, then second) ordered
+    by second end, stably: ``np.argsort(b, kind="stable")``, found as the transpose of the
+    CSR matrix whose row ``v`` holds the edges starting at ``v`` (``out_`` ``(n,)`` of them;
+    their ids as values), a counting sort that keeps each column's entries in row order.
+    """
+    indptr = np.concatenate([[0], np.cumsum(out_)])
+    ids = np.arange(len(a))
+    return sp.csr_matrix((ids, b, indptr), shape=(n, n)).tocsc().data.astype(np.intp,
+                                                                              copy=False)
+
+
+def _ranges(indptr: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """``(p,)``: the positions ``indptr[v]`` to ``indptr[v + 1]`` of every ``v`` in ``rows``
+    ``(k,)``, one row's after another (the entries of those rows of a CSR structure)."""
+    lo, hi = indptr[rows].astype(np.intp), indptr[rows + 1].astype(np.intp)
+    count = hi - lo
+    ends = np.cumsum(count)
+    return np.arange(int(ends[-1]) if len(ends) else 0) + np.repeat(lo - (ends - count), count)
+
+
+def _distinct(ids: np.ndarray, size: int) -> np.ndarray:
+    """``(q,)``: the distinct values of ``ids`` ``(p,)`` (in ``[0, size)``) ascending, as
+    ``np.flatnonzero`` of a mark over ``size`` gives them: by that mark (a memset and a scan
+    of bytes) where ``ids`` are many, else by sorting the few."""
+    if 16 * len(ids) < size:
+        return np.unique(ids).astype(np.intp, copy=False)
+    mark = np.zeros(size, bool)
+    mark[ids] = True
+    return np.flatnonzero(mark)
+
+
+def _incidence(corners: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(n + 1,)`` and ``(3 k,)``: the triangles ``corners`` ``(3, k)`` around each of the
+    ``n`` vertices, as CSR rows (``indptr``, then the triangles' positions in ``corners``):
+    the transpose of the ``(k, n)`` matrix of their corners (one counting sort)."""
+    k = corners.shape[1]
+    cols = np.ascontiguousarray(corners.T).ravel()
+    inc = sp.csr_matrix((np.repeat(np.arange(k), 3), cols, np.arange(0, 3 * k + 1, 3)),
+                        shape=(k, n)).tocsc()
+    return inc.indptr, inc.data
 
 
 def _weights(graph: dict, j: np.ndarray, lift_of: np.ndarray) -> np.ndarray:
@@ -239,21 +282,16 @@ def _weights(graph: dict, j: np.ndarray, lift_of: np.ndarray) -> np.ndarray:
 def _reweigh(graph: dict, changed: np.ndarray, lift_of: np.ndarray) -> None:
     """Update ``graph``'s weights in place on the edges with an end in ``changed`` ``(k,)``
     (vertices whose pulls' lengths ``lift_of`` ``(n,)`` just changed), found through the
-    graph's rows (the work goes with the changed vertices, not with the skin).
+    graph's rows (the work goes with the changed vertices, not with the skin: each edge
+    once, ascending, :func:`_distinct`).
     """
-    indptr = graph["indptr"]
-    lo, hi = indptr[changed].astype(np.intp), indptr[changed + 1].astype(np.intp)
-    count = hi - lo
-    ends = np.cumsum(count)
-    at = np.arange(int(ends[-1]) if len(ends) else 0) + np.repeat(lo - (ends - count), count)
-    mark = np.zeros(len(graph["w"]), bool)  # each edge once, ascending (a memset and a
-    mark[graph["slot"][at]] = True  # scan of bytes: cheaper than sorting the region's)
-    j = np.flatnonzero(mark)
+    at = _ranges(graph["indptr"], changed)
+    j = _distinct(np.take(graph["slot"], at), len(graph["w"]))
     w = _weights(graph, j, lift_of)
     graph["w"][j] = w
     data = graph["mat"].data
-    data[graph["slots"][0, j]] = w
-    data[graph["slots"][1, j]] = w
+    data[np.take(graph["slots"][0], j)] = w
+    data[np.take(graph["slots"][1], j)] = w
 
 
 def _limits(s_star: np.ndarray, corners: np.ndarray, graph: dict, top: float) -> np.ndarray:
@@ -374,6 +412,27 @@ def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
         return f
     b, c = _quadratic(pull_t, corners, Nt, A1, A2)
     low = _lowest_sigma(b, c, top) if start is None else a0 - 1.0 + _lowest_sigma(b, c, top)
+    return _rounds(f, pull_t, size, terms, corners, (Nt, A1, A2, a0), b, c, low,
+                   (min_area, knee, iterations, reach))
+
+
+def _rounds(f: np.ndarray, pull_t: np.ndarray, size: np.ndarray, terms: dict,
+            corners: np.ndarray, rows_terms: tuple, b: np.ndarray, c: np.ndarray,
+            low: np.ndarray, knobs: tuple) -> np.ndarray:
+    r""":func:`skin_scale`'s steps on the pulled triangles ``corners`` ``(3, k)`` (their
+    ``rows_terms``: ``N``, ``A1``, ``A2`` ``(3, k)`` and :math:`\sigma_t(0)` ``(k,)``; their
+    :math:`b`, :math:`c` and least signed areas ``low`` ``(k,)`` of the pull ``pull_t``
+    ``(3, n)``, lengths ``size`` ``(n,)``): the factors ``f`` ``(n,)``, scaled in place and
+    returned. ``knobs``: ``min_area``, ``knee``, ``iterations``, ``reach``.
+
+    What a step changes is found through the changed vertices: the scaled pull
+    :math:`f p` and its lengths :math:`f |p|` are kept (each vertex's product as it was
+    computed whole), and the triangles around a changed vertex through their incidence
+    (:func:`_incidence`, built with the graph), the same values bit for bit.
+    """
+    min_area, knee, iterations, reach = knobs
+    top = 1.0 / knee
+    a0 = rows_terms[3]
     graph = None  # the edges' weights, built only when a triangle is bad
     for _ in range(iterations):
         bad = np.flatnonzero(low < min_area)
@@ -381,6 +440,7 @@ def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
             break
         if graph is None:
             graph = _edge_graph(size, terms, reach)
+            scaled, lift, around = pull_t.copy(), size.copy(), _incidence(corners, len(f))
         s_star = _first_root(np.maximum(a0[bad] - min_area, 1e-12), b[bad], c[bad])
         limit = _limits(s_star, corners[:, bad].T, graph, top)
         near = np.flatnonzero(limit < top)
@@ -389,8 +449,11 @@ def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
             break
         f[near] *= step
         changed = near[step != 1.0]
-        _update(b, c, low, pull_t, f, changed, corners, (Nt, A1, A2, a0), top)
-        _reweigh(graph, changed, f * size)
+        moved = np.take(f, changed)
+        scaled[:, changed] = np.take(pull_t, changed, axis=1) * moved
+        lift[changed] = moved * np.take(size, changed)
+        _update(b, c, low, scaled, changed, corners, rows_terms, top, around)
+        _reweigh(graph, changed, lift)
     return f
 
 
@@ -459,22 +522,23 @@ def _cold_pass(terms: dict, pull_t: np.ndarray, size: np.ndarray, min_area: floa
     return not bool((_lowest_sigma(b, c, top) < min_area).any())
 
 
-def _update(b: np.ndarray, c: np.ndarray, low: np.ndarray, pull_t: np.ndarray, f: np.ndarray,
-            changed: np.ndarray, corners: np.ndarray, rows_terms: tuple, top: float) -> None:
+def _update(b: np.ndarray, c: np.ndarray, low: np.ndarray, scaled: np.ndarray,
+            changed: np.ndarray, corners: np.ndarray, rows_terms: tuple, top: float,
+            around: tuple[np.ndarray, np.ndarray]) -> None:
     r"""Recompute in place :math:`b`, :math:`c` and the least signed area over the clamp's
     range, ``low`` (``(k,)`` each), of the triangles ``corners`` ``(3, k)`` with a corner
-    in ``changed`` (vertices whose factor in ``f`` ``(n,)`` just changed), for the pull
-    ``pull_t`` ``(3, n)`` times ``f``; ``rows_terms``: their ``N``, ``A1``, ``A2`` ``(3, k)``
-    and :math:`\sigma_t(0)` ``(k,)``. The others' terms are the same as before, bit for bit.
+    in ``changed`` (vertices whose factor just changed; the triangles around them by
+    ``around``, :func:`_incidence` of ``corners``), for the scaled pull ``scaled``
+    ``(3, n)`` (the pull times the factors); ``rows_terms``: their ``N``, ``A1``, ``A2``
+    ``(3, k)`` and :math:`\sigma_t(0)` ``(k,)``. The others' terms are the same as before,
+    bit for bit.
     """
-    mark = np.zeros(len(f), bool)
-    mark[changed] = True
-    c0, c1, c2 = corners
-    redo = np.flatnonzero(mark[c0] | mark[c1] | mark[c2])
-    Nt, A1, A2, a0 = rows_terms
-    b[redo], c[redo] = _quadratic(pull_t, corners[:, redo], Nt[:, redo], A1[:, redo],
-                                  A2[:, redo], f)
-    low[redo] = a0[redo] - 1.0 + _lowest_sigma(b[redo], c[redo], top)
+    indptr, tris = around
+    redo = _distinct(np.take(tris, _ranges(indptr, changed)), len(b))
+    Nt, A1, A2, a0 = (np.take(t, redo, axis=-1) for t in rows_terms)
+    rb, rc = _quadratic(scaled, np.take(corners, redo, axis=1), Nt, A1, A2)
+    b[redo], c[redo] = rb, rc
+    low[redo] = a0 - 1.0 + _lowest_sigma(rb, rc, top)
 
 
 def _first_root(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
