@@ -241,7 +241,8 @@ def _by_second_end(a: np.ndarray, b: np.ndarray, out_: np.ndarray, n: int) -> np
 
 def _ranges(indptr: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """``(p,)``: the positions ``indptr[v]`` to ``indptr[v + 1]`` of every ``v`` in ``rows``
-    ``(k,)``, one row's after another (the entries of those rows of a CSR structure)."""
+    ``(k,)``, one row's after another (the entries of those rows of a CSR structure).
+    """
     lo, hi = indptr[rows].astype(np.intp), indptr[rows + 1].astype(np.intp)
     count = hi - lo
     ends = np.cumsum(count)
@@ -251,7 +252,8 @@ def _ranges(indptr: np.ndarray, rows: np.ndarray) -> np.ndarray:
 def _distinct(ids: np.ndarray, size: int) -> np.ndarray:
     """``(q,)``: the distinct values of ``ids`` ``(p,)`` (in ``[0, size)``) ascending, as
     ``np.flatnonzero`` of a mark over ``size`` gives them: by that mark (a memset and a scan
-    of bytes) where ``ids`` are many, else by sorting the few."""
+    of bytes) where ``ids`` are many, else by sorting the few.
+    """
     if 16 * len(ids) < size:
         return np.unique(ids).astype(np.intp, copy=False)
     mark = np.zeros(size, bool)
@@ -262,7 +264,8 @@ def _distinct(ids: np.ndarray, size: int) -> np.ndarray:
 def _incidence(corners: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     """``(n + 1,)`` and ``(3 k,)``: the triangles ``corners`` ``(3, k)`` around each of the
     ``n`` vertices, as CSR rows (``indptr``, then the triangles' positions in ``corners``):
-    the transpose of the ``(k, n)`` matrix of their corners (one counting sort)."""
+    the transpose of the ``(k, n)`` matrix of their corners (one counting sort).
+    """
     k = corners.shape[1]
     cols = np.ascontiguousarray(corners.T).ravel()
     inc = sp.csr_matrix((np.repeat(np.arange(k), 3), cols, np.arange(0, 3 * k + 1, 3)),
@@ -428,7 +431,8 @@ def _rounds(f: np.ndarray, pull_t: np.ndarray, size: np.ndarray, terms: dict,
     What a step changes is found through the changed vertices: the scaled pull
     :math:`f p` and its lengths :math:`f |p|` are kept (each vertex's product as it was
     computed whole), and the triangles around a changed vertex through their incidence
-    (:func:`_incidence`, built with the graph), the same values bit for bit.
+    (:func:`_incidence`, built with the graph), their terms taken together as rows
+    (:func:`_packed`): the same values bit for bit.
     """
     min_area, knee, iterations, reach = knobs
     top = 1.0 / knee
@@ -441,6 +445,7 @@ def _rounds(f: np.ndarray, pull_t: np.ndarray, size: np.ndarray, terms: dict,
         if graph is None:
             graph = _edge_graph(size, terms, reach)
             scaled, lift, around = pull_t.copy(), size.copy(), _incidence(corners, len(f))
+            packed = _packed(corners, rows_terms)
         s_star = _first_root(np.maximum(a0[bad] - min_area, 1e-12), b[bad], c[bad])
         limit = _limits(s_star, corners[:, bad].T, graph, top)
         near = np.flatnonzero(limit < top)
@@ -452,7 +457,7 @@ def _rounds(f: np.ndarray, pull_t: np.ndarray, size: np.ndarray, terms: dict,
         moved = np.take(f, changed)
         scaled[:, changed] = np.take(pull_t, changed, axis=1) * moved
         lift[changed] = moved * np.take(size, changed)
-        _update(b, c, low, scaled, changed, corners, rows_terms, top, around)
+        _update(b, c, low, scaled, changed, packed, top, around)
         _reweigh(graph, changed, lift)
     return f
 
@@ -522,23 +527,33 @@ def _cold_pass(terms: dict, pull_t: np.ndarray, size: np.ndarray, min_area: floa
     return not bool((_lowest_sigma(b, c, top) < min_area).any())
 
 
+def _packed(corners: np.ndarray, rows_terms: tuple) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(k, 3)`` and ``(k, 10)``: the triangles ``corners`` ``(3, k)`` and their
+    ``rows_terms`` (``N``, ``A1``, ``A2`` ``(3, k)``, :math:`\sigma_t(0)` ``(k,)``) as rows,
+    C-ordered: one take of rows gathers all a triangle's terms (:func:`_update`).
+    """
+    Nt, A1, A2, a0 = rows_terms
+    return (np.ascontiguousarray(corners.T),
+            np.ascontiguousarray(np.vstack([Nt, A1, A2, a0[None]]).T))
+
+
 def _update(b: np.ndarray, c: np.ndarray, low: np.ndarray, scaled: np.ndarray,
-            changed: np.ndarray, corners: np.ndarray, rows_terms: tuple, top: float,
+            changed: np.ndarray, packed: tuple[np.ndarray, np.ndarray], top: float,
             around: tuple[np.ndarray, np.ndarray]) -> None:
     r"""Recompute in place :math:`b`, :math:`c` and the least signed area over the clamp's
-    range, ``low`` (``(k,)`` each), of the triangles ``corners`` ``(3, k)`` with a corner
-    in ``changed`` (vertices whose factor just changed; the triangles around them by
-    ``around``, :func:`_incidence` of ``corners``), for the scaled pull ``scaled``
-    ``(3, n)`` (the pull times the factors); ``rows_terms``: their ``N``, ``A1``, ``A2``
-    ``(3, k)`` and :math:`\sigma_t(0)` ``(k,)``. The others' terms are the same as before,
-    bit for bit.
+    range, ``low`` (``(k,)`` each), of the triangles with a corner in ``changed`` (vertices
+    whose factor just changed; the triangles around them by ``around``, :func:`_incidence`),
+    for the scaled pull ``scaled`` ``(3, n)`` (the pull times the factors); ``packed``: the
+    triangles' corners ``(k, 3)`` and terms ``(k, 10)`` as rows (:func:`_packed`). The
+    others' terms are the same as before, bit for bit.
     """
     indptr, tris = around
     redo = _distinct(np.take(tris, _ranges(indptr, changed)), len(b))
-    Nt, A1, A2, a0 = (np.take(t, redo, axis=-1) for t in rows_terms)
-    rb, rc = _quadratic(scaled, np.take(corners, redo, axis=1), Nt, A1, A2)
+    rows = np.take(packed[1], redo, axis=0).T  # (10, r): N, A1, A2, sigma(0)
+    rb, rc = _quadratic(scaled, np.take(packed[0], redo, axis=0).T, rows[0:3], rows[3:6],
+                        rows[6:9])
     b[redo], c[redo] = rb, rc
-    low[redo] = a0 - 1.0 + _lowest_sigma(rb, rc, top)
+    low[redo] = rows[9] - 1.0 + _lowest_sigma(rb, rc, top)
 
 
 def _first_root(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
