@@ -250,27 +250,13 @@ def _ranges(indptr: np.ndarray, rows: np.ndarray) -> np.ndarray:
 
 
 def _distinct(ids: np.ndarray, size: int) -> np.ndarray:
-    """``(q,)``: the distinct values of ``ids`` ``(p,)`` (in ``[0, size)``) ascending, as
-    ``np.flatnonzero`` of a mark over ``size`` gives them: by that mark (a memset and a scan
-    of bytes) where ``ids`` are many, else by sorting the few.
+    """``(q,)``: the distinct values of ``ids`` ``(p,)`` (in ``[0, size)``) ascending, by a
+    mark over ``size`` (a memset and a scan of bytes: several times faster than
+    ``np.unique``'s hashing or sorting, even for few ``ids``).
     """
-    if 16 * len(ids) < size:
-        return np.unique(ids).astype(np.intp, copy=False)
     mark = np.zeros(size, bool)
     mark[ids] = True
     return np.flatnonzero(mark)
-
-
-def _incidence(corners: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(n + 1,)`` and ``(3 k,)``: the triangles ``corners`` ``(3, k)`` around each of the
-    ``n`` vertices, as CSR rows (``indptr``, then the triangles' positions in ``corners``):
-    the transpose of the ``(k, n)`` matrix of their corners (one counting sort).
-    """
-    k = corners.shape[1]
-    cols = np.ascontiguousarray(corners.T).ravel()
-    inc = sp.csr_matrix((np.repeat(np.arange(k), 3), cols, np.arange(0, 3 * k + 1, 3)),
-                        shape=(k, n)).tocsc()
-    return inc.indptr, inc.data
 
 
 def _weights(graph: dict, j: np.ndarray, lift_of: np.ndarray) -> np.ndarray:
@@ -430,9 +416,9 @@ def _rounds(f: np.ndarray, pull_t: np.ndarray, size: np.ndarray, terms: dict,
 
     What a step changes is found through the changed vertices: the scaled pull
     :math:`f p` and its lengths :math:`f |p|` are kept (each vertex's product as it was
-    computed whole), and the triangles around a changed vertex through their incidence
-    (:func:`_incidence`, built with the graph), their terms taken together as rows
-    (:func:`_packed`): the same values bit for bit.
+    computed whole), the changed triangles' terms are taken together as rows once many
+    change (:func:`_redo_rows`) and the changed edges through the graph's rows: the same
+    values bit for bit.
     """
     min_area, knee, iterations, reach = knobs
     top = 1.0 / knee
@@ -444,8 +430,7 @@ def _rounds(f: np.ndarray, pull_t: np.ndarray, size: np.ndarray, terms: dict,
             break
         if graph is None:
             graph = _edge_graph(size, terms, reach)
-            scaled, lift, around = pull_t.copy(), size.copy(), _incidence(corners, len(f))
-            packed = _packed(corners, rows_terms)
+            scaled, lift, packed = pull_t.copy(), size.copy(), {}
         s_star = _first_root(np.maximum(a0[bad] - min_area, 1e-12), b[bad], c[bad])
         limit = _limits(s_star, corners[:, bad].T, graph, top)
         near = np.flatnonzero(limit < top)
@@ -457,7 +442,7 @@ def _rounds(f: np.ndarray, pull_t: np.ndarray, size: np.ndarray, terms: dict,
         moved = np.take(f, changed)
         scaled[:, changed] = np.take(pull_t, changed, axis=1) * moved
         lift[changed] = moved * np.take(size, changed)
-        _update(b, c, low, scaled, changed, packed, top, around)
+        _update(b, c, low, scaled, changed, corners, rows_terms, top, packed)
         _reweigh(graph, changed, lift)
     return f
 
@@ -537,23 +522,40 @@ def _packed(corners: np.ndarray, rows_terms: tuple) -> tuple[np.ndarray, np.ndar
             np.ascontiguousarray(np.vstack([Nt, A1, A2, a0[None]]).T))
 
 
-def _update(b: np.ndarray, c: np.ndarray, low: np.ndarray, scaled: np.ndarray,
-            changed: np.ndarray, packed: tuple[np.ndarray, np.ndarray], top: float,
-            around: tuple[np.ndarray, np.ndarray]) -> None:
-    r"""Recompute in place :math:`b`, :math:`c` and the least signed area over the clamp's
-    range, ``low`` (``(k,)`` each), of the triangles with a corner in ``changed`` (vertices
-    whose factor just changed; the triangles around them by ``around``, :func:`_incidence`),
-    for the scaled pull ``scaled`` ``(3, n)`` (the pull times the factors); ``packed``: the
-    triangles' corners ``(k, 3)`` and terms ``(k, 10)`` as rows (:func:`_packed`). The
-    others' terms are the same as before, bit for bit.
+def _redo_rows(redo: np.ndarray, corners: np.ndarray, rows_terms: tuple, cache: dict
+               ) -> tuple[np.ndarray, ...]:
+    r"""``(3, r)`` four times, then ``(r,)``: the corners, ``N``, ``A1``, ``A2`` and
+    :math:`\sigma_t(0)` of the triangles ``redo`` ``(r,)`` of ``corners`` ``(3, k)`` (their
+    ``rows_terms``, ``(3, k)`` thrice and ``(k,)``), indexed column by column, or, once a
+    round asks for more than an eighth of them, from rows packed then and kept in ``cache``
+    (:func:`_packed`: one take of rows; the same values).
     """
-    indptr, tris = around
-    redo = _distinct(np.take(tris, _ranges(indptr, changed)), len(b))
-    rows = np.take(packed[1], redo, axis=0).T  # (10, r): N, A1, A2, sigma(0)
-    rb, rc = _quadratic(scaled, np.take(packed[0], redo, axis=0).T, rows[0:3], rows[3:6],
-                        rows[6:9])
-    b[redo], c[redo] = rb, rc
-    low[redo] = rows[9] - 1.0 + _lowest_sigma(rb, rc, top)
+    if "rows" not in cache and 8 * len(redo) > corners.shape[1]:
+        cache["corners"], cache["rows"] = _packed(corners, rows_terms)
+    if "rows" not in cache:  # (indexing: a take of a column-major array copies it first)
+        return (corners[:, redo], *(t[..., redo] for t in rows_terms))
+    rows = np.take(cache["rows"], redo, axis=0).T  # (10, r)
+    return np.take(cache["corners"], redo, axis=0).T, rows[0:3], rows[3:6], rows[6:9], rows[9]
+
+
+def _update(b: np.ndarray, c: np.ndarray, low: np.ndarray, scaled: np.ndarray,
+            changed: np.ndarray, corners: np.ndarray, rows_terms: tuple, top: float,
+            cache: dict) -> None:
+    r"""Recompute in place :math:`b`, :math:`c` and the least signed area over the clamp's
+    range, ``low`` (``(k,)`` each), of the triangles ``corners`` ``(3, k)`` with a corner
+    in ``changed`` (vertices whose factor just changed), for the scaled pull ``scaled``
+    ``(3, n)`` (the pull times the factors); ``rows_terms``: their ``N``, ``A1``, ``A2``
+    ``(3, k)`` and :math:`\sigma_t(0)` ``(k,)``, taken by :func:`_redo_rows` (``cache``).
+    The others' terms are the same as before, bit for bit.
+    """
+    mark = np.zeros(scaled.shape[1], bool)
+    mark[changed] = True
+    c0, c1, c2 = corners
+    redo = np.flatnonzero(mark[c0] | mark[c1] | mark[c2])
+    rc, Nt, A1, A2, a0 = _redo_rows(redo, corners, rows_terms, cache)
+    rb, rq = _quadratic(scaled, rc, Nt, A1, A2)
+    b[redo], c[redo] = rb, rq
+    low[redo] = a0 - 1.0 + _lowest_sigma(rb, rq, top)
 
 
 def _first_root(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
