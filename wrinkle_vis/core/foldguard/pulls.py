@@ -424,13 +424,14 @@ def _rounds(f: np.ndarray, pull_t: np.ndarray, size: np.ndarray, terms: dict,
     top = 1.0 / knee
     a0 = rows_terms[3]
     graph = None  # the edges' weights, built only when a triangle is bad
+    packed: dict[str, np.ndarray] = {}  # the terms as rows, once many change (_redo_rows)
     for _ in range(iterations):
         bad = np.flatnonzero(low < min_area)
         if not len(bad):
             break
         if graph is None:
             graph = _edge_graph(size, terms, reach)
-            scaled, lift, packed = pull_t.copy(), size.copy(), {}
+            scaled, lift = pull_t.copy(), size.copy()
         s_star = _first_root(np.maximum(a0[bad] - min_area, 1e-12), b[bad], c[bad])
         limit = _limits(s_star, corners[:, bad].T, graph, top)
         near = np.flatnonzero(limit < top)
