@@ -206,7 +206,7 @@ def _edge_structure(edges: np.ndarray, n: int) -> dict:
     the edge of each stored entry, and ``slots`` ``(2, e)``, the two entries of each edge.
     Row v holds the edges ending at v (columns below v, in the order of a stable sort of the
     second ends) and then those starting there (columns above v, already in order): one
-    sort of ``e`` keys.
+    counting sort of ``e`` keys (:func:`_by_second_end`).
     """
     a, b = edges[:, 0], edges[:, 1]
     m = len(a)
@@ -214,7 +214,7 @@ def _edge_structure(edges: np.ndarray, n: int) -> dict:
     into, out_ = np.bincount(b, minlength=n), np.bincount(a, minlength=n)
     indptr = np.concatenate([[0], np.cumsum(into + out_), [2 * m + n]])
     ids = np.arange(m)
-    by_b = np.argsort(b, kind="stable")  # ends at v: grouped by v, then by first end
+    by_b = _by_second_end(a, b, out_, n)  # ends at v: grouped by v, then by first end
     first_in = np.cumsum(into) - into
     rev = np.empty(m, dtype=np.intp)
     rev[by_b] = indptr[b[by_b]] + ids - first_in[b[by_b]]
@@ -225,6 +225,38 @@ def _edge_structure(edges: np.ndarray, n: int) -> dict:
     slot[rev], slot[fwd] = ids, ids
     return {"indices": indices, "indptr": indptr.astype(index), "slot": slot,
             "slots": np.stack([fwd, rev]).astype(index)}
+
+
+def _by_second_end(a: np.ndarray, b: np.ndarray, out_: np.ndarray, n: int) -> np.ndarray:
+    """``(e,)``: the edges ``a``, ``b`` ``(e,)`` (sorted by first end, then second) ordered
+    by second end, stably: ``np.argsort(b, kind="stable")``, found as the transpose of the
+    CSR matrix whose row ``v`` holds the edges starting at ``v`` (``out_`` ``(n,)`` of them;
+    their ids as values), a counting sort that keeps each column's entries in row order.
+    """
+    indptr = np.concatenate([[0], np.cumsum(out_)])
+    ids = np.arange(len(a))
+    return sp.csr_matrix((ids, b, indptr), shape=(n, n)).tocsc().data.astype(np.intp,
+                                                                              copy=False)
+
+
+def _ranges(indptr: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """``(p,)``: the positions ``indptr[v]`` to ``indptr[v + 1]`` of every ``v`` in ``rows``
+    ``(k,)``, one row's after another (the entries of those rows of a CSR structure).
+    """
+    lo, hi = indptr[rows].astype(np.intp), indptr[rows + 1].astype(np.intp)
+    count = hi - lo
+    ends = np.cumsum(count)
+    return np.arange(int(ends[-1]) if len(ends) else 0) + np.repeat(lo - (ends - count), count)
+
+
+def _distinct(ids: np.ndarray, size: int) -> np.ndarray:
+    """``(q,)``: the distinct values of ``ids`` ``(p,)`` (in ``[0, size)``) ascending, by a
+    mark over ``size`` (a memset and a scan of bytes: several times faster than
+    ``np.unique``'s hashing or sorting, even for few ``ids``).
+    """
+    mark = np.zeros(size, bool)
+    mark[ids] = True
+    return np.flatnonzero(mark)
 
 
 def _weights(graph: dict, j: np.ndarray, lift_of: np.ndarray) -> np.ndarray:
@@ -239,21 +271,16 @@ def _weights(graph: dict, j: np.ndarray, lift_of: np.ndarray) -> np.ndarray:
 def _reweigh(graph: dict, changed: np.ndarray, lift_of: np.ndarray) -> None:
     """Update ``graph``'s weights in place on the edges with an end in ``changed`` ``(k,)``
     (vertices whose pulls' lengths ``lift_of`` ``(n,)`` just changed), found through the
-    graph's rows (the work goes with the changed vertices, not with the skin).
+    graph's rows (the work goes with the changed vertices, not with the skin: each edge
+    once, ascending, :func:`_distinct`).
     """
-    indptr = graph["indptr"]
-    lo, hi = indptr[changed].astype(np.intp), indptr[changed + 1].astype(np.intp)
-    count = hi - lo
-    ends = np.cumsum(count)
-    at = np.arange(int(ends[-1]) if len(ends) else 0) + np.repeat(lo - (ends - count), count)
-    mark = np.zeros(len(graph["w"]), bool)  # each edge once, ascending (a memset and a
-    mark[graph["slot"][at]] = True  # scan of bytes: cheaper than sorting the region's)
-    j = np.flatnonzero(mark)
+    at = _ranges(graph["indptr"], changed)
+    j = _distinct(np.take(graph["slot"], at), len(graph["w"]))
     w = _weights(graph, j, lift_of)
     graph["w"][j] = w
     data = graph["mat"].data
-    data[graph["slots"][0, j]] = w
-    data[graph["slots"][1, j]] = w
+    data[np.take(graph["slots"][0], j)] = w
+    data[np.take(graph["slots"][1], j)] = w
 
 
 def _limits(s_star: np.ndarray, corners: np.ndarray, graph: dict, top: float) -> np.ndarray:
@@ -374,13 +401,37 @@ def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
         return f
     b, c = _quadratic(pull_t, corners, Nt, A1, A2)
     low = _lowest_sigma(b, c, top) if start is None else a0 - 1.0 + _lowest_sigma(b, c, top)
+    return _rounds(f, pull_t, size, terms, corners, (Nt, A1, A2, a0), b, c, low,
+                   (min_area, knee, iterations, reach))
+
+
+def _rounds(f: np.ndarray, pull_t: np.ndarray, size: np.ndarray, terms: dict,
+            corners: np.ndarray, rows_terms: tuple, b: np.ndarray, c: np.ndarray,
+            low: np.ndarray, knobs: tuple) -> np.ndarray:
+    r""":func:`skin_scale`'s steps on the pulled triangles ``corners`` ``(3, k)`` (their
+    ``rows_terms``: ``N``, ``A1``, ``A2`` ``(3, k)`` and :math:`\sigma_t(0)` ``(k,)``; their
+    :math:`b`, :math:`c` and least signed areas ``low`` ``(k,)`` of the pull ``pull_t``
+    ``(3, n)``, lengths ``size`` ``(n,)``): the factors ``f`` ``(n,)``, scaled in place and
+    returned. ``knobs``: ``min_area``, ``knee``, ``iterations``, ``reach``.
+
+    What a step changes is found through the changed vertices: the scaled pull
+    :math:`f p` and its lengths :math:`f |p|` are kept (each vertex's product as it was
+    computed whole), the changed triangles' terms are taken together as rows once many
+    change (:func:`_redo_rows`) and the changed edges through the graph's rows: the same
+    values bit for bit.
+    """
+    min_area, knee, iterations, reach = knobs
+    top = 1.0 / knee
+    a0 = rows_terms[3]
     graph = None  # the edges' weights, built only when a triangle is bad
+    packed: dict[str, np.ndarray] = {}  # the terms as rows, once many change (_redo_rows)
     for _ in range(iterations):
         bad = np.flatnonzero(low < min_area)
         if not len(bad):
             break
         if graph is None:
             graph = _edge_graph(size, terms, reach)
+            scaled, lift = pull_t.copy(), size.copy()
         s_star = _first_root(np.maximum(a0[bad] - min_area, 1e-12), b[bad], c[bad])
         limit = _limits(s_star, corners[:, bad].T, graph, top)
         near = np.flatnonzero(limit < top)
@@ -389,8 +440,11 @@ def skin_scale(rest: np.ndarray, deformed: np.ndarray, triangles: np.ndarray,
             break
         f[near] *= step
         changed = near[step != 1.0]
-        _update(b, c, low, pull_t, f, changed, corners, (Nt, A1, A2, a0), top)
-        _reweigh(graph, changed, f * size)
+        moved = np.take(f, changed)
+        scaled[:, changed] = np.take(pull_t, changed, axis=1) * moved
+        lift[changed] = moved * np.take(size, changed)
+        _update(b, c, low, scaled, changed, corners, rows_terms, top, packed)
+        _reweigh(graph, changed, lift)
     return f
 
 
@@ -459,22 +513,50 @@ def _cold_pass(terms: dict, pull_t: np.ndarray, size: np.ndarray, min_area: floa
     return not bool((_lowest_sigma(b, c, top) < min_area).any())
 
 
-def _update(b: np.ndarray, c: np.ndarray, low: np.ndarray, pull_t: np.ndarray, f: np.ndarray,
-            changed: np.ndarray, corners: np.ndarray, rows_terms: tuple, top: float) -> None:
+def _packed(corners: np.ndarray, rows_terms: tuple) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(k, 3)`` and ``(k, 10)``: the triangles ``corners`` ``(3, k)`` and their
+    ``rows_terms`` (``N``, ``A1``, ``A2`` ``(3, k)``, :math:`\sigma_t(0)` ``(k,)``) as rows,
+    C-ordered: one take of rows gathers all a triangle's terms (:func:`_update`).
+    """
+    Nt, A1, A2, a0 = rows_terms
+    return (np.ascontiguousarray(corners.T),
+            np.ascontiguousarray(np.vstack([Nt, A1, A2, a0[None]]).T))
+
+
+def _redo_rows(redo: np.ndarray, corners: np.ndarray, rows_terms: tuple, cache: dict
+               ) -> tuple[np.ndarray, ...]:
+    r"""``(3, r)`` four times, then ``(r,)``: the corners, ``N``, ``A1``, ``A2`` and
+    :math:`\sigma_t(0)` of the triangles ``redo`` ``(r,)`` of ``corners`` ``(3, k)`` (their
+    ``rows_terms``, ``(3, k)`` thrice and ``(k,)``), indexed column by column, or, once a
+    round asks for more than an eighth of them, from rows packed then and kept in ``cache``
+    (:func:`_packed`: one take of rows; the same values).
+    """
+    if "rows" not in cache and 8 * len(redo) > corners.shape[1]:
+        cache["corners"], cache["rows"] = _packed(corners, rows_terms)
+    if "rows" not in cache:  # (indexing: a take of a column-major array copies it first)
+        return (corners[:, redo], *(t[..., redo] for t in rows_terms))
+    rows = np.take(cache["rows"], redo, axis=0).T  # (10, r)
+    return np.take(cache["corners"], redo, axis=0).T, rows[0:3], rows[3:6], rows[6:9], rows[9]
+
+
+def _update(b: np.ndarray, c: np.ndarray, low: np.ndarray, scaled: np.ndarray,
+            changed: np.ndarray, corners: np.ndarray, rows_terms: tuple, top: float,
+            cache: dict) -> None:
     r"""Recompute in place :math:`b`, :math:`c` and the least signed area over the clamp's
     range, ``low`` (``(k,)`` each), of the triangles ``corners`` ``(3, k)`` with a corner
-    in ``changed`` (vertices whose factor in ``f`` ``(n,)`` just changed), for the pull
-    ``pull_t`` ``(3, n)`` times ``f``; ``rows_terms``: their ``N``, ``A1``, ``A2`` ``(3, k)``
-    and :math:`\sigma_t(0)` ``(k,)``. The others' terms are the same as before, bit for bit.
+    in ``changed`` (vertices whose factor just changed), for the scaled pull ``scaled``
+    ``(3, n)`` (the pull times the factors); ``rows_terms``: their ``N``, ``A1``, ``A2``
+    ``(3, k)`` and :math:`\sigma_t(0)` ``(k,)``, taken by :func:`_redo_rows` (``cache``).
+    The others' terms are the same as before, bit for bit.
     """
-    mark = np.zeros(len(f), bool)
+    mark = np.zeros(scaled.shape[1], bool)
     mark[changed] = True
     c0, c1, c2 = corners
     redo = np.flatnonzero(mark[c0] | mark[c1] | mark[c2])
-    Nt, A1, A2, a0 = rows_terms
-    b[redo], c[redo] = _quadratic(pull_t, corners[:, redo], Nt[:, redo], A1[:, redo],
-                                  A2[:, redo], f)
-    low[redo] = a0[redo] - 1.0 + _lowest_sigma(b[redo], c[redo], top)
+    rc, Nt, A1, A2, a0 = _redo_rows(redo, corners, rows_terms, cache)
+    rb, rq = _quadratic(scaled, rc, Nt, A1, A2)
+    b[redo], c[redo] = rb, rq
+    low[redo] = a0 - 1.0 + _lowest_sigma(rb, rq, top)
 
 
 def _first_root(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
