@@ -350,3 +350,28 @@ def answer(qapp):
     yield answers
     answers.timer.stop()
     assert not answers.answers, f"dialogs never asked: {answers.answers}"
+
+
+def bumpy_sheets(n: int, bump: float, gap: float, shift: float = 0.0):
+    """Two bumpy ``n`` x ``n`` grid sheets of unit spacing, the second ``gap`` above the
+    first (lips, a fold's two sides) and ``shift`` along x and y (its vertices over the
+    first's cells: a triangle then comes nearer a vertex across than any vertex does):
+    their points and triangles (normals along +z)."""
+    i, j = np.meshgrid(np.arange(n, dtype=float), np.arange(n, dtype=float), indexing="ij")
+    z = bump * np.sin(0.7 * i) * np.cos(0.5 * j)
+    one = np.stack([i.ravel(), j.ravel(), z.ravel()], axis=1)
+    v = (np.arange(n - 1)[:, None] * n + np.arange(n - 1)[None, :]).ravel()
+    tri = np.concatenate([np.stack([v, v + n, v + 1], 1), np.stack([v + 1, v + n, v + n + 1], 1)])
+    return np.vstack([one, one + [shift, shift, gap]]), np.vstack([tri, tri + n * n])
+
+
+def smooth_move(rng, rest, amp: float, k: float, w: float):
+    """A random smooth move of the skin ``rest`` ``(n, 3)`` (one sine wave of wave number
+    ``k`` along a random direction, amplitude ``amp`` along another) and a random W
+    ``(n,)`` in ``[-w, w]``, a fifth of it 0: the deformed skin and W."""
+    kv = rng.normal(size=3)
+    kv *= k / np.linalg.norm(kv)
+    u = amp * rng.normal(size=3)[None, :] * np.sin(rest @ kv + rng.uniform(0, 6.3))[:, None]
+    W = rng.uniform(-w, w, len(rest))
+    W[rng.uniform(size=len(rest)) < 0.2] = 0.0
+    return rest + u, W

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import bumpy_sheets, smooth_move
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.spatial import cKDTree
@@ -400,19 +401,6 @@ def test_a_ball_certified_empty_is_one_the_exact_check_would_not_shrink(faces, n
         assert _same_lows(skipped, exact)
 
 
-def _bumpy_sheets(n: int, bump: float, gap: float, shift: float = 0.0):
-    """Two bumpy ``n`` x ``n`` grid sheets of unit spacing, the second ``gap`` above the
-    first (lips, a fold's two sides) and ``shift`` along x and y (its vertices over the
-    first's cells: a triangle then comes nearer a vertex across than any vertex does):
-    their points and triangles (normals along +z)."""
-    i, j = np.meshgrid(np.arange(n, dtype=float), np.arange(n, dtype=float), indexing="ij")
-    z = bump * np.sin(0.7 * i) * np.cos(0.5 * j)
-    one = np.stack([i.ravel(), j.ravel(), z.ravel()], axis=1)
-    v = (np.arange(n - 1)[:, None] * n + np.arange(n - 1)[None, :]).ravel()
-    tri = np.concatenate([np.stack([v, v + n, v + 1], 1), np.stack([v + 1, v + n, v + n + 1], 1)])
-    return np.vstack([one, one + [shift, shift, gap]]), np.vstack([tri, tri + n * n])
-
-
 @settings(max_examples=60, deadline=None)
 @given(bump=st.floats(0.0, 1.0), gap=st.floats(0.2, 1.5), lam0=st.floats(0.0, 0.9),
        k=st.floats(0.5, 2.0), b=st.floats(0.0, 0.1), w=st.floats(0.05, 0.6),
@@ -427,7 +415,7 @@ def test_the_per_vertex_balls_certificate_is_sound_on_random_pulls(bump, gap, la
     vertices alone is caught), and the search skipping them returns the exact one's
     result."""
     rng = np.random.default_rng(seed)
-    rest, tri = _bumpy_sheets(12, bump, gap, shift)
+    rest, tri = bumpy_sheets(12, bump, gap, shift)
     kv = rng.normal(size=3)
     kv *= k / np.linalg.norm(kv)
     amp = rng.normal(size=3)
@@ -469,7 +457,7 @@ def test_the_near_table_bounds_the_near_triangles_from_below(bump, gap, shift, l
     """The certificates' table (_near_table, _table_bounds) never exceeds the bound it
     stands for, min over each vertex's triangles within ``far`` of max_k min_i (h_ki - lam
     m_i), and is -inf where lam > 1 or ``far`` passes the triangles' reach."""
-    rest, tri = _bumpy_sheets(8, bump, gap, shift)
+    rest, tri = bumpy_sheets(8, bump, gap, shift)
     n, reach = len(rest), 6.0
     near = _near_edges(rest, tri, np.arange(n), 0.5 * reach)
     d, h, m, D, owner = near[:5]
@@ -497,13 +485,8 @@ def test_a_ball_clear_of_the_rest_gaps_holds_no_triangle(bump, gap, shift, amp, 
     keeps its radius), and the deformed search told so returns the exact one's result.
     None on a skin's first frame."""
     rng = np.random.default_rng(seed)
-    rest, tri = _bumpy_sheets(10, bump, gap, shift)
-    kv = rng.normal(size=3)
-    kv *= k / np.linalg.norm(kv)
-    u = amp * rng.normal(size=3)[None, :] * np.sin(rest @ kv + rng.uniform(0, 6.3))[:, None]
-    deformed = rest + u
-    W = rng.uniform(-w, w, len(rest))
-    W[rng.uniform(size=len(rest)) < 0.2] = 0.0
+    rest, tri = bumpy_sheets(10, bump, gap, shift)
+    deformed, W = smooth_move(rng, rest, amp, k, w)
     guard = FoldGuard()
     terms = pull_terms(rest, tri)
     assert foldguard._gaps_clear(rest, deformed, W, tri, terms, guard) is None

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import bumpy_sheets, smooth_move
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -29,17 +30,6 @@ def _same_lows(a, b) -> bool:
     if a is None or b is None:
         return a is None and b is None
     return np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
-
-
-def _sheets(n: int, bump: float, gap: float, shift: float):
-    """Two bumpy ``n`` x ``n`` grid sheets of unit spacing, the second ``gap`` above the
-    first and ``shift`` along x and y: points and triangles (normals along +z)."""
-    i, j = np.meshgrid(np.arange(n, dtype=float), np.arange(n, dtype=float), indexing="ij")
-    z = bump * np.sin(0.7 * i) * np.cos(0.5 * j)
-    one = np.stack([i.ravel(), j.ravel(), z.ravel()], axis=1)
-    v = (np.arange(n - 1)[:, None] * n + np.arange(n - 1)[None, :]).ravel()
-    tri = np.concatenate([np.stack([v, v + n, v + 1], 1), np.stack([v + 1, v + n, v + n + 1], 1)])
-    return np.vstack([one, one + [shift, shift, gap]]), np.vstack([tri, tri + n * n])
 
 
 def _with_fins(points: np.ndarray, tri: np.ndarray, at: np.ndarray, lift: np.ndarray):
@@ -89,7 +79,7 @@ def test_a_fins_vertex_inside_a_ball_the_gaps_clear_keeps_the_ball_searched():
     x's ball, which no triangle not incident to x enters (the gaps clear it). The vertices'
     search shrinks the ball on w, so it must be searched: skipping it on the gaps alone
     would keep W."""
-    rest, tri = _sheets(9, 0.0, 50.0, 0.0)
+    rest, tri = bumpy_sheets(9, 0.0, 50.0, 0.0)
     x = 4 * 9 + 4
     rest, tri = _with_fins(rest, tri, np.array([x]), np.array([[0.05, 0.0, 0.4]]))
     guard = FoldGuard()
@@ -131,16 +121,11 @@ def test_a_ball_the_gaps_skip_is_one_the_exact_search_keeps(bump, gap, shift, am
 
 def _check_the_gaps_skip(bump, gap, shift, amp, k, w, fins, seed, stepped):
     rng = np.random.default_rng(seed)
-    rest, tri = _sheets(10, bump, gap, shift)
+    rest, tri = bumpy_sheets(10, bump, gap, shift)
     at = 100 + rng.choice(100, fins, replace=False)  # on the upper sheet, up: often inside
     lift = rng.uniform(-0.1, 0.1, (fins, 3)) + [0, 0, 0.25]  # the ball W > 0 pushes there
     rest, tri = _with_fins(rest, tri, at, lift)
-    kv = rng.normal(size=3)
-    kv *= k / np.linalg.norm(kv)
-    u = amp * rng.normal(size=3)[None, :] * np.sin(rest @ kv + rng.uniform(0, 6.3))[:, None]
-    deformed = rest + u
-    W = rng.uniform(-w, w, len(rest))
-    W[rng.uniform(size=len(rest)) < 0.2] = 0.0
+    deformed, W = smooth_move(rng, rest, amp, k, w)
     W[at] = np.abs(W[at])
     guard = FoldGuard()
     terms = pull_terms(rest, tri)
@@ -167,7 +152,7 @@ def _check_the_gaps_skip(bump, gap, shift, amp, k, w, fins, seed, stepped):
 def test_the_longest_edge_and_local_skin_are_the_gathers_bit_for_bit(seed, scale, unique):
     """``_longest_edge`` and ``_local_skin`` by takes give what fancy indexing gave."""
     rng = np.random.default_rng(seed)
-    rest, tri = _sheets(8, 0.5, 0.7, 0.3)
+    rest, tri = bumpy_sheets(8, 0.5, 0.7, 0.3)
     pts = rest + rng.normal(scale=scale, size=rest.shape)
     terms = pull_terms(rest, tri)
     if unique:
@@ -196,7 +181,7 @@ def test_the_gaps_corner_moves_bound_the_largest_move(seed, scale):
     """``_gap_moves``: the largest |u_w - u_x| over each vertex's first corners, within
     rounding of the rows' norms (an upper bound is all the certificate needs)."""
     rng = np.random.default_rng(seed)
-    rest, tri = _sheets(8, 0.5, 0.7, 0.0)
+    rest, tri = bumpy_sheets(8, 0.5, 0.7, 0.0)
     terms = pull_terms(rest, tri)
     ids = np.arange(len(rest))
     gaps = foldguard._rest_gaps(rest, tri, ids, terms)
@@ -266,7 +251,7 @@ def test_the_hot_triangles_terms_by_takes_are_the_gathers_bit_for_bit(seed, scal
     """``_cold_pass`` takes its hot triangles' rows (column-major gathers before): the
     quadratic's b and c are the same bit for bit."""
     rng = np.random.default_rng(seed)
-    rest, tri = _sheets(8, 0.5, 0.7, 0.3)
+    rest, tri = bumpy_sheets(8, 0.5, 0.7, 0.3)
     terms = pull_terms(rest, tri)
     N, A1, A2 = foldguard._terms_rows(terms)
     pull_t = np.ascontiguousarray(rng.normal(scale=scale, size=rest.shape).T)
