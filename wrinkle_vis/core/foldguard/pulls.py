@@ -23,13 +23,7 @@ def _row_terms(points: np.ndarray, corners: np.ndarray, normals_only: bool = Fal
     :func:`numpy.cross`, in its order; :math:`|N|^2` by ``einsum`` on rows), into arrays
     of the memory ``order`` ``"C"`` or ``"F"`` (the same values).
     """
-    pts = np.ascontiguousarray(np.asarray(points, dtype=float).T)
-    r0 = np.take(pts, corners[0], axis=1)
-    e1 = np.take(pts, corners[1], axis=1)
-    e1 -= r0
-    e2 = np.take(pts, corners[2], axis=1)
-    e2 -= r0
-    del r0
+    e1, e2 = _edge_rows(points, corners)
     t = np.empty(corners.shape[1])  # the products' scratch
     N = _cross_rows(e1, e2, np.empty((3, len(t)), order=order), t)
     rows = np.ascontiguousarray(N.T)  # |N|^2 by einsum on rows, its summation order
@@ -46,6 +40,19 @@ def _row_terms(points: np.ndarray, corners: np.ndarray, normals_only: bool = Fal
     A2 /= nn
     N /= nn
     return N, A1, A2
+
+
+def _edge_rows(points: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(3, k)`` twice: the edges :math:`e_1 = v_1 - v_0`, :math:`e_2 = v_2 - v_0` of the
+    triangles ``corners`` ``(3, k)`` on ``points`` ``(n, 3)``, as rows x, y, z.
+    """
+    pts = np.ascontiguousarray(np.asarray(points, dtype=float).T)
+    r0 = np.take(pts, corners[0], axis=1)
+    e1 = np.take(pts, corners[1], axis=1)
+    e1 -= r0
+    e2 = np.take(pts, corners[2], axis=1)
+    e2 -= r0
+    return e1, e2
 
 
 def _cross_rows(u: np.ndarray, v: np.ndarray, out: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -67,13 +74,7 @@ def _start_terms(Nt: np.ndarray, start: np.ndarray, corners: np.ndarray
     :math:`N_t = N / |N|^2` ``(3, k)`` and the edges :math:`e_1, e_2` of the triangles
     ``corners`` ``(3, k)`` on the skin ``start`` ``(n, 3)`` a step begins from.
     """
-    st = np.ascontiguousarray(np.asarray(start, dtype=float).T)  # rows x, y, z
-    r0 = np.take(st, corners[0], axis=1)
-    e1 = np.take(st, corners[1], axis=1)
-    e1 -= r0
-    e2 = np.take(st, corners[2], axis=1)
-    e2 -= r0
-    del r0
+    e1, e2 = _edge_rows(start, corners)
     k = corners.shape[1]
     t = np.empty(k)
     cross = np.empty((k, 3))  # laid out as before (the einsum's sums follow the layout):
