@@ -211,8 +211,8 @@ class Session:
             t0 = time.perf_counter()
             if self.simulating:  # refined: guarded on the refined skin, as face.simulate
                 state = self.physics.state(guard=not self.refine)
-                self._state = self.face.guarded(self.face._refined_physical(state, 3.0, 3)) \
-                    if self.refine else state
+                self._state = self.face._guarded_refined(state, 3.0, 3) if self.refine \
+                    else state
             else:  # a still frame: on the physical skin, the equilibrium
                 self._state = self.face.evaluate(self.activations(), refine=self.refine,
                                                  warm_start=self.dragging)

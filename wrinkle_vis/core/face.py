@@ -377,10 +377,8 @@ class FaceModel:
         """
         sim = self.simulator(timeline, material=material)
         for state in sim.run(duration, dt, guard=not refine):  # refined: guard the refined
-            if refine:
-                state = self.guarded(
-                    self._refined_physical(state, refine_angle_deg, refine_levels), None)
-            yield state
+            yield self._guarded_refined(state, refine_angle_deg, refine_levels) if refine \
+                else state
 
     def expression_states(self, expression: Expression, times: Iterable[float],
                           intensity: float = 1.0, *, refine: bool = False,
@@ -405,8 +403,7 @@ class FaceModel:
         for t in times:
             sim.advance_to(t)  # the fields only at the times asked for
             state = sim.state(guard=not refine)
-            yield (self.guarded(self._refined_physical(state, refine_angle_deg,
-                                                        refine_levels), None)
+            yield (self._guarded_refined(state, refine_angle_deg, refine_levels)
                    if refine else state)
 
     def _refined_physical(self, state: FaceState, angle_deg: float, levels: int) -> FaceState:
@@ -418,6 +415,12 @@ class FaceModel:
         refined.skin_model, refined.time = "physical", state.time
         refined.velocities = None if refined is not state else state.velocities
         return refined
+
+    def _guarded_refined(self, state: FaceState, angle_deg: float, levels: int) -> FaceState:
+        """A simulated state ``state`` (unguarded) refined and then guarded on its refined
+        skin (the face's :attr:`fold_guard`), as :meth:`evaluate` guards a refined frame.
+        """
+        return self.guarded(self._refined_physical(state, angle_deg, levels), None)
 
     # ------------------------------------------------------------------ evaluation
     def activations_for(self, activations: Activations, intensity: float = 1.0
