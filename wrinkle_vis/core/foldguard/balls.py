@@ -191,6 +191,8 @@ def _suspects(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarra
     if not len(centres) or not len(tri):
         return none
     _, ball, vert = _lifted_near(lift, centres, radii, own, clear)
+    keep = vert != own[ball]  # (every triangle of the own vertex is incident to it)
+    ball, vert = ball[keep], vert[keep]
     if not len(ball):
         return none
     return _first_found(lift, centres, radii, own, points, *_expand(lift, ball, vert))
@@ -215,8 +217,7 @@ def _lifted_near(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.nda
         r2T = radii * radii + Tk
         bound = np.sqrt(r2T * (1.0 + 2e-9))
         k = min(_SUSPECTS_K, len(ids))  # k nearest first (arrays); a full row: a ball query
-        d, i = tree.query(c4, k=k, distance_upper_bound=float(bound.max()))
-        d, i = d.reshape(len(c4), k), i.reshape(len(c4), k)
+        d, i = _query_by_bound(tree, c4, bound, k)
         if clear:  # (_cleared's test, on its two nearest)
             first = np.where(i[:, 0] < len(ids), ids[np.minimum(i[:, 0], len(ids) - 1)], -1)
             other = np.where(first == own, d[:, 1] if k >= 2 else np.inf, d[:, 0])
@@ -243,6 +244,36 @@ def _lifted_near(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.nda
     return cleared, ball, vert
 
 
+_BOUND_STEP = 1.25  # the ratio of the query bounds a group of balls shares (_query_by_bound)
+
+
+def _query_by_bound(tree: cKDTree, c4: np.ndarray, bound: np.ndarray, k: int
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(b, k)`` twice: the ``k`` nearest points of ``tree`` to ``c4`` ``(b, 4)`` (their
+    distances and rows, ``inf`` and ``tree.n`` where none) within at least ``bound``
+    ``(b,)`` each, a query per group of balls whose bounds lie within a factor
+    :data:`_BOUND_STEP` of each other, each at its group's largest bound (one query at the
+    largest bound of all lets a few large balls widen every ball's search). A neighbour
+    within a ball's own bound is found either way, at the same rank and distance (the
+    tree's distance to a point does not depend on the bound); beyond it, the callers read
+    nothing but that it is beyond.
+    """
+    top = float(bound.max()) if len(bound) else 0.0
+    with np.errstate(divide="ignore"):
+        g = np.floor(np.log(top / np.maximum(bound, top * 1e-300)) / math.log(_BOUND_STEP))
+    g = np.clip(g, 0, 8).astype(np.intp) if top > 0 else np.zeros(len(bound), np.intp)
+    groups = np.unique(g)
+    if len(groups) < 2:
+        d, i = tree.query(c4, k=k, distance_upper_bound=top)
+        return d.reshape(len(c4), k), i.reshape(len(c4), k)
+    d, i = np.empty((len(c4), k)), np.empty((len(c4), k), np.intp)
+    for grp in groups:
+        sel = np.flatnonzero(g == grp)
+        dg, ig = tree.query(c4[sel], k=k, distance_upper_bound=float(bound[sel].max()))
+        d[sel], i[sel] = dg.reshape(len(sel), k), ig.reshape(len(sel), k)
+    return d, i
+
+
 def _first_found(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray,
                  points: np.ndarray, ball: np.ndarray, t: np.ndarray, vert: np.ndarray
                  ) -> tuple[np.ndarray, np.ndarray]:
@@ -257,19 +288,21 @@ def _first_found(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.nda
     cols = lift.get("columns")
     if cols is None:  # the corners' columns, contiguous (a take from each is faster)
         cols = lift["columns"] = tuple(np.ascontiguousarray(lift["tri"][:, j]) for j in range(3))
-    o, dd = own[ball], []
+    o = own.take(ball)  # (takes throughout: several times faster than fancy indexing)
     cs = [cj.take(t) for cj in cols]
     keep = np.flatnonzero((cs[0] != o) & (cs[1] != o) & (cs[2] != o))  # not own's
-    ball, t, vert = ball[keep], t[keep], vert[keep]
-    cs = [cj[keep] for cj in cs]
-    c = centres[ball]
+    ball, t, vert = ball.take(keep), t.take(keep), vert.take(keep)
+    cs = [cj.take(keep) for cj in cs]
+    c, dd = np.take(centres, ball, axis=0), []
     for cj in cs:
-        d = points[cj] - c
+        d = np.take(points, cj, axis=0)
+        d -= c
         dd.append(np.einsum("ij,ij->i", d, d))
-    r2 = radii[ball] ** 2
-    near = np.minimum(np.minimum(dd[0], dd[1]), dd[2]) <= (r2 + lift["rho_t"][t]) * (1.0 + 1e-9)
+    r2 = radii.take(ball) ** 2
+    near = np.minimum(np.minimum(dd[0], dd[1]), dd[2]) <= (r2 + lift["rho_t"].take(t)) \
+        * (1.0 + 1e-9)
     rho, T = lift["rho"], lift["T"]
-    found = [dd[j] - rho[cs[j]] <= r2 + 1.5e-9 * (r2 + T[cs[j]]) for j in range(3)]
+    found = [dd[j] - rho.take(cs[j]) <= r2 + 1.5e-9 * (r2 + T.take(cs[j])) for j in range(3)]
     first = np.where(found[0] | ~(found[1] | found[2]), cs[0], np.where(found[1], cs[1], cs[2]))
     keep = near & (first == vert)
     return ball[keep], t[keep]
@@ -344,19 +377,25 @@ def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
                                *_expand(lift, *found))
     if not len(ball):
         return out
-    out[rows, cols] = _shrink_on_triangles(r, ball, x[ball], n[ball], points[tri[t]],
-                                           iterations)
+    ends = lift.get("columns") if lift["tri"] is tri else None
+    if ends is None:
+        ends = tuple(np.ascontiguousarray(tri[:, j]) for j in range(3))
+    corners = tuple(np.take(points, e.take(t), axis=0) for e in ends)  # contiguous rows
+    out[rows, cols] = _shrink_on_triangles(r, ball, np.take(x, ball, axis=0),
+                                           np.take(n, ball, axis=0), corners, iterations)
     return out
 
 
 def _shrink_on_triangles(r: np.ndarray, ball: np.ndarray, xb: np.ndarray, nb: np.ndarray,
-                         corners: np.ndarray, iterations: int) -> np.ndarray:
+                         corners: tuple[np.ndarray, np.ndarray, np.ndarray], iterations: int
+                         ) -> np.ndarray:
     r"""``(k,)``: the shrinking-ball search of :func:`triangle_radii` on the balls' radii
     ``r`` ``(k,)`` (lowered in place) over their candidate pairs: the ball ``ball`` ``(p,)``
     tangent at ``xb`` ``(p, 3)`` along ``nb`` ``(p, 3)`` (towards the ball) and the
-    triangle ``corners`` ``(p, 3, 3)``.
+    triangle of ``corners``, its three corners ``(p, 3)`` each (contiguous rows: the
+    tests below run several times faster on them than on strided views).
     """
-    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
+    a, b, c = corners
     live = ~_apart(xb + r[ball, None] * nb, r[ball], a, b, c)
     for _ in range(iterations):
         k = np.flatnonzero(live)
@@ -540,7 +579,7 @@ def _triangles_search(r: np.ndarray, hit: np.ndarray, free: np.ndarray,
     at_start = ~free
     at_start[hit] = False
     plain = np.flatnonzero(at_start)
-    pick = at_start[near[0]]
+    pick = at_start[near[0]] & (near[1] != own[near[0]])  # (own's triangles: all its own)
     found = ((np.cumsum(at_start) - 1)[near[0][pick]], near[1][pick])  # rows of plain
     r[plain] = triangle_radii(own[plain], n[plain], r[plain], samples, t_loc, lift=lift,
                               clear=False, found=found)
