@@ -123,7 +123,7 @@ def _lift(points: np.ndarray, tri: np.ndarray) -> dict:
         Tk = float(rho[ids].max())
         T[ids] = Tk
         lifted = np.column_stack([points[ids], np.sqrt(np.maximum(Tk - rho[ids], 0.0))])
-        classes.append((cKDTree(lifted, balanced_tree=False), ids, Tk))
+        classes.append((cKDTree(lifted, leafsize=32, balanced_tree=False), ids, Tk))
     return {"classes": classes, "T": T, "rho_t": rho_t, "rho": rho, "tri": tri,
             "n": len(points)}
 
@@ -438,11 +438,16 @@ def _apart(centres: np.ndarray, radii: np.ndarray, a: np.ndarray, b: np.ndarray,
     triangles ``a``, ``b``, ``c`` ``(p, 3)`` that cannot meet, by two tests cheaper than the
     nearest point (:func:`_closest_on_triangles`): the triangle's plane, normal :math:`N`,
     is farther than :math:`r` from the centre, :math:`((o - a) \cdot N)^2 > r'^2 |N|^2`; or
-    its corners' ball about their mean :math:`g`, radius :math:`R = \max_i |v_i - g|`
-    (which holds the triangle, the corners' hull), is, :math:`|o - g| > r' + R(1 +
-    10^{-6}) + \tau`; with :math:`r' = r(1 + 10^{-6}) + \tau` and :math:`\tau = 10^{-12}(1
-    + \max |v|)` against rounding (far above that of the nearest point's distance, so a
-    pair found apart is never one the search's rounding puts inside).
+    along :math:`u = g - o`, the direction from the centre to the corners' mean :math:`g`,
+    every corner lies beyond :math:`r'`, :math:`\min_i u \cdot (v_i - o) > r' |u|` (every
+    point :math:`q = \sum_i \lambda_i v_i` of the triangle then has :math:`|q - o| \ge
+    \hat u \cdot (q - o) = \sum_i \lambda_i \hat u \cdot (v_i - o) > r'`; it holds
+    wherever the corners' ball about :math:`g`, radius :math:`R = \max_i |v_i - g|`, is
+    farther than :math:`r'`, as :math:`\hat u \cdot (v_i - o) \ge |g - o| - R`, and on
+    most pairs a ring apart besides, ``docs/model.md``, "Refined frames' balls, cheaper");
+    with :math:`r' = r(1 + 10^{-6}) + \tau` and :math:`\tau = 10^{-12}(1 + \max |v|)`
+    against rounding (far above that of the nearest point's distance, so a pair found
+    apart is never one the search's rounding puts inside).
     """
     if not len(a):
         return np.zeros(0, bool)
@@ -452,9 +457,14 @@ def _apart(centres: np.ndarray, radii: np.ndarray, a: np.ndarray, b: np.ndarray,
     N = _cross(b - a, c - a)
     h = np.einsum("ij,ij->i", centres - a, N)
     out = h * h > lim * lim * np.einsum("ij,ij->i", N, N)
-    g = (a + b + c) / 3.0
-    R2 = np.maximum(np.maximum(_sq(a - g), _sq(b - g)), _sq(c - g))
-    return out | (_sq(centres - g) > (lim + np.sqrt(R2) * (1.0 + 1e-6) + tau) ** 2)
+    u = a + b
+    u += c
+    u /= 3.0
+    u -= centres  # g - o
+    low = np.minimum(np.minimum(np.einsum("ij,ij->i", u, a - centres),
+                                np.einsum("ij,ij->i", u, b - centres)),
+                     np.einsum("ij,ij->i", u, c - centres))
+    return out | (low > lim * np.sqrt(_sq(u)))
 
 
 def _triangle_seps(points: np.ndarray, tri: np.ndarray, near: np.ndarray,
