@@ -255,7 +255,8 @@ def _query_by_bound(tree: cKDTree, c4: np.ndarray, bound: np.ndarray, k: int
     r"""``(b, k)`` twice: the ``k`` nearest points of ``tree`` to ``c4`` ``(b, 4)`` (their
     distances and rows, ``inf`` and ``tree.n`` where none) within at least ``bound``
     ``(b,)`` each, a query per group of balls whose bounds lie within a factor
-    :data:`_BOUND_STEP` of each other, each at its group's largest bound (one query at the
+    :data:`_BOUND_STEP` of each other (the last group: all below :math:`1.25^{-8}` of the
+    largest), each at its group's largest bound (one query at the
     largest bound of all lets a few large balls widen every ball's search). A neighbour
     within a ball's own bound is found either way, at the same rank and distance (the
     tree's distance to a point does not depend on the bound); beyond it, the callers read
