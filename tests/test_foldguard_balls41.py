@@ -20,7 +20,7 @@ from wrinkle_vis.core.foldguard import (
     _sq,
     triangle_radii,
 )
-from wrinkle_vis.core.foldguard.balls import _query_by_bound, _sides_longest
+from wrinkle_vis.core.foldguard.balls import _GROUPED_FROM, _query_by_bound, _sides_longest
 
 
 def _skin(seed: int):
@@ -150,12 +150,13 @@ def test_queries_grouped_by_bound_find_what_one_query_at_the_largest_finds(seed,
     rng = np.random.default_rng(seed)
     pts = rng.uniform(0, 10, (1500, 4)) * [1, 1, 1, 0.2]
     tree = cKDTree(pts, leafsize=32, balanced_tree=False)
-    c4 = np.column_stack([rng.uniform(0, 10, (300, 3)), np.zeros(300)])
-    bound = rng.uniform(0.5, 0.5 * spread, 300)
+    b = _GROUPED_FROM + 100  # (fewer: one query, nothing grouped)
+    c4 = np.column_stack([rng.uniform(0, 10, (b, 3)), np.zeros(b)])
+    bound = rng.uniform(0.5, 0.5 * spread, b)
     for k in (1, 6):
         d, i = _query_by_bound(tree, c4, bound, k)
         dd, ii = tree.query(c4, k=k, distance_upper_bound=float(bound.max()))
-        dd, ii = dd.reshape(300, k), ii.reshape(300, k)
+        dd, ii = dd.reshape(b, k), ii.reshape(b, k)
         inside = dd <= bound[:, None]
         np.testing.assert_array_equal(d[inside], dd[inside])
         np.testing.assert_array_equal(i[inside], ii[inside])

@@ -248,6 +248,8 @@ def _lifted_near(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.nda
 
 
 _BOUND_STEP = 1.25  # the ratio of the query bounds a group of balls shares (_query_by_bound)
+_BOUND_GROUPS = 4  # at most so many groups (the last: every bound below 1.25^-3 of the top)
+_GROUPED_FROM = 2048  # fewer balls than this: one query
 
 
 def _query_by_bound(tree: cKDTree, c4: np.ndarray, bound: np.ndarray, k: int
@@ -255,18 +257,22 @@ def _query_by_bound(tree: cKDTree, c4: np.ndarray, bound: np.ndarray, k: int
     r"""``(b, k)`` twice: the ``k`` nearest points of ``tree`` to ``c4`` ``(b, 4)`` (their
     distances and rows, ``inf`` and ``tree.n`` where none) within at least ``bound``
     ``(b,)`` each, a query per group of balls whose bounds lie within a factor
-    :data:`_BOUND_STEP` of each other (the last group: all below :math:`1.25^{-8}` of the
-    largest), each at its group's largest bound (one query at the
+    :data:`_BOUND_STEP` of each other (at most :data:`_BOUND_GROUPS`, the last holding every
+    bound below :math:`1.25^{-3}` of the largest; one query for fewer than
+    :data:`_GROUPED_FROM` balls), each at its group's largest bound (one query at the
     largest bound of all lets a few large balls widen every ball's search). A neighbour
     within a ball's own bound is found either way, at the same rank and distance (the
     tree's distance to a point does not depend on the bound); beyond it, the callers read
     nothing but that it is beyond.
     """
     top = float(bound.max()) if len(bound) else 0.0
-    with np.errstate(divide="ignore"):
-        g = np.floor(np.log(top / np.maximum(bound, top * 1e-300)) / math.log(_BOUND_STEP))
-    g = np.clip(g, 0, 8).astype(np.intp) if top > 0 else np.zeros(len(bound), np.intp)
-    groups = np.unique(g)
+    if len(bound) < _GROUPED_FROM or top <= 0:  # (a query's own cost: not worth a split)
+        groups = np.zeros(1, np.intp)
+    else:
+        with np.errstate(divide="ignore"):
+            g = np.floor(np.log(top / np.maximum(bound, top * 1e-300)) / math.log(_BOUND_STEP))
+        g = np.clip(g, 0, _BOUND_GROUPS - 1).astype(np.intp)
+        groups = np.unique(g)
     if len(groups) < 2:
         d, i = tree.query(c4, k=k, distance_upper_bound=top)
         return d.reshape(len(c4), k), i.reshape(len(c4), k)
