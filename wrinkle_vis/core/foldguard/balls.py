@@ -77,10 +77,13 @@ def _enclosing_sq(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
     :math:`a^2 b^2 c^2 / (16 A^2)`; never above :math:`\ell^2 / 3` (Jung), and raised by
     :math:`10^{-9}` of itself against rounding.
     """
-    a, b, c = points[tri[:, 0]], points[tri[:, 1]], points[tri[:, 2]]
-    a2 = np.einsum("ij,ij->i", b - c, b - c)
-    b2 = np.einsum("ij,ij->i", c - a, c - a)
-    c2 = np.einsum("ij,ij->i", a - b, a - b)
+    a, b, c = (np.take(points, np.ascontiguousarray(tri[:, j]), axis=0) for j in range(3))
+    d = b - c  # (contiguous rows, takes: about half the time of fancy indexing)
+    a2 = np.einsum("ij,ij->i", d, d)
+    d = c - a
+    b2 = np.einsum("ij,ij->i", d, d)
+    d = a - b
+    c2 = np.einsum("ij,ij->i", d, d)
     top = np.maximum(np.maximum(a2, b2), c2)  # the longest edge's square, and the rest:
     rest = a2 + b2 + c2 - top  # the other two's sum (obtuse or right: top >= rest)
     area16 = 2.0 * (a2 * b2 + b2 * c2 + c2 * a2) - (a2 * a2 + b2 * b2 + c2 * c2)
@@ -120,7 +123,7 @@ def _lift(points: np.ndarray, tri: np.ndarray) -> dict:
         Tk = float(rho[ids].max())
         T[ids] = Tk
         lifted = np.column_stack([points[ids], np.sqrt(np.maximum(Tk - rho[ids], 0.0))])
-        classes.append((cKDTree(lifted, balanced_tree=False), ids, Tk))
+        classes.append((cKDTree(lifted, leafsize=32, balanced_tree=False), ids, Tk))
     return {"classes": classes, "T": T, "rho_t": rho_t, "rho": rho, "tri": tri,
             "n": len(points)}
 
@@ -191,6 +194,8 @@ def _suspects(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarra
     if not len(centres) or not len(tri):
         return none
     _, ball, vert = _lifted_near(lift, centres, radii, own, clear)
+    keep = vert != own[ball]  # (every triangle of the own vertex is incident to it)
+    ball, vert = ball[keep], vert[keep]
     if not len(ball):
         return none
     return _first_found(lift, centres, radii, own, points, *_expand(lift, ball, vert))
@@ -215,8 +220,7 @@ def _lifted_near(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.nda
         r2T = radii * radii + Tk
         bound = np.sqrt(r2T * (1.0 + 2e-9))
         k = min(_SUSPECTS_K, len(ids))  # k nearest first (arrays); a full row: a ball query
-        d, i = tree.query(c4, k=k, distance_upper_bound=float(bound.max()))
-        d, i = d.reshape(len(c4), k), i.reshape(len(c4), k)
+        d, i = _query_by_bound(tree, c4, bound, k)
         if clear:  # (_cleared's test, on its two nearest)
             first = np.where(i[:, 0] < len(ids), ids[np.minimum(i[:, 0], len(ids) - 1)], -1)
             other = np.where(first == own, d[:, 1] if k >= 2 else np.inf, d[:, 0])
@@ -243,6 +247,43 @@ def _lifted_near(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.nda
     return cleared, ball, vert
 
 
+_BOUND_STEP = 1.25  # the ratio of the query bounds a group of balls shares (_query_by_bound)
+_BOUND_GROUPS = 4  # at most so many groups (the last: every bound below 1.25^-3 of the top)
+_GROUPED_FROM = 2048  # fewer balls than this: one query
+
+
+def _query_by_bound(tree: cKDTree, c4: np.ndarray, bound: np.ndarray, k: int
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(b, k)`` twice: the ``k`` nearest points of ``tree`` to ``c4`` ``(b, 4)`` (their
+    distances and rows, ``inf`` and ``tree.n`` where none) within at least ``bound``
+    ``(b,)`` each, a query per group of balls whose bounds lie within a factor
+    :data:`_BOUND_STEP` of each other (at most :data:`_BOUND_GROUPS`, the last holding every
+    bound below :math:`1.25^{-3}` of the largest; one query for fewer than
+    :data:`_GROUPED_FROM` balls), each at its group's largest bound (one query at the
+    largest bound of all lets a few large balls widen every ball's search). A neighbour
+    within a ball's own bound is found either way, at the same rank and distance (the
+    tree's distance to a point does not depend on the bound); beyond it, the callers read
+    nothing but that it is beyond.
+    """
+    top = float(bound.max()) if len(bound) else 0.0
+    if len(bound) < _GROUPED_FROM or top <= 0:  # (a query's own cost: not worth a split)
+        groups = np.zeros(1, np.intp)
+    else:
+        with np.errstate(divide="ignore"):
+            g = np.floor(np.log(top / np.maximum(bound, top * 1e-300)) / math.log(_BOUND_STEP))
+        g = np.clip(g, 0, _BOUND_GROUPS - 1).astype(np.intp)
+        groups = np.unique(g)
+    if len(groups) < 2:
+        d, i = tree.query(c4, k=k, distance_upper_bound=top)
+        return d.reshape(len(c4), k), i.reshape(len(c4), k)
+    d, i = np.empty((len(c4), k)), np.empty((len(c4), k), np.intp)
+    for grp in groups:
+        sel = np.flatnonzero(g == grp)
+        dg, ig = tree.query(c4[sel], k=k, distance_upper_bound=float(bound[sel].max()))
+        d[sel], i[sel] = dg.reshape(len(sel), k), ig.reshape(len(sel), k)
+    return d, i
+
+
 def _first_found(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray,
                  points: np.ndarray, ball: np.ndarray, t: np.ndarray, vert: np.ndarray
                  ) -> tuple[np.ndarray, np.ndarray]:
@@ -257,19 +298,21 @@ def _first_found(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.nda
     cols = lift.get("columns")
     if cols is None:  # the corners' columns, contiguous (a take from each is faster)
         cols = lift["columns"] = tuple(np.ascontiguousarray(lift["tri"][:, j]) for j in range(3))
-    o, dd = own[ball], []
+    o = own.take(ball)  # (takes throughout: several times faster than fancy indexing)
     cs = [cj.take(t) for cj in cols]
     keep = np.flatnonzero((cs[0] != o) & (cs[1] != o) & (cs[2] != o))  # not own's
-    ball, t, vert = ball[keep], t[keep], vert[keep]
-    cs = [cj[keep] for cj in cs]
-    c = centres[ball]
+    ball, t, vert = ball.take(keep), t.take(keep), vert.take(keep)
+    cs = [cj.take(keep) for cj in cs]
+    c, dd = np.take(centres, ball, axis=0), []
     for cj in cs:
-        d = points[cj] - c
+        d = np.take(points, cj, axis=0)
+        d -= c
         dd.append(np.einsum("ij,ij->i", d, d))
-    r2 = radii[ball] ** 2
-    near = np.minimum(np.minimum(dd[0], dd[1]), dd[2]) <= (r2 + lift["rho_t"][t]) * (1.0 + 1e-9)
+    r2 = radii.take(ball) ** 2
+    near = np.minimum(np.minimum(dd[0], dd[1]), dd[2]) <= (r2 + lift["rho_t"].take(t)) \
+        * (1.0 + 1e-9)
     rho, T = lift["rho"], lift["T"]
-    found = [dd[j] - rho[cs[j]] <= r2 + 1.5e-9 * (r2 + T[cs[j]]) for j in range(3)]
+    found = [dd[j] - rho.take(cs[j]) <= r2 + 1.5e-9 * (r2 + T.take(cs[j])) for j in range(3)]
     first = np.where(found[0] | ~(found[1] | found[2]), cs[0], np.where(found[1], cs[1], cs[2]))
     keep = near & (first == vert)
     return ball[keep], t[keep]
@@ -344,19 +387,25 @@ def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
                                *_expand(lift, *found))
     if not len(ball):
         return out
-    out[rows, cols] = _shrink_on_triangles(r, ball, x[ball], n[ball], points[tri[t]],
-                                           iterations)
+    ends = lift.get("columns") if lift["tri"] is tri else None
+    if ends is None:
+        ends = tuple(np.ascontiguousarray(tri[:, j]) for j in range(3))
+    corners = tuple(np.take(points, e.take(t), axis=0) for e in ends)  # contiguous rows
+    out[rows, cols] = _shrink_on_triangles(r, ball, np.take(x, ball, axis=0),
+                                           np.take(n, ball, axis=0), corners, iterations)
     return out
 
 
 def _shrink_on_triangles(r: np.ndarray, ball: np.ndarray, xb: np.ndarray, nb: np.ndarray,
-                         corners: np.ndarray, iterations: int) -> np.ndarray:
+                         corners: tuple[np.ndarray, np.ndarray, np.ndarray], iterations: int
+                         ) -> np.ndarray:
     r"""``(k,)``: the shrinking-ball search of :func:`triangle_radii` on the balls' radii
     ``r`` ``(k,)`` (lowered in place) over their candidate pairs: the ball ``ball`` ``(p,)``
     tangent at ``xb`` ``(p, 3)`` along ``nb`` ``(p, 3)`` (towards the ball) and the
-    triangle ``corners`` ``(p, 3, 3)``.
+    triangle of ``corners``, its three corners ``(p, 3)`` each (contiguous rows: the
+    tests below run several times faster on them than on strided views).
     """
-    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
+    a, b, c = corners
     live = ~_apart(xb + r[ball, None] * nb, r[ball], a, b, c)
     for _ in range(iterations):
         k = np.flatnonzero(live)
@@ -396,11 +445,16 @@ def _apart(centres: np.ndarray, radii: np.ndarray, a: np.ndarray, b: np.ndarray,
     triangles ``a``, ``b``, ``c`` ``(p, 3)`` that cannot meet, by two tests cheaper than the
     nearest point (:func:`_closest_on_triangles`): the triangle's plane, normal :math:`N`,
     is farther than :math:`r` from the centre, :math:`((o - a) \cdot N)^2 > r'^2 |N|^2`; or
-    its corners' ball about their mean :math:`g`, radius :math:`R = \max_i |v_i - g|`
-    (which holds the triangle, the corners' hull), is, :math:`|o - g| > r' + R(1 +
-    10^{-6}) + \tau`; with :math:`r' = r(1 + 10^{-6}) + \tau` and :math:`\tau = 10^{-12}(1
-    + \max |v|)` against rounding (far above that of the nearest point's distance, so a
-    pair found apart is never one the search's rounding puts inside).
+    along :math:`u = g - o`, the direction from the centre to the corners' mean :math:`g`,
+    every corner lies beyond :math:`r'`, :math:`\min_i u \cdot (v_i - o) > r' |u|` (every
+    point :math:`q = \sum_i \lambda_i v_i` of the triangle then has :math:`|q - o| \ge
+    \hat u \cdot (q - o) = \sum_i \lambda_i \hat u \cdot (v_i - o) > r'`; it holds
+    wherever the corners' ball about :math:`g`, radius :math:`R = \max_i |v_i - g|`, is
+    farther than :math:`r'`, as :math:`\hat u \cdot (v_i - o) \ge |g - o| - R`, and on
+    most pairs a ring apart besides, ``docs/model.md``, "Refined frames' balls, cheaper");
+    with :math:`r' = r(1 + 10^{-6}) + \tau` and :math:`\tau = 10^{-12}(1 + \max |v|)`
+    against rounding (far above that of the nearest point's distance, so a pair found
+    apart is never one the search's rounding puts inside).
     """
     if not len(a):
         return np.zeros(0, bool)
@@ -410,9 +464,14 @@ def _apart(centres: np.ndarray, radii: np.ndarray, a: np.ndarray, b: np.ndarray,
     N = _cross(b - a, c - a)
     h = np.einsum("ij,ij->i", centres - a, N)
     out = h * h > lim * lim * np.einsum("ij,ij->i", N, N)
-    g = (a + b + c) / 3.0
-    R2 = np.maximum(np.maximum(_sq(a - g), _sq(b - g)), _sq(c - g))
-    return out | (_sq(centres - g) > (lim + np.sqrt(R2) * (1.0 + 1e-6) + tau) ** 2)
+    u = a + b
+    u += c
+    u /= 3.0
+    u -= centres  # g - o
+    low = np.minimum(np.minimum(np.einsum("ij,ij->i", u, a - centres),
+                                np.einsum("ij,ij->i", u, b - centres)),
+                     np.einsum("ij,ij->i", u, c - centres))
+    return out | (low > lim * np.sqrt(_sq(u)))
 
 
 def _triangle_seps(points: np.ndarray, tri: np.ndarray, near: np.ndarray,
@@ -540,7 +599,7 @@ def _triangles_search(r: np.ndarray, hit: np.ndarray, free: np.ndarray,
     at_start = ~free
     at_start[hit] = False
     plain = np.flatnonzero(at_start)
-    pick = at_start[near[0]]
+    pick = at_start[near[0]] & (near[1] != own[near[0]])  # (own's triangles: all its own)
     found = ((np.cumsum(at_start) - 1)[near[0][pick]], near[1][pick])  # rows of plain
     r[plain] = triangle_radii(own[plain], n[plain], r[plain], samples, t_loc, lift=lift,
                               clear=False, found=found)
@@ -920,25 +979,42 @@ def _fill_near(gaps: dict, todo: np.ndarray, owner: np.ndarray, t: np.ndarray,
 
 
 def _longest_edge(points: np.ndarray, tri: np.ndarray, terms: dict) -> float:
-    """The longest edge of the skin ``points`` ``(n, 3)``, ``tri`` ``(m, 3)``, its edges'
-    ends kept in ``terms`` as two contiguous arrays: each triangle's three sides on a
-    skin's first frame; from its second (the terms of a skin that is guarded again: an
-    unrefined face's), its unique edges (:func:`_terms_edges`), half as many, the same
-    lengths (a side's length does not depend on its direction).
+    """The longest edge of the skin ``points`` ``(n, 3)``, ``tri`` ``(m, 3)``: each
+    triangle's three sides on a skin's first frame (:func:`_sides_longest`; a refined
+    frame's skin is new every frame); from its second (the terms of a skin that is guarded
+    again: an unrefined face's), its unique edges (:func:`_terms_edges`), half as many, the
+    same lengths (a side's length does not depend on its direction), their ends kept in
+    ``terms`` as two contiguous arrays.
     """
     ends, unique = terms.get("edge_ends", (None, False))
-    if ends is None or not unique:
-        unique = ends is not None or "edges" in terms  # (a second frame, or found already)
-        edges = _terms_edges(terms)[0] if unique else np.vstack(
-            [tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    if not unique:
+        if "edge_ends" not in terms and "edges" not in terms:  # a skin's first frame
+            terms["edge_ends"] = (None, False)
+            return _sides_longest(points, tri)
+        edges = _terms_edges(terms)[0]
         ends = (np.ascontiguousarray(edges[:, 0], dtype=np.intp),
                 np.ascontiguousarray(edges[:, 1], dtype=np.intp))
-        terms["edge_ends"] = (ends, unique)
+        terms["edge_ends"] = (ends, True)
     if not len(ends[0]):
         return 0.0
     e = np.take(points, ends[0], axis=0)  # (a take: several times faster than points[ends])
     e -= np.take(points, ends[1], axis=0)
     return float(np.sqrt(np.einsum("ij,ij->i", e, e).max()))
+
+
+def _sides_longest(points: np.ndarray, tri: np.ndarray) -> float:
+    r"""The longest side of the triangles ``tri`` ``(m, 3)`` on ``points`` ``(n, 3)``:
+    :math:`\max_t \max(|v_0 - v_1|, |v_1 - v_2|, |v_2 - v_0|)`, from one take of each
+    corner's rows (half the takes of the sides' ends, the same differences bit for bit).
+    """
+    if not len(tri):
+        return 0.0
+    v = [np.take(points, np.ascontiguousarray(tri[:, j]), axis=0) for j in range(3)]
+    top = 0.0
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        e = v[i] - v[j]
+        top = max(top, float(np.einsum("ij,ij->i", e, e).max()))
+    return math.sqrt(top)
 
 
 def _needed(W: np.ndarray, guard: FoldGuard) -> np.ndarray:
