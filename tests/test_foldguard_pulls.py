@@ -7,10 +7,11 @@ rounds as they were, on random pulled sheets."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from wrinkle_vis.core.foldguard import pulls
+from wrinkle_vis.core.foldguard import FoldGuard, pulls
 from wrinkle_vis.core.foldguard._base import soft_clamp
 
 
@@ -198,3 +199,85 @@ def test_a_sheet_the_guard_acts_on_takes_the_new_rounds():
     f = pulls.skin_scale(pts, pts + pull, tri)
     assert f.min() < 0.9
     np.testing.assert_array_equal(f, _old_skin_scale(pts, pts + pull, tri))
+
+
+FIELDS = ("points", "W", "deformed_points", "fold_guard", "W_raw", "fields")
+
+
+def _no_certificates(monkeypatch) -> None:
+    """Every certificate of the guard off: ``certify`` and the fresh frame's clamp
+    certificate (``_clamp_only``, looked up in ``foldguard.frame``) answer None."""
+    from wrinkle_vis.core import foldguard
+
+    monkeypatch.setattr(foldguard.frame, "certify", lambda *a, **k: None)
+    monkeypatch.setattr(foldguard.frame, "_clamp_only", lambda *a, **k: None)
+
+
+def _same_frames(a, b) -> bool:
+    def same(x, y) -> bool:
+        if isinstance(x, dict):
+            return x.keys() == y.keys() and all(same(x[k], y[k]) for k in x)
+        if hasattr(x, "__dataclass_fields__"):
+            return all(same(getattr(x, k), getattr(y, k)) for k in x.__dataclass_fields__)
+        return np.array_equal(np.asarray(x), np.asarray(y))
+
+    return all(same(getattr(a, k), getattr(b, k)) for k in FIELDS)
+
+
+@pytest.mark.slow
+def test_a_scaled_pulls_frames_keep_the_clamps_certificate_and_are_exact(wv_head,
+                                                                         monkeypatch):
+    """Where the pull guard scales a pull on the face's own skin (the head's smile), the
+    clamp's certificate is kept for the frame's raw W and the frame evaluated again on the
+    guarded skin gets its own (``_clamp_only``): the frames are bit for bit those of the
+    exact checks, with the default guard (the clamp certified, not acting) and with one
+    whose clamp acts; a certificate that wrongly says the clamp cannot act is seen."""
+    from wrinkle_vis.core import foldguard
+
+    face = wv_head.with_skin_model("geometric")
+    acts = face.activations_for("smile", 1.0)
+    for guard in (FoldGuard(), FoldGuard(eta=0.05)):
+        raw = face.evaluate(acts, fold_guard=False)
+        got = face.guarded(face.evaluate(acts, fold_guard=False), guard)
+        assert np.any(got.deformed_points != raw.deformed_points)  # a pull was scaled
+        with monkeypatch.context() as m:
+            _no_certificates(m)
+            want = face.guarded(face.evaluate(acts, fold_guard=False), guard)
+        assert _same_frames(got, want), guard
+    with monkeypatch.context() as m:  # the clamp acts (eta 0.05): a wrong skip differs
+        m.setattr(foldguard.frame, "_clamp_only",
+                  lambda *a, **k: foldguard.Certified(False, False, False, True))
+        wrong = face.guarded(face.evaluate(acts, fold_guard=False), FoldGuard(eta=0.05))
+    assert not _same_frames(wrong, want)
+
+
+@pytest.mark.parametrize("eta", [0.9, 0.02])
+def test_a_scaled_pull_keeps_the_clamps_certificate_only_where_it_holds(eta):
+    """``guard_frame`` on a sheet whose pull the guard scales: the clamp's certificate
+    (``|W| <= (1 - 1e-5) knee eta r`` on the rest radii, whatever the pull) kept past the
+    scaling gives the frame of no certificate, bit for bit, where it holds (the clamp is
+    the identity) and where it does not (the clamp acts: ``eta`` 0.02)."""
+    from wrinkle_vis.core.foldguard import Certified, guard_frame
+    from wrinkle_vis.core.foldguard._base import _vertex_normals
+
+    rng = np.random.default_rng(3)
+    pts, tri = _sheet(20, 20, rng)
+    pull = np.zeros_like(pts)
+    pull[:, 0] = -8.0 * np.exp(-(pts[:, 0] / 1.0) ** 2)
+    deformed = pts + pull
+    W = 0.05 * np.sin(pts[:, 1]) * (np.abs(pts[:, 0]) < 3)
+    terms = pulls.pull_terms(pts, tri)
+    n = _vertex_normals(deformed, tri, np.arange(len(pts)), terms)
+    points = deformed + W[:, None] * n
+    radii = np.full((len(pts), 2), 0.5)
+    guard = FoldGuard(eta=eta)
+    clamp = bool(np.all(np.abs(W) <= (1 - 1e-5) * guard.knee * guard.eta * 0.5))
+    assert clamp == (eta > 0.5)
+    got = guard_frame(pts, deformed, points, W, tri, radii, guard, terms=terms,
+                      certified=Certified(False, False, False, clamp))
+    want = guard_frame(pts, deformed, points, W, tri, radii, guard,
+                       terms=pulls.pull_terms(pts, tri))
+    assert got.scale.min() < 0.9  # the pull is scaled
+    assert clamp or np.any(got.W != W)  # (eta 0.02: the clamp acts)
+    for k in ("deformed", "points", "W", "scale", "acted"):
+        np.testing.assert_array_equal(getattr(got, k), getattr(want, k), err_msg=k)

@@ -19,6 +19,7 @@ from .balls import (  # noqa: F401
 )
 from .certified import (  # noqa: F401
     Certified,
+    _clamp_only,
     certify,
 )
 from .fans import (  # noqa: F401
@@ -180,7 +181,9 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
     if moved.any():
         d2 = d2.copy()
         d2[moved] = rest[moved] + f[moved, None] * (d2[moved] - rest[moved])
-        cert = Certified(False, False, False, False)  # certified for the unscaled pull only
+        # the others are certified for the unscaled pull only; the clamp's bounds |W| on the
+        # rest radii, whatever the pull (docs/model.md, "Certified skips")
+        cert = Certified(False, False, False, cert.clamp)
     search, step = deformed_radii and not cert.balls, None if moved.any() else p2 - d2
     empty, clear = _gaps_skip(rest, d2, W, tri, terms, guard, cert.empty, step) if search \
         else (cert.empty, None)
@@ -218,6 +221,20 @@ def guard_amount(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: 
         amount[rows] = np.maximum(amount[rows], np.minimum(
             np.divide(shift, size, out=np.ones(len(rows)), where=size > 0), 1.0))
     return amount
+
+
+def _fresh_radii(face, fresh, guard: FoldGuard) -> tuple:
+    r"""The rest radii of the frame ``fresh``, evaluated again on the guarded deformed skin
+    (:func:`guarded`), and their certificate, as :func:`guard_frame`'s ``radii`` and
+    ``certified``: the clamp's alone (:func:`_clamp_only`, :math:`|W| \le` the clamp's
+    limit on the rest radii at every vertex: it holds for any :math:`W` on the face's own
+    skin, whatever its pull), the radii asked for only where it fails or a deformed ball
+    shrinks; no certificate (the radii found now) where the skin keeps none.
+    """
+    cert = _clamp_only(face, fresh, guard)
+    if cert is not None and cert.clamp:
+        return (lambda: fold_radii(face, face, fresh.W, guard)), cert
+    return fold_radii(face, face, fresh.W, guard), cert
 
 
 def guarded(face, state, guard: FoldGuard = FoldGuard()):
@@ -261,10 +278,10 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
         del radii  # g's points and W, and the radii, are not needed again: freed first
         fresh = face._frame(dict(state.activations), g.deformed)
         del g
-        radii = fold_radii(face, state.face, fresh.W, guard)  # the fresh frame's W
+        radii, cert = _fresh_radii(face, fresh, guard)
         w = guard_frame(state.rest_points, fresh.deformed_points, fresh.points, fresh.W,
                         state.triangles, radii, guard, pulls=False, terms=terms,
-                        deformed_radii=True)
+                        deformed_radii=True, certified=cert)
         g = GuardResult(w.deformed, w.points, w.W, scale, acted | w.acted)
         state.fields = fresh.fields
     W = np.asarray(state.W)
