@@ -281,3 +281,31 @@ def test_a_scaled_pull_keeps_the_clamps_certificate_only_where_it_holds(eta):
     assert clamp or np.any(got.W != W)  # (eta 0.02: the clamp acts)
     for k in ("deformed", "points", "W", "scale", "acted"):
         np.testing.assert_array_equal(getattr(got, k), getattr(want, k), err_msg=k)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), share=st.floats(0.0, 1.0), normals_only=st.booleans())
+def test_the_pulled_triangles_terms_taken_from_every_row_are_those_computed_alone(
+        seed, share, normals_only):
+    """``_triangles_of`` on fresh terms, whatever share of the triangles is pulled (above
+    three quarters every row is found and the pulled ones taken, ``_columns``): the values
+    and memory layout (einsum's sums follow it) of the pulled triangles' rows computed on
+    their own, as before (so every sum on them is the same)."""
+    rng = np.random.default_rng(seed)
+    pts, tri = _sheet(int(rng.integers(3, 14)), int(rng.integers(3, 14)), rng)
+    moving = rng.random(len(pts)) < share
+    terms = pulls.pull_terms(pts, tri)
+    got = pulls._triangles_of(terms, moving, normals_only)
+    corners = np.ascontiguousarray(tri.T)
+    rows = np.flatnonzero(moving[corners].any(axis=0))
+    if len(rows) == len(tri):  # (every triangle: the terms themselves, as before)
+        want = (rows, corners, *pulls._row_terms(pts, corners))
+    else:
+        want = (rows, corners[:, rows],
+                *pulls._row_terms(pts, corners[:, rows], normals_only, order="F"))
+    for a, b in zip(got, want, strict=False):
+        if a is None:
+            continue
+        assert np.array_equal(a, b)
+        assert (a.flags.c_contiguous, a.flags.f_contiguous) == \
+            (b.flags.c_contiguous, b.flags.f_contiguous)
