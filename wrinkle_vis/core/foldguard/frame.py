@@ -160,7 +160,7 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
        two rings (:func:`guard_fans`: :math:`W'` scaled back where a pair would cross).
 
     ``certified`` (:func:`certify`): the checks it certifies are skipped (each would have
-    returned what skipping gives); a pull the exact check does scale voids the others.
+    returned what skipping gives); a scaled pull voids all but the clamp's (any pull's).
     ``radii`` may be a function giving them, called only where they are needed.
 
     Where no guard acts, the frame's points are returned as they are (bit for bit).
@@ -181,9 +181,7 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
     if moved.any():
         d2 = d2.copy()
         d2[moved] = rest[moved] + f[moved, None] * (d2[moved] - rest[moved])
-        # the others are certified for the unscaled pull only; the clamp's bounds |W| on the
-        # rest radii, whatever the pull (docs/model.md, "Certified skips")
-        cert = Certified(False, False, False, cert.clamp)
+        cert = Certified(False, False, False, cert.clamp)  # (the clamp's is any pull's)
     search, step = deformed_radii and not cert.balls, None if moved.any() else p2 - d2
     empty, clear = _gaps_skip(rest, d2, W, tri, terms, guard, cert.empty, step) if search \
         else (cert.empty, None)
