@@ -504,9 +504,10 @@ def _cold_pass(terms: dict, pull_t: np.ndarray, size: np.ndarray, min_area: floa
     most :func:`_cold_limits` long (they cannot be below it): the exact check runs on the
     others alone (the same values, bit for bit, as on every triangle). False where that
     check finds one, and where ``terms`` has not yet computed every triangle's rows (an
-    earlier frame pulled every triangle: the physical skin's, whose solve moves every
-    vertex by at least its rounding), or where the pull is local (it moves at most half the
-    skin's vertices, the geometric skin's, or fewer than half of those it moves are cold:
+    earlier frame pulled every triangle, the physical skin's, whose solve moves every
+    vertex by at least its rounding, or three quarters of them), or where the pull is
+    local (it moves at most half the skin's vertices, the geometric skin's, or fewer than
+    half of those it moves are cold:
     then the exact check over the pulled triangles, kept per moving set, is as cheap):
     then the exact check decides.
     """
