@@ -2,7 +2,9 @@
 scaled pull and its lengths kept per changed vertex, the changed triangles' terms taken by
 take (as rows once many change), the changed edges deduplicated by a mark, the search
 graph's structure grouped by a CSR transpose instead of a sort; ``skin_scale`` against the
-rounds as they were, on random pulled sheets."""
+rounds as they were, on random pulled sheets. Stop 41: the clamp's certificate past a scaled
+pull and on the frame evaluated again, against the exact checks; the pulled triangles' rows
+taken from every row, against those computed alone."""
 
 from __future__ import annotations
 
