@@ -311,3 +311,32 @@ def test_the_pulled_triangles_terms_taken_from_every_row_are_those_computed_alon
         assert np.array_equal(a, b)
         assert (a.flags.c_contiguous, a.flags.f_contiguous) == \
             (b.flags.c_contiguous, b.flags.f_contiguous)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("skin", ["geometric", "physical"])
+def test_a_clamp_certified_at_some_vertices_searches_the_others_alone(skin, monkeypatch):
+    """The refined pucker at full intensity with a guard whose clamp acts on the rest radii
+    (eta 0.2): its certificate fails at some of the 13,000 wrinkled vertices (``clamp_ok``),
+    so the rest radii are searched at those alone and the others are given no bound; the
+    frame is bit for bit that of the exact checks (every radius searched), and a mask that
+    wrongly passes every vertex changes it."""
+    import wrinkle_vis as wv
+    from wrinkle_vis.core import foldguard
+
+    guard = FoldGuard(eta=0.2)
+    fast, exact = wv.datasets.load_face(), wv.datasets.load_face()
+    raw = fast.evaluate("pucker", refine=True, skin=skin, fold_guard=False)
+    cert = foldguard.certify(fast, raw, guard)
+    assert not cert.clamp and 0 < np.count_nonzero(~cert.clamp_ok) < np.count_nonzero(raw.W) / 4
+    got = fast.evaluate("pucker", refine=True, skin=skin, fold_guard=guard)
+    with monkeypatch.context() as m:
+        _no_certificates(m)
+        want = exact.evaluate("pucker", refine=True, skin=skin, fold_guard=guard)
+    assert _same_frames(got, want)
+    wrong = foldguard.Certified(False, False, False, False, clamp_ok=np.ones(len(got.W), bool))
+    with monkeypatch.context() as m:
+        m.setattr(foldguard.frame, "certify", lambda *a, **k: wrong)
+        bad = wv.datasets.load_face().evaluate("pucker", refine=True, skin=skin,
+                                               fold_guard=guard)
+    assert not _same_frames(bad, want)

@@ -221,18 +221,25 @@ def guard_amount(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: 
     return amount
 
 
-def _fresh_radii(face, fresh, guard: FoldGuard) -> tuple:
-    r"""The rest radii of the frame ``fresh``, evaluated again on the guarded deformed skin
-    (:func:`guarded`), and their certificate, as :func:`guard_frame`'s ``radii`` and
-    ``certified``: the clamp's alone (:func:`_clamp_only`, :math:`|W| \le` the clamp's
-    limit on the rest radii at every vertex: it holds for any :math:`W` on the face's own
-    skin, whatever its pull), the radii asked for only where it fails or a deformed ball
-    shrinks; no certificate (the radii found now) where the skin keeps none.
+def _radii(face, state, guard: FoldGuard, cert: Certified | None):
+    r"""``(n, 2)``, or a function giving them: the rest radii the clamp of ``state``'s
+    :math:`W` needs (:func:`fold_radii`), given its certificate ``cert``: asked for only
+    when the clamp's certificate fails or a deformed ball shrinks (a function), and where
+    it fails at some vertices only (``cert.clamp_ok``), searched at the others alone and
+    ``inf`` at those that pass. There the clamp is the identity on any radius at or above
+    the one :math:`|W|` needs, which every search gives them, and a deformed ball's radius
+    below it is taken as it is: the clamp's result is the same, bit for bit, and no search
+    that finds a true radius starts elsewhere (``docs/model.md``, "Certified skips").
     """
-    cert = _clamp_only(face, fresh, guard)
     if cert is not None and cert.clamp:
-        return (lambda: fold_radii(face, face, fresh.W, guard)), cert
-    return fold_radii(face, face, fresh.W, guard), cert
+        return lambda: fold_radii(face, state.face, state.W, guard)
+    ok = None if cert is None else cert.clamp_ok
+    if ok is None or not ok.any():
+        return fold_radii(face, state.face, state.W, guard)
+    radii = np.array(fold_radii(face, state.face, np.where(ok, 0.0, state.W), guard),
+                     dtype=float, copy=True)
+    radii[ok] = np.inf
+    return radii
 
 
 def guarded(face, state, guard: FoldGuard = FoldGuard()):
@@ -257,8 +264,7 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
     cert = certify(face, state, guard)
     if cert is not None and cert.all:  # no check can act: the frame as it is
         return state
-    radii = fold_radii(face, state.face, state.W, guard) if cert is None or not cert.clamp \
-        else lambda: fold_radii(face, state.face, state.W, guard)  # asked for if needed
+    radii = _radii(face, state, guard, cert)  # (a function where the clamp is certified)
     skin = state.face  # the face's own skin, or the refined one of this frame
     terms = getattr(skin._rest, "pull_terms", None)
     if terms is None:
@@ -276,7 +282,8 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
         del radii  # g's points and W, and the radii, are not needed again: freed first
         fresh = face._frame(dict(state.activations), g.deformed)
         del g
-        radii, cert = _fresh_radii(face, fresh, guard)
+        cert = _clamp_only(face, fresh, guard)  # (the clamp's certificate: any pull's)
+        radii = _radii(face, fresh, guard, cert)
         w = guard_frame(state.rest_points, fresh.deformed_points, fresh.points, fresh.W,
                         state.triangles, radii, guard, pulls=False, terms=terms,
                         deformed_radii=True, certified=cert)
