@@ -2,15 +2,18 @@
 scaled pull and its lengths kept per changed vertex, the changed triangles' terms taken by
 take (as rows once many change), the changed edges deduplicated by a mark, the search
 graph's structure grouped by a CSR transpose instead of a sort; ``skin_scale`` against the
-rounds as they were, on random pulled sheets."""
+rounds as they were, on random pulled sheets. Stop 41: the clamp's certificate past a scaled
+pull and on the frame evaluated again, against the exact checks; the pulled triangles' rows
+taken from every row, against those computed alone."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from wrinkle_vis.core.foldguard import pulls
+from wrinkle_vis.core.foldguard import FoldGuard, pulls
 from wrinkle_vis.core.foldguard._base import soft_clamp
 
 
@@ -198,3 +201,142 @@ def test_a_sheet_the_guard_acts_on_takes_the_new_rounds():
     f = pulls.skin_scale(pts, pts + pull, tri)
     assert f.min() < 0.9
     np.testing.assert_array_equal(f, _old_skin_scale(pts, pts + pull, tri))
+
+
+FIELDS = ("points", "W", "deformed_points", "fold_guard", "W_raw", "fields")
+
+
+def _no_certificates(monkeypatch) -> None:
+    """Every certificate of the guard off: ``certify`` and the fresh frame's clamp
+    certificate (``_clamp_only``, looked up in ``foldguard.frame``) answer None."""
+    from wrinkle_vis.core import foldguard
+
+    monkeypatch.setattr(foldguard.frame, "certify", lambda *a, **k: None)
+    monkeypatch.setattr(foldguard.frame, "_clamp_only", lambda *a, **k: None)
+
+
+def _same_frames(a, b) -> bool:
+    def same(x, y) -> bool:
+        if isinstance(x, dict):
+            return x.keys() == y.keys() and all(same(x[k], y[k]) for k in x)
+        if hasattr(x, "__dataclass_fields__"):
+            return all(same(getattr(x, k), getattr(y, k)) for k in x.__dataclass_fields__)
+        return np.array_equal(np.asarray(x), np.asarray(y))
+
+    return all(same(getattr(a, k), getattr(b, k)) for k in FIELDS)
+
+
+@pytest.mark.slow
+def test_a_scaled_pulls_frames_keep_the_clamps_certificate_and_are_exact(wv_head,
+                                                                         monkeypatch):
+    """Where the pull guard scales a pull on the face's own skin (the head's smile), the
+    clamp's certificate is kept for the frame's raw W and the frame evaluated again on the
+    guarded skin gets its own (``_clamp_only``): the frames are bit for bit those of the
+    exact checks, with the default guard (the clamp certified, not acting) and with one
+    whose clamp acts; a certificate that wrongly says the clamp cannot act is seen."""
+    from wrinkle_vis.core import foldguard
+
+    face = wv_head.with_skin_model("geometric")
+    acts = face.activations_for("smile", 1.0)
+    for guard in (FoldGuard(), FoldGuard(eta=0.05)):
+        raw = face.evaluate(acts, fold_guard=False)
+        got = face.guarded(face.evaluate(acts, fold_guard=False), guard)
+        assert np.any(got.deformed_points != raw.deformed_points)  # a pull was scaled
+        with monkeypatch.context() as m:
+            _no_certificates(m)
+            want = face.guarded(face.evaluate(acts, fold_guard=False), guard)
+        assert _same_frames(got, want), guard
+    with monkeypatch.context() as m:  # the clamp acts (eta 0.05): a wrong skip differs
+        m.setattr(foldguard.frame, "_clamp_only",
+                  lambda *a, **k: foldguard.Certified(False, False, False, True))
+        wrong = face.guarded(face.evaluate(acts, fold_guard=False), FoldGuard(eta=0.05))
+    assert not _same_frames(wrong, want)
+
+
+@pytest.mark.parametrize("eta", [0.9, 0.02])
+def test_a_scaled_pull_keeps_the_clamps_certificate_only_where_it_holds(eta):
+    """``guard_frame`` on a sheet whose pull the guard scales: the clamp's certificate
+    (``|W| <= (1 - 1e-5) knee eta r`` on the rest radii, whatever the pull) kept past the
+    scaling gives the frame of no certificate, bit for bit, where it holds (the clamp is
+    the identity) and where it does not (the clamp acts: ``eta`` 0.02)."""
+    from wrinkle_vis.core.foldguard import Certified, guard_frame
+    from wrinkle_vis.core.foldguard._base import _vertex_normals
+
+    rng = np.random.default_rng(3)
+    pts, tri = _sheet(20, 20, rng)
+    pull = np.zeros_like(pts)
+    pull[:, 0] = -8.0 * np.exp(-(pts[:, 0] / 1.0) ** 2)
+    deformed = pts + pull
+    W = 0.05 * np.sin(pts[:, 1]) * (np.abs(pts[:, 0]) < 3)
+    terms = pulls.pull_terms(pts, tri)
+    n = _vertex_normals(deformed, tri, np.arange(len(pts)), terms)
+    points = deformed + W[:, None] * n
+    radii = np.full((len(pts), 2), 0.5)
+    guard = FoldGuard(eta=eta)
+    clamp = bool(np.all(np.abs(W) <= (1 - 1e-5) * guard.knee * guard.eta * 0.5))
+    assert clamp == (eta > 0.5)
+    got = guard_frame(pts, deformed, points, W, tri, radii, guard, terms=terms,
+                      certified=Certified(False, False, False, clamp))
+    want = guard_frame(pts, deformed, points, W, tri, radii, guard,
+                       terms=pulls.pull_terms(pts, tri))
+    assert got.scale.min() < 0.9  # the pull is scaled
+    assert clamp or np.any(got.W != W)  # (eta 0.02: the clamp acts)
+    for k in ("deformed", "points", "W", "scale", "acted"):
+        np.testing.assert_array_equal(getattr(got, k), getattr(want, k), err_msg=k)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), share=st.floats(0.0, 1.0), normals_only=st.booleans())
+def test_the_pulled_triangles_terms_taken_from_every_row_are_those_computed_alone(
+        seed, share, normals_only):
+    """``_triangles_of`` on fresh terms, whatever share of the triangles is pulled (above
+    three quarters every row is found and the pulled ones taken, ``_columns``): the values
+    and memory layout (einsum's sums follow it) of the pulled triangles' rows computed on
+    their own, as before (so every sum on them is the same)."""
+    rng = np.random.default_rng(seed)
+    pts, tri = _sheet(int(rng.integers(3, 14)), int(rng.integers(3, 14)), rng)
+    moving = rng.random(len(pts)) < share
+    terms = pulls.pull_terms(pts, tri)
+    got = pulls._triangles_of(terms, moving, normals_only)
+    corners = np.ascontiguousarray(tri.T)
+    rows = np.flatnonzero(moving[corners].any(axis=0))
+    if len(rows) == len(tri):  # (every triangle: the terms themselves, as before)
+        want = (rows, corners, *pulls._row_terms(pts, corners))
+    else:
+        want = (rows, corners[:, rows],
+                *pulls._row_terms(pts, corners[:, rows], normals_only, order="F"))
+    for a, b in zip(got, want, strict=False):
+        if a is None:
+            continue
+        assert np.array_equal(a, b)
+        assert (a.flags.c_contiguous, a.flags.f_contiguous) == \
+            (b.flags.c_contiguous, b.flags.f_contiguous)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("skin", ["geometric", "physical"])
+def test_a_clamp_certified_at_some_vertices_searches_the_others_alone(skin, monkeypatch):
+    """The refined pucker at full intensity with a guard whose clamp acts on the rest radii
+    (eta 0.2): its certificate fails at some of the 13,000 wrinkled vertices (``clamp_ok``),
+    so the rest radii are searched at those alone and the others are given no bound; the
+    frame is bit for bit that of the exact checks (every radius searched), and a mask that
+    wrongly passes every vertex changes it."""
+    import wrinkle_vis as wv
+    from wrinkle_vis.core import foldguard
+
+    guard = FoldGuard(eta=0.2)
+    fast, exact = wv.datasets.load_face(), wv.datasets.load_face()
+    raw = fast.evaluate("pucker", refine=True, skin=skin, fold_guard=False)
+    cert = foldguard.certify(fast, raw, guard)
+    assert not cert.clamp and 0 < np.count_nonzero(~cert.clamp_ok) < np.count_nonzero(raw.W) / 4
+    got = fast.evaluate("pucker", refine=True, skin=skin, fold_guard=guard)
+    with monkeypatch.context() as m:
+        _no_certificates(m)
+        want = exact.evaluate("pucker", refine=True, skin=skin, fold_guard=guard)
+    assert _same_frames(got, want)
+    wrong = foldguard.Certified(False, False, False, False, clamp_ok=np.ones(len(got.W), bool))
+    with monkeypatch.context() as m:
+        m.setattr(foldguard.frame, "certify", lambda *a, **k: wrong)
+        bad = wv.datasets.load_face().evaluate("pucker", refine=True, skin=skin,
+                                               fold_guard=guard)
+    assert not _same_frames(bad, want)

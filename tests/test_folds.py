@@ -1187,14 +1187,22 @@ def test_a_refined_frames_nearest_skin_vertices_are_kept_per_hierarchy_row():
 
 def test_the_pull_terms_are_found_where_needed_and_equal_those_found_at_once():
     """``pull_terms`` finds the edges and the triangles' rows lazily: a frame no guard
-    limits finds no edges, and the factors (acting or not) are bit for bit those of terms
-    whose every row and edge was found first."""
+    limits finds no edges, and every triangle's rows only where more than three quarters of
+    them are pulled (stop 41: then the pulled ones are taken from them); the factors
+    (acting or not) are bit for bit those of terms whose every row and edge was found
+    first."""
     from wrinkle_vis.core.foldguard import _terms_edges, _terms_rows
 
     pts, tri, pull = _pulled_sheet()
     lazy = pull_terms(pts, tri)
     f = skin_scale(pts, pts + 0.01 * pull, tri, terms=lazy)  # nothing limited
-    assert np.all(f == 1.0) and "edges" not in lazy and "N" not in lazy
+    moving = np.linalg.norm(pts + 0.01 * pull - pts, axis=1) > 0  # (as skin_scale sees it)
+    pulled = np.mean(np.any(moving[tri], axis=1))
+    assert np.all(f == 1.0) and "edges" not in lazy and ("N" in lazy) == (pulled > 0.75)
+    few = pull_terms(pts, tri)  # a pull on fewer triangles: their rows alone
+    local = np.where((np.abs(pts[:, 0] - 2.0) < 2.0)[:, None], pull, 0.0)
+    skin_scale(pts, pts + 0.01 * local, tri, terms=few)
+    assert "N" not in few and few["subsets"]
     eager = pull_terms(pts, tri, TriangleSurface(pts, tri).edges)
     _terms_rows(eager)
     for scale in (0.01, 0.5, 1.0):

@@ -54,6 +54,9 @@ class Certified:
     empty : (n,) bool or None
         Where ``balls`` fails: the vertices whose own ball is certified empty
         (:func:`_empty_balls`; :func:`_deformed_lows` does not search them).
+    clamp_ok : (n,) bool or None
+        Where ``clamp`` fails (:func:`_clamp_only`): the vertices whose :math:`|W|` is at or
+        below the clamp's limit (the clamp on the rest radii leaves them as they are).
 
     Each of ``step``, ``balls`` and ``clamp`` holds for the frame's own pull: where the
     pulls' check scales it, they say nothing (:func:`guard_frame` then runs every check).
@@ -64,6 +67,7 @@ class Certified:
     balls: bool
     clamp: bool
     empty: np.ndarray | None = field(default=None, compare=False, repr=False)
+    clamp_ok: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     @property
     def all(self) -> bool:
@@ -504,7 +508,8 @@ def _clamp_only(face, state, guard: FoldGuard) -> Certified | None:
     r"""The clamp's certificate alone, for a frame whose pull is not known in closed form
     (refined, or the physical skin's): :math:`|W| \le` :func:`_clamp_limit` at every vertex,
     a refined vertex's limit the least of those of the three nearest vertices of ``face``'s
-    skin (whose radii :func:`fold_radii` gives it). None where the skin keeps no bounds.
+    skin (whose radii :func:`fold_radii` gives it); where it fails, the vertices that pass
+    (``clamp_ok``). None where the skin keeps no bounds.
     """
     skin = getattr(face._rest, "fold_bounds", None)
     if skin is None:
@@ -522,8 +527,9 @@ def _clamp_only(face, state, guard: FoldGuard) -> Certified | None:
         else:
             limit = (key, _refined_limits(face, state.face, base, key))
         fine.fold_clamp_limit = limit
-    clamp = bool((np.abs(state.W) <= limit[1]).all())
-    return Certified(False, False, False, clamp)
+    ok = np.abs(state.W) <= limit[1]
+    clamp = bool(ok.all())
+    return Certified(False, False, False, clamp, clamp_ok=None if clamp else ok)
 
 
 def _refined_limits(face, skin_face, base: np.ndarray, key: tuple) -> np.ndarray:

@@ -19,6 +19,7 @@ from .balls import (  # noqa: F401
 )
 from .certified import (  # noqa: F401
     Certified,
+    _clamp_only,
     certify,
 )
 from .fans import (  # noqa: F401
@@ -159,7 +160,7 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
        two rings (:func:`guard_fans`: :math:`W'` scaled back where a pair would cross).
 
     ``certified`` (:func:`certify`): the checks it certifies are skipped (each would have
-    returned what skipping gives); a pull the exact check does scale voids the others.
+    returned what skipping gives); a scaled pull voids all but the clamp's (any pull's).
     ``radii`` may be a function giving them, called only where they are needed.
 
     Where no guard acts, the frame's points are returned as they are (bit for bit).
@@ -180,7 +181,7 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
     if moved.any():
         d2 = d2.copy()
         d2[moved] = rest[moved] + f[moved, None] * (d2[moved] - rest[moved])
-        cert = Certified(False, False, False, False)  # certified for the unscaled pull only
+        cert = Certified(False, False, False, cert.clamp)  # (the clamp's is any pull's)
     search, step = deformed_radii and not cert.balls, None if moved.any() else p2 - d2
     empty, clear = _gaps_skip(rest, d2, W, tri, terms, guard, cert.empty, step) if search \
         else (cert.empty, None)
@@ -220,6 +221,27 @@ def guard_amount(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: 
     return amount
 
 
+def _radii(face, state, guard: FoldGuard, cert: Certified | None):
+    r"""``(n, 2)``, or a function giving them: the rest radii the clamp of ``state``'s
+    :math:`W` needs (:func:`fold_radii`), given its certificate ``cert``: asked for only
+    when the clamp's certificate fails or a deformed ball shrinks (a function), and where
+    it fails at some vertices only (``cert.clamp_ok``), searched at the others alone and
+    ``inf`` at those that pass. There the clamp is the identity on any radius at or above
+    the one :math:`|W|` needs, which every search gives them, and a deformed ball's radius
+    below it is taken as it is: the clamp's result is the same, bit for bit, and no search
+    that finds a true radius starts elsewhere (``docs/model.md``, "Certified skips").
+    """
+    if cert is not None and cert.clamp:
+        return lambda: fold_radii(face, state.face, state.W, guard)
+    ok = None if cert is None else cert.clamp_ok
+    if ok is None or not ok.any():
+        return fold_radii(face, state.face, state.W, guard)
+    radii = np.array(fold_radii(face, state.face, np.where(ok, 0.0, state.W), guard),
+                     dtype=float, copy=True)
+    radii[ok] = np.inf
+    return radii
+
+
 def guarded(face, state, guard: FoldGuard = FoldGuard()):
     r"""Apply :func:`guard_frame` to a frame ``state`` of ``face`` (unrefined or refined) in
     place: its ``deformed_points``, ``points`` and ``W`` become the guarded ones,
@@ -242,8 +264,7 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
     cert = certify(face, state, guard)
     if cert is not None and cert.all:  # no check can act: the frame as it is
         return state
-    radii = fold_radii(face, state.face, state.W, guard) if cert is None or not cert.clamp \
-        else lambda: fold_radii(face, state.face, state.W, guard)  # asked for if needed
+    radii = _radii(face, state, guard, cert)  # (a function where the clamp is certified)
     skin = state.face  # the face's own skin, or the refined one of this frame
     terms = getattr(skin._rest, "pull_terms", None)
     if terms is None:
@@ -261,10 +282,11 @@ def guarded(face, state, guard: FoldGuard = FoldGuard()):
         del radii  # g's points and W, and the radii, are not needed again: freed first
         fresh = face._frame(dict(state.activations), g.deformed)
         del g
-        radii = fold_radii(face, state.face, fresh.W, guard)  # the fresh frame's W
+        cert = _clamp_only(face, fresh, guard)  # (the clamp's certificate: any pull's)
+        radii = _radii(face, fresh, guard, cert)
         w = guard_frame(state.rest_points, fresh.deformed_points, fresh.points, fresh.W,
                         state.triangles, radii, guard, pulls=False, terms=terms,
-                        deformed_radii=True)
+                        deformed_radii=True, certified=cert)
         g = GuardResult(w.deformed, w.points, w.W, scale, acted | w.acted)
         state.fields = fresh.fields
     W = np.asarray(state.W)
