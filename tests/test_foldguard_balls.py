@@ -97,7 +97,7 @@ def test_one_lifted_query_clears_as_cleared_and_finds_every_lifted_vertex(seed):
     assert len(lift["classes"]) >= 2
     cleared, ball, vert = _lifted_near(lift, c, r, own)
     np.testing.assert_array_equal(cleared, _cleared(lift, c, r, own))
-    assert 0.05 < cleared.mean() < 0.95  # both kinds of ball
+    assert cleared.any() and not cleared.all()  # both kinds of ball (seed 7209: 5 %)
     lifted = np.sum((pts[None, :, :] - c[:, None, :]) ** 2, axis=2) - lift["rho"][None, :] \
         + lift["T"][None, :]
     want = lifted <= (r[:, None] ** 2 + lift["T"][None, :]) * (1.0 + 2e-9)
