@@ -150,6 +150,7 @@ from .fans import (  # noqa: F401
     _stars_along,
     _sub_rows,
     _two_rings,
+    _wedges_clear,
     guard_fans,
 )
 from .frame import (  # noqa: F401
