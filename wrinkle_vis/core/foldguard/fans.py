@@ -649,7 +649,7 @@ def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
         terms["fans_seen"] = True
         rest = None
     if rest is None:  # no cached structures: those of the triangles near the moved ones
-        near = _near_triangles(moved, tri, 3)
+        near = _triangles_within(moved, tri, 3)
         if not near.all():
             p, h = _scaled_fans(d, p0, moved, tri[near], {}, None)
             return (points, W) if p is p0 else (p, np.asarray(W, dtype=float) * h)
@@ -658,7 +658,7 @@ def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
     return (points, W) if p is p0 else (p, np.asarray(W, dtype=float) * h)
 
 
-def _near_triangles(mark: np.ndarray, tri: np.ndarray, rings: int) -> np.ndarray:
+def _triangles_within(mark: np.ndarray, tri: np.ndarray, rings: int) -> np.ndarray:
     """``(m,)`` bool: the triangles ``tri`` ``(m, 3)`` with a corner within ``rings``
     rings of the vertices ``mark`` ``(n,)`` bool: every triangle at such a vertex.
     """
