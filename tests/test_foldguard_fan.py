@@ -28,6 +28,7 @@ from wrinkle_vis.core.foldguard import (
     _vertex_normals,
     guard_fans,
     guard_frame,
+    pull_terms,
 )
 
 
@@ -111,19 +112,35 @@ def test_the_fan_guard_leaves_a_step_that_crosses_nothing_as_it_is():
 
 
 def test_guard_frame_calls_the_fan_guard_where_no_ball_and_no_area_acts():
-    """With ``FoldGuard(fans=True)`` the book pushed into itself is guarded where neither
-    the balls (radii without bound here) nor the areas act; the default guard leaves the
-    fans alone (opt-in: its cost, docs/benchmarks.md stop 39), and the book crosses."""
+    """With ``FoldGuard(fans=True)``, and with the default guard on a refined frame's skin
+    (``terms["refined"]``, docs/model.md "The fans", "On refined frames by default"), the
+    book pushed into itself is guarded where neither the balls (radii without bound here)
+    nor the areas act; the default guard on an unrefined skin and ``fans=False`` leave the
+    fans alone, and the book crosses."""
     pts, tri = book()
     W = np.zeros(len(pts))
     W[[A1, B1]] = 0.3
     raw = pushed(pts, tri, W)
     radii = np.full((len(pts), 2), np.inf)
-    g = guard_frame(pts, pts, raw, W, tri, radii, FoldGuard(fans=True), pulls=False)
-    assert fold_report(pts, g.points, tri).ok
-    assert g.acted[A1] and g.acted[B1] and np.all(g.W[[A1, B1]] < 0.3)
-    off = guard_frame(pts, pts, raw, W, tri, radii, pulls=False)
-    assert not FoldGuard().fans and not fold_report(pts, off.points, tri).ok
+
+    def guarded(guard: FoldGuard, refined: bool):
+        terms = pull_terms(pts, tri)
+        terms["refined"] = refined
+        return guard_frame(pts, pts, raw, W, tri, radii, guard, pulls=False, terms=terms)
+
+    assert FoldGuard().fans == "refined"
+    for g in (guarded(FoldGuard(fans=True), False), guarded(FoldGuard(), True)):
+        assert fold_report(pts, g.points, tri).ok
+        assert g.acted[A1] and g.acted[B1] and np.all(g.W[[A1, B1]] < 0.3)
+    for g in (guarded(FoldGuard(), False), guarded(FoldGuard(fans=False), True),
+              guard_frame(pts, pts, raw, W, tri, radii, pulls=False)):
+        assert not fold_report(pts, g.points, tri).ok
+
+
+@pytest.mark.parametrize("fans", ["yes", "", None, 2])
+def test_a_fold_guard_with_fans_neither_a_bool_nor_refined_is_refused(fans):
+    with pytest.raises(ValueError, match="FoldGuard.fans"):
+        FoldGuard(fans=fans)
 
 
 def lattice(k: int = 5) -> tuple[np.ndarray, np.ndarray]:
