@@ -155,9 +155,8 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
        pulls, against the guarded deformed skin: :math:`W'` is scaled by
        :func:`skin_scale` of that step (a steep furrow on small triangles would otherwise
        turn them over).
-    4. With ``guard.fans`` (True, or ``"refined"`` and ``terms["refined"]``, a refined
-       frame's skin): no vertex's displaced fan passes through the triangles of its two
-       rings (:func:`guard_fans`: :math:`W'` scaled back where a pair would cross).
+    4. With ``guard.fans`` (or ``"refined"`` on a refined skin's ``terms``): no vertex's
+       fan passes through its two rings (:func:`guard_fans`: :math:`W'` scaled back).
 
     ``certified`` (:func:`certify`): the checks it certifies are skipped (each would have
     returned what skipping gives); a pull the exact check does scale voids the others.
