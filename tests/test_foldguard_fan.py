@@ -262,6 +262,20 @@ def test_a_skin_first_frame_skips_the_rest_filter_and_its_second_builds_it():
         np.testing.assert_array_equal(a, b)
 
 
+def test_a_refined_skin_never_builds_the_rest_filter():
+    """A refined frame's skin (``terms["refined"]``: one per split set, each seen a few
+    times) is guarded as a first frame every time: the whole skin's margins would cost
+    ten times a frame's checks on its second visit (docs/benchmarks.md, stop 41)."""
+    pts, tri = book(phi_deg=12.0, nx=6, rows=3)
+    W = np.random.default_rng(3).uniform(-0.3, 0.3, len(pts))
+    raw = pushed(pts, tri, W)
+    terms: dict = {"refined": True}
+    out = [guard_fans(pts, raw, W, tri, terms, rest=pts) for _ in range(3)]
+    assert "fan_margins" not in terms and "fan_rest_fails" not in terms
+    for a, b in zip(out[0], out[2], strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
 def test_the_rest_filter_leaves_the_guarded_frame_as_the_exact_checks_give_it():
     pts, tri = book(phi_deg=12.0, nx=6, rows=3)
     rng = np.random.default_rng(3)

@@ -642,10 +642,11 @@ def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
     moved = moved[:, 0] | moved[:, 1] | moved[:, 2]
     if not moved.any():
         return points, W
-    if rest is not None and not terms.get("fans_seen"):
+    if rest is not None and (terms.get("refined") or not terms.get("fans_seen")):
         # a skin's first frame is guarded without the rest filter: its margins cost a
         # pass over the whole skin (three times the frame's exact checks on a refined
-        # frame's skin, new on each frame); a skin seen again pays for them once
+        # frame's skin, new on each frame); a skin seen again pays for them once, but
+        # a refined one (one per split set, each seen a few times) never
         terms["fans_seen"] = True
         rest = None
     if rest is None:  # no cached structures: those of the triangles near the moved ones
