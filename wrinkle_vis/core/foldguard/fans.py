@@ -633,7 +633,10 @@ def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
     where pairs share a corner; after ``_FAN_ROUNDS`` rounds, to 0), and the vertices
     around those are certified and tested again, until no pair crosses. A pair apart on
     ``deformed`` is apart once its corners' :math:`W` is 0, so this ends. ``terms``: a
-    cache (:func:`pull_terms`' dict, of ``rest`` when it is given).
+    cache (:func:`pull_terms`' dict, of ``rest`` when it is given); a skin's first frame,
+    every frame of a refined skin (``terms["refined"]``) and a call without ``rest`` use
+    no margins and work on the triangles within three rings of the moved vertices only
+    (:func:`_triangles_within`; the same pairs, so the same frame).
     """
     tri = np.asarray(triangles, dtype=np.intp)
     terms = {} if terms is None else terms
