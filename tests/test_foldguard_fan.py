@@ -191,6 +191,19 @@ def test_a_step_that_moves_nothing_is_returned_as_it_is(n):
     assert W2 is W
 
 
+def test_a_step_that_moves_only_a_vertex_outside_every_triangle_is_returned_as_it_is():
+    """The first frame's three rings of the moved vertices hold no triangle: nothing to
+    check (a stray vertex of a scan)."""
+    pts, tri = book()
+    pts = np.vstack([pts, [[9.0, 9.0, 9.0]]])
+    raw = pts.copy()
+    raw[-1] += 1.0
+    W = np.zeros(len(pts))
+    W[-1] = 1.0
+    p, W2 = guard_fans(pts, raw, W, tri, {}, rest=pts)
+    assert p is raw and W2 is W
+
+
 def covered(tri: np.ndarray, n: int, v: int) -> set:
     """The pairs of triangles whose being apart v's fan certificate stands for: two of
     the fan of a vertex of v's closed ring, or one of v's fan and one with a corner on its

@@ -654,6 +654,8 @@ def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
         rest = None
     if rest is None:  # no cached structures: those of the triangles near the moved ones
         near = _triangles_within(moved, tri, 3)
+        if not near.any():  # (moved vertices in no triangle: no pair moved)
+            return points, W
         if not near.all():
             p, h = _scaled_fans(d, p0, moved, tri[near], {}, None)
             return (points, W) if p is p0 else (p, np.asarray(W, dtype=float) * h)
