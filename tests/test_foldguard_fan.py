@@ -289,6 +289,30 @@ def test_a_refined_skin_never_builds_the_rest_filter():
         np.testing.assert_array_equal(a, b)
 
 
+def test_a_refined_skin_seen_again_keeps_its_near_triangles_work():
+    """A refined skin guarded again with the same moved vertices finds the structures of
+    the triangles near them kept (``fan_near``), and guards the frame as a fresh skin
+    would; other moved vertices replace them."""
+    pts, tri = book(phi_deg=12.0, nx=10, rows=4)
+    W = np.zeros(len(pts))
+    W[[A1 - 2, B1 - 2]] = 0.3  # at one end of the book: its other end is not near
+    raw = pushed(pts, tri, W)
+    terms: dict = {"refined": True}
+    first = guard_fans(pts, raw, W, tri, terms, rest=pts)
+    near, kept = terms["fan_near"]
+    assert not near.all() and "fans" in kept
+    second = guard_fans(pts, raw, W, tri, terms, rest=pts)
+    assert terms["fan_near"][1] is kept
+    fresh = guard_fans(pts, raw, W, tri)
+    for a, b, c in zip(first, second, fresh, strict=True):
+        np.testing.assert_array_equal(a, c)
+        np.testing.assert_array_equal(b, c)
+    W2 = np.zeros(len(pts))
+    W2[A1 + 2] = 0.3
+    guard_fans(pts, pushed(pts, tri, W2), W2, tri, terms, rest=pts)
+    assert terms["fan_near"][1] is not kept
+
+
 def test_the_rest_filter_leaves_the_guarded_frame_as_the_exact_checks_give_it():
     pts, tri = book(phi_deg=12.0, nx=6, rows=3)
     rng = np.random.default_rng(3)

@@ -657,11 +657,23 @@ def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
         if not near.any():  # (moved vertices in no triangle: no pair moved)
             return points, W
         if not near.all():
-            p, h = _scaled_fans(d, p0, moved, tri[near], {}, None)
+            kept = _near_terms(near, terms) if terms.get("refined") else {}
+            p, h = _scaled_fans(d, p0, moved, tri[near], kept, None)
             return (points, W) if p is p0 else (p, np.asarray(W, dtype=float) * h)
     p, h = _scaled_fans(d, p0, moved, tri, terms, rest)
     terms.pop("fan_runs", None)  # (the edges' sort, if the fans' structure did not take it)
     return (points, W) if p is p0 else (p, np.asarray(W, dtype=float) * h)
+
+
+def _near_terms(near: np.ndarray, terms: dict) -> dict:
+    """The cache of the triangles ``near`` ``(m,)`` bool of a refined skin (``terms``):
+    kept in ``terms`` for the last such set, found again by a frame with the same set (the
+    skin seen again with the same moved vertices: the app's Play going round), else new.
+    """
+    kept = terms.get("fan_near")
+    if kept is None or not np.array_equal(kept[0], near):
+        kept = terms["fan_near"] = (near, {})
+    return kept[1]
 
 
 def _triangles_within(mark: np.ndarray, tri: np.ndarray, rings: int) -> np.ndarray:
