@@ -113,6 +113,17 @@ def _baseline_guard(ref: str):
     return foldguard_at(ref)
 
 
+def _as_baseline(foldguard, old):
+    """This tree's ``FoldGuard`` with the baseline module ``old``'s defaults (``fans``,
+    opt-in up to stop 40, defaults to ``"refined"`` since: a baseline's guard reading this
+    tree's default would run its fans everywhere)."""
+    import dataclasses
+
+    base = old.FoldGuard()
+    return foldguard.FoldGuard(**{f.name: getattr(base, f.name)
+                                  for f in dataclasses.fields(base)})
+
+
 def _cases(cases: tuple, faces: tuple[str, ...]):
     """Per case of ``cases`` ((face, refine, expressions)) whose face is in ``faces``: the
     face, a twin for the baseline's guard (caches of its own: their layout may differ), the
@@ -161,10 +172,10 @@ def guard(rounds: int, baseline: str | None = None, intensities: tuple[float, ..
     out = {}
     for face, twin, host, refine, exprs in _cases(GUARD_CASES, faces):
         for expr, level in ((e, i) for e in exprs for i in intensities):
-            def on(module, e=expr, i=level, r=refine, f=face, h=host, own=host.guarded):
+            def on(module, e=expr, i=level, r=refine, f=face, h=host, own=host.guarded, g=True):
                 h.guarded = module.guarded
                 try:
-                    return f.evaluate(e, i, refine=r, fold_guard=True, skin=skin)
+                    return f.evaluate(e, i, refine=r, fold_guard=g, skin=skin)
                 finally:
                     h.guarded = own
 
@@ -172,7 +183,8 @@ def guard(rounds: int, baseline: str | None = None, intensities: tuple[float, ..
                         e, i, refine=r, fold_guard=False, skin=skin),
                     "on": lambda: on(foldguard)}
             if old is not None:
-                runs["baseline"] = lambda on=on, t=twin: on(old, f=t)
+                runs["baseline"] = lambda on=on, t=twin: on(old, f=t,
+                                                            g=_as_baseline(foldguard, old))
             s = runs["on"]()  # radii, caches, hierarchy: once
             same = None
             if old is not None:
@@ -284,8 +296,9 @@ def animation(rounds: int, frames: int, baseline: str | None = None,
 
                 runs = {"off": lambda v, ramp=ramp: ramp(v, None),
                         "on": lambda v, ramp=ramp: ramp(v, foldguard)}
-                if old is not None:
-                    runs["baseline"] = lambda v, ramp=ramp, t=twin: ramp(v, old, f=t)
+                if old is not None:  # (the baseline's own default guard: its fans default)
+                    runs["baseline"] = lambda v, ramp=ramp, t=twin: ramp(
+                        v, old, f=t, g=_as_baseline(foldguard, old))
                 if fans:
                     runs["fans"] = lambda v, ramp=ramp: ramp(
                         v, foldguard, g=foldguard.FoldGuard(fans=True))

@@ -141,9 +141,9 @@ def _common(p: argparse.ArgumentParser, *, expression_many: bool = False,
     p.add_argument("--fold-guard", choices=("on", "off", "fans"), default="on",
                    help="keep the skin from passing through itself: limit the pulls where "
                         "a triangle would turn over and |W| below half the empty-ball "
-                        "radius on its side (default on; off: the paper's model as is; "
-                        "fans: also keep each vertex's wrinkled fan off its two rings, "
-                        "for stiff muscles on a refined scan that folds on itself)")
+                        "radius on its side, and on refined frames each vertex's wrinkled "
+                        "fan off its two rings (default on; off: the paper's model as is; "
+                        "fans: the fans kept off their rings on unrefined frames too)")
 
 
 def _refine_options(p: argparse.ArgumentParser, what: str = "evaluate with adaptive "

@@ -126,6 +126,7 @@ from .fans import (  # noqa: F401
     _cleared_by_rest,
     _csr_rows,
     _edge_runs,
+    _fan_certificates,
     _fan_edges,
     _fan_incidence,
     _fan_pairs,
@@ -146,10 +147,13 @@ from .fans import (  # noqa: F401
     _ring,
     _row_products,
     _scale_back,
+    _scaled_fans,
     _segment_max,
     _stars_along,
     _sub_rows,
+    _triangles_within,
     _two_rings,
+    _wedges_clear,
     guard_fans,
 )
 from .frame import (  # noqa: F401

@@ -33,13 +33,15 @@ class FoldGuard:
     knee_wrinkles : float
         The knee of that step's clamp, in ``(0, 1)`` (it acts only where :math:`W` would
         bring a triangle to ``min_area_wrinkles`` at ``1 / knee_wrinkles`` times itself).
-    fans : bool
+    fans : bool or "refined"
         Also keep each vertex's displaced fan off the triangles of its two rings
-        (:func:`guard_fans`; ``docs/model.md``, "The fans"). Off by default: it acts on no
-        built-in frame at default parameters, and it adds 36-119 % to the default guard's
-        refined frames and the geometric skin's unrefined ones (``docs/benchmarks.md``,
-        stop 40); turn it on (the command line's ``--fold-guard fans``) for stiff muscles
-        (k0 raised several times) on a refined scan whose rest skin folds on itself.
+        (:func:`guard_fans`; ``docs/model.md``, "The fans"): True on every frame, False on
+        none, ``"refined"`` (the default) on refined frames, the only ones where fans have
+        been seen to cross (the refined head's eye corner with k0 at 5x its default); there
+        it adds a quarter to a half of the guard's refined frame (23-49 % on paper-size
+        ramps, 5-71 % on the head's), on unrefined frames it would add up to 17 % (physical skin)
+        and 134-288 % (geometric skin, frames under 1.1 ms) for no crossing measured
+        (``docs/benchmarks.md``, stop 41). ``--fold-guard fans`` turns it on everywhere.
     """
 
     eta: float = 0.5
@@ -48,7 +50,7 @@ class FoldGuard:
     min_area_wrinkles: float = 0.05
     knee_wrinkles: float = 0.8
     eta_deformed: float = 0.7
-    fans: bool = False
+    fans: bool | str = "refined"
 
     def __post_init__(self):
         for name in ("eta", "knee", "min_area", "min_area_wrinkles", "knee_wrinkles",
@@ -56,6 +58,8 @@ class FoldGuard:
             v = getattr(self, name)
             if not 0.0 < v < 1.0:
                 raise ValueError(f"FoldGuard.{name} = {v:g} is outside (0, 1)")
+        if self.fans not in (True, False, "refined"):
+            raise ValueError(f"FoldGuard.fans = {self.fans!r}: use True, False or 'refined'")
 
 
 def soft_clamp(x: np.ndarray, bound: np.ndarray, knee: float) -> np.ndarray:

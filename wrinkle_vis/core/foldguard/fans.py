@@ -403,12 +403,24 @@ def _certified_fans(p: np.ndarray, tri: np.ndarray, ask: np.ndarray, fans: dict,
     r"""``(k,)`` bool twice, for vertices ``ask`` ``(k,)`` on ``p`` ``(n, 3)``: whose fan is
     a star (its triangles meet only in shared vertices and edges), and whose fan meets
     the triangles of its two rings only in shared vertices and edges, certainly
-    (``docs/model.md``, "The fans"). Seen along the vertex's :math:`m_v`
+    (``docs/model.md``, "The fans"): :func:`_fan_certificates`' first two.
+    """
+    star, sure, _ = _fan_certificates(p, tri, ask, fans, terms)
+    return star, sure
+
+
+def _fan_certificates(p: np.ndarray, tri: np.ndarray, ask: np.ndarray, fans: dict,
+                      terms: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""For vertices ``ask`` ``(k,)`` on ``p`` ``(n, 3)``: ``(k,)`` bool, whose fan is a
+    star; ``(k,)`` bool, whose certificate holds for every edge v-u at it; ``(h, 2)``,
+    the edges (v, u) whose certificate holds at the vertices v of ``ask`` where it does not
+    hold for all (``docs/model.md``, "The fans"). Seen along the vertex's :math:`m_v`
     (:func:`_fan_terms`): the vertex and its ring are closed (not ``open``), its fan is a
-    star once around it, its link turns left at every ring vertex :math:`u` (the
-    projected fan :math:`S_v` is convex), and every :math:`u`'s fan is a star once around
-    it (along :math:`m_u` with :math:`c_u > |m_v - m_u|`, which makes it one along
-    :math:`m_v`, or else checked along :math:`m_v`, :func:`_stars_along`).
+    star once around it (1); every :math:`u`'s fan is a star once around it (3: along
+    :math:`m_u` with :math:`c_u > |m_v - m_u|`, which makes it one along :math:`m_v`, or
+    else checked along :math:`m_v`, :func:`_stars_along`); and its link turns left at
+    every ring vertex (2: the projected fan :math:`S_v` is convex), or else, for the edge
+    v-u, v's fan keeps off the wedge of u's other triangles (2', :func:`_wedges_clear`).
     """
     n = len(p)
     inc = _fan_incidence(tri, n, terms)
@@ -421,21 +433,64 @@ def _certified_fans(p: np.ndarray, tri: np.ndarray, ask: np.ndarray, fans: dict,
     m, c, star = _fan_terms(p, tri, sub)
     star &= ~fans["open"]
     t = tri[sub]
-    rows = np.flatnonzero(asked[t.T.ravel()])  # the asked vertices' corners
+    rows = np.flatnonzero(asked[t.T.ravel()])  # the asked vertices' corners: edges v-u
     k, rows = rows // len(sub), rows % len(sub)
     v, u, w = t[rows, k], t[rows, (k + 1) % 3], t[rows, (k + 2) % 3]
     before = fans["across"][sub[rows], k]  # the ring vertex before u (across edge v-u)
     e_in, e_out = p[u] - p[np.maximum(before, 0)], p[w] - p[u]
     turn = _rows_dot(_cross(e_in, e_out), m[v])
     left = turn > _FAN_MARGIN * np.sqrt(_rows_dot(e_in, e_in) * _rows_dot(e_out, e_out))
-    ok = asked & star
-    ok[v[~(star[u] & left)]] = False
+    good = star[v] & star[u]  # 1 and 3 along m_u (of a closed u)
     dm = m[v] - m[u]
     along = c[u] > np.sqrt(_rows_dot(dm, dm)) + _FAN_MARGIN
-    rows = np.flatnonzero(ok[v] & ~along)  # u's star along m_v, checked
-    if len(rows):
-        ok[v[rows[~_stars_along(p, tri, inc, v[rows], u[rows], m)]]] = False
-    return star[ask], ok[ask]
+    check = np.flatnonzero(good & ~along)  # u's star along m_v, checked
+    if len(check):
+        good[check] = _stars_along(p, tri, inc, v[check], u[check], m)
+    ok = asked & star
+    ok[v[~(good & left)]] = False  # 1-3: every pair v's certificate stands for is apart
+    # 2' per edge v-u where the link turns right somewhere and u is not certified either
+    # (an edge with a certified end has its pairs apart: it brings none to the exact test)
+    check = np.flatnonzero(good & ~ok[v] & ~ok[u] & asked[u])
+    if len(check):
+        good[check] = _wedges_clear(p, tri, inc, m, v[check], u[check], w[check],
+                                    before[check])
+    half = np.flatnonzero(good & ~ok[v] & ~ok[u] & asked[u])
+    return star[ask], ok[ask], np.stack([v[half], u[half]], axis=1)
+
+
+def _wedges_clear(p: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix, m: np.ndarray,
+                  v: np.ndarray, u: np.ndarray, up: np.ndarray, um: np.ndarray
+                  ) -> np.ndarray:
+    r"""``(r,)`` bool: condition 2' of the fan certificate (``docs/model.md``, "The fans")
+    for each edge v-u (``v``, ``u`` ``(r,)``, v's link running ``um`` :math:`u^-`, u,
+    ``up`` :math:`u^+`; -1: none) on ``p`` ``(n, 3)``, seen along :math:`m_v` (``m``
+    ``(n, 3)``). With :math:`a = u^+ - u`, :math:`b = u^- - u`,
+    :math:`f_a(x) = m_v \cdot a \times (x - u)` and
+    :math:`f_b(x) = m_v \cdot (x - u) \times b`, every triangle of v's fan not holding u
+    has all its corners x in :math:`H_a = \{f_a > 0\}` (:math:`u^+` itself exempt) and all
+    in :math:`H_b = \{f_b > 0\}` (:math:`u^-` exempt), or, where the link turns right at u
+    (:math:`m_v \cdot a \times b < 0`), all in one of the two; each sign with the relative
+    margin ``_FAN_MARGIN``. With 1 and 3 (the caller's), no triangle of v's fan then meets
+    a triangle of u's that shares no vertex with it.
+    """
+    indptr, t = _sub_rows(inc, v)  # every triangle of v's fan, per edge
+    row = np.repeat(np.arange(len(v)), np.diff(indptr))
+    mv, o, ur, upr, umr = m[v][row], p[u][row], u[row], up[row], um[row]
+    a, b = (p[up] - p[u])[row], (p[np.maximum(um, 0)] - p[u])[row]
+    la, lb = np.sqrt(_rows_dot(a, a)), np.sqrt(_rows_dot(b, b))
+    corners = tri[t]
+    A = B = (corners != ur[:, None]).all(axis=1)  # (rows holding u: nothing to check)
+    skip = ~A
+    for j in range(3):
+        x = p[corners[:, j]] - o
+        lx = np.sqrt(_rows_dot(x, x))
+        A = A & ((corners[:, j] == upr)
+                 | (_rows_dot(_cross(a, x), mv) > _FAN_MARGIN * la * lx))
+        B = B & ((corners[:, j] == umr)
+                 | (_rows_dot(_cross(x, b), mv) > _FAN_MARGIN * lb * lx))
+    right = _rows_dot(_cross(a, b), mv) < -_FAN_MARGIN * la * lb
+    fine = skip | (A & B) | (right & (A | B))
+    return (np.bincount(row, ~fine, len(v)) == 0) & (um >= 0)
 
 
 def _stars_along(p: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix, v: np.ndarray,
@@ -578,23 +633,69 @@ def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
     where pairs share a corner; after ``_FAN_ROUNDS`` rounds, to 0), and the vertices
     around those are certified and tested again, until no pair crosses. A pair apart on
     ``deformed`` is apart once its corners' :math:`W` is 0, so this ends. ``terms``: a
-    cache (:func:`pull_terms`' dict, of ``rest`` when it is given).
+    cache (:func:`pull_terms`' dict, of ``rest`` when it is given); a skin's first frame,
+    every frame of a refined skin (``terms["refined"]``) and a call without ``rest`` use
+    no margins and work on the triangles within three rings of the moved vertices only
+    (:func:`_triangles_within`; the same pairs, so the same frame).
     """
     tri = np.asarray(triangles, dtype=np.intp)
     terms = {} if terms is None else terms
     d, p0 = np.asarray(deformed, dtype=float), np.asarray(points, dtype=float)
     moved = p0 != d
-    changed = moved = moved[:, 0] | moved[:, 1] | moved[:, 2]
+    moved = moved[:, 0] | moved[:, 1] | moved[:, 2]
     if not moved.any():
         return points, W
-    if rest is not None and not terms.get("fans_seen"):
+    if rest is not None and (terms.get("refined") or not terms.get("fans_seen")):
         # a skin's first frame is guarded without the rest filter: its margins cost a
         # pass over the whole skin (three times the frame's exact checks on a refined
-        # frame's skin, new on each frame); a skin seen again pays for them once
+        # frame's skin, new on each frame); a skin seen again pays for them once, but
+        # a refined one (one per split set, each seen a few times) never
         terms["fans_seen"] = True
         rest = None
+    if rest is None:  # no cached structures: those of the triangles near the moved ones
+        near = _triangles_within(moved, tri, 3)
+        if not near.any():  # (moved vertices in no triangle: no pair moved)
+            return points, W
+        if not near.all():
+            kept = _near_terms(near, terms) if terms.get("refined") else {}
+            p, h = _scaled_fans(d, p0, moved, tri[near], kept, None)
+            return (points, W) if p is p0 else (p, np.asarray(W, dtype=float) * h)
+    p, h = _scaled_fans(d, p0, moved, tri, terms, rest)
+    terms.pop("fan_runs", None)  # (the edges' sort, if the fans' structure did not take it)
+    return (points, W) if p is p0 else (p, np.asarray(W, dtype=float) * h)
+
+
+def _near_terms(near: np.ndarray, terms: dict) -> dict:
+    """The cache of the triangles ``near`` ``(m,)`` bool of a refined skin (``terms``):
+    kept in ``terms`` for the last such set, found again by a frame with the same set (the
+    skin seen again with the same moved vertices: the app's Play going round), else new.
+    """
+    kept = terms.get("fan_near")
+    if kept is None or not np.array_equal(kept[0], near):
+        kept = terms["fan_near"] = (near, {})
+    return kept[1]
+
+
+def _triangles_within(mark: np.ndarray, tri: np.ndarray, rings: int) -> np.ndarray:
+    """``(m,)`` bool: the triangles ``tri`` ``(m, 3)`` with a corner within ``rings``
+    rings of the vertices ``mark`` ``(n,)`` bool: every triangle at such a vertex.
+    """
+    mark = mark.copy()
+    for _ in range(rings):
+        at = mark[tri]
+        mark[tri[at[:, 0] | at[:, 1] | at[:, 2]]] = True
+    at = mark[tri]
+    return at[:, 0] | at[:, 1] | at[:, 2]
+
+
+def _scaled_fans(d: np.ndarray, p0: np.ndarray, moved: np.ndarray, tri: np.ndarray,
+                 terms: dict, rest: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`guard_fans`' rounds on ``tri`` ``(m, 3)`` (every triangle within three
+    rings of ``moved`` ``(n,)`` bool at least): the points ``(n, 3)`` (``p0`` itself where
+    nothing crosses) and the factors :math:`h` ``(n,)``.
+    """
     h = np.ones(len(d))
-    p, rounds = p0, 0
+    p, rounds, changed = p0, 0, moved
     while True:
         pairs = _loose_pairs(p, tri, changed, terms, rest)
         pairs = pairs[~_apart_by_planes(p, tri, pairs)]  # (the exact test's verdict)
@@ -611,10 +712,7 @@ def guard_fans(deformed: np.ndarray, points: np.ndarray, W: np.ndarray,
         if p is p0:
             p = p0.copy()
         p[changed] = d[changed] + h[changed, None] * (p0[changed] - d[changed])
-    terms.pop("fan_runs", None)  # (the edges' sort, if the fans' structure did not take it)
-    if p is p0:
-        return points, W
-    return p, np.asarray(W, dtype=float) * h
+    return p, h
 
 
 def _loose_pairs(p: np.ndarray, tri: np.ndarray, changed: np.ndarray, terms: dict,
@@ -640,20 +738,23 @@ def _loose_pairs(p: np.ndarray, tri: np.ndarray, changed: np.ndarray, terms: dic
         ask = region["ask"][asked]
         star, sure = np.zeros(len(ask), bool), np.zeros(len(ask), bool)
         check = np.ones(len(ask), bool)
+    half = np.zeros((0, 2), np.intp)
     if check.any():
-        star[check], sure[check] = _certified_fans(p, tri, ask[check],
-                                                   _fan_structure(tri, n, terms), terms)
-    return _pairs_of(tri, n, terms, region, ask[~sure], ask[~star])
+        star[check], sure[check], half = _fan_certificates(
+            p, tri, ask[check], _fan_structure(tri, n, terms), terms)
+    return _pairs_of(tri, n, terms, region, ask[~sure], ask[~star], half)
 
 
 def _pairs_of(tri: np.ndarray, n: int, terms: dict, region: dict, loose: np.ndarray,
-              open_fans: np.ndarray) -> np.ndarray:
+              open_fans: np.ndarray, half: np.ndarray | None = None) -> np.ndarray:
     """:func:`_fan_pairs` of the vertices ``loose`` ``(a,)`` (sorted; certificate not
-    holding) and ``open_fans`` (their fans not stars): the edges with both ends loose
-    found through the skin's edge lists, the pairs kept in the ``region``
-    (:func:`_fan_region`) for the last :data:`_FAN_PAIRS` such sets.
+    holding for every edge) and ``open_fans`` (their fans not stars): the edges with both
+    ends loose, found through the skin's edge lists, less those certified at either end
+    (``half`` ``(h, 2)``: (v, u), :func:`_fan_certificates`), the pairs kept in the
+    ``region`` (:func:`_fan_region`) for the last :data:`_FAN_PAIRS` such sets.
     """
-    key = (loose.tobytes(), open_fans.tobytes())
+    half = np.zeros((0, 2), np.intp) if half is None else half
+    key = (loose.tobytes(), open_fans.tobytes(), half.tobytes())
     memo = region["pairs"]
     pairs = memo.pop(key, None)
     if pairs is None:
@@ -664,6 +765,10 @@ def _pairs_of(tri: np.ndarray, n: int, terms: dict, region: dict, loose: np.ndar
         src = np.repeat(loose, np.diff(indptr))
         both = mark[nbr] & (src < nbr)
         e = np.stack([src[both], nbr[both]], axis=1)
+        if len(half) and len(e):  # an edge certified at one end: its pairs are apart
+            done = np.minimum(half[:, 0], half[:, 1]).astype(np.int64) * n \
+                + np.maximum(half[:, 0], half[:, 1])
+            e = e[~np.isin(e[:, 0].astype(np.int64) * n + e[:, 1], done)]
         pairs = _fan_pairs(tri, _fan_incidence(tri, n, terms), open_fans, e)
     memo[key] = pairs
     while len(memo) > _FAN_PAIRS:

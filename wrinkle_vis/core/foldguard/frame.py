@@ -156,8 +156,8 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
        pulls, against the guarded deformed skin: :math:`W'` is scaled by
        :func:`skin_scale` of that step (a steep furrow on small triangles would otherwise
        turn them over).
-    4. With ``guard.fans``: no vertex's displaced fan passes through the triangles of its
-       two rings (:func:`guard_fans`: :math:`W'` scaled back where a pair would cross).
+    4. With ``guard.fans`` (or ``"refined"`` on a refined skin's ``terms``): no vertex's
+       fan passes through its two rings (:func:`guard_fans`: :math:`W'` scaled back).
 
     ``certified`` (:func:`certify`): the checks it certifies are skipped (each would have
     returned what skipping gives); a scaled pull voids all but the clamp's (any pull's).
@@ -189,8 +189,8 @@ def guard_frame(rest: np.ndarray, deformed: np.ndarray, points: np.ndarray, W: n
     p2 = _rewrinkled(p2, d2, W, W2, moved, tri, terms)
     if not cert.step:
         p2, W2 = _held_wrinkles(rest, d2, p2, W2, tri, guard, terms)
-    if guard.fans:  # no fan through its two rings
-        p2, W2 = guard_fans(d2, p2, W2, tri, terms, rest)
+    if guard.fans is True or (guard.fans == "refined" and terms.get("refined", False)):
+        p2, W2 = guard_fans(d2, p2, W2, tri, terms, rest)  # no fan through its two rings
     acted = moved | (W2 != W)
     if p2 is not points:  # (ors of the columns: a reduction over rows of 3 is slow)
         differ = p2 != points
