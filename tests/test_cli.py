@@ -371,10 +371,12 @@ def test_undersampled_wrinkles_of_several_muscles_are_one_line(capsys):
     assert "n_w 1 fits" in err[0] and "refine the skin (about" in err[0]
 
 
-@pytest.mark.parametrize("flag", ["on", "fans"])
-def test_fold_guard_fans_reaches_the_wrinkle_step(flag, tmp_path, monkeypatch):
+@pytest.mark.parametrize(("flag", "refine"), [("on", False), ("fans", False), ("on", True),
+                                             ("light", True)])
+def test_fold_guard_fans_reaches_the_wrinkle_step(flag, refine, tmp_path, monkeypatch):
     """``--fold-guard fans`` guards the frame with ``FoldGuard(fans=True)``: the fans'
-    guard runs on the export's frame (``on``: the default guard, without it)."""
+    guard runs on the export's frame (``on``: the default guard, without it unrefined and
+    with it refined; ``light``: without it, refined too)."""
     from wrinkle_vis.core import foldguard
 
     calls = []
@@ -386,8 +388,13 @@ def test_fold_guard_fans_reaches_the_wrinkle_step(flag, tmp_path, monkeypatch):
     original = foldguard.guard_fans
     monkeypatch.setattr(foldguard.frame, "guard_fans", guard_fans)
     out = tmp_path / "surprise.vtp"
-    assert main(["export", "-e", "surprise", "--fold-guard", flag, "-o", str(out)]) == 0
-    assert out.is_file() and (len(calls) > 0) == (flag == "fans")
+    if refine:  # (a refined frame: the render's)
+        out = tmp_path / "surprise.png"
+        args = ["render", "--refine", "--field", "none", "--size", "160", "160"]
+    else:
+        args = ["export"]
+    assert main(args + ["-e", "surprise", "--fold-guard", flag, "-o", str(out)]) == 0
+    assert out.is_file() and (len(calls) > 0) == (flag == "fans" or (refine and flag == "on"))
 
 
 def test_a_bad_fold_guard_is_one_line(capsys):
@@ -395,4 +402,4 @@ def test_a_bad_fold_guard_is_one_line(capsys):
         main(["export", "-o", "x.vtp", "--fold-guard", "maybe"])
     err = capsys.readouterr().err
     assert info.value.code == 2 and err.count("\n") == 1, err
-    assert "--fold-guard: invalid choice: 'maybe' (choose from 'on', 'off', 'fans')" in err
+    assert "--fold-guard: invalid choice: 'maybe' (choose from 'on', 'off', 'fans', 'light')" in err

@@ -138,12 +138,14 @@ def _common(p: argparse.ArgumentParser, *, expression_many: bool = False,
                         "wrinkling region (C1), removing the seam the paper's Eq. 5 leaves "
                         "there (e.g. across the top of the forehead's wrinkles in surprise "
                         "and fear); default: the paper's model, or the layout's choice")
-    p.add_argument("--fold-guard", choices=("on", "off", "fans"), default="on",
+    p.add_argument("--fold-guard", choices=("on", "off", "fans", "light"), default="on",
                    help="keep the skin from passing through itself: limit the pulls where "
                         "a triangle would turn over and |W| below half the empty-ball "
                         "radius on its side, and on refined frames each vertex's wrinkled "
                         "fan off its two rings (default on; off: the paper's model as is; "
-                        "fans: the fans kept off their rings on unrefined frames too)")
+                        "fans: the fans kept off their rings on unrefined frames too; light: "
+                        "no fans' guard at all, refined frames about a fifth cheaper, a few "
+                        "crossings possible where the skin folds sharply under raised k0)")
 
 
 def _refine_options(p: argparse.ArgumentParser, what: str = "evaluate with adaptive "
@@ -567,11 +569,14 @@ def _load(args, *, refine: bool = False):
 
 def _fold_guard(choice: str):
     """The face's :attr:`~wrinkle_vis.core.face.FaceModel.fold_guard` for ``--fold-guard``'s
-    ``choice``: True (on), False (off) or ``FoldGuard(fans=True)`` (fans).
+    ``choice``: True (on: the default guard, fans on refined frames), False (off),
+    ``FoldGuard(fans=True)`` (fans: everywhere) or ``FoldGuard(fans=False)`` (light: none).
     """
     from wrinkle_vis.core.foldguard import FoldGuard
 
-    return FoldGuard(fans=True) if choice == "fans" else choice == "on"
+    if choice in ("fans", "light"):
+        return FoldGuard(fans=choice == "fans")
+    return choice == "on"
 
 
 def _checked_layout(args):
