@@ -266,12 +266,13 @@ def _timed_ramps(runs: dict, n: int, passes: int, rounds: int) -> dict:
 def animation(rounds: int, frames: int, baseline: str | None = None,
               faces: tuple[str, ...] = ("paper", "head"),
               skins: tuple[str, ...] = ("geometric", "physical"),
-              only: tuple[str, ...] = (), fans: bool = False) -> dict:
+              only: tuple[str, ...] = (), fans: bool = False, light: bool = False) -> dict:
     """The guard's share of animation frames (module notes, ``--animation``): per face,
     refinement, expression, skin and (physical) warm start, the mean frame of a ramp of
     ``frames`` intensities with the guard off, on and (``baseline``) that revision's;
     ``only``: the cases whose name (refined/unrefined, expression) holds all of these words;
-    ``fans``: also this tree's guard with ``FoldGuard(fans=True)``."""
+    ``fans``: also this tree's guard with ``FoldGuard(fans=True)``; ``light``: with
+    ``FoldGuard(fans=False)`` (``--fold-guard light``)."""
     from wrinkle_vis.core import foldguard
 
     old = _baseline_guard(baseline) if baseline else None
@@ -302,6 +303,9 @@ def animation(rounds: int, frames: int, baseline: str | None = None,
                 if fans:
                     runs["fans"] = lambda v, ramp=ramp: ramp(
                         v, foldguard, g=foldguard.FoldGuard(fans=True))
+                if light:
+                    runs["light"] = lambda v, ramp=ramp: ramp(
+                        v, foldguard, g=foldguard.FoldGuard(fans=False))
                 out.update(_animation_case(face, refine, expr, skin, warm, runs, frames,
                                            rounds))
     return out
@@ -345,6 +349,8 @@ def _animation_line(key: str, v: dict) -> str:
     idle = " IDLE FRAMES DIFFER FROM UNGUARDED" if v["idle_same_as_off"] is False else ""
     if "fans_s" in v:
         base += f", fans {v['fans_s'] * 1e3:7.2f} ({v['fans_cpu_s'] * 1e3:7.2f}) ms"
+    if "light_s" in v:
+        base += f", light {v['light_s'] * 1e3:7.2f} ({v['light_cpu_s'] * 1e3:7.2f}) ms"
     return (f"animation {key:46s} {v['acting_frames']:2d}/{v['frames']} acting: a frame, "
             f"wall (CPU) off {v['off_s'] * 1e3:7.2f} ({v['off_cpu_s'] * 1e3:7.2f}), "
             f"on {v['on_s'] * 1e3:7.2f} ({v['on_cpu_s'] * 1e3:7.2f}) ms "
@@ -372,6 +378,8 @@ def main() -> None:
                     help="time ramps of N frames (intensity 0 to 1) instead of repeats")
     ap.add_argument("--fans", action="store_true",
                     help="--animation: also time the guard with FoldGuard(fans=True)")
+    ap.add_argument("--light", action="store_true",
+                    help="--animation: also time the guard with FoldGuard(fans=False)")
     args = ap.parse_args()
     levels = tuple(float(v) for v in args.intensities.split(","))
     faces = tuple(args.faces.split(","))
@@ -382,7 +390,7 @@ def main() -> None:
         print(f"load average {os.getloadavg()[0]:.2f}")
         res = {"animation": animation(args.rounds, args.animation, args.baseline, faces,
                                       skins, tuple(filter(None, args.cases.split(","))),
-                                      args.fans)}
+                                      args.fans, args.light)}
         if args.json:
             args.json.write_text(json.dumps(res, indent=1))
         print(f"load average {os.getloadavg()[0]:.2f}")

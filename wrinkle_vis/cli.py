@@ -144,7 +144,7 @@ def _common(p: argparse.ArgumentParser, *, expression_many: bool = False,
                         "radius on its side, and on refined frames each vertex's wrinkled "
                         "fan off its two rings (default on; off: the paper's model as is; "
                         "fans: the fans kept off their rings on unrefined frames too; light: "
-                        "no fans' guard at all, refined frames about a fifth cheaper, a few "
+                        "no fans' guard at all, refined frames a fifth to a third cheaper, a few "
                         "crossings possible where the skin folds sharply under raised k0)")
 
 
