@@ -561,3 +561,45 @@ def test_the_wedges_certify_no_edge_whose_fans_meet(seed, k, bump):
     crossing = {tuple(sorted(ab)) for ab in intersecting_pairs(p, tri).tolist()}
     for a, b in half.tolist():
         assert not crossing & edge_pairs(tri, a, b), (a, b)
+
+
+def rows_fan_terms(p: np.ndarray, tri: np.ndarray, sub: np.ndarray) -> tuple:
+    """69d53bf's ``_fan_terms``, on the points' rows: the reference the column form
+    (stop 41b) must give bit for bit."""
+    from wrinkle_vis.core.foldguard import _cross, _rows_dot
+
+    n, t = len(p), tri[sub]
+    c0, c1, c2 = (p[t[:, k]] for k in range(3))
+    A = _cross(c1 - c0, c2 - c0)
+    la = np.maximum(np.sqrt(_rows_dot(A, A)), 1e-300)
+    m = np.stack([np.bincount(t.ravel(), np.repeat(A[:, k], 3), n) for k in range(3)], axis=1)
+    m = m / np.maximum(np.sqrt(_rows_dot(m, m)), 1e-300)[:, None]
+    c, angle = np.full(n, np.inf), np.zeros(n)
+    for k, (a, b, o) in enumerate(((c1, c2, c0), (c2, c0, c1), (c0, c1, c2))):
+        mv = m[t[:, k]]
+        up = _rows_dot(A, mv)
+        np.minimum.at(c, t[:, k], up / la)
+        e1, e2 = a - o, b - o
+        flat = _rows_dot(e1, e2) - _rows_dot(e1, mv) * _rows_dot(e2, mv)
+        angle += np.bincount(t[:, k], np.arctan2(up, flat), n)
+    return m, c, angle
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**16), jitter=st.floats(0.0, 0.45),
+       bump=st.floats(0.0, 0.6), big=st.floats(0.0, 1.5))
+def test_the_fans_terms_on_columns_are_those_on_rows_bit_for_bit(seed, jitter, bump, big):
+    """The fans' terms from the points' columns (``_fan_columns``, one take per corner,
+    stop 41b) are the rows' (69d53bf's arithmetic) bit for bit, so every certificate
+    decides as before and the frames stay the same."""
+    from wrinkle_vis.core.foldguard.fans import _FAN_MARGIN, _fan_columns, _fan_terms
+
+    _, tri = lattice(7)
+    p = dented(seed, jitter, bump, big)
+    sub = np.flatnonzero(np.random.default_rng(seed).random(len(tri)) < 0.8)
+    m, c, angle = rows_fan_terms(p, tri, sub)
+    mc, c2, star = _fan_columns(np.ascontiguousarray(p.T), tri, sub)
+    assert np.array_equal(mc.T, m) and np.array_equal(c2, c)
+    np.testing.assert_array_equal(star, (c > _FAN_MARGIN) & (angle < 3.0 * np.pi))
+    m3, c3, star3 = _fan_terms(p, tri, sub)
+    assert np.array_equal(m3, m) and np.array_equal(c3, c) and np.array_equal(star3, star)

@@ -378,21 +378,48 @@ def _fan_terms(p: np.ndarray, tri: np.ndarray, sub: np.ndarray
     ``star`` ``(n,)`` bool, the fan seen along ``m`` is a star once around its vertex:
     every :math:`m \cdot A_t > 0` (with margin) and the projected angles add up to less
     than :math:`3\pi` (they add up to :math:`2\pi k`, :math:`k` the winding).
+    :func:`_fan_columns` on ``p``'s columns.
     """
-    n, t = len(p), tri[sub]
-    c0, c1, c2 = (p[t[:, k]] for k in range(3))
-    A = _cross(c1 - c0, c2 - c0)
-    la = np.maximum(np.sqrt(_rows_dot(A, A)), 1e-300)
-    m = np.stack([np.bincount(t.ravel(), np.repeat(A[:, k], 3), n) for k in range(3)], axis=1)
-    m = m / np.maximum(np.sqrt(_rows_dot(m, m)), 1e-300)[:, None]
+    m, c, star = _fan_columns(np.ascontiguousarray(p.T), tri, sub)
+    return m.T, c, star
+
+
+def _cdot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(k,)``: the dot products of the columns of ``a`` and ``b`` ``(3, k)`` (summed in
+    :func:`_rows_dot`'s order: the same values).
+    """
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _ccross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(3, k)``: the cross products of the columns of ``a`` and ``b`` ``(3, k)`` (as
+    :func:`_cross` computes them: the same values).
+    """
+    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])
+
+
+def _fan_columns(pc: np.ndarray, tri: np.ndarray, sub: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_fan_terms` on the points' columns ``pc`` ``(3, n)``, ``m`` as ``(3, n)``:
+    one gather of each corner's coordinates (takes along the contiguous rows), the same
+    arithmetic, so the same values.
+    """
+    n, t = pc.shape[1], tri[sub]
+    c0, c1, c2 = (np.take(pc, t[:, k], axis=1) for k in range(3))
+    A = _ccross(c1 - c0, c2 - c0)
+    la = np.maximum(np.sqrt(_cdot(A, A)), 1e-300)
+    flat_t = t.ravel()
+    m = np.stack([np.bincount(flat_t, np.repeat(A[k], 3), n) for k in range(3)])
+    m = m / np.maximum(np.sqrt(_cdot(m, m)), 1e-300)
     c = np.full(n, np.inf)
     angle = np.zeros(n)
     for k, (a, b, o) in enumerate(((c1, c2, c0), (c2, c0, c1), (c0, c1, c2))):
-        mv = m[t[:, k]]
-        up = _rows_dot(A, mv)
+        mv = np.take(m, t[:, k], axis=1)
+        up = _cdot(A, mv)
         np.minimum.at(c, t[:, k], up / la)
         e1, e2 = a - o, b - o
-        flat = _rows_dot(e1, e2) - _rows_dot(e1, mv) * _rows_dot(e2, mv)
+        flat = _cdot(e1, e2) - _cdot(e1, mv) * _cdot(e2, mv)
         angle += np.bincount(t[:, k], np.arctan2(up, flat), n)
     star = (c > _FAN_MARGIN) & (angle < 3.0 * np.pi)
     return m, c, star
@@ -430,19 +457,24 @@ def _fan_certificates(p: np.ndarray, tri: np.ndarray, ask: np.ndarray, fans: dic
     at_ring = np.zeros(len(tri), bool)
     at_ring[_sub_rows(inc, ring)[1]] = True
     sub = np.flatnonzero(at_ring)  # the triangles at the asked ones' rings
-    m, c, star = _fan_terms(p, tri, sub)
+    pc = np.ascontiguousarray(p.T)  # (the coordinates' columns: one take each)
+    mc, c, star = _fan_columns(pc, tri, sub)
+    m = mc.T
     star &= ~fans["open"]
     t = tri[sub]
-    rows = np.flatnonzero(asked[t.T.ravel()])  # the asked vertices' corners: edges v-u
-    k, rows = rows // len(sub), rows % len(sub)
-    v, u, w = t[rows, k], t[rows, (k + 1) % 3], t[rows, (k + 2) % 3]
-    before = fans["across"][sub[rows], k]  # the ring vertex before u (across edge v-u)
-    e_in, e_out = p[u] - p[np.maximum(before, 0)], p[w] - p[u]
-    turn = _rows_dot(_cross(e_in, e_out), m[v])
-    left = turn > _FAN_MARGIN * np.sqrt(_rows_dot(e_in, e_in) * _rows_dot(e_out, e_out))
+    tt = t.T.ravel()
+    rows = np.flatnonzero(asked[tt])  # the asked vertices' corners (k, t): edges v-u
+    v, u, w = tt[rows], t[:, [1, 2, 0]].T.ravel()[rows], t[:, [2, 0, 1]].T.ravel()[rows]
+    # the ring vertex before u (across edge v-u)
+    before = fans["across"][sub].T.ravel()[rows]
+    pu, mv = np.take(pc, u, axis=1), np.take(mc, v, axis=1)
+    e_in = pu - np.take(pc, np.maximum(before, 0), axis=1)
+    e_out = np.take(pc, w, axis=1) - pu
+    turn = _cdot(_ccross(e_in, e_out), mv)
+    left = turn > _FAN_MARGIN * np.sqrt(_cdot(e_in, e_in) * _cdot(e_out, e_out))
     good = star[v] & star[u]  # 1 and 3 along m_u (of a closed u)
-    dm = m[v] - m[u]
-    along = c[u] > np.sqrt(_rows_dot(dm, dm)) + _FAN_MARGIN
+    dm = mv - np.take(mc, u, axis=1)
+    along = c[u] > np.sqrt(_cdot(dm, dm)) + _FAN_MARGIN
     check = np.flatnonzero(good & ~along)  # u's star along m_v, checked
     if len(check):
         good[check] = _stars_along(p, tri, inc, v[check], u[check], m)
