@@ -52,7 +52,7 @@ def _open(n: int, runs: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray
     _, s, new = runs
     starts = np.flatnonzero(new)
     val, count = s[starts], np.diff(np.append(starts, len(s)))
-    half = val // 2
+    half = val >> 1
     edge = np.empty(len(half), bool)  # where an undirected edge's runs start
     edge[:1], edge[1:] = True, half[1:] != half[:-1]
     first = np.flatnonzero(edge)
@@ -97,11 +97,13 @@ def _across(tri: np.ndarray, n: int,
     val = s[starts]
     twin = np.full(len(starts), -1, np.intp)
     # runs r (forward: even) and r + 1 (backward) of one undirected edge
-    up = np.flatnonzero((val[1:] == val[:-1] + 1) & (val[:-1] % 2 == 0))
+    up = np.flatnonzero((val[1:] == val[:-1] + 1) & ((val[:-1] & 1) == 0))
     twin[up], twin[up + 1] = starts[up + 1], starts[up]
-    half = val // 2
-    own = (val % 2 == 0) & (half // n == half % n)
-    twin[own] = starts[own]
+    flat = tri.ravel()
+    if (flat == tri[:, [1, 2, 0]].ravel()).any():  # an edge from a vertex to itself
+        half = val >> 1
+        own = ((val & 1) == 0) & (half // n == half % n)
+        twin[own] = starts[own]
     at = twin[np.cumsum(new) - 1]
     third = tri[:, [2, 0, 1]].ravel()  # the corner opposite each edge
     across = np.empty(len(s), np.intp)
@@ -127,17 +129,29 @@ def _fan_edges(tri: np.ndarray, n: int, terms: dict) -> dict:
             runs = _edge_runs(tri, n)  # (kept for the fans' structure, which follows)
             if "fans" not in terms:
                 terms["fan_runs"] = runs
-            half = runs[1][runs[2]] // 2
-            key = half[np.r_[True, half[1:] != half[:-1]]]
-            edges = np.stack([key // n, key % n], axis=1)
+            edges = _edges_of_runs(tri, runs)
         ends = np.concatenate([edges[:, 0], edges[:, 1]])
         order = np.argsort(ends, kind="stable")
         start = np.concatenate([[0], np.cumsum(np.bincount(ends, minlength=n))])
         graph = terms["fan_edges"] = {
             "edges": np.asarray(edges, dtype=np.intp), "start": start,
-            "edge": order % len(edges),
+            "edge": np.where(order < len(edges), order, order - len(edges)),
             "nbr": np.concatenate([edges[:, 1], edges[:, 0]])[order]}
     return graph
+
+
+def _edges_of_runs(tri: np.ndarray, runs: tuple[np.ndarray, np.ndarray, np.ndarray]
+                   ) -> np.ndarray:
+    """``(e, 2)``: the undirected edges of ``tri`` ``(m, 3)``, ends ascending, sorted by
+    first end, then second, each once, from :func:`_edge_runs`' sort ``runs``: the ends of
+    a directed edge of each (no division of the keys).
+    """
+    order, s, new = runs
+    starts = np.flatnonzero(new)
+    half = s[starts] >> 1
+    d = order[starts[np.r_[True, half[1:] != half[:-1]]]]  # one directed edge of each
+    a, b = tri.ravel()[d], tri[:, [1, 2, 0]].ravel()[d]
+    return np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)
 
 
 def _csr_rows(start: np.ndarray, values: np.ndarray, rows: np.ndarray
