@@ -603,3 +603,50 @@ def test_the_fans_terms_on_columns_are_those_on_rows_bit_for_bit(seed, jitter, b
     np.testing.assert_array_equal(star, (c > _FAN_MARGIN) & (angle < 3.0 * np.pi))
     m3, c3, star3 = _fan_terms(p, tri, sub)
     assert np.array_equal(m3, m) and np.array_equal(c3, c) and np.array_equal(star3, star)
+
+
+def rows_wedges_clear(p, tri, inc, m, v, u, up, um) -> np.ndarray:
+    """69d53bf's ``_wedges_clear`` on the points' rows: the reference the column form
+    (stop 41b) must give bit for bit."""
+    from wrinkle_vis.core.foldguard import _cross, _rows_dot
+    from wrinkle_vis.core.foldguard.fans import _FAN_MARGIN, _sub_rows
+
+    indptr, t = _sub_rows(inc, v)
+    row = np.repeat(np.arange(len(v)), np.diff(indptr))
+    mv, o, ur, upr, umr = m[v][row], p[u][row], u[row], up[row], um[row]
+    a, b = (p[up] - p[u])[row], (p[np.maximum(um, 0)] - p[u])[row]
+    la, lb = np.sqrt(_rows_dot(a, a)), np.sqrt(_rows_dot(b, b))
+    corners = tri[t]
+    A = B = (corners != ur[:, None]).all(axis=1)
+    skip = ~A
+    for j in range(3):
+        x = p[corners[:, j]] - o
+        lx = np.sqrt(_rows_dot(x, x))
+        A = A & ((corners[:, j] == upr) | (_rows_dot(_cross(a, x), mv) > _FAN_MARGIN * la * lx))
+        B = B & ((corners[:, j] == umr) | (_rows_dot(_cross(x, b), mv) > _FAN_MARGIN * lb * lx))
+    right = _rows_dot(_cross(a, b), mv) < -_FAN_MARGIN * la * lb
+    fine = skip | (A & B) | (right & (A | B))
+    return (np.bincount(row, ~fine, len(v)) == 0) & (um >= 0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**16), jitter=st.floats(0.0, 0.45),
+       bump=st.floats(0.0, 0.6), big=st.floats(0.0, 1.5), links=st.booleans())
+def test_the_wedges_on_columns_decide_as_on_rows(seed, jitter, bump, big, links):
+    """2' from the points' columns (``_wedges_clear``, stop 41b) decides every edge of
+    the dented lattice as 69d53bf's rows did (the same values, so the same verdicts), the
+    lattice's every directed edge asked, with its link's neighbours (or none before u)."""
+    from wrinkle_vis.core.foldguard import _fan_incidence, _fan_terms, _wedges_clear
+
+    _, tri = lattice(7)
+    p = dented(seed, jitter, bump, big)
+    terms: dict = {}
+    across = _fan_structure(tri, len(p), terms)["across"]
+    inc = _fan_incidence(tri, len(p), terms)
+    m = _fan_terms(p, tri, np.arange(len(tri)))[0]
+    v, u, w = tri.ravel(), tri[:, [1, 2, 0]].ravel(), tri[:, [2, 0, 1]].ravel()
+    before = across.ravel() if links else np.full(len(v), -1)
+    got = _wedges_clear(p, tri, inc, m, v, u, w, before)
+    want = rows_wedges_clear(p, tri, inc, m, v, u, w, before)
+    np.testing.assert_array_equal(got, want)
+    assert want.any() == links  # (the test sees edges certified)

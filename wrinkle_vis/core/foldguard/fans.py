@@ -521,20 +521,24 @@ def _wedges_clear(p: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix, m: np.ndar
     """
     indptr, t = _sub_rows(inc, v)  # every triangle of v's fan, per edge
     row = np.repeat(np.arange(len(v)), np.diff(indptr))
-    mv, o, ur, upr, umr = m[v][row], p[u][row], u[row], up[row], um[row]
-    a, b = (p[up] - p[u])[row], (p[np.maximum(um, 0)] - p[u])[row]
-    la, lb = np.sqrt(_rows_dot(a, a)), np.sqrt(_rows_dot(b, b))
+    pc, mc = np.ascontiguousarray(p.T), np.ascontiguousarray(m.T)  # (columns: the same
+    o = np.take(pc, u, axis=1)  # values as on the rows, one take each)
+    mv, a = np.take(mc, v, axis=1), np.take(pc, up, axis=1) - o
+    b = np.take(pc, np.maximum(um, 0), axis=1) - o
+    la, lb = np.sqrt(_cdot(a, a)), np.sqrt(_cdot(b, b))
+    right = (_cdot(_ccross(a, b), mv) < -_FAN_MARGIN * la * lb)[row]
+    mv, o, a, b = mv[:, row], o[:, row], a[:, row], b[:, row]
+    la, lb, ur, upr, umr = la[row], lb[row], u[row], up[row], um[row]
     corners = tri[t]
     A = B = (corners != ur[:, None]).all(axis=1)  # (rows holding u: nothing to check)
     skip = ~A
     for j in range(3):
-        x = p[corners[:, j]] - o
-        lx = np.sqrt(_rows_dot(x, x))
+        x = np.take(pc, corners[:, j], axis=1) - o
+        lx = np.sqrt(_cdot(x, x))
         A = A & ((corners[:, j] == upr)
-                 | (_rows_dot(_cross(a, x), mv) > _FAN_MARGIN * la * lx))
+                 | (_cdot(_ccross(a, x), mv) > _FAN_MARGIN * la * lx))
         B = B & ((corners[:, j] == umr)
-                 | (_rows_dot(_cross(x, b), mv) > _FAN_MARGIN * lb * lx))
-    right = _rows_dot(_cross(a, b), mv) < -_FAN_MARGIN * la * lb
+                 | (_cdot(_ccross(x, b), mv) > _FAN_MARGIN * lb * lx))
     fine = skip | (A & B) | (right & (A | B))
     return (np.bincount(row, ~fine, len(v)) == 0) & (um >= 0)
 
