@@ -650,3 +650,23 @@ def test_the_wedges_on_columns_decide_as_on_rows(seed, jitter, bump, big, links)
     want = rows_wedges_clear(p, tri, inc, m, v, u, w, before)
     np.testing.assert_array_equal(got, want)
     assert want.any() == links  # (the test sees edges certified)
+
+
+@settings(max_examples=200, deadline=None)
+@given(mesh=st.one_of(nearly_closed(), soup), pick=st.lists(st.integers(0, 6), max_size=7))
+def test_a_ring_is_the_rows_and_their_neighbours_by_either_pass(mesh, pick):
+    """``_ring`` (through the rows' edge lists, or over every edge where the rows are many,
+    stop 41b): the rows and every vertex sharing a triangle's edge with one, one row of
+    the octahedron's 12 edges (the lists) or several (the pass over the edges)."""
+    from wrinkle_vis.core.foldguard.fans import _ring
+
+    n, tri = mesh
+    rows = np.unique(np.array(pick, dtype=np.intp) % n)
+    want = set(rows.tolist())
+    for t in tri.tolist():
+        for k in range(3):
+            a, b = t[k], t[(k + 1) % 3]
+            if a in rows or b in rows:
+                want |= {a, b}
+    graph = _fan_edges(tri, n, {})
+    assert _ring(rows, graph, n).tolist() == sorted(want)

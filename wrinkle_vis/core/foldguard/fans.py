@@ -176,11 +176,19 @@ def _segment_max(values: np.ndarray, indptr: np.ndarray) -> np.ndarray:
 
 def _ring(rows: np.ndarray, graph: dict, n: int) -> np.ndarray:
     """``(k,)`` sorted: ``rows`` ``(r,)`` and their neighbours in ``graph``
-    (:func:`_fan_edges`).
+    (:func:`_fan_edges`): through the rows' edge lists, or, where the rows are many, one
+    pass over every edge (the same set).
     """
     mask = np.zeros(n, bool)
     mask[rows] = True
-    mask[_csr_rows(graph["start"], graph["nbr"], rows)[1]] = True
+    edges = graph["edges"]
+    if 8 * len(rows) > len(edges):  # most of the skin: one pass over its edges is cheaper
+        e0, e1 = edges[:, 0], edges[:, 1]
+        a, b = e0[mask[e1]], e1[mask[e0]]
+        mask[a] = True
+        mask[b] = True
+    else:
+        mask[_csr_rows(graph["start"], graph["nbr"], rows)[1]] = True
     return np.flatnonzero(mask)
 
 
