@@ -670,3 +670,20 @@ def test_a_ring_is_the_rows_and_their_neighbours_by_either_pass(mesh, pick):
                 want |= {a, b}
     graph = _fan_edges(tri, n, {})
     assert _ring(rows, graph, n).tolist() == sorted(want)
+
+
+@settings(max_examples=200, deadline=None)
+@given(mesh=st.one_of(nearly_closed(), soup), pick=st.lists(st.integers(0, 6), max_size=7))
+def test_the_triangles_at_rows_are_those_with_a_corner_among_them_by_either_look(mesh, pick):
+    """``_triangles_at`` (through the incidence's rows, or every triangle's corners where
+    the rows are many, stop 41b): the triangles with a corner among the rows, for no row,
+    a few or many of a small mesh (both looks) and one row of a larger one (the rows)."""
+    from wrinkle_vis.core.foldguard import _fan_incidence
+    from wrinkle_vis.core.foldguard.fans import _triangles_at
+
+    n, tri = mesh
+    rows = np.unique(np.array(pick, dtype=np.intp) % n)
+    for t in (tri, np.concatenate([tri] * 20)):
+        inc = _fan_incidence(t, n, {})
+        want = [i for i, c in enumerate(t.tolist()) if set(c) & set(rows.tolist())]
+        assert _triangles_at(rows, t, inc).tolist() == want

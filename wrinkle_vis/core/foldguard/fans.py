@@ -476,9 +476,7 @@ def _fan_certificates(p: np.ndarray, tri: np.ndarray, ask: np.ndarray, fans: dic
     asked = np.zeros(n, bool)
     asked[ask] = True
     ring = _ring(ask, _fan_edges(tri, n, terms), n)
-    at_ring = np.zeros(len(tri), bool)
-    at_ring[_sub_rows(inc, ring)[1]] = True
-    sub = np.flatnonzero(at_ring)  # the triangles at the asked ones' rings
+    sub = _triangles_at(ring, tri, inc)  # the triangles at the asked ones' rings
     pc = np.ascontiguousarray(p.T)  # (the coordinates' columns: one take each)
     mc, c, star = _fan_columns(pc, tri, sub)
     m = mc.T
@@ -510,6 +508,21 @@ def _fan_certificates(p: np.ndarray, tri: np.ndarray, ask: np.ndarray, fans: dic
                                     before[check])
     half = np.flatnonzero(good & ~ok[v] & ~ok[u] & asked[u])
     return star[ask], ok[ask], np.stack([v[half], u[half]], axis=1)
+
+
+def _triangles_at(rows: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix) -> np.ndarray:
+    """``(k,)`` ascending: the triangles of ``tri`` ``(m, 3)`` with a corner in ``rows``
+    ``(r,)`` (distinct): through the rows of the incidence ``inc`` ``(n, m)``, or, where
+    the rows are many, one look at every triangle's corners (the same set).
+    """
+    if 16 * len(rows) > len(tri):
+        mark = np.zeros(inc.shape[0], bool)
+        mark[rows] = True
+        at = mark[tri]
+        return np.flatnonzero(at[:, 0] | at[:, 1] | at[:, 2])
+    at = np.zeros(len(tri), bool)
+    at[_sub_rows(inc, rows)[1]] = True
+    return np.flatnonzero(at)
 
 
 def _wedges_clear(p: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix, m: np.ndarray,
