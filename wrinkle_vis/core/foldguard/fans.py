@@ -99,8 +99,8 @@ def _across(tri: np.ndarray, n: int,
     # runs r (forward: even) and r + 1 (backward) of one undirected edge
     up = np.flatnonzero((val[1:] == val[:-1] + 1) & ((val[:-1] & 1) == 0))
     twin[up], twin[up + 1] = starts[up + 1], starts[up]
-    flat = tri.ravel()
-    if (flat == tri[:, [1, 2, 0]].ravel()).any():  # an edge from a vertex to itself
+    if ((tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2]) | (tri[:, 2] == tri[:, 0])).any():
+        # an edge from a vertex to itself: its own twin
         half = val >> 1
         own = ((val & 1) == 0) & (half // n == half % n)
         twin[own] = starts[own]
@@ -129,7 +129,7 @@ def _fan_edges(tri: np.ndarray, n: int, terms: dict) -> dict:
             runs = _edge_runs(tri, n)  # (kept for the fans' structure, which follows)
             if "fans" not in terms:
                 terms["fan_runs"] = runs
-            edges = _edges_of_runs(tri, runs)
+            edges = _edges_of_runs(n, runs)
         ends = np.concatenate([edges[:, 0], edges[:, 1]])
         order = np.argsort(ends, kind="stable")
         start = np.concatenate([[0], np.cumsum(np.bincount(ends, minlength=n))])
@@ -140,18 +140,14 @@ def _fan_edges(tri: np.ndarray, n: int, terms: dict) -> dict:
     return graph
 
 
-def _edges_of_runs(tri: np.ndarray, runs: tuple[np.ndarray, np.ndarray, np.ndarray]
-                   ) -> np.ndarray:
-    """``(e, 2)``: the undirected edges of ``tri`` ``(m, 3)``, ends ascending, sorted by
-    first end, then second, each once, from :func:`_edge_runs`' sort ``runs``: the ends of
-    a directed edge of each (no division of the keys).
+def _edges_of_runs(n: int, runs: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+    """``(e, 2)``: the undirected edges of the triangles on ``n`` vertices whose directed
+    edges :func:`_edge_runs` sorted into ``runs``, ends ascending, sorted by first end,
+    then second, each once (the keys' halves, one per undirected edge).
     """
-    order, s, new = runs
-    starts = np.flatnonzero(new)
-    half = s[starts] >> 1
-    d = order[starts[np.r_[True, half[1:] != half[:-1]]]]  # one directed edge of each
-    a, b = tri.ravel()[d], tri[:, [1, 2, 0]].ravel()[d]
-    return np.stack([np.minimum(a, b), np.maximum(a, b)], axis=1)
+    half = runs[1][runs[2]] >> 1
+    key = half[np.r_[True, half[1:] != half[:-1]]]
+    return np.stack([key // n, key % n], axis=1)
 
 
 def _csr_rows(start: np.ndarray, values: np.ndarray, rows: np.ndarray
