@@ -561,3 +561,129 @@ def test_the_wedges_certify_no_edge_whose_fans_meet(seed, k, bump):
     crossing = {tuple(sorted(ab)) for ab in intersecting_pairs(p, tri).tolist()}
     for a, b in half.tolist():
         assert not crossing & edge_pairs(tri, a, b), (a, b)
+
+
+def rows_fan_terms(p: np.ndarray, tri: np.ndarray, sub: np.ndarray) -> tuple:
+    """69d53bf's ``_fan_terms``, on the points' rows: the reference the column form
+    (stop 41b) must give bit for bit."""
+    from wrinkle_vis.core.foldguard import _cross, _rows_dot
+
+    n, t = len(p), tri[sub]
+    c0, c1, c2 = (p[t[:, k]] for k in range(3))
+    A = _cross(c1 - c0, c2 - c0)
+    la = np.maximum(np.sqrt(_rows_dot(A, A)), 1e-300)
+    m = np.stack([np.bincount(t.ravel(), np.repeat(A[:, k], 3), n) for k in range(3)], axis=1)
+    m = m / np.maximum(np.sqrt(_rows_dot(m, m)), 1e-300)[:, None]
+    c, angle = np.full(n, np.inf), np.zeros(n)
+    for k, (a, b, o) in enumerate(((c1, c2, c0), (c2, c0, c1), (c0, c1, c2))):
+        mv = m[t[:, k]]
+        up = _rows_dot(A, mv)
+        np.minimum.at(c, t[:, k], up / la)
+        e1, e2 = a - o, b - o
+        flat = _rows_dot(e1, e2) - _rows_dot(e1, mv) * _rows_dot(e2, mv)
+        angle += np.bincount(t[:, k], np.arctan2(up, flat), n)
+    return m, c, angle
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**16), jitter=st.floats(0.0, 0.45),
+       bump=st.floats(0.0, 0.6), big=st.floats(0.0, 1.5))
+def test_the_fans_terms_on_columns_are_those_on_rows_bit_for_bit(seed, jitter, bump, big):
+    """The fans' terms from the points' columns (``_fan_columns``, one take per corner,
+    stop 41b) are the rows' (69d53bf's arithmetic) bit for bit, so every certificate
+    decides as before and the frames stay the same."""
+    from wrinkle_vis.core.foldguard.fans import _FAN_MARGIN, _fan_columns, _fan_terms
+
+    _, tri = lattice(7)
+    p = dented(seed, jitter, bump, big)
+    sub = np.flatnonzero(np.random.default_rng(seed).random(len(tri)) < 0.8)
+    m, c, angle = rows_fan_terms(p, tri, sub)
+    mc, c2, star = _fan_columns(np.ascontiguousarray(p.T), tri, sub)
+    assert np.array_equal(mc.T, m) and np.array_equal(c2, c)
+    np.testing.assert_array_equal(star, (c > _FAN_MARGIN) & (angle < 3.0 * np.pi))
+    m3, c3, star3 = _fan_terms(p, tri, sub)
+    assert np.array_equal(m3, m) and np.array_equal(c3, c) and np.array_equal(star3, star)
+
+
+def rows_wedges_clear(p, tri, inc, m, v, u, up, um) -> np.ndarray:
+    """69d53bf's ``_wedges_clear`` on the points' rows: the reference the column form
+    (stop 41b) must give bit for bit."""
+    from wrinkle_vis.core.foldguard import _cross, _rows_dot
+    from wrinkle_vis.core.foldguard.fans import _FAN_MARGIN, _sub_rows
+
+    indptr, t = _sub_rows(inc, v)
+    row = np.repeat(np.arange(len(v)), np.diff(indptr))
+    mv, o, ur, upr, umr = m[v][row], p[u][row], u[row], up[row], um[row]
+    a, b = (p[up] - p[u])[row], (p[np.maximum(um, 0)] - p[u])[row]
+    la, lb = np.sqrt(_rows_dot(a, a)), np.sqrt(_rows_dot(b, b))
+    corners = tri[t]
+    A = B = (corners != ur[:, None]).all(axis=1)
+    skip = ~A
+    for j in range(3):
+        x = p[corners[:, j]] - o
+        lx = np.sqrt(_rows_dot(x, x))
+        A = A & ((corners[:, j] == upr) | (_rows_dot(_cross(a, x), mv) > _FAN_MARGIN * la * lx))
+        B = B & ((corners[:, j] == umr) | (_rows_dot(_cross(x, b), mv) > _FAN_MARGIN * lb * lx))
+    right = _rows_dot(_cross(a, b), mv) < -_FAN_MARGIN * la * lb
+    fine = skip | (A & B) | (right & (A | B))
+    return (np.bincount(row, ~fine, len(v)) == 0) & (um >= 0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**16), jitter=st.floats(0.0, 0.45),
+       bump=st.floats(0.0, 0.6), big=st.floats(0.0, 1.5), links=st.booleans())
+def test_the_wedges_on_columns_decide_as_on_rows(seed, jitter, bump, big, links):
+    """2' from the points' columns (``_wedges_clear``, stop 41b) decides every edge of
+    the dented lattice as 69d53bf's rows did (the same values, so the same verdicts), the
+    lattice's every directed edge asked, with its link's neighbours (or none before u)."""
+    from wrinkle_vis.core.foldguard import _fan_incidence, _fan_terms, _wedges_clear
+
+    _, tri = lattice(7)
+    p = dented(seed, jitter, bump, big)
+    terms: dict = {}
+    across = _fan_structure(tri, len(p), terms)["across"]
+    inc = _fan_incidence(tri, len(p), terms)
+    m = _fan_terms(p, tri, np.arange(len(tri)))[0]
+    v, u, w = tri.ravel(), tri[:, [1, 2, 0]].ravel(), tri[:, [2, 0, 1]].ravel()
+    before = across.ravel() if links else np.full(len(v), -1)
+    got = _wedges_clear(p, tri, inc, m, v, u, w, before)
+    want = rows_wedges_clear(p, tri, inc, m, v, u, w, before)
+    np.testing.assert_array_equal(got, want)
+    assert want.any() == links  # (the test sees edges certified)
+
+
+@settings(max_examples=200, deadline=None)
+@given(mesh=st.one_of(nearly_closed(), soup), pick=st.lists(st.integers(0, 6), max_size=7))
+def test_a_ring_is_the_rows_and_their_neighbours_by_either_pass(mesh, pick):
+    """``_ring`` (through the rows' edge lists, or over every edge where the rows are many,
+    stop 41b): the rows and every vertex sharing a triangle's edge with one, one row of
+    the octahedron's 12 edges (the lists) or several (the pass over the edges)."""
+    from wrinkle_vis.core.foldguard.fans import _ring
+
+    n, tri = mesh
+    rows = np.unique(np.array(pick, dtype=np.intp) % n)
+    want = set(rows.tolist())
+    for t in tri.tolist():
+        for k in range(3):
+            a, b = t[k], t[(k + 1) % 3]
+            if a in rows or b in rows:
+                want |= {a, b}
+    graph = _fan_edges(tri, n, {})
+    assert _ring(rows, graph, n).tolist() == sorted(want)
+
+
+@settings(max_examples=200, deadline=None)
+@given(mesh=st.one_of(nearly_closed(), soup), pick=st.lists(st.integers(0, 6), max_size=7))
+def test_the_triangles_at_rows_are_those_with_a_corner_among_them_by_either_look(mesh, pick):
+    """``_triangles_at`` (through the incidence's rows, or every triangle's corners where
+    the rows are many, stop 41b): the triangles with a corner among the rows, for no row,
+    a few or many of a small mesh (both looks) and one row of a larger one (the rows)."""
+    from wrinkle_vis.core.foldguard import _fan_incidence
+    from wrinkle_vis.core.foldguard.fans import _triangles_at
+
+    n, tri = mesh
+    rows = np.unique(np.array(pick, dtype=np.intp) % n)
+    for t in (tri, np.concatenate([tri] * 20)):
+        inc = _fan_incidence(t, n, {})
+        want = [i for i, c in enumerate(t.tolist()) if set(c) & set(rows.tolist())]
+        assert _triangles_at(rows, t, inc).tolist() == want

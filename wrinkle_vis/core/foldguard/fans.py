@@ -52,7 +52,7 @@ def _open(n: int, runs: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray
     _, s, new = runs
     starts = np.flatnonzero(new)
     val, count = s[starts], np.diff(np.append(starts, len(s)))
-    half = val // 2
+    half = val >> 1
     edge = np.empty(len(half), bool)  # where an undirected edge's runs start
     edge[:1], edge[1:] = True, half[1:] != half[:-1]
     first = np.flatnonzero(edge)
@@ -97,11 +97,13 @@ def _across(tri: np.ndarray, n: int,
     val = s[starts]
     twin = np.full(len(starts), -1, np.intp)
     # runs r (forward: even) and r + 1 (backward) of one undirected edge
-    up = np.flatnonzero((val[1:] == val[:-1] + 1) & (val[:-1] % 2 == 0))
+    up = np.flatnonzero((val[1:] == val[:-1] + 1) & ((val[:-1] & 1) == 0))
     twin[up], twin[up + 1] = starts[up + 1], starts[up]
-    half = val // 2
-    own = (val % 2 == 0) & (half // n == half % n)
-    twin[own] = starts[own]
+    if ((tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2]) | (tri[:, 2] == tri[:, 0])).any():
+        # an edge from a vertex to itself: its own twin
+        half = val >> 1
+        own = ((val & 1) == 0) & (half // n == half % n)
+        twin[own] = starts[own]
     at = twin[np.cumsum(new) - 1]
     third = tri[:, [2, 0, 1]].ravel()  # the corner opposite each edge
     across = np.empty(len(s), np.intp)
@@ -127,17 +129,25 @@ def _fan_edges(tri: np.ndarray, n: int, terms: dict) -> dict:
             runs = _edge_runs(tri, n)  # (kept for the fans' structure, which follows)
             if "fans" not in terms:
                 terms["fan_runs"] = runs
-            half = runs[1][runs[2]] // 2
-            key = half[np.r_[True, half[1:] != half[:-1]]]
-            edges = np.stack([key // n, key % n], axis=1)
+            edges = _edges_of_runs(n, runs)
         ends = np.concatenate([edges[:, 0], edges[:, 1]])
         order = np.argsort(ends, kind="stable")
         start = np.concatenate([[0], np.cumsum(np.bincount(ends, minlength=n))])
         graph = terms["fan_edges"] = {
             "edges": np.asarray(edges, dtype=np.intp), "start": start,
-            "edge": order % len(edges),
+            "edge": np.where(order < len(edges), order, order - len(edges)),
             "nbr": np.concatenate([edges[:, 1], edges[:, 0]])[order]}
     return graph
+
+
+def _edges_of_runs(n: int, runs: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+    """``(e, 2)``: the undirected edges of the triangles on ``n`` vertices whose directed
+    edges :func:`_edge_runs` sorted into ``runs``, ends ascending, sorted by first end,
+    then second, each once (the keys' halves, one per undirected edge).
+    """
+    half = runs[1][runs[2]] >> 1
+    key = half[np.r_[True, half[1:] != half[:-1]]]
+    return np.stack([key // n, key % n], axis=1)
 
 
 def _csr_rows(start: np.ndarray, values: np.ndarray, rows: np.ndarray
@@ -162,11 +172,19 @@ def _segment_max(values: np.ndarray, indptr: np.ndarray) -> np.ndarray:
 
 def _ring(rows: np.ndarray, graph: dict, n: int) -> np.ndarray:
     """``(k,)`` sorted: ``rows`` ``(r,)`` and their neighbours in ``graph``
-    (:func:`_fan_edges`).
+    (:func:`_fan_edges`): through the rows' edge lists, or, where the rows are many, one
+    pass over every edge (the same set).
     """
     mask = np.zeros(n, bool)
     mask[rows] = True
-    mask[_csr_rows(graph["start"], graph["nbr"], rows)[1]] = True
+    edges = graph["edges"]
+    if 8 * len(rows) > len(edges):  # most of the skin: one pass over its edges is cheaper
+        e0, e1 = edges[:, 0], edges[:, 1]
+        a, b = e0[mask[e1]], e1[mask[e0]]
+        mask[a] = True
+        mask[b] = True
+    else:
+        mask[_csr_rows(graph["start"], graph["nbr"], rows)[1]] = True
     return np.flatnonzero(mask)
 
 
@@ -378,21 +396,48 @@ def _fan_terms(p: np.ndarray, tri: np.ndarray, sub: np.ndarray
     ``star`` ``(n,)`` bool, the fan seen along ``m`` is a star once around its vertex:
     every :math:`m \cdot A_t > 0` (with margin) and the projected angles add up to less
     than :math:`3\pi` (they add up to :math:`2\pi k`, :math:`k` the winding).
+    :func:`_fan_columns` on ``p``'s columns.
     """
-    n, t = len(p), tri[sub]
-    c0, c1, c2 = (p[t[:, k]] for k in range(3))
-    A = _cross(c1 - c0, c2 - c0)
-    la = np.maximum(np.sqrt(_rows_dot(A, A)), 1e-300)
-    m = np.stack([np.bincount(t.ravel(), np.repeat(A[:, k], 3), n) for k in range(3)], axis=1)
-    m = m / np.maximum(np.sqrt(_rows_dot(m, m)), 1e-300)[:, None]
+    m, c, star = _fan_columns(np.ascontiguousarray(p.T), tri, sub)
+    return m.T, c, star
+
+
+def _cdot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(k,)``: the dot products of the columns of ``a`` and ``b`` ``(3, k)`` (summed in
+    :func:`_rows_dot`'s order: the same values).
+    """
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _ccross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(3, k)``: the cross products of the columns of ``a`` and ``b`` ``(3, k)`` (as
+    :func:`_cross` computes them: the same values).
+    """
+    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])
+
+
+def _fan_columns(pc: np.ndarray, tri: np.ndarray, sub: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_fan_terms` on the points' columns ``pc`` ``(3, n)``, ``m`` as ``(3, n)``:
+    one gather of each corner's coordinates (takes along the contiguous rows), the same
+    arithmetic, so the same values.
+    """
+    n, t = pc.shape[1], tri[sub]
+    c0, c1, c2 = (np.take(pc, t[:, k], axis=1) for k in range(3))
+    A = _ccross(c1 - c0, c2 - c0)
+    la = np.maximum(np.sqrt(_cdot(A, A)), 1e-300)
+    flat_t = t.ravel()
+    m = np.stack([np.bincount(flat_t, np.repeat(A[k], 3), n) for k in range(3)])
+    m = m / np.maximum(np.sqrt(_cdot(m, m)), 1e-300)
     c = np.full(n, np.inf)
     angle = np.zeros(n)
     for k, (a, b, o) in enumerate(((c1, c2, c0), (c2, c0, c1), (c0, c1, c2))):
-        mv = m[t[:, k]]
-        up = _rows_dot(A, mv)
+        mv = np.take(m, t[:, k], axis=1)
+        up = _cdot(A, mv)
         np.minimum.at(c, t[:, k], up / la)
         e1, e2 = a - o, b - o
-        flat = _rows_dot(e1, e2) - _rows_dot(e1, mv) * _rows_dot(e2, mv)
+        flat = _cdot(e1, e2) - _cdot(e1, mv) * _cdot(e2, mv)
         angle += np.bincount(t[:, k], np.arctan2(up, flat), n)
     star = (c > _FAN_MARGIN) & (angle < 3.0 * np.pi)
     return m, c, star
@@ -427,22 +472,25 @@ def _fan_certificates(p: np.ndarray, tri: np.ndarray, ask: np.ndarray, fans: dic
     asked = np.zeros(n, bool)
     asked[ask] = True
     ring = _ring(ask, _fan_edges(tri, n, terms), n)
-    at_ring = np.zeros(len(tri), bool)
-    at_ring[_sub_rows(inc, ring)[1]] = True
-    sub = np.flatnonzero(at_ring)  # the triangles at the asked ones' rings
-    m, c, star = _fan_terms(p, tri, sub)
+    sub = _triangles_at(ring, tri, inc)  # the triangles at the asked ones' rings
+    pc = np.ascontiguousarray(p.T)  # (the coordinates' columns: one take each)
+    mc, c, star = _fan_columns(pc, tri, sub)
+    m = mc.T
     star &= ~fans["open"]
     t = tri[sub]
-    rows = np.flatnonzero(asked[t.T.ravel()])  # the asked vertices' corners: edges v-u
-    k, rows = rows // len(sub), rows % len(sub)
-    v, u, w = t[rows, k], t[rows, (k + 1) % 3], t[rows, (k + 2) % 3]
-    before = fans["across"][sub[rows], k]  # the ring vertex before u (across edge v-u)
-    e_in, e_out = p[u] - p[np.maximum(before, 0)], p[w] - p[u]
-    turn = _rows_dot(_cross(e_in, e_out), m[v])
-    left = turn > _FAN_MARGIN * np.sqrt(_rows_dot(e_in, e_in) * _rows_dot(e_out, e_out))
+    tt = t.T.ravel()
+    rows = np.flatnonzero(asked[tt])  # the asked vertices' corners (k, t): edges v-u
+    v, u, w = tt[rows], t[:, [1, 2, 0]].T.ravel()[rows], t[:, [2, 0, 1]].T.ravel()[rows]
+    # the ring vertex before u (across edge v-u)
+    before = fans["across"][sub].T.ravel()[rows]
+    pu, mv = np.take(pc, u, axis=1), np.take(mc, v, axis=1)
+    e_in = pu - np.take(pc, np.maximum(before, 0), axis=1)
+    e_out = np.take(pc, w, axis=1) - pu
+    turn = _cdot(_ccross(e_in, e_out), mv)
+    left = turn > _FAN_MARGIN * np.sqrt(_cdot(e_in, e_in) * _cdot(e_out, e_out))
     good = star[v] & star[u]  # 1 and 3 along m_u (of a closed u)
-    dm = m[v] - m[u]
-    along = c[u] > np.sqrt(_rows_dot(dm, dm)) + _FAN_MARGIN
+    dm = mv - np.take(mc, u, axis=1)
+    along = c[u] > np.sqrt(_cdot(dm, dm)) + _FAN_MARGIN
     check = np.flatnonzero(good & ~along)  # u's star along m_v, checked
     if len(check):
         good[check] = _stars_along(p, tri, inc, v[check], u[check], m)
@@ -456,6 +504,21 @@ def _fan_certificates(p: np.ndarray, tri: np.ndarray, ask: np.ndarray, fans: dic
                                     before[check])
     half = np.flatnonzero(good & ~ok[v] & ~ok[u] & asked[u])
     return star[ask], ok[ask], np.stack([v[half], u[half]], axis=1)
+
+
+def _triangles_at(rows: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix) -> np.ndarray:
+    """``(k,)`` ascending: the triangles of ``tri`` ``(m, 3)`` with a corner in ``rows``
+    ``(r,)`` (distinct): through the rows of the incidence ``inc`` ``(n, m)``, or, where
+    the rows are many, one look at every triangle's corners (the same set).
+    """
+    if 16 * len(rows) > len(tri):
+        mark = np.zeros(inc.shape[0], bool)
+        mark[rows] = True
+        at = mark[tri]
+        return np.flatnonzero(at[:, 0] | at[:, 1] | at[:, 2])
+    at = np.zeros(len(tri), bool)
+    at[_sub_rows(inc, rows)[1]] = True
+    return np.flatnonzero(at)
 
 
 def _wedges_clear(p: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix, m: np.ndarray,
@@ -475,20 +538,24 @@ def _wedges_clear(p: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix, m: np.ndar
     """
     indptr, t = _sub_rows(inc, v)  # every triangle of v's fan, per edge
     row = np.repeat(np.arange(len(v)), np.diff(indptr))
-    mv, o, ur, upr, umr = m[v][row], p[u][row], u[row], up[row], um[row]
-    a, b = (p[up] - p[u])[row], (p[np.maximum(um, 0)] - p[u])[row]
-    la, lb = np.sqrt(_rows_dot(a, a)), np.sqrt(_rows_dot(b, b))
+    pc, mc = np.ascontiguousarray(p.T), np.ascontiguousarray(m.T)  # (columns: the same
+    o = np.take(pc, u, axis=1)  # values as on the rows, one take each)
+    mv, a = np.take(mc, v, axis=1), np.take(pc, up, axis=1) - o
+    b = np.take(pc, np.maximum(um, 0), axis=1) - o
+    la, lb = np.sqrt(_cdot(a, a)), np.sqrt(_cdot(b, b))
+    right = (_cdot(_ccross(a, b), mv) < -_FAN_MARGIN * la * lb)[row]
+    mv, o, a, b = mv[:, row], o[:, row], a[:, row], b[:, row]
+    la, lb, ur, upr, umr = la[row], lb[row], u[row], up[row], um[row]
     corners = tri[t]
     A = B = (corners != ur[:, None]).all(axis=1)  # (rows holding u: nothing to check)
     skip = ~A
     for j in range(3):
-        x = p[corners[:, j]] - o
-        lx = np.sqrt(_rows_dot(x, x))
+        x = np.take(pc, corners[:, j], axis=1) - o
+        lx = np.sqrt(_cdot(x, x))
         A = A & ((corners[:, j] == upr)
-                 | (_rows_dot(_cross(a, x), mv) > _FAN_MARGIN * la * lx))
+                 | (_cdot(_ccross(a, x), mv) > _FAN_MARGIN * la * lx))
         B = B & ((corners[:, j] == umr)
-                 | (_rows_dot(_cross(x, b), mv) > _FAN_MARGIN * lb * lx))
-    right = _rows_dot(_cross(a, b), mv) < -_FAN_MARGIN * la * lb
+                 | (_cdot(_ccross(x, b), mv) > _FAN_MARGIN * lb * lx))
     fine = skip | (A & B) | (right & (A | B))
     return (np.bincount(row, ~fine, len(v)) == 0) & (um >= 0)
 
