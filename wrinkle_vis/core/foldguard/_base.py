@@ -38,10 +38,11 @@ class FoldGuard:
         (:func:`guard_fans`; ``docs/model.md``, "The fans"): True on every frame, False on
         none, ``"refined"`` (the default) on refined frames, the only ones where fans have
         been seen to cross (the refined head's eye corner with k0 at 5x its default); there
-        it adds a quarter to a half of the guard's refined frame (23-49 % on paper-size
-        ramps, 5-71 % on the head's), on unrefined frames it would add up to 17 % (physical skin)
-        and 134-288 % (geometric skin, frames under 1.1 ms) for no crossing measured
-        (``docs/benchmarks.md``, stop 41). ``--fold-guard fans`` turns it on everywhere.
+        it adds 14-28 ms to a paper-size refined frame (27-77 % of that frame guarded
+        without it), on unrefined frames it would add up to 17 % (physical skin) and
+        134-288 % (geometric skin, frames under 1.1 ms) for no crossing measured
+        (``docs/benchmarks.md``, stop 41). ``--fold-guard fans`` turns it on everywhere,
+        ``--fold-guard light`` off.
     """
 
     eta: float = 0.5
