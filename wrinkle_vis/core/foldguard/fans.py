@@ -10,6 +10,7 @@ from ..certificate import (
     _normals,
 )
 from ._base import (  # noqa: F401
+    _any_corner,
     _cross,
     _incidence,
     _rows_dot,
@@ -514,8 +515,7 @@ def _triangles_at(rows: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix) -> np.n
     if 16 * len(rows) > len(tri):
         mark = np.zeros(inc.shape[0], bool)
         mark[rows] = True
-        at = mark[tri]
-        return np.flatnonzero(at[:, 0] | at[:, 1] | at[:, 2])
+        return np.flatnonzero(_any_corner(mark, tri))
     at = np.zeros(len(tri), bool)
     at[_sub_rows(inc, rows)[1]] = True
     return np.flatnonzero(at)
@@ -749,10 +749,8 @@ def _triangles_within(mark: np.ndarray, tri: np.ndarray, rings: int) -> np.ndarr
     """
     mark = mark.copy()
     for _ in range(rings):
-        at = mark[tri]
-        mark[tri[at[:, 0] | at[:, 1] | at[:, 2]]] = True
-    at = mark[tri]
-    return at[:, 0] | at[:, 1] | at[:, 2]
+        mark[tri[_any_corner(mark, tri)]] = True
+    return _any_corner(mark, tri)
 
 
 def _scaled_fans(d: np.ndarray, p0: np.ndarray, moved: np.ndarray, tri: np.ndarray,
