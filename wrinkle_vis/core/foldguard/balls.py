@@ -484,8 +484,7 @@ def _triangle_seps(points: np.ndarray, tri: np.ndarray, near: np.ndarray,
     candidates of the ball of radius ``near`` about :math:`x` (:func:`_suspects`, ``lift``:
     :func:`_lift`). ``rows``: the vertices searched (default all; ``near`` at the others).
     """
-    e = points[tri] - points[np.roll(tri, 1, axis=1)]
-    L = float(np.sqrt(np.einsum("ijk,ijk->ij", e, e).max())) if len(tri) else 0.0
+    L = _sides_longest(points, tri)
     if lift is None:
         lift = _lift(points, tri)
     sep = np.array(near, dtype=float, copy=True)
