@@ -366,11 +366,12 @@ def _star_rows(lift: dict, verts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(p,)``: the triangles of each vertex of ``verts`` ``(q,)`` in turn (each vertex's
     in ascending order), and ``(q,)``: how many each has, from :func:`_lift`'s incidence.
     """
-    if "ptr" not in lift:  # the vertex-triangle incidence, built on first need (a
-        tri = lift["tri"]  # counting sort: each vertex's triangles in ascending order)
-        m = len(tri)
-        inc = sp.coo_matrix((np.ones(3 * m, np.int8), (tri.ravel(), np.repeat(np.arange(m), 3))),
-                            shape=(lift["n"], m)).tocsr()
+    if "ptr" not in lift:  # the vertex-triangle incidence, built on first need: the
+        tri = lift["tri"]  # triangles' rows of corners, a CSR matrix as they stand, turned
+        m = len(tri)  # to CSC (a counting sort: each vertex's triangles in ascending order)
+        inc = sp.csr_matrix((np.ones(3 * m, np.int8), tri.ravel(), np.arange(0, 3 * m + 1, 3)),
+                            shape=(m, lift["n"])).tocsc()
+        inc.sum_duplicates()  # (a triangle with a repeated corner: once, as COO to CSR)
         lift["by_vertex"] = inc.indices.astype(np.intp, copy=False)
         lift["ptr"] = inc.indptr.astype(np.intp, copy=False)
     ptr = lift["ptr"]
