@@ -230,8 +230,18 @@ def _lifted_near(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.nda
     c4 = np.column_stack([centres, np.zeros(len(centres))])
     cleared = np.ones(len(centres), bool) if clear else np.zeros(len(centres), bool)
     balls, verts, fulls = [], [], []
+    by_ball: dict = {}  # (the balls' own lifted tree, built for the first small class)
     for tree, ids, Tk in lift["classes"]:
         r2T = radii * radii + Tk
+        if len(ids) * _REVERSE_RATIO < len(centres):  # few vertices: their queries
+            row, vert, d2 = _reverse_pairs(by_ball, centres, radii, tree, ids, Tk, lift)
+            if clear:
+                bad = (vert != own.take(row)) & (d2 <= r2T.take(row) * (1.0 + 1e-9))
+                cleared[row[bad]] = False
+            keep = d2 <= r2T.take(row) * (1.0 + 2e-9)
+            balls.append(row[keep])
+            verts.append(vert[keep])
+            continue
         bound = np.sqrt(r2T * (1.0 + 2e-9))
         k = min(_SUSPECTS_K, len(ids))  # k nearest first (arrays); a full row: a ball query
         d, i = _query_by_bound(tree, c4, bound, k)
@@ -261,6 +271,42 @@ def _lifted_near(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.nda
     return cleared, ball, vert
 
 
+_REVERSE_RATIO = 2  # a class of fewer lifted vertices than 1/2 the balls: queried by them
+
+
+def _reverse_pairs(by_ball: dict, centres: np.ndarray, radii: np.ndarray, tree: cKDTree,
+                   ids: np.ndarray, Tk: float, lift: dict
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""``(q,)`` thrice: the pairs (ball, vertex) of :func:`_lifted_near`'s class ``tree``,
+    ``ids`` ``(s,)``, ``Tk`` and the balls ``centres`` ``(k, 3)``, ``radii`` ``(k,)``, and
+    each pair's lifted :math:`d^2 = |v - c|^2 + T - \rho_v^2`, found by the class's
+    vertices in a tree of the balls (kept in ``by_ball``): each ball lifted to :math:`(c,
+    \sqrt{R^2 - r^2})`, :math:`R` the largest radius, each vertex to :math:`(v, 0)`, is
+    :math:`\sqrt{|v - c|^2 + R^2 - r^2}` from it, so a ball query of radius
+    :math:`\sqrt{R^2 + \rho_v^2 + 3 \cdot 10^{-9} (R^2 + T)}` finds every ball with
+    :math:`|v - c|^2 - \rho_v^2 \le r^2 + 2 \cdot 10^{-9} (r^2 + T)`, the class query's
+    (``docs/model.md``, "Small classes, queried by their vertices"). Every pair within
+    the ball query (a few beyond the forward bound; the caller keeps those within it).
+    """
+    if "tree" not in by_ball:
+        r2 = radii * radii
+        R2 = float(r2.max())
+        by_ball["R2"] = R2
+        by_ball["tree"] = cKDTree(np.column_stack([centres, np.sqrt(np.maximum(R2 - r2, 0.0))]),
+                                  leafsize=32, balanced_tree=False)
+    R2 = by_ball["R2"]
+    rho = lift["rho"].take(ids)
+    v4 = np.column_stack([tree.data[:, :3], np.zeros(len(ids))])
+    near = by_ball["tree"].query_ball_point(v4, np.sqrt(R2 + rho + 3e-9 * (R2 + Tk)),
+                                            return_sorted=False)
+    counts = np.fromiter(map(len, near), np.intp, len(near))
+    row = np.fromiter(chain.from_iterable(near), np.intp, int(counts.sum()))
+    at = np.repeat(np.arange(len(ids)), counts)
+    d = np.take(tree.data[:, :3], at, axis=0)
+    d -= np.take(centres, row, axis=0)
+    return row, ids.take(at), np.einsum("ij,ij->i", d, d) + (Tk - rho.take(at))
+
+
 _BOUND_STEP = 1.25  # the ratio of the query bounds a group of balls shares (_query_by_bound)
 _BOUND_GROUPS = 4  # at most so many groups (the last: every bound below 1.25^-3 of the top)
 _GROUPED_FROM = 2048  # fewer balls than this: one query
@@ -280,8 +326,6 @@ def _query_by_bound(tree: cKDTree, c4: np.ndarray, bound: np.ndarray, k: int
     nothing but that it is beyond.
     """
     top = float(bound.max()) if len(bound) else 0.0
-    if tree.n <= _BRUTE_UP_TO:  # (a tree of a few points: its query's own cost is the most)
-        return _query_brute(tree, c4, bound, k)
     if len(bound) < _GROUPED_FROM or top <= 0:  # (a query's own cost: not worth a split)
         groups = np.zeros(1, np.intp)
     else:
@@ -298,25 +342,6 @@ def _query_by_bound(tree: cKDTree, c4: np.ndarray, bound: np.ndarray, k: int
         dg, ig = tree.query(c4[sel], k=k, distance_upper_bound=float(bound[sel].max()))
         d[sel], i[sel] = dg.reshape(len(sel), k), ig.reshape(len(sel), k)
     return d, i
-
-
-_BRUTE_UP_TO = 8  # a class of so few lifted vertices is searched without its tree
-
-
-def _query_brute(tree: cKDTree, c4: np.ndarray, bound: np.ndarray, k: int
-                 ) -> tuple[np.ndarray, np.ndarray]:
-    r""":func:`_query_by_bound` without the tree's query, for a ``tree`` of at most
-    :data:`_BRUTE_UP_TO` points: every distance :math:`|p - c|`, the ``k`` least in
-    ascending order, ``inf`` and ``tree.n`` beyond each ball's ``bound`` ``(b,)`` (the
-    callers' margins, :math:`10^{-9}` of the squared bound, hold the rounding of summing
-    the squares another way).
-    """
-    pts = tree.data
-    d = np.sqrt(((c4[:, None, :] - pts[None, :, :]) ** 2).sum(axis=2))  # (b, s)
-    i = np.argsort(d, axis=1, kind="stable")[:, :k]
-    d = np.take_along_axis(d, i, axis=1)
-    beyond = d > bound[:, None]
-    return np.where(beyond, np.inf, d), np.where(beyond, tree.n, i)
 
 
 def _first_found(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray,
