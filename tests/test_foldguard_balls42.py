@@ -18,8 +18,8 @@ from wrinkle_vis.core.foldguard.balls import (
     _first_found,
     _local_rows,
     _near_found,
-    _side_squares,
     _shrink_on_triangles,
+    _side_squares,
     _sides_longest,
     _star_rows,
 )
@@ -75,7 +75,8 @@ def test_the_found_pairs_kept_by_their_own_corner_are_the_first_found_triangles(
     _, ball, vert = _lifted_near(lift, c, r, own, clear=False)
     b1, t1 = _near_found(lift, c, r, own, pts, ball, vert)
     b0, t0 = _first_found(lift, c, r, own, pts, *_expand(lift, ball, vert))
-    mine, theirs = set(zip(b1.tolist(), t1.tolist())), set(zip(b0.tolist(), t0.tolist()))
+    mine = set(zip(b1.tolist(), t1.tolist(), strict=True))
+    theirs = set(zip(b0.tolist(), t0.tolist(), strict=True))
     assert mine == theirs and len(b0) == len(theirs)
     assert len(theirs) < len(b1) <= 3 * len(theirs)  # some come twice, none more than thrice
     from wrinkle_vis.core.foldguard import _closest_on_triangles
@@ -84,7 +85,7 @@ def test_the_found_pairs_kept_by_their_own_corner_are_the_first_found_triangles(
     q = _closest_on_triangles(c[bb], *(pts[tri[tt, j]] for j in range(3)))
     meet = np.sum((q - c[bb]) ** 2, axis=1) < r[bb] ** 2
     assert meet.sum() > 10
-    assert set(zip(bb[meet].tolist(), tt[meet].tolist())) <= mine
+    assert set(zip(bb[meet].tolist(), tt[meet].tolist(), strict=True)) <= mine
 
 
 @settings(max_examples=20, deadline=None)

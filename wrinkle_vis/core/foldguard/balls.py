@@ -225,7 +225,10 @@ def _lifted_near(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.nda
     :func:`_cleared`'s two nearest are its first two columns (its test's bound,
     :math:`\sqrt{(r^2 + T)(1 + 10^{-9})}`, lies inside the query's: a vertex beyond the
     query's bound clears either way); a ball whose :math:`K`-th nearest is within its bound
-    asks a ball query for the rest (after every class, only where not cleared).
+    asks a ball query for the rest (after every class, only where not cleared). A class of
+    fewer vertices than :math:`1/`:data:`_REVERSE_RATIO` of the balls is asked by its
+    vertices instead (:func:`_reverse_pairs`), the same pairs and the same clearing from
+    each pair's lifted distance.
     """
     c4 = np.column_stack([centres, np.zeros(len(centres))])
     cleared = np.ones(len(centres), bool) if clear else np.zeros(len(centres), bool)
