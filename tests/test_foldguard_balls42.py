@@ -25,41 +25,35 @@ from wrinkle_vis.core.foldguard.balls import (
 )
 
 
-def _small_classes(lift: dict, balls_count: int) -> int:
-    """How many of ``lift``'s classes ``_lifted_near`` asks by their vertices."""
-    return sum(len(ids) * balls._REVERSE_RATIO < balls_count for _, ids, _ in lift["classes"])
-
-
 @settings(max_examples=15, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1))
 def test_a_small_class_asked_by_its_vertices_finds_what_its_balls_queries_find(seed):
     """``_lifted_near`` with its small classes asked by their vertices in a tree of the
-    lifted balls (``_reverse_pairs``) against the balls' own queries of every class and
-    against every lifted vertex by brute force: the same balls cleared, and for the others
-    exactly the vertices with ``|v - c|^2 - rho_v^2 + T <= (r^2 + T)(1 + 2e-9)``, once."""
+    lifted balls (``_reverse_pairs``; the default, and every class so) against the balls'
+    own queries of every class and against every lifted vertex by brute force: the same
+    balls cleared, and for the others exactly the vertices with ``|v - c|^2 - rho_v^2 + T
+    <= (r^2 + T)(1 + 2e-9)``, each once."""
     pts, tri, k = _two_sheets(seed)
     own, _, r, c = _balls(seed, pts, k)
     lift = _lift(pts, tri)
-    assert _small_classes(lift, len(own)) >= 1
-    got = _lifted_near(lift, c, r, own)
-    with pytest.MonkeyPatch.context() as mp:  # every class by the balls' own queries
-        mp.setattr(balls, "_REVERSE_RATIO", 0)
-        want = _lifted_near(_lift(pts, tri), c, r, own)
-    np.testing.assert_array_equal(got[0], want[0])
-    assert got[0].any() and not got[0].all()
-    pairs = list(zip(got[1].tolist(), got[2].tolist(), strict=True))
-    assert len(pairs) == len(set(pairs))  # each once
-    assert set(pairs) == set(zip(want[1].tolist(), want[2].tolist(), strict=True))
+    runs = {}
+    for ratio in (balls._REVERSE_RATIO, 0, np.inf):  # default, every class, none reversed
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(balls, "_REVERSE_RATIO", ratio)
+            runs[ratio] = _lifted_near(_lift(pts, tri), c, r, own)
     lifted = np.sum((pts[None, :, :] - c[:, None, :]) ** 2, axis=2) - lift["rho"][None, :] \
         + lift["T"][None, :]
     brute = lifted <= (r[:, None] ** 2 + lift["T"][None, :]) * (1.0 + 2e-9)
-    brute[got[0]] = False
-    small = np.concatenate([ids for _, ids, _ in lift["classes"]
-                            if len(ids) * balls._REVERSE_RATIO < len(own)])
-    mine = np.zeros_like(brute)
-    mine[got[1], got[2]] = True
-    np.testing.assert_array_equal(mine, brute)
-    assert brute[:, small].sum() > 20  # the small classes' pairs are there to find
+    want = runs[np.inf][0]
+    assert want.any() and not want.all()
+    brute[want] = False
+    for cleared, ball, vert in runs.values():
+        np.testing.assert_array_equal(cleared, want)
+        pairs = list(zip(ball.tolist(), vert.tolist(), strict=True))
+        assert len(pairs) == len(set(pairs))  # each once
+        mine = np.zeros_like(brute)
+        mine[ball, vert] = True
+        np.testing.assert_array_equal(mine, brute)
 
 
 @settings(max_examples=15, deadline=None)
@@ -134,7 +128,7 @@ def test_the_squared_sides_of_the_whole_skin_are_the_local_skins_bit_for_bit(see
                                   _enclosing_sq(samples, t_loc))
 
 
-@pytest.mark.parametrize("reverse", [0, 2])
+@pytest.mark.parametrize("reverse", [np.inf, 2, 0])  # no class, the small, every class
 @settings(max_examples=8, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1))
 def test_the_deformed_search_gives_the_exhaustive_searchs_radii(seed, reverse):
@@ -164,7 +158,6 @@ def test_the_deformed_search_gives_the_exhaustive_searchs_radii(seed, reverse):
                                  tuple(pts[tri[t, j]] for j in range(3)), 60)
     want = np.where(radii > 0, every[:, None], np.inf)
     low = np.flatnonzero(want.min(axis=1) < start)
-    assert reverse == 0 or _small_classes(_lift(pts, tri), len(own)) >= 1
     assert got is not None and 0 < len(low) < len(own)
     np.testing.assert_array_equal(got[0], own[low])
     ratio = guard.eta_deformed / guard.eta
