@@ -8,7 +8,7 @@ are checked equal bit for bit. The figures are the balls' share of a frame alone
 of the guard, the fans' above all, is timed by ``bench_folds.py --animation``).
 
 Usage: python benchmarks/bench_balls_refined.py [--baseline 574c064] [--frames 8]
-       [--rounds 5] [--cases surprise,pucker]
+       [--rounds 5] [--cases surprise,pucker] [--face paper|head]
 """
 
 from __future__ import annotations
@@ -28,9 +28,10 @@ def _module_at(ref: str):
     return foldguard_at(ref, "foldguard_balls_baseline")
 
 
-def _captured(expr: str, skin: str, frames: int) -> list[tuple]:
-    """The balls' searches of a ramp of ``frames`` refined frames (intensity 0 to 1): each
-    call's arguments, its terms copied as they were when it was called."""
+def _captured(expr: str, skin: str, frames: int, face_name: str = "paper") -> list[tuple]:
+    """The balls' searches of a ramp of ``frames`` refined frames (intensity 0 to 1) of the
+    paper's face or the real head (``face_name``): each call's arguments, its terms copied
+    as they were when it was called."""
     import wrinkle_vis as wv
     from wrinkle_vis.core import foldguard
 
@@ -42,7 +43,7 @@ def _captured(expr: str, skin: str, frames: int) -> list[tuple]:
 
     foldguard.frame._deformed_lows = keep
     try:
-        face = wv.datasets.load_face()
+        face = wv.datasets.load_face(*(() if face_name == "paper" else ("lee_perry_smith",)))
         for i in np.linspace(0.0, 1.0, frames)[1:]:
             face.evaluate(expr, float(i), refine=True, skin=skin, fold_guard=True)
     finally:
@@ -63,11 +64,12 @@ def _timed(fn, call) -> tuple[float, float, object]:
     return time.perf_counter() - w, time.process_time() - c, out
 
 
-def case(expr: str, skin: str, frames: int, rounds: int, old) -> dict:
+def case(expr: str, skin: str, frames: int, rounds: int, old, face_name: str = "paper"
+         ) -> dict:
     """One ramp's balls: per-frame medians over ``rounds`` (wall, CPU) for both trees."""
     from wrinkle_vis.core import foldguard
 
-    calls = _captured(expr, skin, frames)
+    calls = _captured(expr, skin, frames, face_name)
     runs = {"new": foldguard._deformed_lows, "old": old._deformed_lows}
     wall = {k: [] for k in runs}
     cpu = {k: [] for k in runs}
@@ -96,13 +98,16 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--cases", default="surprise,pucker")
     ap.add_argument("--skin-model", default="both", choices=("geometric", "physical", "both"))
+    ap.add_argument("--face", default="paper", choices=("paper", "head"),
+                    help="the paper's procedural face or the real head (Lee Perry-Smith)")
     args = ap.parse_args()
     old = _module_at(args.baseline)
     skins = ("geometric", "physical") if args.skin_model == "both" else (args.skin_model,)
     for skin in skins:
         for expr in args.cases.split(","):
-            v = case(expr, skin, args.frames, args.rounds, old)
-            print(f"refined {expr:9s} ({skin:9s}) {v['calls']} searches: a frame's balls, wall "
+            v = case(expr, skin, args.frames, args.rounds, old, args.face)
+            print(f"{args.face} refined {expr:9s} ({skin:9s}) {v['calls']} searches: a "
+                  f"frame's balls, wall "
                   f"(CPU) this {v['new_wall']:6.2f} ({v['new_cpu']:6.2f}) ms, {args.baseline} "
                   f"{v['old_wall']:6.2f} ({v['old_cpu']:6.2f}) ms, ratio "
                   f"{v['new_cpu'] / max(v['old_cpu'], 1e-9):.2f}; bit for bit "

@@ -70,12 +70,12 @@ def medial_radii(points: np.ndarray, normals: np.ndarray, samples: np.ndarray | 
     return out
 
 
-def _enclosing_sq(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
-    r"""``(m,)``: an upper bound of :math:`\rho_t^2`, the squared radius of the smallest disc
-    holding the triangles ``tri`` ``(m, 3)`` on ``points`` ``(n, 3)``: half the longest edge
-    where the triangle is right or obtuse (:math:`c^2 \ge a^2 + b^2`), else its circumradius
-    :math:`a^2 b^2 c^2 / (16 A^2)`; never above :math:`\ell^2 / 3` (Jung), and raised by
-    :math:`10^{-9}` of itself against rounding.
+def _side_squares(points: np.ndarray, tri: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""``(m,)`` thrice: the squared sides :math:`a^2 = |v_1 - v_2|^2`, :math:`b^2 = |v_2 -
+    v_0|^2`, :math:`c^2 = |v_0 - v_1|^2` of the triangles ``tri`` ``(m, 3)`` on ``points``
+    ``(n, 3)``, from one take of each corner's rows (:func:`_enclosing_sq` and
+    :func:`_sides_longest` read the same numbers).
     """
     a, b, c = (np.take(points, np.ascontiguousarray(tri[:, j]), axis=0) for j in range(3))
     d = b - c  # (contiguous rows, takes: about half the time of fancy indexing)
@@ -83,7 +83,20 @@ def _enclosing_sq(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
     d = c - a
     b2 = np.einsum("ij,ij->i", d, d)
     d = a - b
-    c2 = np.einsum("ij,ij->i", d, d)
+    return a2, b2, np.einsum("ij,ij->i", d, d)
+
+
+def _enclosing_sq(points: np.ndarray, tri: np.ndarray,
+                  squares: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+                  ) -> np.ndarray:
+    r"""``(m,)``: an upper bound of :math:`\rho_t^2`, the squared radius of the smallest disc
+    holding the triangles ``tri`` ``(m, 3)`` on ``points`` ``(n, 3)``: half the longest edge
+    where the triangle is right or obtuse (:math:`c^2 \ge a^2 + b^2`), else its circumradius
+    :math:`a^2 b^2 c^2 / (16 A^2)`; never above :math:`\ell^2 / 3` (Jung), and raised by
+    :math:`10^{-9}` of itself against rounding. ``squares``: :func:`_side_squares` of these
+    triangles, when at hand (``(m,)`` thrice).
+    """
+    a2, b2, c2 = _side_squares(points, tri) if squares is None else squares
     top = np.maximum(np.maximum(a2, b2), c2)  # the longest edge's square, and the rest:
     rest = a2 + b2 + c2 - top  # the other two's sum (obtuse or right: top >= rest)
     area16 = 2.0 * (a2 * b2 + b2 * c2 + c2 * a2) - (a2 * a2 + b2 * b2 + c2 * c2)
@@ -94,7 +107,8 @@ def _enclosing_sq(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
     return rho * (1.0 + 1e-9)
 
 
-def _lift(points: np.ndarray, tri: np.ndarray) -> dict:
+def _lift(points: np.ndarray, tri: np.ndarray,
+          squares: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> dict:
     r"""The triangles' reach, lifted to 4-D ``cKDTree`` s, for :func:`_suspects`: each vertex
     :math:`v` of ``points`` ``(n, 3)`` carries :math:`\rho_v^2 = \max_{t \ni v} \rho_t^2`
     over its triangles of ``tri`` ``(m, 3)`` (:func:`_enclosing_sq`). The vertices are taken
@@ -105,9 +119,9 @@ def _lift(points: np.ndarray, tri: np.ndarray) -> dict:
     ball query of radius :math:`\sqrt{r^2 + T}`, per class finds the vertices with
     :math:`|v - c|^2 - \rho_v^2 \le r^2` exactly. (One tree for a skin whose triangles
     differ much in size, a refined one, is slow to query: its fine vertices' lifts are all
-    near :math:`\sqrt T`.)
+    near :math:`\sqrt T`.) ``squares``: :func:`_side_squares` of ``tri``, when at hand.
     """
-    rho_t = _enclosing_sq(points, tri) if len(tri) else np.zeros(0)
+    rho_t = _enclosing_sq(points, tri, squares) if len(tri) else np.zeros(0)
     rho = np.zeros(len(points))
     np.maximum.at(rho, tri.ravel(), np.repeat(rho_t, 3))
     top = float(rho.max()) if len(rho) else 0.0
@@ -211,13 +225,26 @@ def _lifted_near(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.nda
     :func:`_cleared`'s two nearest are its first two columns (its test's bound,
     :math:`\sqrt{(r^2 + T)(1 + 10^{-9})}`, lies inside the query's: a vertex beyond the
     query's bound clears either way); a ball whose :math:`K`-th nearest is within its bound
-    asks a ball query for the rest (after every class, only where not cleared).
+    asks a ball query for the rest (after every class, only where not cleared). A class of
+    fewer vertices than :math:`1/`:data:`_REVERSE_RATIO` of the balls is asked by its
+    vertices instead (:func:`_reverse_pairs`), the same pairs and the same clearing from
+    each pair's lifted distance.
     """
     c4 = np.column_stack([centres, np.zeros(len(centres))])
     cleared = np.ones(len(centres), bool) if clear else np.zeros(len(centres), bool)
     balls, verts, fulls = [], [], []
+    by_ball: dict = {}  # (the balls' own lifted tree, built for the first small class)
     for tree, ids, Tk in lift["classes"]:
         r2T = radii * radii + Tk
+        if len(ids) * _REVERSE_RATIO < len(centres):  # few vertices: their queries
+            row, vert, d2 = _reverse_pairs(by_ball, centres, radii, tree, ids, Tk, lift)
+            if clear:
+                bad = (vert != own.take(row)) & (d2 <= r2T.take(row) * (1.0 + 1e-9))
+                cleared[row[bad]] = False
+            keep = d2 <= r2T.take(row) * (1.0 + 2e-9)
+            balls.append(row[keep])
+            verts.append(vert[keep])
+            continue
         bound = np.sqrt(r2T * (1.0 + 2e-9))
         k = min(_SUSPECTS_K, len(ids))  # k nearest first (arrays); a full row: a ball query
         d, i = _query_by_bound(tree, c4, bound, k)
@@ -245,6 +272,42 @@ def _lifted_near(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.nda
         keep = ~cleared[ball]
         ball, vert = ball[keep], vert[keep]
     return cleared, ball, vert
+
+
+_REVERSE_RATIO = 2  # a class of fewer lifted vertices than 1/2 the balls: queried by them
+
+
+def _reverse_pairs(by_ball: dict, centres: np.ndarray, radii: np.ndarray, tree: cKDTree,
+                   ids: np.ndarray, Tk: float, lift: dict
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    r"""``(q,)`` thrice: the pairs (ball, vertex) of :func:`_lifted_near`'s class ``tree``,
+    ``ids`` ``(s,)``, ``Tk`` and the balls ``centres`` ``(k, 3)``, ``radii`` ``(k,)``, and
+    each pair's lifted :math:`d^2 = |v - c|^2 + T - \rho_v^2`, found by the class's
+    vertices in a tree of the balls (kept in ``by_ball``): each ball lifted to :math:`(c,
+    \sqrt{R^2 - r^2})`, :math:`R` the largest radius, each vertex to :math:`(v, 0)`, is
+    :math:`\sqrt{|v - c|^2 + R^2 - r^2}` from it, so a ball query of radius
+    :math:`\sqrt{R^2 + \rho_v^2 + 3 \cdot 10^{-9} (R^2 + T)}` finds every ball with
+    :math:`|v - c|^2 - \rho_v^2 \le r^2 + 2 \cdot 10^{-9} (r^2 + T)`, the class query's
+    (``docs/model.md``, "Small classes, queried by their vertices"). Every pair within
+    the ball query (a few beyond the forward bound; the caller keeps those within it).
+    """
+    if "tree" not in by_ball:
+        r2 = radii * radii
+        R2 = float(r2.max())
+        by_ball["R2"] = R2
+        by_ball["tree"] = cKDTree(np.column_stack([centres, np.sqrt(np.maximum(R2 - r2, 0.0))]),
+                                  leafsize=32, balanced_tree=False)
+    R2 = by_ball["R2"]
+    rho = lift["rho"].take(ids)
+    v4 = np.column_stack([tree.data[:, :3], np.zeros(len(ids))])
+    near = by_ball["tree"].query_ball_point(v4, np.sqrt(R2 + rho + 3e-9 * (R2 + Tk)),
+                                            return_sorted=False)
+    counts = np.fromiter(map(len, near), np.intp, len(near))
+    row = np.fromiter(chain.from_iterable(near), np.intp, int(counts.sum()))
+    at = np.repeat(np.arange(len(ids)), counts)
+    d = np.take(tree.data[:, :3], at, axis=0)
+    d -= np.take(centres, row, axis=0)
+    return row, ids.take(at), np.einsum("ij,ij->i", d, d) + (Tk - rho.take(at))
 
 
 _BOUND_STEP = 1.25  # the ratio of the query bounds a group of balls shares (_query_by_bound)
@@ -323,19 +386,56 @@ def _expand(lift: dict, ball: np.ndarray, verts: np.ndarray
     """``(p,)`` thrice: each pair of ``ball`` and ``verts`` ``(q,)`` repeated for every
     triangle of that vertex (ball, triangle, vertex), from :func:`_lift`'s incidence.
     """
-    if "ptr" not in lift:  # the vertex-triangle incidence, built on first need (a
-        tri = lift["tri"]  # counting sort: each vertex's triangles in ascending order)
-        m = len(tri)
-        inc = sp.coo_matrix((np.ones(3 * m, np.int8), (tri.ravel(), np.repeat(np.arange(m), 3))),
-                            shape=(lift["n"], m)).tocsr()
+    t, deg = _star_rows(lift, verts)
+    return np.repeat(ball, deg), t, np.repeat(verts, deg)
+
+
+def _star_rows(lift: dict, verts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(p,)``: the triangles of each vertex of ``verts`` ``(q,)`` in turn (each vertex's
+    in ascending order), and ``(q,)``: how many each has, from :func:`_lift`'s incidence.
+    """
+    if "ptr" not in lift:  # the vertex-triangle incidence, built on first need: the
+        tri = lift["tri"]  # triangles' rows of corners, a CSR matrix as they stand, turned
+        m = len(tri)  # to CSC (a counting sort: each vertex's triangles in ascending order)
+        inc = sp.csr_matrix((np.ones(3 * m, np.int8), tri.ravel(), np.arange(0, 3 * m + 1, 3)),
+                            shape=(m, lift["n"])).tocsc()
+        inc.sum_duplicates()  # (a triangle with a repeated corner: once, as COO to CSR)
         lift["by_vertex"] = inc.indices.astype(np.intp, copy=False)
         lift["ptr"] = inc.indptr.astype(np.intp, copy=False)
     ptr = lift["ptr"]
-    deg = ptr[verts + 1] - ptr[verts]
+    first = ptr.take(verts)
+    deg = ptr.take(verts + 1) - first
     total = int(deg.sum())
-    starts = np.repeat(ptr[verts] - np.concatenate([[0], np.cumsum(deg)[:-1]]), deg)
-    t = lift["by_vertex"][starts + np.arange(total)]
-    return np.repeat(ball, deg), t, np.repeat(verts, deg)
+    starts = np.repeat(first - np.concatenate([[0], np.cumsum(deg)[:-1]]), deg)
+    return lift["by_vertex"].take(starts + np.arange(total)), deg
+
+
+def _near_found(lift: dict, centres: np.ndarray, radii: np.ndarray, own: np.ndarray,
+                points: np.ndarray, ball: np.ndarray, vert: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(p,)`` twice: the pairs (ball, triangle) of the balls ``centres`` ``(k, 3)``,
+    ``radii`` ``(k,)`` tangent at vertices ``own`` ``(k,)`` kept from the found pairs
+    (ball, vertex) ``ball``, ``vert`` ``(q,)`` of :func:`_lifted_near`: each triangle
+    :math:`t` of a found vertex :math:`v`, not incident to ``own``, with :math:`|v - c|^2
+    \le (r^2 + \rho_t^2)(1 + 10^{-9})`, once per such corner (a triangle may come twice
+    or thrice: the shrinking ball's minimum does not mind). The same triangles as
+    :func:`_first_found` keeps: one of its corners passes that test where any does, and
+    that corner is found (``docs/model.md``, "The found pairs, undeduplicated"); the test
+    reads :math:`|v - c|^2` once per found pair, not thrice per triangle.
+    """
+    d = np.take(points, vert, axis=0)  # (takes throughout: faster than fancy indexing)
+    d -= np.take(centres, ball, axis=0)
+    r2 = radii.take(ball) ** 2
+    t, deg = _star_rows(lift, vert)
+    dv, r2 = np.repeat(np.einsum("ij,ij->i", d, d), deg), np.repeat(r2, deg)
+    keep = np.flatnonzero(dv <= (r2 + lift["rho_t"].take(t)) * (1.0 + 1e-9))
+    t, o = t.take(keep), np.repeat(own.take(ball), deg).take(keep)
+    cols = lift.get("columns")
+    if cols is None:  # the corners' columns, contiguous (a take from each is faster)
+        cols = lift["columns"] = tuple(np.ascontiguousarray(lift["tri"][:, j]) for j in range(3))
+    mine = (cols[0].take(t) == o) | (cols[1].take(t) == o) | (cols[2].take(t) == o)
+    keep = keep[~mine]
+    return np.repeat(ball, deg).take(keep), t[~mine]
 
 
 def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
@@ -383,8 +483,7 @@ def triangle_radii(ids: np.ndarray, normals: np.ndarray, radii: np.ndarray,
     if found is None:
         ball, t = _suspects(lift, x + r[:, None] * n, r, ids[rows], points, tri, clear)
     else:  # the balls are the rows (one side each): the found vertices' triangles
-        ball, t = _first_found(lift, x + r[:, None] * n, r, ids[rows], points,
-                               *_expand(lift, *found))
+        ball, t = _near_found(lift, x + r[:, None] * n, r, ids[rows], points, *found)
     if not len(ball):
         return out
     ends = lift.get("columns") if lift["tri"] is tri else None
@@ -561,13 +660,17 @@ def _deformed_lows(deformed: np.ndarray, tri: np.ndarray, W: np.ndarray, terms: 
         n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
     side = np.where(W[ids, None] >= 0, [[1.0, 0.0]], [[0.0, 1.0]])  # the side W pushes to
     # a triangle meeting a ball has its corners within the ball's reach plus its edges
-    L = _longest_edge(deformed, tri, terms)
-    samples, local, t_loc = _local_skin(deformed, tri, lo - L, hi + L)
+    sides: dict = {}  # (a skin's first frame: every triangle's squared sides, for _lift)
+    L = _longest_edge(deformed, tri, terms, sides)
+    samples, local, t_loc, kept = _local_rows(deformed, tri, lo - L, hi + L)
+    if "squares" in sides:
+        sides["squares"] = tuple(q.take(kept) for q in sides["squares"])
     # the balls to search (_to_search): the vertices' search where a vertex lies inside
     # (medial_radii), then the triangles' (a ball empty of vertices may hold a triangle)
     c = x + np.where(W[ids] >= 0, 1.0, -1.0)[:, None] * start[:, None] * n
     free = np.zeros(len(ids), bool) if clear is None else clear[ids]
-    todo, lift, near = _to_search(samples, t_loc, c, start, local[ids], free)
+    todo, lift, near = _to_search(samples, t_loc, c, start, local[ids], free,
+                                  sides.get("squares"))
     if not len(todo):
         return None
     ids, x, n, c, start, side = ids[todo], x[todo], n[todo], c[todo], start[todo], side[todo]
@@ -607,7 +710,8 @@ def _triangles_search(r: np.ndarray, hit: np.ndarray, free: np.ndarray,
 
 
 def _to_search(samples: np.ndarray, t_loc: np.ndarray, c: np.ndarray, start: np.ndarray,
-               own: np.ndarray, free: np.ndarray
+               own: np.ndarray, free: np.ndarray,
+               squares: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
                ) -> tuple[np.ndarray, dict | None, tuple[np.ndarray, np.ndarray]]:
     r"""The balls of :func:`_deformed_lows` to search ``(k,)`` (ascending), the lifted
     classes of the local skin ``samples`` ``(s, 3)``, ``t_loc`` ``(t, 3)`` (None where not
@@ -617,11 +721,12 @@ def _to_search(samples: np.ndarray, t_loc: np.ndarray, c: np.ndarray, start: np.
     at the local vertices ``own`` ``(b,)``, those :func:`_cleared` does not clear (one
     nearest-point query of the lifted vertices clears a ball no vertex and no triangle not
     incident to its vertex can enter; the same queries find the others' candidates).
+    ``squares``: :func:`_side_squares` of ``t_loc``, when at hand.
     """
     if free.all():
         none = np.zeros(0, np.intp)
         return np.flatnonzero(free), None, (none, none)
-    lift = _lift(samples, t_loc)
+    lift = _lift(samples, t_loc, squares)
     rest = np.flatnonzero(~free)
     cleared, ball, vert = _lifted_near(lift, c[rest], start[rest], own[rest])
     ask = free.copy()
@@ -661,12 +766,18 @@ def _local_skin(points: np.ndarray, tri: np.ndarray, lo: np.ndarray, hi: np.ndar
     vertices ``(s, 3)`` (:func:`_in_box`), each vertex's row among them ``(n,)`` (-1
     outside) and the triangles with every corner inside, on those rows ``(t, 3)``.
     """
+    return _local_rows(points, tri, lo, hi)[:3]
+
+
+def _local_rows(points: np.ndarray, tri: np.ndarray, lo: np.ndarray, hi: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_local_skin`, and the rows of ``tri`` it keeps ``(t,)``."""
     box = _in_box(points, lo, hi)
     local = np.full(len(points), -1, dtype=np.intp)
     local[box] = np.arange(len(box))
     t_loc = np.take(local, tri)  # (takes, not fancy indexing, and three compares and two
     keep = np.flatnonzero((t_loc[:, 0] >= 0) & (t_loc[:, 1] >= 0) & (t_loc[:, 2] >= 0))
-    return np.take(points, box, axis=0), local, np.take(t_loc, keep, axis=0)  # ands: faster)
+    return np.take(points, box, axis=0), local, np.take(t_loc, keep, axis=0), keep  # ands)
 
 
 _GAP_CUTS = (0.25, 0.5, 0.75, 1.0)  # of the rest gaps' reach, 3 median edges
@@ -977,19 +1088,21 @@ def _fill_near(gaps: dict, todo: np.ndarray, owner: np.ndarray, t: np.ndarray,
     gaps["near_top"][todo] = top
 
 
-def _longest_edge(points: np.ndarray, tri: np.ndarray, terms: dict) -> float:
+def _longest_edge(points: np.ndarray, tri: np.ndarray, terms: dict,
+                  keep: dict | None = None) -> float:
     """The longest edge of the skin ``points`` ``(n, 3)``, ``tri`` ``(m, 3)``: each
     triangle's three sides on a skin's first frame (:func:`_sides_longest`; a refined
     frame's skin is new every frame); from its second (the terms of a skin that is guarded
     again: an unrefined face's), its unique edges (:func:`_terms_edges`), half as many, the
     same lengths (a side's length does not depend on its direction), their ends kept in
-    ``terms`` as two contiguous arrays.
+    ``terms`` as two contiguous arrays. ``keep``: a dict that gets the squared sides
+    where they were found (a skin's first frame, :func:`_sides_longest`).
     """
     ends, unique = terms.get("edge_ends", (None, False))
     if not unique:
         if "edge_ends" not in terms and "edges" not in terms:  # a skin's first frame
             terms["edge_ends"] = (None, False)
-            return _sides_longest(points, tri)
+            return _sides_longest(points, tri, keep)
         edges = _terms_edges(terms)[0]
         ends = (np.ascontiguousarray(edges[:, 0], dtype=np.intp),
                 np.ascontiguousarray(edges[:, 1], dtype=np.intp))
@@ -1001,19 +1114,19 @@ def _longest_edge(points: np.ndarray, tri: np.ndarray, terms: dict) -> float:
     return float(np.sqrt(np.einsum("ij,ij->i", e, e).max()))
 
 
-def _sides_longest(points: np.ndarray, tri: np.ndarray) -> float:
+def _sides_longest(points: np.ndarray, tri: np.ndarray, keep: dict | None = None) -> float:
     r"""The longest side of the triangles ``tri`` ``(m, 3)`` on ``points`` ``(n, 3)``:
     :math:`\max_t \max(|v_0 - v_1|, |v_1 - v_2|, |v_2 - v_0|)`, from one take of each
-    corner's rows (half the takes of the sides' ends, the same differences bit for bit).
+    corner's rows (:func:`_side_squares`: half the takes of the sides' ends, the same
+    differences bit for bit, signs aside). ``keep``: a dict that gets the squared sides as
+    ``"squares"`` (:func:`_lift` reads them again).
     """
     if not len(tri):
         return 0.0
-    v = [np.take(points, np.ascontiguousarray(tri[:, j]), axis=0) for j in range(3)]
-    top = 0.0
-    for i, j in ((0, 1), (1, 2), (2, 0)):
-        e = v[i] - v[j]
-        top = max(top, float(np.einsum("ij,ij->i", e, e).max()))
-    return math.sqrt(top)
+    squares = _side_squares(points, tri)
+    if keep is not None:
+        keep["squares"] = squares
+    return math.sqrt(max(0.0, *(float(q.max()) for q in squares)))
 
 
 def _needed(W: np.ndarray, guard: FoldGuard) -> np.ndarray:
