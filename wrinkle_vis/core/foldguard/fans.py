@@ -74,12 +74,31 @@ def _edge_runs(tri: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndar
     bool.
     """
     a, b = tri.ravel(), tri[:, [1, 2, 0]].ravel()
-    key = (np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b)) * 2 + (a > b)
-    order = np.argsort(key, kind="stable")
+    lo, back = np.minimum(a, b), a > b
+    low = 2 * np.maximum(a, b) + back  # (< 2n: the key is 2n lo + low)
+    key = lo.astype(np.int64) * (2 * n) + low
+    order = _stable_order(key, lo, low, 2 * n)
     s = key[order]
     new = np.empty(len(s), bool)
     new[:1], new[1:] = True, s[1:] != s[:-1]
     return order, s, new
+
+
+_RADIX = 1 << 16  # the keys numpy's stable argsort sorts by radix (uint16), linear
+
+
+def _stable_order(key: np.ndarray, high: np.ndarray, low: np.ndarray, base: int
+                  ) -> np.ndarray:
+    r"""``(k,)``: ``np.argsort(key, kind="stable")`` of the keys ``key`` ``(k,)`` int
+    :math:`= \text{base} \cdot \text{high} + \text{low}`, ``high`` and ``low`` ``(k,)``
+    in ``[0, base)``: where ``base`` fits 16 bits, two stable radix passes (``low``, then
+    ``high``: a stable sort by the digits from the last, the same order, ties in their
+    first order), else the comparison sort itself.
+    """
+    if base > _RADIX:
+        return np.argsort(key, kind="stable")
+    order = np.argsort(low.astype(np.uint16), kind="stable")
+    return order[np.argsort(high.astype(np.uint16)[order], kind="stable")]
 
 
 def _across(tri: np.ndarray, n: int,
@@ -132,7 +151,7 @@ def _fan_edges(tri: np.ndarray, n: int, terms: dict) -> dict:
                 terms["fan_runs"] = runs
             edges = _edges_of_runs(n, runs)
         ends = np.concatenate([edges[:, 0], edges[:, 1]])
-        order = np.argsort(ends, kind="stable")
+        order = np.argsort(ends.astype(np.uint16) if n <= _RADIX else ends, kind="stable")
         start = np.concatenate([[0], np.cumsum(np.bincount(ends, minlength=n))])
         graph = terms["fan_edges"] = {
             "edges": np.asarray(edges, dtype=np.intp), "start": start,
