@@ -1,8 +1,9 @@
 """The fans' guard: each vertex's displaced fan kept off its two rings (docs/model.md)."""
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
-import scipy.sparse as sp
 
 from ..certificate import (
     _corner_columns,
@@ -441,26 +442,63 @@ def _fan_columns(pc: np.ndarray, tri: np.ndarray, sub: np.ndarray
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`_fan_terms` on the points' columns ``pc`` ``(3, n)``, ``m`` as ``(3, n)``:
     one gather of each corner's coordinates (takes along the contiguous rows), the same
-    arithmetic, so the same values.
+    arithmetic, so the same values (:func:`_fan_sums`' first three).
     """
-    n, t = pc.shape[1], tri[sub]
-    c0, c1, c2 = (np.take(pc, t[:, k], axis=1) for k in range(3))
-    A = _ccross(c1 - c0, c2 - c0)
+    return _fan_sums(pc, tri[sub])[:3]
+
+
+def _fan_sums(pc: np.ndarray, t: np.ndarray) -> tuple:
+    r""":func:`_fan_columns` of the triangles ``t`` ``(T, 3)`` on the columns ``pc``
+    ``(3, n)``: ``m`` ``(3, n)``, ``c`` and ``star`` ``(n,)``; and what the turns of the
+    links reuse (the same values as gathered anew): the corners ``x`` (three ``(3, T)``,
+    :math:`x_k` at ``t[:, k]``), the sides ``d`` (:math:`x_{k+1} - x_k`) and the normals
+    at each corner, ``mv`` (:math:`m` at ``t[:, k]``).
+    """
+    n = pc.shape[1]
+    x = tuple(np.take(pc, t[:, k], axis=1) for k in range(3))
+    d = (x[1] - x[0], x[2] - x[1], x[0] - x[2])  # a - o at each corner k, below
+    f = (x[2] - x[0], x[0] - x[1], x[1] - x[2])  # b - o
+    A = _ccross(d[0], f[0])
     la = np.maximum(np.sqrt(_cdot(A, A)), 1e-300)
     flat_t = t.ravel()
     m = np.stack([np.bincount(flat_t, np.repeat(A[k], 3), n) for k in range(3)])
     m = m / np.maximum(np.sqrt(_cdot(m, m)), 1e-300)
     c = np.full(n, np.inf)
     angle = np.zeros(n)
-    for k, (a, b, o) in enumerate(((c1, c2, c0), (c2, c0, c1), (c0, c1, c2))):
+    mvs = []
+    for k in range(3):  # corner k: o = x_k, a = x_{k+1}, b = x_{k+2}
         mv = np.take(m, t[:, k], axis=1)
+        mvs.append(mv)
         up = _cdot(A, mv)
         np.minimum.at(c, t[:, k], up / la)
-        e1, e2 = a - o, b - o
-        flat = _cdot(e1, e2) - _cdot(e1, mv) * _cdot(e2, mv)
+        flat = _cdot(d[k], f[k]) - _cdot(d[k], mv) * _cdot(f[k], mv)
         angle += np.bincount(t[:, k], np.arctan2(up, flat), n)
     star = (c > _FAN_MARGIN) & (angle < 3.0 * np.pi)
-    return m, c, star
+    return m, c, star, x, d, mvs
+
+
+def _link_turns(pc: np.ndarray, t: np.ndarray, before: np.ndarray, sums: tuple
+                ) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(3T,)`` bool twice, per corner (v, u, w) of the triangles ``t`` ``(T, 3)``
+    (``3T``: every triangle's first corners, then its second, then its third; u after v,
+    w after u, ``before`` ``(T, 3)`` :math:`u^-` across v-u, -1: none) on the columns
+    ``pc`` ``(3, n)``, with :func:`_fan_sums`' ``sums``: v's link turns left at u along
+    :math:`m_v`, :math:`m_v \cdot (u - u^-) \times (w - u) > \epsilon |u - u^-| |w - u|`
+    (2), and u's fan is a star along :math:`m_v` by its own,
+    :math:`c_u > |m_v - m_u| + \epsilon` (3): the same values as the corners' own
+    gathers (:math:`w - u` is the side after u, :math:`m_u` the normal at u's corner).
+    """
+    _, c, _, x, d, mvs = sums
+    left, along = [], []
+    for k in range(3):
+        j = (k + 1) % 3
+        e_in = x[j] - np.take(pc, np.maximum(before[:, k], 0), axis=1)
+        e_out = d[j]
+        turn = _cdot(_ccross(e_in, e_out), mvs[k])
+        left.append(turn > _FAN_MARGIN * np.sqrt(_cdot(e_in, e_in) * _cdot(e_out, e_out)))
+        dm = mvs[k] - mvs[j]
+        along.append(c[t[:, j]] > np.sqrt(_cdot(dm, dm)) + _FAN_MARGIN)
+    return np.concatenate(left), np.concatenate(along)
 
 
 def _certified_fans(p: np.ndarray, tri: np.ndarray, ask: np.ndarray, fans: dict,
@@ -493,24 +531,21 @@ def _fan_certificates(p: np.ndarray, tri: np.ndarray, ask: np.ndarray, fans: dic
     asked[ask] = True
     ring = _ring(ask, _fan_edges(tri, n, terms), n)
     sub = _triangles_at(ring, tri, inc)  # the triangles at the asked ones' rings
+    every = len(sub) == len(tri)  # (all of them: no gather)
+    t = tri if every else tri[sub]
     pc = np.ascontiguousarray(p.T)  # (the coordinates' columns: one take each)
-    mc, c, star = _fan_columns(pc, tri, sub)
+    sums = _fan_sums(pc, t)
+    mc, c, star = sums[:3]
     m = mc.T
     star &= ~fans["open"]
-    t = tri[sub]
+    across = fans["across"] if every else fans["across"][sub]
     tt = t.T.ravel()
     rows = np.flatnonzero(asked[tt])  # the asked vertices' corners (k, t): edges v-u
     v, u, w = tt[rows], t[:, [1, 2, 0]].T.ravel()[rows], t[:, [2, 0, 1]].T.ravel()[rows]
-    # the ring vertex before u (across edge v-u)
-    before = fans["across"][sub].T.ravel()[rows]
-    pu, mv = np.take(pc, u, axis=1), np.take(mc, v, axis=1)
-    e_in = pu - np.take(pc, np.maximum(before, 0), axis=1)
-    e_out = np.take(pc, w, axis=1) - pu
-    turn = _cdot(_ccross(e_in, e_out), mv)
-    left = turn > _FAN_MARGIN * np.sqrt(_cdot(e_in, e_in) * _cdot(e_out, e_out))
+    before = across.T.ravel()[rows]  # the ring vertex before u (across edge v-u)
+    left, along = _link_turns(pc, t, across, sums)
+    left, along = left[rows], along[rows]
     good = star[v] & star[u]  # 1 and 3 along m_u (of a closed u)
-    dm = mv - np.take(mc, u, axis=1)
-    along = c[u] > np.sqrt(_cdot(dm, dm)) + _FAN_MARGIN
     check = np.flatnonzero(good & ~along)  # u's star along m_v, checked
     if len(check):
         good[check] = _stars_along(p, tri, inc, v[check], u[check], m)
@@ -526,7 +561,7 @@ def _fan_certificates(p: np.ndarray, tri: np.ndarray, ask: np.ndarray, fans: dic
     return star[ask], ok[ask], np.stack([v[half], u[half]], axis=1)
 
 
-def _triangles_at(rows: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix) -> np.ndarray:
+def _triangles_at(rows: np.ndarray, tri: np.ndarray, inc: _FanIncidence) -> np.ndarray:
     """``(k,)`` ascending: the triangles of ``tri`` ``(m, 3)`` with a corner in ``rows``
     ``(r,)`` (distinct): through the rows of the incidence ``inc`` ``(n, m)``, or, where
     the rows are many, one look at every triangle's corners (the same set).
@@ -540,7 +575,7 @@ def _triangles_at(rows: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix) -> np.n
     return np.flatnonzero(at)
 
 
-def _wedges_clear(p: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix, m: np.ndarray,
+def _wedges_clear(p: np.ndarray, tri: np.ndarray, inc: _FanIncidence, m: np.ndarray,
                   v: np.ndarray, u: np.ndarray, up: np.ndarray, um: np.ndarray
                   ) -> np.ndarray:
     r"""``(r,)`` bool: condition 2' of the fan certificate (``docs/model.md``, "The fans")
@@ -579,7 +614,7 @@ def _wedges_clear(p: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix, m: np.ndar
     return (np.bincount(row, ~fine, len(v)) == 0) & (um >= 0)
 
 
-def _stars_along(p: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix, v: np.ndarray,
+def _stars_along(p: np.ndarray, tri: np.ndarray, inc: _FanIncidence, v: np.ndarray,
                  u: np.ndarray, m: np.ndarray) -> np.ndarray:
     r"""``(k,)`` bool: the fan of each ``u`` ``(k,)`` on ``p`` is a star once around it
     seen along :math:`m_v` (``v`` ``(k,)``, ``m`` ``(n, 3)``): every
@@ -603,17 +638,40 @@ def _stars_along(p: np.ndarray, tri: np.ndarray, inc: sp.csr_matrix, v: np.ndarr
     return good & (np.bincount(row, np.arctan2(up, flat), len(u)) < 3.0 * np.pi)
 
 
-def _fan_incidence(tri: np.ndarray, n: int, terms: dict) -> sp.csr_matrix:
-    """``(n, m)``: :func:`_incidence` of ``tri``, cached in ``terms`` (as
-    :func:`_vertex_normals` caches it).
+class _FanIncidence(NamedTuple):
+    """The vertex-triangle incidence of a skin's triangles in CSR form: ``indptr``
+    ``(n + 1,)``, ``indices`` (each vertex's triangles, ascending, each once) and ``shape``
+    ``(n, m)``: what :func:`_incidence`'s matrix holds, without building one.
     """
-    inc = terms.get("incidence")
+
+    indptr: np.ndarray
+    indices: np.ndarray
+    shape: tuple[int, int]
+
+
+def _fan_incidence(tri: np.ndarray, n: int, terms: dict) -> _FanIncidence:
+    """``(n, m)``: :func:`_incidence` of ``tri`` as a :class:`_FanIncidence`, cached in
+    ``terms``: one stable sort of the corners by vertex (radix where ``n`` fits 16
+    bits): corner ``3t + k`` in order, so each vertex's triangles ascending; where a
+    triangle repeats a corner (its entries summed into one by the matrix), the matrix's.
+    """
+    inc = terms.get("fan_incidence")
     if inc is None:
-        inc = terms["incidence"] = _incidence(tri, n)
+        flat = tri.ravel()
+        if ((tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2])
+                | (tri[:, 2] == tri[:, 0])).any():
+            mat = _incidence(tri, n)
+            indptr, indices = mat.indptr, mat.indices
+        else:
+            order = np.argsort(flat.astype(np.uint16) if n <= _RADIX else flat, kind="stable")
+            indptr = np.zeros(n + 1, np.intp)
+            np.cumsum(np.bincount(flat, minlength=n), out=indptr[1:])
+            indices = order // 3
+        inc = terms["fan_incidence"] = _FanIncidence(indptr, indices, (n, len(tri)))
     return inc
 
 
-def _sub_rows(inc: sp.csr_matrix, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _sub_rows(inc: _FanIncidence, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``rows`` ``(r,)`` of the CSR matrix ``inc`` as its ``indptr`` ``(r + 1,)`` and
     ``indices`` (what ``inc[rows]`` holds, without building it).
     """
@@ -634,7 +692,7 @@ def _row_products(a: tuple, b: tuple) -> tuple[np.ndarray, np.ndarray]:
     return np.repeat(a[1], count), b[1][start + np.arange(count.sum())]
 
 
-def _fan_pairs(tri: np.ndarray, inc: sp.csr_matrix, loose: np.ndarray, edges: np.ndarray
+def _fan_pairs(tri: np.ndarray, inc: _FanIncidence, loose: np.ndarray, edges: np.ndarray
                ) -> np.ndarray:
     """``(k, 2)`` int, ``i < j``, unique: the pairs of triangles ``tri`` ``(m, 3)`` that no
     certificate covers: two of the fan of a vertex in ``loose`` ``(a,)`` (not a star), and
