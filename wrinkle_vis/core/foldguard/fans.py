@@ -362,26 +362,38 @@ def _fan_region(changed: np.ndarray, tri: np.ndarray, terms: dict,
         region = memo[i]
         if region["rest"] == flag and not (changed & ~region["S"]).any():
             memo.append(memo.pop(i))  # the most recent last
-            return region, _two_rings(changed[region["ask"]], region)
+            return region, _two_rings(changed[region["ask"]], _region_edges(region, terms))
     S = changed
     if memo and memo[-1]["rest"] == flag and (changed & memo[-1]["S"]).any():
         S = changed | memo.pop()["S"]
     n = len(changed)
     graph = _fan_edges(tri, n, terms)
     ask = _ring(_ring(np.flatnonzero(S), graph, n), graph, n)
-    inside = np.full(n, -1)
-    inside[ask] = np.arange(len(ask))
-    e = inside[graph["edges"]]
-    e = e[(e[:, 0] >= 0) & (e[:, 1] >= 0)]
-    region = {"S": S, "rest": flag, "ask": ask, "e0": e[:, 0].copy(), "e1": e[:, 1].copy(),
-              "pairs": {}}
+    region = {"S": S, "rest": flag, "ask": ask, "pairs": {}}
     if rest is not None:
         region["rest_region"] = _rest_region(rest, tri, ask, terms)
         region["rest_fails"] = ~_rest_sure(rest, tri, terms)[ask]
     memo.append(region)
     while len(memo) > _FAN_REGIONS:
         memo.pop(0)
-    return region, _two_rings(changed[ask], region)
+    if S is changed:  # ask is the two rings of changed itself
+        return region, np.ones(len(ask), bool)
+    return region, _two_rings(changed[ask], _region_edges(region, terms))
+
+
+def _region_edges(region: dict, terms: dict) -> dict:
+    """The ``region`` (:func:`_fan_region`) with ``e0``, ``e1`` ``(f,)``: the skin's edges
+    (:func:`_fan_edges`, cached in ``terms``) with both ends in its ``ask``, as indices
+    into ``ask``; found on the region's first use that needs them.
+    """
+    if "e0" not in region:
+        ask, edges = region["ask"], terms["fan_edges"]["edges"]
+        inside = np.full(len(region["S"]), -1)
+        inside[ask] = np.arange(len(ask))
+        e = inside[edges]
+        e = e[(e[:, 0] >= 0) & (e[:, 1] >= 0)]
+        region["e0"], region["e1"] = e[:, 0].copy(), e[:, 1].copy()
+    return region
 
 
 def _two_rings(mark: np.ndarray, region: dict) -> np.ndarray:
@@ -425,17 +437,29 @@ def _fan_terms(p: np.ndarray, tri: np.ndarray, sub: np.ndarray
 
 def _cdot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``(k,)``: the dot products of the columns of ``a`` and ``b`` ``(3, k)`` (summed in
-    :func:`_rows_dot`'s order: the same values).
+    :func:`_rows_dot`'s order, :math:`(a_0 b_0 + a_1 b_1) + a_2 b_2`: the same values; one
+    buffer for the products).
     """
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    out = a[0] * b[0]
+    tmp = a[1] * b[1]
+    out += tmp
+    np.multiply(a[2], b[2], out=tmp)
+    out += tmp
+    return out
 
 
 def _ccross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``(3, k)``: the cross products of the columns of ``a`` and ``b`` ``(3, k)`` (as
-    :func:`_cross` computes them: the same values).
+    :func:`_cross` computes them, :math:`a_1 b_2 - a_2 b_1` and so on: the same values),
+    written into one array.
     """
-    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                     a[0] * b[1] - a[1] * b[0]])
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape), np.result_type(a, b))
+    tmp = np.empty_like(out[0])
+    for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        np.multiply(a[j], b[k], out=out[i])
+        np.multiply(a[k], b[j], out=tmp)
+        out[i] -= tmp
+    return out
 
 
 def _fan_columns(pc: np.ndarray, tri: np.ndarray, sub: np.ndarray
