@@ -120,15 +120,21 @@ def _across(tri: np.ndarray, n: int,
     # runs r (forward: even) and r + 1 (backward) of one undirected edge
     up = np.flatnonzero((val[1:] == val[:-1] + 1) & ((val[:-1] & 1) == 0))
     twin[up], twin[up + 1] = starts[up + 1], starts[up]
-    if ((tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2]) | (tri[:, 2] == tri[:, 0])).any():
-        # an edge from a vertex to itself: its own twin
+    own_twin = ((tri[:, 0] == tri[:, 1]) | (tri[:, 1] == tri[:, 2])
+                | (tri[:, 2] == tri[:, 0])).any()
+    if own_twin:  # an edge from a vertex to itself: its own twin
         half = val >> 1
         own = ((val & 1) == 0) & (half // n == half % n)
         twin[own] = starts[own]
-    at = twin[np.cumsum(new) - 1]
-    third = tri[:, [2, 0, 1]].ravel()  # the corner opposite each edge
+    third = tri[:, [2, 0, 1]].ravel()[order]  # the corner opposite each edge, sorted
+    if len(starts) == len(s) and not own_twin:  # runs of one: the twins are up's pairs
+        found = np.full(len(s), -1, np.intp)
+        found[up], found[up + 1] = third[up + 1], third[up]
+    else:
+        at = twin[np.cumsum(new) - 1]
+        found = np.where(at >= 0, third[np.maximum(at, 0)], -1)
     across = np.empty(len(s), np.intp)
-    across[order] = np.where(at >= 0, third[order[np.maximum(at, 0)]], -1)
+    across[order] = found
     return across.reshape(-1, 3)
 
 
