@@ -628,8 +628,10 @@ def _wedges_clear(p: np.ndarray, tri: np.ndarray, inc: _FanIncidence, m: np.ndar
     b = np.take(pc, np.maximum(um, 0), axis=1) - o
     la, lb = np.sqrt(_cdot(a, a)), np.sqrt(_cdot(b, b))
     right = (_cdot(_ccross(a, b), mv) < -_FAN_MARGIN * la * lb)[row]
-    mv, o, a, b = mv[:, row], o[:, row], a[:, row], b[:, row]
-    la, lb, ur, upr, umr = la[row], lb[row], u[row], up[row], um[row]
+    # each edge's terms on its fan's rows: one gather of them all (the same values)
+    per = np.take(np.concatenate([mv, o, a, b, la[None], lb[None]]), row, axis=1)
+    mv, o, a, b, la, lb = per[0:3], per[3:6], per[6:9], per[9:12], per[12], per[13]
+    ur, upr, umr = np.take(np.stack([u, up, um]), row, axis=1)
     corners = tri[t]
     A = B = (corners != ur[:, None]).all(axis=1)  # (rows holding u: nothing to check)
     skip = ~A
