@@ -428,23 +428,26 @@ soup = st.tuples(st.integers(1, 7), st.lists(st.tuples(*[st.integers(0, 6)] * 3)
 
 
 @settings(max_examples=300, deadline=None)
-@given(mesh=st.one_of(nearly_closed(), soup))
-def test_the_fans_open_vertices_are_the_certificates_irregular_ones(mesh):
+@given(mesh=st.one_of(nearly_closed(), soup), spread=st.sampled_from([1, 5_000, 10_000]))
+def test_the_fans_open_vertices_are_the_certificates_irregular_ones(mesh, spread):
     """``_fan_structure``'s ``open`` (from the sort of the directed edges, stop 40) is
     ``certificate._irregular_vertices``, on a closed mesh with a few faults and on any
-    triangles."""
+    triangles, their vertices numbered within 15 bits, 16 and more (``spread``: the
+    sort's two radix digits, three, or none, stop 42)."""
     n, tri = mesh
+    n, tri = n * spread, tri * spread
     got = _fan_structure(tri, n, {})["open"]
     np.testing.assert_array_equal(got, _irregular_vertices(tri, n))
 
 
 @settings(max_examples=300, deadline=None)
-@given(mesh=st.one_of(nearly_closed(), soup))
-def test_the_triangle_across_each_edge_is_the_first_that_runs_it_the_other_way(mesh):
+@given(mesh=st.one_of(nearly_closed(), soup), spread=st.sampled_from([1, 5_000, 10_000]))
+def test_the_triangle_across_each_edge_is_the_first_that_runs_it_the_other_way(mesh, spread):
     """``_across`` (one sort, stop 40) against a search of every directed edge, on a closed
     mesh with a few faults and on any triangles: boundaries, edges run twice the same way,
-    corners repeated."""
+    corners repeated; vertices numbered within 15 bits, 16 and more (``spread``)."""
     n, tri = mesh
+    n, tri = n * spread, tri * spread
     edges = [(t[k], t[(k + 1) % 3], t[(k + 2) % 3]) for t in tri.tolist() for k in range(3)]
     want = [next((c for a2, b2, c in edges if (a2, b2) == (b, a)), -1) for a, b, _ in edges]
     assert _across(tri, n).ravel().tolist() == want
@@ -695,17 +698,20 @@ def test_the_triangles_at_rows_are_those_with_a_corner_among_them_by_either_look
 
 @settings(max_examples=200, deadline=None)
 @given(base=st.sampled_from([1, 2, 7, 300, 1 << 16, (1 << 16) + 1, 10**6]),
-       digits=st.lists(st.tuples(st.integers(0, 10**6), st.integers(0, 10**6)), max_size=40))
-def test_the_two_radix_passes_give_the_comparison_sorts_order(base, digits):
-    """``_stable_order`` (two stable uint16 passes, low digit then high, where ``base``
-    fits 16 bits; the comparison sort above) is ``np.argsort(key, kind="stable")`` of
-    ``key = base * high + low``, ties (many, in few digits) in their first order."""
+       width=st.integers(1, 3),
+       digits=st.lists(st.tuples(*[st.integers(0, 10**6)] * 3), max_size=40))
+def test_the_radix_passes_give_the_comparison_sorts_order(base, width, digits):
+    """``_stable_order`` (a stable uint16 pass per digit, from the last, where ``base``
+    fits 16 bits; the comparison sort above) is ``np.argsort(key, kind="stable")`` of the
+    keys the digits make (most significant first), ties (many, in few digits) in their
+    first order, for one, two and three digits."""
     from wrinkle_vis.core.foldguard.fans import _stable_order
 
-    d = np.array(digits, dtype=np.int64).reshape(-1, 2) % base
-    high, low = d[:, 0], d[:, 1]
-    key = high * base + low
-    got = _stable_order(key, high, low, base)
+    d = np.array(digits, dtype=np.int64).reshape(-1, 3)[:, :width] % base
+    key = np.zeros(len(d), np.int64)
+    for j in range(width):
+        key = key * base + d[:, j]
+    got = _stable_order(key, tuple(d.T), base)
     np.testing.assert_array_equal(got, np.argsort(key, kind="stable"))
 
 

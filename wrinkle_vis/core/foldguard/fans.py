@@ -75,10 +75,13 @@ def _edge_runs(tri: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndar
     bool.
     """
     a, b = tri.ravel(), tri[:, [1, 2, 0]].ravel()
-    lo, back = np.minimum(a, b), a > b
-    low = 2 * np.maximum(a, b) + back  # (< 2n: the key is 2n lo + low)
+    lo, hi, back = np.minimum(a, b), np.maximum(a, b), a > b
+    low = 2 * hi + back  # (< 2n: the key is 2n lo + low)
     key = lo.astype(np.int64) * (2 * n) + low
-    order = _stable_order(key, lo, low, 2 * n)
+    if 2 * n <= _RADIX:  # two digits, or three: lo, hi, back
+        order = _stable_order(key, (lo, low), 2 * n)
+    else:
+        order = _stable_order(key, (lo, hi, back), n)
     s = key[order]
     new = np.empty(len(s), bool)
     new[:1], new[1:] = True, s[1:] != s[:-1]
@@ -88,18 +91,19 @@ def _edge_runs(tri: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndar
 _RADIX = 1 << 16  # the keys numpy's stable argsort sorts by radix (uint16), linear
 
 
-def _stable_order(key: np.ndarray, high: np.ndarray, low: np.ndarray, base: int
-                  ) -> np.ndarray:
-    r"""``(k,)``: ``np.argsort(key, kind="stable")`` of the keys ``key`` ``(k,)`` int
-    :math:`= \text{base} \cdot \text{high} + \text{low}`, ``high`` and ``low`` ``(k,)``
-    in ``[0, base)``: where ``base`` fits 16 bits, two stable radix passes (``low``, then
-    ``high``: a stable sort by the digits from the last, the same order, ties in their
-    first order), else the comparison sort itself.
+def _stable_order(key: np.ndarray, digits: tuple[np.ndarray, ...], base: int) -> np.ndarray:
+    r"""``(k,)``: ``np.argsort(key, kind="stable")`` of the keys ``key`` ``(k,)`` int, whose
+    order is that of their ``digits`` (each ``(k,)`` in ``[0, base)``, the most significant
+    first) read left to right: where ``base`` fits 16 bits, a stable radix pass per digit
+    from the last (a stable sort by the digits from the last is the order by all of them,
+    ties in their first order), else the comparison sort itself.
     """
     if base > _RADIX:
         return np.argsort(key, kind="stable")
-    order = np.argsort(low.astype(np.uint16), kind="stable")
-    return order[np.argsort(high.astype(np.uint16)[order], kind="stable")]
+    order = np.argsort(digits[-1].astype(np.uint16), kind="stable")
+    for digit in digits[-2::-1]:
+        order = order[np.argsort(digit.astype(np.uint16)[order], kind="stable")]
+    return order
 
 
 def _across(tri: np.ndarray, n: int,
