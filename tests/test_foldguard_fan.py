@@ -825,3 +825,25 @@ def test_the_columns_products_in_place_are_the_expressions_bit_for_bit(seed, sca
     want = np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
                      a[0] * b[1] - a[1] * b[0]])
     assert np.array_equal(_ccross(a, b), want)
+
+
+@settings(max_examples=200, deadline=None)
+@given(mesh=st.one_of(nearly_closed(), soup, st.just((49, lattice(7)[1]))),
+       picks=st.lists(st.integers(0, 48), max_size=4), rings=st.integers(0, 3))
+def test_the_triangles_within_rings_are_those_with_a_corner_that_near(mesh, picks, rings):
+    """``_triangles_within`` (the corners' columns, stop 42): the triangles with a corner
+    at most ``rings`` edges from a marked vertex (a walk over every triangle's edges)."""
+    from wrinkle_vis.core.foldguard import _triangles_within
+
+    n, tri = mesh
+    mark = np.zeros(n, bool)
+    mark[np.array(picks, dtype=np.intp) % n] = True
+    near = mark.copy()
+    for _ in range(rings):
+        step = near.copy()
+        for t in tri.tolist():
+            if near[t].any():
+                step[t] = True
+        near = step
+    want = near[tri].any(axis=1) if len(tri) else np.zeros(0, bool)
+    np.testing.assert_array_equal(_triangles_within(mark, tri, rings), want)
