@@ -428,23 +428,26 @@ soup = st.tuples(st.integers(1, 7), st.lists(st.tuples(*[st.integers(0, 6)] * 3)
 
 
 @settings(max_examples=300, deadline=None)
-@given(mesh=st.one_of(nearly_closed(), soup))
-def test_the_fans_open_vertices_are_the_certificates_irregular_ones(mesh):
+@given(mesh=st.one_of(nearly_closed(), soup), spread=st.sampled_from([1, 5_000, 10_000]))
+def test_the_fans_open_vertices_are_the_certificates_irregular_ones(mesh, spread):
     """``_fan_structure``'s ``open`` (from the sort of the directed edges, stop 40) is
     ``certificate._irregular_vertices``, on a closed mesh with a few faults and on any
-    triangles."""
+    triangles, their vertices numbered within 15 bits, 16 and more (``spread``: the
+    sort's two radix digits, three, or none, stop 42)."""
     n, tri = mesh
+    n, tri = n * spread, tri * spread
     got = _fan_structure(tri, n, {})["open"]
     np.testing.assert_array_equal(got, _irregular_vertices(tri, n))
 
 
 @settings(max_examples=300, deadline=None)
-@given(mesh=st.one_of(nearly_closed(), soup))
-def test_the_triangle_across_each_edge_is_the_first_that_runs_it_the_other_way(mesh):
+@given(mesh=st.one_of(nearly_closed(), soup), spread=st.sampled_from([1, 5_000, 10_000]))
+def test_the_triangle_across_each_edge_is_the_first_that_runs_it_the_other_way(mesh, spread):
     """``_across`` (one sort, stop 40) against a search of every directed edge, on a closed
     mesh with a few faults and on any triangles: boundaries, edges run twice the same way,
-    corners repeated."""
+    corners repeated; vertices numbered within 15 bits, 16 and more (``spread``)."""
     n, tri = mesh
+    n, tri = n * spread, tri * spread
     edges = [(t[k], t[(k + 1) % 3], t[(k + 2) % 3]) for t in tri.tolist() for k in range(3)]
     want = [next((c for a2, b2, c in edges if (a2, b2) == (b, a)), -1) for a, b, _ in edges]
     assert _across(tri, n).ravel().tolist() == want
@@ -687,3 +690,160 @@ def test_the_triangles_at_rows_are_those_with_a_corner_among_them_by_either_look
         inc = _fan_incidence(t, n, {})
         want = [i for i, c in enumerate(t.tolist()) if set(c) & set(rows.tolist())]
         assert _triangles_at(rows, t, inc).tolist() == want
+
+
+# ---------------------------------------------------------------- stop 42: the same decisions,
+# cheaper (docs/model.md, "The fans", "Stop 42")
+
+
+@settings(max_examples=200, deadline=None)
+@given(base=st.sampled_from([1, 2, 7, 300, 1 << 16, (1 << 16) + 1, 10**6]),
+       width=st.integers(1, 3),
+       digits=st.lists(st.tuples(*[st.integers(0, 10**6)] * 3), max_size=40))
+def test_the_radix_passes_give_the_comparison_sorts_order(base, width, digits):
+    """``_stable_order`` (a stable uint16 pass per digit, from the last, where ``base``
+    fits 16 bits; the comparison sort above) is ``np.argsort(key, kind="stable")`` of the
+    keys the digits make (most significant first), ties (many, in few digits) in their
+    first order, for one, two and three digits."""
+    from wrinkle_vis.core.foldguard.fans import _stable_order
+
+    d = np.array(digits, dtype=np.int64).reshape(-1, 3)[:, :width] % base
+    key = np.zeros(len(d), np.int64)
+    for j in range(width):
+        key = key * base + d[:, j]
+    got = _stable_order(key, tuple(d.T), base)
+    np.testing.assert_array_equal(got, np.argsort(key, kind="stable"))
+
+
+@settings(max_examples=200, deadline=None)
+@given(mesh=st.one_of(nearly_closed(), soup), spread=st.sampled_from([1, 20_000]))
+def test_the_fans_incidence_is_the_matrix_rows(mesh, spread):
+    """``_fan_incidence`` (one stable sort of the corners by vertex, stop 42) holds what
+    ``_incidence``'s sparse matrix holds, row by row in the same order: on meshes with
+    triangles repeated, turned and with a corner twice (the matrix sums those entries into
+    one), on few vertices (radix) and on more than 16 bits of them (``spread``)."""
+    from wrinkle_vis.core.foldguard import _fan_incidence, _incidence
+
+    n, tri = mesh
+    n, tri = n * spread, tri * spread
+    got = _fan_incidence(tri, n, {})
+    want = _incidence(tri, n)
+    assert got.shape == want.shape
+    np.testing.assert_array_equal(got.indptr, want.indptr)
+    np.testing.assert_array_equal(got.indices, want.indices)
+
+
+def within_two_rings(tri: np.ndarray, n: int, mark: np.ndarray) -> np.ndarray:
+    """``(n,)`` bool: the vertices two edges or fewer from ``mark`` ``(n,)`` bool, by a walk
+    over every triangle's edges."""
+    edges = [(t[k], t[(k + 1) % 3]) for t in tri.tolist() for k in range(3)]
+    mark = mark.copy()
+    for _ in range(2):
+        new = mark.copy()
+        for a, b in edges:
+            if mark[a] or mark[b]:
+                new[a] = new[b] = True
+        mark = new
+    return mark
+
+
+@settings(max_examples=200, deadline=None)
+@given(mesh=st.one_of(nearly_closed(), soup, st.just((49, lattice(7)[1]))),
+       first=st.lists(st.integers(0, 48), min_size=1, max_size=6),
+       second=st.lists(st.integers(0, 48), min_size=1, max_size=6))
+@example(mesh=(49, lattice(7)[1]), first=[0, 24], second=[24, 48])  # widened: 0's rings
+def test_a_regions_asked_vertices_are_those_within_two_rings_of_the_frames_moved_ones(
+        mesh, first, second):
+    """``_fan_region``'s ``asked`` for a frame's changed vertices, on a new region (all of
+    its ``ask``, no walk: stop 42), on one that a second frame finds or widens (a walk
+    along its edges, the first frame's rings not asked): the vertices within two edges of
+    that frame's changed ones, on small meshes and a lattice."""
+    from wrinkle_vis.core.foldguard import _fan_region
+
+    n, tri = mesh
+    terms: dict = {}
+    for picks in (first, second):
+        changed = np.zeros(n, bool)
+        changed[np.array(picks) % n] = True
+        region, asked = _fan_region(changed, tri, terms, None)
+        want = within_two_rings(tri, n, changed)
+        assert sorted(region["ask"][asked].tolist()) == np.flatnonzero(want).tolist()
+
+
+def gathered_turns(p: np.ndarray, tri: np.ndarray, across: np.ndarray, m: np.ndarray,
+                   c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """1136608's turns of the links (2) and stars along their own normals (3) per corner
+    (v, u, w), each corner's points and normals gathered anew: the reference that
+    ``_link_turns`` (stop 42, from the fan sums' corners, sides and normals) must give bit
+    for bit."""
+    from wrinkle_vis.core.foldguard.fans import _FAN_MARGIN, _ccross, _cdot
+
+    pc, mc = np.ascontiguousarray(p.T), np.ascontiguousarray(m.T)
+    v, u, w = tri.T.ravel(), tri[:, [1, 2, 0]].T.ravel(), tri[:, [2, 0, 1]].T.ravel()
+    before = across.T.ravel()
+    pu, mv = np.take(pc, u, axis=1), np.take(mc, v, axis=1)
+    e_in = pu - np.take(pc, np.maximum(before, 0), axis=1)
+    e_out = np.take(pc, w, axis=1) - pu
+    turn = _cdot(_ccross(e_in, e_out), mv)
+    left = turn > _FAN_MARGIN * np.sqrt(_cdot(e_in, e_in) * _cdot(e_out, e_out))
+    dm = mv - np.take(mc, u, axis=1)
+    return left, c[u] > np.sqrt(_cdot(dm, dm)) + _FAN_MARGIN
+
+
+@settings(max_examples=100, deadline=None)
+@given(seed=st.integers(0, 2**16), jitter=st.floats(0.0, 0.45),
+       bump=st.floats(0.0, 0.6), big=st.floats(0.0, 1.5))
+def test_the_links_turns_from_the_fan_sums_are_those_gathered_anew(seed, jitter, bump, big):
+    """``_link_turns`` (the side after u and the normal at u's corner taken from
+    ``_fan_sums``, stop 42) decides every corner of the dented lattice as 1136608's
+    gathers did, links turning both ways (2 holds and fails) and stars along their own
+    normals or not (3)."""
+    from wrinkle_vis.core.foldguard.fans import _fan_sums, _link_turns
+
+    _, tri = lattice(7)
+    p = dented(seed, jitter, bump, big)
+    across = _fan_structure(tri, len(p), {})["across"]
+    pc = np.ascontiguousarray(p.T)
+    sums = _fan_sums(pc, tri)
+    left, along = _link_turns(pc, tri, across, sums)
+    want_left, want_along = gathered_turns(p, tri, across, sums[0].T, sums[1])
+    np.testing.assert_array_equal(left, want_left)
+    np.testing.assert_array_equal(along, want_along)
+
+
+@settings(max_examples=100, deadline=None)
+@given(seed=st.integers(0, 2**16), scale=st.sampled_from([1e-12, 1.0, 1e9]))
+def test_the_columns_products_in_place_are_the_expressions_bit_for_bit(seed, scale):
+    """``_cdot`` and ``_ccross`` (products into one buffer, stop 42) give
+    ``a0 b0 + a1 b1 + a2 b2`` and the stacked cross products bit for bit (the order of
+    the sums kept: another order rounds differently on most of these columns)."""
+    from wrinkle_vis.core.foldguard.fans import _ccross, _cdot
+
+    rng = np.random.default_rng(seed)
+    a, b = rng.normal(size=(2, 3, 200)) * scale
+    assert np.array_equal(_cdot(a, b), a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
+    want = np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])
+    assert np.array_equal(_ccross(a, b), want)
+
+
+@settings(max_examples=200, deadline=None)
+@given(mesh=st.one_of(nearly_closed(), soup, st.just((49, lattice(7)[1]))),
+       picks=st.lists(st.integers(0, 48), max_size=4), rings=st.integers(0, 3))
+def test_the_triangles_within_rings_are_those_with_a_corner_that_near(mesh, picks, rings):
+    """``_triangles_within`` (the corners' columns, stop 42): the triangles with a corner
+    at most ``rings`` edges from a marked vertex (a walk over every triangle's edges)."""
+    from wrinkle_vis.core.foldguard import _triangles_within
+
+    n, tri = mesh
+    mark = np.zeros(n, bool)
+    mark[np.array(picks, dtype=np.intp) % n] = True
+    near = mark.copy()
+    for _ in range(rings):
+        step = near.copy()
+        for t in tri.tolist():
+            if near[t].any():
+                step[t] = True
+        near = step
+    want = near[tri].any(axis=1) if len(tri) else np.zeros(0, bool)
+    np.testing.assert_array_equal(_triangles_within(mark, tri, rings), want)
