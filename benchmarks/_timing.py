@@ -15,3 +15,32 @@ def median_seconds(fn, calls: int, rounds: int) -> float:
             times.append(time.perf_counter() - t0)
         per_round.append(statistics.median(times))
     return statistics.median(per_round)
+
+
+def alternating(runs: dict, calls: list, rounds: int, timed, same) -> dict:
+    """Two implementations ``runs`` (``{"new": f, "old": g}``) on the same captured
+    ``calls``, taking turns call by call (the order flipped every round): per call, the
+    medians over ``rounds`` of the mean wall and CPU milliseconds (``new_wall``,
+    ``old_cpu``, ...), and whether every call's outputs were ``same(new, old)``.
+
+    ``timed(fn, call)`` calls ``fn`` on (a fresh copy of) one call's arguments and returns
+    ``(wall s, CPU s, out)``.
+    """
+    wall: dict = {k: [] for k in runs}
+    cpu: dict = {k: [] for k in runs}
+    alike = True
+    for r in range(rounds):
+        tot = {k: [0.0, 0.0] for k in runs}
+        for call in calls:
+            outs = {}
+            for k in (("new", "old") if r % 2 == 0 else ("old", "new")):
+                w, c, outs[k] = timed(runs[k], call)
+                tot[k][0] += w
+                tot[k][1] += c
+            alike &= bool(same(outs["new"], outs["old"]))
+        for k in runs:
+            wall[k].append(tot[k][0] / max(len(calls), 1) * 1e3)
+            cpu[k].append(tot[k][1] / max(len(calls), 1) * 1e3)
+    return {"calls": len(calls), "same": alike,
+            **{f"{k}_wall": statistics.median(v) for k, v in wall.items()},
+            **{f"{k}_cpu": statistics.median(v) for k, v in cpu.items()}}

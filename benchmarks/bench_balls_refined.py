@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import argparse
 import os
-import statistics
 import time
 
 import numpy as np
+from _timing import alternating
 
 
 def _module_at(ref: str):
@@ -71,24 +71,7 @@ def case(expr: str, skin: str, frames: int, rounds: int, old, face_name: str = "
 
     calls = _captured(expr, skin, frames, face_name)
     runs = {"new": foldguard._deformed_lows, "old": old._deformed_lows}
-    wall = {k: [] for k in runs}
-    cpu = {k: [] for k in runs}
-    same = True
-    for r in range(rounds):
-        tot = {k: [0.0, 0.0] for k in runs}
-        for call in calls:
-            outs = {}
-            for k in (("new", "old") if r % 2 == 0 else ("old", "new")):
-                w, c, outs[k] = _timed(runs[k], call)
-                tot[k][0] += w
-                tot[k][1] += c
-            same &= _same(outs["new"], outs["old"])
-        for k in runs:
-            wall[k].append(tot[k][0] / len(calls) * 1e3)
-            cpu[k].append(tot[k][1] / len(calls) * 1e3)
-    return {"calls": len(calls), "same": bool(same),
-            **{f"{k}_wall": statistics.median(v) for k, v in wall.items()},
-            **{f"{k}_cpu": statistics.median(v) for k, v in cpu.items()}}
+    return alternating(runs, calls, rounds, _timed, _same)
 
 
 def main() -> None:

@@ -18,10 +18,10 @@ from __future__ import annotations
 import argparse
 import copy
 import os
-import statistics
 import time
 
 import numpy as np
+from _timing import alternating
 
 CASES = {"paper": (None, ("surprise", "pucker")),
          "head": ("lee_perry_smith", ("surprise", "smile"))}
@@ -58,6 +58,11 @@ def _captured(face_name: str | None, expr: str, skin: str, frames: int) -> list[
     return calls
 
 
+def _same(a: tuple, b: tuple) -> bool:
+    """Whether two calls' outputs are bit for bit the same."""
+    return all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+
+
 def _timed(fn, call) -> tuple[float, float, tuple]:
     args = (*call[:4], copy.deepcopy(call[4]), call[5])
     w, c = time.perf_counter(), time.process_time()
@@ -72,25 +77,7 @@ def case(face_name: str | None, expr: str, skin: str, frames: int, rounds: int,
 
     calls = _captured(face_name, expr, skin, frames)
     runs = {"new": foldguard.guard_fans, "old": old.guard_fans}
-    wall: dict = {k: [] for k in runs}
-    cpu: dict = {k: [] for k in runs}
-    same = True
-    for r in range(rounds):
-        tot = {k: [0.0, 0.0] for k in runs}
-        for call in calls:
-            outs = {}
-            for k in (("new", "old") if r % 2 == 0 else ("old", "new")):
-                w, c, outs[k] = _timed(runs[k], call)
-                tot[k][0] += w
-                tot[k][1] += c
-            same &= all(np.array_equal(a, b) for a, b in zip(outs["new"], outs["old"],
-                                                              strict=True))
-        for k in runs:
-            wall[k].append(tot[k][0] / max(len(calls), 1) * 1e3)
-            cpu[k].append(tot[k][1] / max(len(calls), 1) * 1e3)
-    return {"calls": len(calls), "same": bool(same),
-            **{f"{k}_wall": statistics.median(v) for k, v in wall.items()},
-            **{f"{k}_cpu": statistics.median(v) for k, v in cpu.items()}}
+    return alternating(runs, calls, rounds, _timed, _same)
 
 
 def main() -> None:
