@@ -38,10 +38,10 @@ class FoldGuard:
         (:func:`guard_fans`; ``docs/model.md``, "The fans"): True on every frame, False on
         none, ``"refined"`` (the default) on refined frames, the only ones where fans have
         been seen to cross (the refined head's eye corner with k0 at 5x its default); there
-        it adds 14-28 ms to a paper-size refined frame (27-77 % of that frame guarded
-        without it), on unrefined frames it would add up to 17 % (physical skin) and
-        134-288 % (geometric skin, frames under 1.1 ms) for no crossing measured
-        (``docs/benchmarks.md``, stop 41). ``--fold-guard fans`` turns it on everywhere,
+        it adds 6-21 ms to a paper-size refined frame (18-28 % of that frame guarded
+        without it; ``docs/benchmarks.md``, stop 42), on unrefined frames it would add up
+        to 17 % (physical skin) and 134-288 % (geometric skin, frames under 1.1 ms) for no
+        crossing measured (stop 41). ``--fold-guard fans`` turns it on everywhere,
         ``--fold-guard light`` off.
     """
 
