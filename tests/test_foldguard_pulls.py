@@ -340,3 +340,37 @@ def test_a_clamp_certified_at_some_vertices_searches_the_others_alone(skin, monk
         bad = wv.datasets.load_face().evaluate("pucker", refine=True, skin=skin,
                                                fold_guard=guard)
     assert not _same_frames(bad, want)
+
+
+def _old_skin_edges(corners: np.ndarray, n: int) -> np.ndarray:
+    """``_skin_edges`` as it was (stop 41): one sort of a key min * n + max per side."""
+    a, b = corners.ravel(), np.roll(corners, -1, axis=0).ravel()
+    key = np.unique(np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b))
+    return np.stack([key // n, key % n], axis=1).astype(np.intp)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(1, 80), m=st.integers(0, 120),
+       repeat=st.sampled_from([1, 2, 256, 300]))
+def test_the_skins_edges_from_a_csr_matrix_are_those_of_the_sorted_keys(seed, n, m, repeat):
+    """Stop 42: the unique sides of the triangles, merged by a CSR matrix's
+    ``sum_duplicates`` (boolean entries), are those one sort of keys gives, in the same
+    order, with triangles that repeat a corner (an edge from a vertex to itself) and a
+    triangle repeated up to 300 times (a side met 600 times: a count in 8 bits would wrap
+    to 0 and drop it); and the rest lengths are ``norm(rest[a] - rest[b])`` bit for bit."""
+    from wrinkle_vis.core.foldguard import _base
+
+    rng = np.random.default_rng(seed)
+    tri = rng.integers(0, n, (m, 3))
+    if m:
+        tri = np.r_[tri, np.repeat(tri[:1], repeat, axis=0)]
+    corners = np.ascontiguousarray(tri.T).astype(np.intp)
+    got = _base._skin_edges(corners, n)
+    assert got.dtype == np.intp and got.shape[1] == 2
+    np.testing.assert_array_equal(got, _old_skin_edges(corners, n))
+    rest = rng.standard_normal((n, 3)) * rng.uniform(1e-3, 1e3)
+    terms = pulls.pull_terms(rest, tri)
+    edges, length = _base._terms_edges(terms)
+    np.testing.assert_array_equal(edges, got)
+    want = np.linalg.norm(rest[got[:, 0]] - rest[got[:, 1]], axis=1)
+    assert length.tobytes() == want.tobytes()
