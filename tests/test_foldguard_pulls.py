@@ -374,3 +374,35 @@ def test_the_skins_edges_from_a_csr_matrix_are_those_of_the_sorted_keys(seed, n,
     np.testing.assert_array_equal(edges, got)
     want = np.linalg.norm(rest[got[:, 0]] - rest[got[:, 1]], axis=1)
     assert length.tobytes() == want.tobytes()
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), bad=st.integers(1, 12), budget=st.sampled_from([2, 64, 10**6]),
+       scale=st.sampled_from([0.05, 1.0, 20.0]))
+def test_the_small_search_is_scipys_search_bit_for_bit(seed, bad, budget, scale):
+    """Stop 42: the rounds' search in Python from a few bad triangles (``_local_limits``)
+    gives scipy's bounded search's array bit for bit (the least sums over paths, whatever the
+    order; a vertex exactly at ``top`` kept, as scipy's ``limit`` keeps it; s* of 0, inf and
+    NaN as the source row takes them), or None past its budget; on a graph reweighed in
+    place, pulls with unpulled vertices, and sums near ``top``."""
+    rng = np.random.default_rng(seed)
+    pts, tri = _sheet(int(rng.integers(3, 12)), int(rng.integers(3, 12)), rng)
+    size = rng.uniform(0, scale, len(pts)) * (rng.random(len(pts)) < 0.7)
+    terms = pulls.pull_terms(pts, tri)
+    graph = pulls._edge_graph(size, terms, 4.0)
+    changed = np.flatnonzero(rng.random(len(pts)) < 0.3)
+    pulls._reweigh(graph, changed, size * np.where(rng.random(len(pts)) < 0.5, 0.5, 1.0))
+    top = 2.0
+    rows = rng.choice(len(tri), size=min(bad, len(tri)), replace=False)
+    s_star = rng.choice([0.0, 1e-13, 0.3, 1.7, top, np.inf, np.nan], size=len(rows))
+    s_star = np.where(rng.random(len(rows)) < 0.5, s_star, rng.uniform(0, top, len(rows)))
+    corners = np.asarray(tri)[rows]
+    with np.errstate(invalid="ignore"):  # (a NaN s*: the source row takes it as no edge)
+        want = pulls._limits(s_star, corners, graph, top)
+        got = pulls._local_limits(s_star, corners, graph, top, budget)
+        again = pulls._limits(s_star, corners, graph, top, local=True)
+    assert again.tobytes() == want.tobytes()
+    if got is None:
+        assert np.count_nonzero(np.isfinite(want)) > budget
+        return
+    assert got.shape == want.shape and got.tobytes() == want.tobytes()

@@ -179,8 +179,9 @@ def _skin_edges(corners: np.ndarray, n: int) -> np.ndarray:
     vertices, each sorted, sorted by first end then second: the structure of the CSR matrix
     with an entry at :math:`(\min, \max)` of each triangle's sides (a counting sort by
     first end, each row's columns sorted, duplicates merged: ``sum_duplicates``, boolean
-    entries, so that no count of sides can vanish; a refined frame's skin is new on each
-    frame, and this runs on each it limits a pull of).
+    entries, a side met any number of times one entry) instead of a sort of keys: the same
+    array, cheaper (a refined frame's skin is new on each frame, and this runs on each it
+    limits a pull of).
     """
     a = corners.ravel()  # the corners 0, 1, 2 of every triangle ...
     b = np.roll(corners, -1, axis=0).ravel()  # ... and 1, 2, 0
