@@ -377,8 +377,8 @@ def test_the_skins_edges_from_a_csr_matrix_are_those_of_the_sorted_keys(seed, n,
 
 
 @settings(max_examples=40, deadline=None)
-@given(seed=st.integers(0, 2**31 - 1), bad=st.integers(1, 12), budget=st.sampled_from([2, 64, 10**6]),
-       scale=st.sampled_from([0.05, 1.0, 20.0]))
+@given(seed=st.integers(0, 2**31 - 1), bad=st.integers(1, 12),
+       budget=st.sampled_from([2, 64, 10**6]), scale=st.sampled_from([0.05, 1.0, 20.0]))
 def test_the_small_search_is_scipys_search_bit_for_bit(seed, bad, budget, scale):
     """Stop 42: the rounds' search in Python from a few bad triangles (``_local_limits``)
     gives scipy's bounded search's array bit for bit (the least sums over paths, whatever the
