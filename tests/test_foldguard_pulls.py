@@ -340,3 +340,69 @@ def test_a_clamp_certified_at_some_vertices_searches_the_others_alone(skin, monk
         bad = wv.datasets.load_face().evaluate("pucker", refine=True, skin=skin,
                                                fold_guard=guard)
     assert not _same_frames(bad, want)
+
+
+def _old_skin_edges(corners: np.ndarray, n: int) -> np.ndarray:
+    """``_skin_edges`` as it was (stop 41): one sort of a key min * n + max per side."""
+    a, b = corners.ravel(), np.roll(corners, -1, axis=0).ravel()
+    key = np.unique(np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b))
+    return np.stack([key // n, key % n], axis=1).astype(np.intp)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), n=st.integers(1, 80), m=st.integers(0, 120),
+       repeat=st.sampled_from([1, 2, 256, 300]))
+def test_the_skins_edges_from_a_csr_matrix_are_those_of_the_sorted_keys(seed, n, m, repeat):
+    """Stop 42: the unique sides of the triangles, merged by a CSR matrix's
+    ``sum_duplicates`` (boolean entries), are those one sort of keys gives, in the same
+    order, with triangles that repeat a corner (an edge from a vertex to itself) and a
+    triangle repeated up to 300 times (a side met 600 times: a count in 8 bits would wrap
+    to 0 and drop it); and the rest lengths are ``norm(rest[a] - rest[b])`` bit for bit."""
+    from wrinkle_vis.core.foldguard import _base
+
+    rng = np.random.default_rng(seed)
+    tri = rng.integers(0, n, (m, 3))
+    if m:
+        tri = np.r_[tri, np.repeat(tri[:1], repeat, axis=0)]
+    corners = np.ascontiguousarray(tri.T).astype(np.intp)
+    got = _base._skin_edges(corners, n)
+    assert got.dtype == np.intp and got.shape[1] == 2
+    np.testing.assert_array_equal(got, _old_skin_edges(corners, n))
+    rest = rng.standard_normal((n, 3)) * rng.uniform(1e-3, 1e3)
+    terms = pulls.pull_terms(rest, tri)
+    edges, length = _base._terms_edges(terms)
+    np.testing.assert_array_equal(edges, got)
+    want = np.linalg.norm(rest[got[:, 0]] - rest[got[:, 1]], axis=1)
+    assert length.tobytes() == want.tobytes()
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), bad=st.integers(1, 12),
+       budget=st.sampled_from([2, 64, 10**6]), scale=st.sampled_from([0.05, 1.0, 20.0]))
+def test_the_small_search_is_scipys_search_bit_for_bit(seed, bad, budget, scale):
+    """Stop 42: the rounds' search in Python from a few bad triangles (``_local_limits``)
+    gives scipy's bounded search's array bit for bit (the least sums over paths, whatever the
+    order; a vertex exactly at ``top`` kept, as scipy's ``limit`` keeps it; s* of 0, inf and
+    NaN as the source row takes them), or None past its budget; on a graph reweighed in
+    place, pulls with unpulled vertices, and sums near ``top``."""
+    rng = np.random.default_rng(seed)
+    pts, tri = _sheet(int(rng.integers(3, 12)), int(rng.integers(3, 12)), rng)
+    size = rng.uniform(0, scale, len(pts)) * (rng.random(len(pts)) < 0.7)
+    terms = pulls.pull_terms(pts, tri)
+    graph = pulls._edge_graph(size, terms, 4.0)
+    changed = np.flatnonzero(rng.random(len(pts)) < 0.3)
+    pulls._reweigh(graph, changed, size * np.where(rng.random(len(pts)) < 0.5, 0.5, 1.0))
+    top = 2.0
+    rows = rng.choice(len(tri), size=min(bad, len(tri)), replace=False)
+    s_star = rng.choice([0.0, 1e-13, 0.3, 1.7, top, np.inf, np.nan], size=len(rows))
+    s_star = np.where(rng.random(len(rows)) < 0.5, s_star, rng.uniform(0, top, len(rows)))
+    corners = np.asarray(tri)[rows]
+    with np.errstate(invalid="ignore"):  # (a NaN s*: the source row takes it as no edge)
+        want = pulls._limits(s_star, corners, graph, top)
+        got = pulls._local_limits(s_star, corners, graph, top, budget)
+        again = pulls._limits(s_star, corners, graph, top, local=True)
+    assert again.tobytes() == want.tobytes()
+    if got is None:
+        assert np.count_nonzero(np.isfinite(want)) > budget
+        return
+    assert got.shape == want.shape and got.tobytes() == want.tobytes()

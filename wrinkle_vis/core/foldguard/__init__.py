@@ -172,6 +172,7 @@ from .frame import (  # noqa: F401
 from .pulls import (  # noqa: F401
     _COLD_MARGIN,
     _GRAPH_CACHE_EDGES,
+    _LOCAL_BUDGET,
     _SUBSET_BYTES,
     _SUBSETS,
     _cold_limits,
@@ -181,6 +182,7 @@ from .pulls import (  # noqa: F401
     _edge_structure,
     _first_root,
     _limits,
+    _local_limits,
     _lowest_sigma,
     _pulled_triangles,
     _quadratic,

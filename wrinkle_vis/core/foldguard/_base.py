@@ -161,35 +161,35 @@ def _terms_edges(terms: dict) -> tuple[np.ndarray, np.ndarray]:
     rest, edges = terms["rest"], terms.pop("edges_of", None)
     if callable(edges):
         edges = edges()
-    if edges is None:
+    if edges is None:  # (sorted, unique, intp: as built)
         edges = _skin_edges(terms["corners"], len(rest))
-    edges = np.asarray(edges, dtype=np.intp)
-    key = edges[:, 0] * len(rest) + edges[:, 1]
-    if len(key) > 1 and not np.all(key[1:] > key[:-1]):  # by first end, then second
-        edges = edges[np.argsort(key, kind="stable")]
-    del key
-    terms["edges"], terms["length"] = edges, np.linalg.norm(rest[edges[:, 0]]
-                                                            - rest[edges[:, 1]], axis=1)
+    else:
+        edges = np.asarray(edges, dtype=np.intp)
+        key = edges[:, 0] * len(rest) + edges[:, 1]
+        if len(key) > 1 and not np.all(key[1:] > key[:-1]):  # by first end, then second
+            edges = edges[np.argsort(key, kind="stable")]
+        del key
+    ends = (np.take(rest, edges[:, i], axis=0) for i in (0, 1))  # (takes: rest[...]'s rows)
+    terms["edges"], terms["length"] = edges, np.linalg.norm(next(ends) - next(ends), axis=1)
     return terms["edges"], terms["length"]
 
 
 def _skin_edges(corners: np.ndarray, n: int) -> np.ndarray:
     r"""``(e, 2)``: the unique edges of the triangles ``corners`` ``(3, m)`` on ``n``
-    vertices, each sorted, sorted by first end then second: one sort of a key
-    :math:`\min \cdot n + \max` per directed edge (32-bit where :math:`n^2` fits; a
-    refined frame's skin is new on each frame, and this runs on each it limits a pull of).
+    vertices, each sorted, sorted by first end then second: the structure of the CSR matrix
+    with an entry at :math:`(\min, \max)` of each triangle's sides (a counting sort by
+    first end, each row's columns sorted, duplicates merged: ``sum_duplicates``, boolean
+    entries, a side met any number of times one entry) instead of a sort of keys: the same
+    array, cheaper (a refined frame's skin is new on each frame, and this runs on each it
+    limits a pull of).
     """
-    key_type = np.int32 if n * n < 2**31 else np.int64
-    a = corners.astype(key_type).ravel()  # the corners 0, 1, 2 of every triangle ...
-    b = np.roll(corners, -1, axis=0).astype(key_type).ravel()  # ... and 1, 2, 0
-    key = np.minimum(a, b)
-    key *= key_type(n)
-    key += np.maximum(a, b)
-    key.sort()
-    first = np.ones(len(key), bool)
-    first[1:] = key[1:] != key[:-1]
-    key = key[first]
-    return np.stack([key // n, key % n], axis=1).astype(np.intp)
+    a = corners.ravel()  # the corners 0, 1, 2 of every triangle ...
+    b = np.roll(corners, -1, axis=0).ravel()  # ... and 1, 2, 0
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    mat = sp.csr_matrix((np.ones(len(lo), bool), (lo, hi)), shape=(n, n))
+    mat.sum_duplicates()  # (canonical: sorted columns, no duplicate)
+    rows = np.repeat(np.arange(n), np.diff(mat.indptr))
+    return np.stack([rows, mat.indices], axis=1).astype(np.intp)
 
 
 def _rows_dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -1,6 +1,7 @@
 """The pulls' guard: triangles kept from turning over (``docs/model.md``, the pulls)."""
 from __future__ import annotations
 
+import heapq
 from collections.abc import Callable
 from typing import Any, Literal
 
@@ -284,14 +285,23 @@ def _reweigh(graph: dict, changed: np.ndarray, lift_of: np.ndarray) -> None:
     data[np.take(graph["slots"][1], j)] = w
 
 
-def _limits(s_star: np.ndarray, corners: np.ndarray, graph: dict, top: float) -> np.ndarray:
+def _limits(s_star: np.ndarray, corners: np.ndarray, graph: dict, top: float,
+            local: bool = False) -> np.ndarray:
     r"""``(n,)``: :math:`F_v`, the least over bad triangles :math:`t` (``corners``
     ``(k, 3)``, their :math:`s^*_t` ``(k,)``) of :math:`s^*_t` plus the shortest path from
     :math:`t` to :math:`v` along the skin's edges, an edge :math:`vw` weighing
     :math:`|x_v - x_w| / (\text{reach} \max(|p_v|, |p_w|))` for the pulls' lengths
     :math:`|p|` (the edges and weights of :func:`_edge_graph` ``graph``); ``inf`` beyond
     ``top`` and wherever no pull connects :math:`v` to a bad triangle.
+
+    With ``local`` (a search expected to settle few vertices), :func:`_local_limits` tries
+    first; past its budget, or without ``local``, scipy's search over the whole matrix. Both
+    give the same array, bit for bit (``docs/model.md``, the pull guard's small searches).
     """
+    if local:
+        got = _local_limits(s_star, corners, graph, top, _LOCAL_BUDGET)
+        if got is not None:
+            return got
     mat = graph["mat"]
     n = mat.shape[0] - 1
     least = mat.data[-n:] if n else mat.data[:0]  # the source's edges: a corner of
@@ -299,6 +309,49 @@ def _limits(s_star: np.ndarray, corners: np.ndarray, graph: dict, top: float) ->
     np.minimum.at(least, corners.ravel(), np.maximum(np.repeat(s_star, 3), 1e-12))
     dist = csgraph.dijkstra(mat, directed=True, indices=n, limit=top)
     return dist[:n]
+
+
+_LOCAL_BUDGET = 64  # a round's search that settles at most this many vertices runs here
+
+
+def _local_limits(s_star: np.ndarray, corners: np.ndarray, graph: dict, top: float,
+                  budget: int) -> np.ndarray | None:
+    r"""``(n,)``: :func:`_limits`'s :math:`F` by Dijkstra's search in Python from the bad
+    triangles' corners (``corners`` ``(k, 3)``, :math:`s^*_t` ``(k,)``) over ``graph``'s
+    matrix rows, or None once it would settle more than ``budget`` vertices. Each corner
+    starts at the least :math:`\max(s^*_t, 10^{-12})` of its triangles (``np.minimum.at``,
+    as :func:`_limits`'s source row), a vertex is reached by :math:`d_u + w_{ux}` (the same
+    IEEE sums) only where that is at most ``top`` (scipy's ``limit``): the values are the
+    least left-to-right sums over paths, whatever the order of the search, so the same bits
+    as scipy's search (``docs/model.md``); the cost goes with the vertices settled, not with
+    the skin's ``n`` (a round with one bad triangle settles a handful).
+    """
+    n = graph["mat"].shape[0] - 1
+    ids, inv = np.unique(corners.ravel(), return_inverse=True)
+    least = np.full(len(ids), np.inf)
+    np.minimum.at(least, inv.ravel(), np.maximum(np.repeat(s_star, 3), 1e-12))
+    best = {v: d for v, d in zip(ids.tolist(), least.tolist(), strict=True)
+            if d <= top}
+    heap = [(d, v) for v, d in best.items()]
+    heapq.heapify(heap)
+    indptr, cols, w = graph["mat"].indptr, graph["mat"].indices, graph["mat"].data
+    done: dict[int, float] = {}
+    while heap:
+        d, v = heapq.heappop(heap)
+        if v in done:
+            continue
+        done[v] = d
+        if len(done) > budget:
+            return None
+        lo, hi = int(indptr[v]), int(indptr[v + 1])
+        for x, wx in zip(cols[lo:hi].tolist(), w[lo:hi].tolist(), strict=True):
+            nd = d + wx
+            if x not in done and nd <= top and nd < best.get(x, np.inf):
+                best[x] = nd
+                heapq.heappush(heap, (nd, x))
+    out = np.full(n, np.inf)
+    out[list(done)] = list(done.values())
+    return out
 
 
 def _pulled_triangles(terms: dict, moving: np.ndarray, base: np.ndarray,
@@ -440,6 +493,7 @@ def _rounds(f: np.ndarray, pull_t: np.ndarray, size: np.ndarray, terms: dict,
     a0 = rows_terms[3]
     graph = None  # the edges' weights, built only when a triangle is bad
     packed: dict[str, np.ndarray] = {}  # the terms as rows, once many change (_redo_rows)
+    reached = 0  # the last round's vertices below top: a small one searches locally
     for _ in range(iterations):
         bad = np.flatnonzero(low < min_area)
         if not len(bad):
@@ -448,8 +502,10 @@ def _rounds(f: np.ndarray, pull_t: np.ndarray, size: np.ndarray, terms: dict,
             graph = _edge_graph(size, terms, reach)
             scaled, lift = pull_t.copy(), size.copy()
         s_star = _first_root(np.maximum(a0[bad] - min_area, 1e-12), b[bad], c[bad])
-        limit = _limits(s_star, corners[:, bad].T, graph, top)
+        local = 2 * max(reached, 3 * len(bad)) <= _LOCAL_BUDGET
+        limit = _limits(s_star, corners[:, bad].T, graph, top, local)
         near = np.flatnonzero(limit < top)
+        reached = len(near)
         step = soft_clamp(np.ones(len(near)), limit[near], knee)
         if np.all(step == 1.0):
             break
