@@ -44,3 +44,28 @@ def alternating(runs: dict, calls: list, rounds: int, timed, same) -> dict:
     return {"calls": len(calls), "same": alike,
             **{f"{k}_wall": statistics.median(v) for k, v in wall.items()},
             **{f"{k}_cpu": statistics.median(v) for k, v in cpu.items()}}
+
+
+def alternating_line(case: str, what: str, v: dict, baseline: str) -> str:
+    """One line of :func:`alternating`'s figures ``v``: ``case``, how many ``what`` were
+    timed, wall (CPU) ms a call for this tree and ``baseline``, the CPU ratio, whether the
+    outputs were bit for bit equal, and the load average."""
+    import os
+
+    return (f"{case} {v['calls']} {what}, wall (CPU) this {v['new_wall']:6.2f} "
+            f"({v['new_cpu']:6.2f}) ms, {baseline} {v['old_wall']:6.2f} ({v['old_cpu']:6.2f}) "
+            f"ms, ratio {v['new_cpu'] / max(v['old_cpu'], 1e-9):.2f}; bit for bit "
+            f"{'equal' if v['same'] else 'DIFFERENT'} [load {os.getloadavg()[0]:.2f}]")
+
+
+def refined_parser(doc: str, baseline: str):
+    """The refined benches' shared options: ``--baseline`` (default ``baseline``),
+    ``--frames``, ``--rounds`` and ``--skin-model``; each bench adds its own."""
+    import argparse
+
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--baseline", default=baseline)
+    ap.add_argument("--frames", type=int, default=8)
+    ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--skin-model", default="both", choices=("geometric", "physical", "both"))
+    return ap

@@ -13,12 +13,10 @@ Usage: python benchmarks/bench_balls_refined.py [--baseline 574c064] [--frames 8
 
 from __future__ import annotations
 
-import argparse
-import os
 import time
 
 import numpy as np
-from _timing import alternating
+from _timing import alternating, alternating_line, refined_parser
 
 
 def _module_at(ref: str):
@@ -75,12 +73,8 @@ def case(expr: str, skin: str, frames: int, rounds: int, old, face_name: str = "
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--baseline", default="574c064")
-    ap.add_argument("--frames", type=int, default=8)
-    ap.add_argument("--rounds", type=int, default=5)
+    ap = refined_parser(__doc__, "574c064")
     ap.add_argument("--cases", default="surprise,pucker")
-    ap.add_argument("--skin-model", default="both", choices=("geometric", "physical", "both"))
     ap.add_argument("--face", default="paper", choices=("paper", "head"),
                     help="the paper's procedural face or the real head (Lee Perry-Smith)")
     args = ap.parse_args()
@@ -89,13 +83,8 @@ def main() -> None:
     for skin in skins:
         for expr in args.cases.split(","):
             v = case(expr, skin, args.frames, args.rounds, old, args.face)
-            print(f"{args.face} refined {expr:9s} ({skin:9s}) {v['calls']} searches: a "
-                  f"frame's balls, wall "
-                  f"(CPU) this {v['new_wall']:6.2f} ({v['new_cpu']:6.2f}) ms, {args.baseline} "
-                  f"{v['old_wall']:6.2f} ({v['old_cpu']:6.2f}) ms, ratio "
-                  f"{v['new_cpu'] / max(v['old_cpu'], 1e-9):.2f}; bit for bit "
-                  f"{'equal' if v['same'] else 'DIFFERENT'} [load {os.getloadavg()[0]:.2f}]",
-                  flush=True)
+            print(alternating_line(f"{args.face} refined {expr:9s} ({skin:9s})",
+                                   "searches: a frame's balls", v, args.baseline), flush=True)
 
 
 if __name__ == "__main__":

@@ -15,13 +15,11 @@ Usage: python benchmarks/bench_fans_refined.py [--baseline 1136608] [--frames 8]
 
 from __future__ import annotations
 
-import argparse
 import copy
-import os
 import time
 
 import numpy as np
-from _timing import alternating
+from _timing import alternating, alternating_line, refined_parser
 
 CASES = {"paper": (None, ("surprise", "pucker")),
          "head": ("lee_perry_smith", ("surprise", "smile"))}
@@ -81,12 +79,8 @@ def case(face_name: str | None, expr: str, skin: str, frames: int, rounds: int,
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--baseline", default="1136608")
-    ap.add_argument("--frames", type=int, default=8)
-    ap.add_argument("--rounds", type=int, default=5)
+    ap = refined_parser(__doc__, "1136608")
     ap.add_argument("--faces", default="paper,head")
-    ap.add_argument("--skin-model", default="both", choices=("geometric", "physical", "both"))
     args = ap.parse_args()
     old = _module_at(args.baseline)
     skins = ("geometric", "physical") if args.skin_model == "both" else (args.skin_model,)
@@ -95,12 +89,9 @@ def main() -> None:
         for skin in skins:
             for expr in exprs:
                 v = case(face_name, expr, skin, args.frames, args.rounds, old)
-                print(f"{name} refined {expr:9s} ({skin:9s}) {v['calls']} calls: a frame's "
-                      f"fans, wall (CPU) this {v['new_wall']:6.2f} ({v['new_cpu']:6.2f}) ms, "
-                      f"{args.baseline} {v['old_wall']:6.2f} ({v['old_cpu']:6.2f}) ms, ratio "
-                      f"{v['new_cpu'] / max(v['old_cpu'], 1e-9):.2f}; bit for bit "
-                      f"{'equal' if v['same'] else 'DIFFERENT'} "
-                      f"[load {os.getloadavg()[0]:.2f}]", flush=True)
+                print(alternating_line(f"{name} refined {expr:9s} ({skin:9s})",
+                                       "calls: a frame's fans", v, args.baseline),
+                      flush=True)
 
 
 if __name__ == "__main__":

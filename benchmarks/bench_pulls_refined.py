@@ -17,12 +17,10 @@ Usage: python benchmarks/bench_pulls_refined.py [--baseline b7a9361] [--frames 8
 
 from __future__ import annotations
 
-import argparse
-import os
 import time
 
 import numpy as np
-from _timing import alternating
+from _timing import alternating, alternating_line, refined_parser
 
 CASES = {"paper": (None, ("surprise", "pucker")),
          "head": ("lee_perry_smith", ("surprise", "smile"))}
@@ -77,12 +75,8 @@ def main() -> None:
 
     from wrinkle_vis.core import foldguard
 
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--baseline", default="b7a9361")
-    ap.add_argument("--frames", type=int, default=8)
-    ap.add_argument("--rounds", type=int, default=5)
+    ap = refined_parser(__doc__, "b7a9361")
     ap.add_argument("--faces", default="paper,head")
-    ap.add_argument("--skin-model", default="both", choices=("geometric", "physical", "both"))
     args = ap.parse_args()
     runs = {"new": foldguard, "old": foldguard_at(args.baseline, "foldguard_pulls_baseline")}
     skins = ("geometric", "physical") if args.skin_model == "both" else (args.skin_model,)
@@ -92,13 +86,9 @@ def main() -> None:
             for expr in exprs:
                 frames = _captured(face_name, expr, skin, args.frames)
                 v = alternating(runs, frames, args.rounds, _timed, _same)
-                print(f"{name} refined {expr:9s} ({skin:9s}) {v['calls']} frames pulled: a "
-                      f"frame's pull guard, wall (CPU) this {v['new_wall']:6.2f} "
-                      f"({v['new_cpu']:6.2f}) ms, {args.baseline} {v['old_wall']:6.2f} "
-                      f"({v['old_cpu']:6.2f}) ms, ratio "
-                      f"{v['new_cpu'] / max(v['old_cpu'], 1e-9):.2f}; bit for bit "
-                      f"{'equal' if v['same'] else 'DIFFERENT'} "
-                      f"[load {os.getloadavg()[0]:.2f}]", flush=True)
+                print(alternating_line(f"{name} refined {expr:9s} ({skin:9s})",
+                                       "frames pulled: a frame's pull guard", v,
+                                       args.baseline), flush=True)
 
 
 if __name__ == "__main__":
