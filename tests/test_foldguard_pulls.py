@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from wrinkle_vis.core.foldguard import FoldGuard, pulls
@@ -406,3 +406,27 @@ def test_the_small_search_is_scipys_search_bit_for_bit(seed, bad, budget, scale)
         assert np.count_nonzero(np.isfinite(want)) > budget
         return
     assert got.shape == want.shape and got.tobytes() == want.tobytes()
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), bad=st.integers(1, 4))
+def test_the_small_search_keeps_a_vertex_exactly_at_top(seed, bad):
+    """Stop 42: ``top`` set to a vertex's own least path sum (found by scipy's search with
+    no bound), so that vertex lies exactly on the limit through a relaxed edge: scipy's
+    bounded search keeps it, and so must the small search (``<=``, not ``<``), bit for
+    bit."""
+    rng = np.random.default_rng(seed)
+    pts, tri = _sheet(int(rng.integers(3, 8)), int(rng.integers(3, 8)), rng)
+    size = rng.uniform(0.5, 1.0, len(pts))
+    graph = pulls._edge_graph(size, pulls.pull_terms(pts, tri), 4.0)
+    rows = rng.choice(len(tri), size=min(bad, len(tri)), replace=False)
+    corners = np.asarray(tri)[rows]
+    s_star = rng.uniform(0.0, 0.5, len(rows))
+    free = pulls._limits(s_star, corners, graph, np.inf)
+    reached = np.setdiff1d(np.flatnonzero(np.isfinite(free)), corners.ravel())
+    assume(len(reached))
+    top = float(free[reached[np.argmax(free[reached])]])  # the farthest: on the limit
+    want = pulls._limits(s_star, corners, graph, top)
+    got = pulls._local_limits(s_star, corners, graph, top, 10**6)
+    assert np.count_nonzero(want == top) >= 1
+    assert got is not None and got.tobytes() == want.tobytes()
