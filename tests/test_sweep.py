@@ -235,6 +235,24 @@ def test_local_workers_are_spawned_without_the_profiler_and_malloc_trim():
         assert dask.config.get("distributed.worker.multiprocessing-method") == "spawn"
 
 
+def test_a_local_cluster_starts_beside_a_dashboard_on_8787():
+    """Another Dask dashboard (or anything) on port 8787: the local cluster still starts,
+    with no warning (warnings are errors in the suite), on a free port of its own."""
+    from wrinkle_vis.sweep.runner import local_cluster
+
+    held = socket.socket()
+    try:
+        held.bind(("", 8787))
+        held.listen()
+    except OSError:  # (already held by someone else: the same situation)
+        pass
+    try:
+        with local_cluster(1) as cluster:
+            assert cluster.scheduler_address.startswith("tcp://")
+    finally:
+        held.close()
+
+
 def test_the_sweep_layer_imports_no_qt():
     code = ("import sys, wrinkle_vis.sweep, wrinkle_vis.sweep.worker; "
             "print([m for m in ('qtpy', 'PySide6', 'pyvistaqt') if m in sys.modules])")

@@ -186,14 +186,17 @@ LOCAL_WORKER_CONFIG = {"distributed.worker.multiprocessing-method": "spawn",
 
 def local_cluster(workers: int):
     """A ``distributed.LocalCluster`` of ``workers`` spawned worker processes, one thread
-    each, no dashboard, with :data:`LOCAL_WORKER_CONFIG`.
+    each, with :data:`LOCAL_WORKER_CONFIG`. The scheduler's HTTP server (its health and
+    metrics routes; no dashboard without bokeh) takes any free port: with
+    ``dashboard_address=None`` it still asked for 8787 and, where a dashboard or another
+    cluster holds that port, warned and moved (an error where warnings are errors).
     """
     import dask
     from distributed import LocalCluster
 
     with dask.config.set(LOCAL_WORKER_CONFIG):
         return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                            dashboard_address=None, silence_logs=logging.ERROR)
+                            dashboard_address=":0", silence_logs=logging.ERROR)
 
 
 def _cpus() -> int:
